@@ -1,0 +1,132 @@
+"""Necessary condition (19) and sufficient condition (17)-(18) with SLEPc.
+
+Small problems (``n <= dense_limit``) use SLEPc's LAPACK solver, which computes the whole
+spectrum: the answer is then complete. Larger ones use Krylov-Schur with shift-and-invert about
+0 and report how many eigenvalues nearest 0 were examined.
+"""
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+from slepc4py import SLEPc
+
+from app.config import EigSettings
+from app.analyses.pencils import gather_vec
+
+
+def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> tuple[SLEPc.EPS, str]:
+    n = A.getSize()[0]
+    eps = SLEPc.EPS().create(A.getComm())
+    eps.setOperators(A, B)
+    if hermitian:
+        eps.setProblemType(SLEPc.EPS.ProblemType.HEP if B is None else SLEPc.EPS.ProblemType.GHEP)
+    else:
+        eps.setProblemType(SLEPc.EPS.ProblemType.NHEP if B is None else SLEPc.EPS.ProblemType.GNHEP)
+    if n <= settings.dense_limit:
+        eps.setType(SLEPc.EPS.Type.LAPACK)
+        eps.setDimensions(nev=n)
+        how = f"SLEPc lapack, all {n} eigenvalues"
+    else:
+        eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
+        nev = min(settings.nev, n)
+        eps.setDimensions(nev=nev)
+        eps.setTolerances(tol=settings.tol, max_it=1000)
+        if hermitian:
+            eps.setWhichEigenpairs(SLEPc.EPS.Which.SMALLEST_REAL)
+            how = f"SLEPc krylovschur, {nev} smallest"
+        else:
+            st = eps.getST()
+            st.setType(SLEPc.ST.Type.SINVERT)
+            eps.setTarget(0.0)
+            eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+            ksp = st.getKSP()
+            ksp.setType("preonly")
+            ksp.getPC().setType("lu")
+            if A.getComm().getSize() > 1:
+                ksp.getPC().setFactorSolverType("mumps")
+            how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
+    return eps, how
+
+
+def min_sym_eig(A: PETSc.Mat, settings: EigSettings) -> float:
+    """Smallest eigenvalue of the symmetric part (A + A^T)/2 (for the necessary condition (19))."""
+    At = A.copy()
+    At.transpose()
+    At.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    At.scale(0.5)
+    eps, _ = _eps(At, None, True, settings)
+    eps.solve()
+    vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
+    eps.destroy()
+    At.destroy()
+    if not vals:
+        raise RuntimeError("SLEPc did not converge any eigenvalue of the symmetric part")
+    return float(min(vals))
+
+
+def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,
+              settings: EigSettings) -> dict:
+    """Necessary condition (19): M*(mu) not PSD or K*(mu) not PD, from the symmetric parts.
+
+    Both eigenvalues are also reported relative to the largest diagonal entry of the matrix, the
+    scale used for the decision (so it does not depend on units).
+    """
+    out = {"mu": mu}
+    for name, A0, A1 in (("K", K0, K1), ("M", M0, M1)):
+        A = A0.copy()
+        A.axpy(mu, A1, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        d = A.getDiagonal()
+        scale = d.norm(PETSc.NormType.NORM_INFINITY)
+        d.destroy()
+        lam = min_sym_eig(A, settings)
+        A.destroy()
+        out[f"min_eig_{name}_sym"] = lam
+        out[f"min_eig_{name}_sym_relative"] = lam / scale
+    rtol = 1e3 * np.finfo(float).eps
+    out["satisfied"] = bool(out["min_eig_K_sym_relative"] <= rtol or out["min_eig_M_sym_relative"] < -rtol)
+    return out
+
+
+def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSettings,
+               keep_modes: bool = False) -> dict:
+    """Sufficient condition (17)-(18): real eigenpairs of (lambda^2 M* + K*) x = 0, lambda^2 > 0, x_Ts >= 0.
+
+    Solved as ``K* x = theta M* x`` (``lambda^2 = -theta``); every real eigenpair with
+    ``lambda^2 > 0`` is checked for ``x_Ts >= 0`` (up to the sign of the eigenvector).
+    """
+    eps, how = _eps(Ks, Ms, False, settings)
+    eps.solve()
+    nconv = eps.getConverged()
+    vr, vi = Ks.createVecRight(), Ks.createVecRight()
+    candidates, admissible, modes = [], [], []
+    for i in range(nconv):
+        theta = eps.getEigenpair(i, vr, vi)
+        if abs(theta.imag) > 1e-8 * max(abs(theta), 1e-300) or not np.isfinite(theta.real):
+            continue
+        lam2 = -theta.real
+        if lam2 <= 0:
+            continue
+        x = gather_vec(vr)
+        xc = x[comp]
+        big = float(np.max(np.abs(xc))) if len(xc) else 0.0
+        if big > 0 and np.sum(xc) < 0:
+            x, xc = -x, -xc
+        ok = bool(big > 0 and np.min(xc) >= -1e-8 * big)
+        res = eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE)
+        candidates.append({"lambda2": float(lam2), "admissible": ok, "min_x_Ts_rel": float(np.min(xc) / big) if big else 0.0,
+                           "relative_error": float(res)})
+        if ok:
+            admissible.append(float(lam2))
+            xn = np.maximum(xc, 0) / np.sum(np.maximum(xc, 0))
+            mode = {"value": float(lam2), "x_Ts": [float(v) for v in xn],
+                    "pattern": ["slip" if v > 1e-8 else "stick" for v in xn], "relative_error": float(res)}
+            if keep_modes:
+                mode["_x"] = x / np.sum(xc)
+            modes.append(mode)
+    eps.destroy()
+    vr.destroy()
+    vi.destroy()
+    order = np.argsort(admissible)[::-1]
+    return {"satisfied": bool(admissible), "lambda2": [admissible[i] for i in order],
+            "modes": [modes[i] for i in order], "real_candidates": sorted(candidates, key=lambda c: -c["lambda2"]),
+            "eigensolver": how, "converged": nconv}

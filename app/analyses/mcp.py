@@ -1,0 +1,331 @@
+"""MCEIP-mu and MCEIP-lambda^2 through the MCPs of Propositions 1 and 2 (paper eqs. (27)-(34)).
+
+Both eigenproblems have the form: find ``t >= 0`` and ``x = (x_f, x_c)``, ``x != 0``, with
+
+    (A0 + t A1) x = y,   y_f = 0,   0 <= x_c ⊥ y_c >= 0,                     (12)-(14), (21)-(23)
+
+(``t = mu`` with ``A0 = K0, A1 = K1``; ``t = lambda^2`` with ``A0 = K*(mu), A1 = M*(mu)``).
+Adding the normalisation ``e^T x_c = c + gamma`` with ``t`` complementary to ``gamma`` gives a
+non-monotone MCP in ``z = (x_f, x_c, t)``, solved here with PETSc's SNES VI solvers:
+``vinewtonrsls`` (reduced-space active set, the production solver) and ``vinewtonssls``
+(semismooth, a robust globaliser whose result is then polished by ``vinewtonrsls``).
+
+A run finds at most one solution. The search combines several starting points with the shifted
+problems of the paper's section 4 (``t = t_bar + zeta`` above, ``t = t_bar - zeta`` below a found
+value), and reports every distinct solution with its evidence (residual, complementarity,
+method, start, iterations) and the intervals searched. It never claims completeness: only the
+enumeration (:mod:`app.analyses.enumerate`) proves it for small problems.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.config import McpSettings
+
+RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
+
+
+@dataclass
+class McpSolution:
+    """One solution of an MCEIP, with the evidence that it is one."""
+    value: float
+    x_c: np.ndarray             # complementarity block x_Ts, normalised to sum 1
+    pattern: list[str]          # "slip" where x_c > 0, "stick" where x_c = 0
+    residual: float             # max |y_f| / scale
+    complementarity: float      # max |x_c y_c| / scale
+    min_x: float
+    min_y: float                # min y_c / scale
+    found_by: list[str] = field(default_factory=list)
+    iterations: int = 0
+    x: np.ndarray | None = None  # full kept-space vector (replicated), for mode shapes
+
+    def as_dict(self) -> dict:
+        return {"value": float(self.value), "x_Ts": [float(v) for v in self.x_c], "pattern": self.pattern,
+                "residual": self.residual, "complementarity": self.complementarity,
+                "min_x_Ts": self.min_x, "min_y_Ts": self.min_y, "iterations": self.iterations,
+                "found_by": self.found_by[:8], "found_count": len(self.found_by)}
+
+
+@dataclass
+class SearchReport:
+    """All distinct solutions found and how the search was bounded."""
+    problem: str
+    solutions: list[McpSolution]
+    attempts: int = 0
+    converged: int = 0
+    accepted: int = 0
+    by_method: dict = field(default_factory=dict)
+    intervals: list[str] = field(default_factory=list)
+    starts: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {"solutions": [s.as_dict() for s in sorted(self.solutions, key=lambda s: s.value)],
+                "search": {"attempts": self.attempts, "converged": self.converged,
+                           "accepted": self.accepted, "by_method": self.by_method,
+                           "intervals": self.intervals, "starts": self.starts,
+                           "complete": False,
+                           "note": "MCP search: distinct solutions found from the listed starts and "
+                                   "intervals; completeness is proven only by enumeration"}}
+
+
+class BorderedMcp:
+    """The MCP function F(z) and Jacobian J(z) of Propositions 1-2 on PETSc objects.
+
+    ``t = t_bar + sigma * zeta`` with the MCP variable ``zeta`` in ``[0, zeta_max]``; the
+    plain problem is ``t_bar = 0, sigma = +1``. Distributed like ``A0``; the ``zeta`` row lives
+    on the last rank.
+    """
+
+    def __init__(self, A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, c: float = 1.0):
+        self.comm = A0.getComm().tompi4py()
+        self.A0, self.A1, self.c = A0, A1, c
+        self.n = A0.getSize()[0]
+        self.r0, self.r1 = A0.getOwnershipRange()
+        self.nloc = self.r1 - self.r0
+        self.last = self.comm.size - 1
+        self.is_last = self.comm.rank == self.last
+        self.comp = np.asarray(comp, dtype=np.int64)
+        self.comp_local = self.comp[(self.comp >= self.r0) & (self.comp < self.r1)] - self.r0
+        self.tbar, self.sigma = 0.0, 1.0
+
+        # Union sparsity pattern of A0 and A1 (plus the diagonal), values aligned on it.
+        B = A0.copy()
+        B.axpy(1.0, A1, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        B.shift(0.0)
+        C0, C1 = B.duplicate(copy=False), B.duplicate(copy=False)
+        C0.zeroEntries()
+        C1.zeroEntries()
+        C0.axpy(1.0, A0, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        C1.axpy(1.0, A1, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        I, J, self.V0 = C0.getValuesCSR()
+        _, _, self.V1 = C1.getValuesCSR()
+        for m in (B, C0, C1):
+            m.destroy()
+        # Bordered pattern: one extra column (index n) per row, one extra row on the last rank.
+        self.ins = I[1:]
+        Jb = np.insert(J, self.ins, self.n)
+        Ib = I + np.arange(len(I), dtype=I.dtype)
+        if self.is_last:
+            extra = np.concatenate([self.comp, [self.n]]).astype(J.dtype)
+            Jb = np.concatenate([Jb, extra])
+            Ib = np.concatenate([Ib, [Ib[-1] + len(extra)]]).astype(I.dtype)
+        self.Ib, self.Jb = Ib, Jb
+        nb_loc = self.nloc + (1 if self.is_last else 0)
+        self.sizes = ((nb_loc, self.n + 1), (nb_loc, self.n + 1))
+        self.J = PETSc.Mat().createAIJ(self.sizes, csr=(Ib, Jb, np.zeros(len(Jb))), comm=self.comm)
+        self.J.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        self.F = self.J.createVecLeft()
+        self.v = A0.createVecRight()
+        self.y0 = A0.createVecLeft()
+        self.y1 = A0.createVecLeft()
+
+    # -- evaluation --------------------------------------------------------------------------
+    def _split(self, X: PETSc.Vec) -> float:
+        xa = X.getArray(readonly=True)
+        self.v.setArray(xa[:self.nloc])
+        zeta = float(xa[-1]) if self.is_last else 0.0
+        zeta = self.comm.bcast(zeta, root=self.last)                # MPI collective
+        self.A0.mult(self.v, self.y0)
+        self.A1.mult(self.v, self.y1)
+        return self.tbar + self.sigma * zeta
+
+    def residual(self, snes, X: PETSc.Vec, F: PETSc.Vec) -> None:
+        t = self._split(X)
+        xa = X.getArray(readonly=True)
+        csum = self.comm.allreduce(float(np.sum(xa[self.comp_local])))  # MPI collective
+        fx = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
+        F.setArray(np.concatenate([fx, [csum - self.c]]) if self.is_last else fx)
+
+    def jacobian(self, snes, X: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
+        t = self._split(X)
+        vals = np.insert(self.V0 + t * self.V1, self.ins, self.sigma * self.y1.getArray(readonly=True))
+        if self.is_last:
+            vals = np.concatenate([vals, np.ones(len(self.comp)), [0.0]])
+        P.zeroEntries()
+        P.setValuesCSR(self.Ib, self.Jb, vals)
+        P.assemble()
+
+    # -- one SNES VI run ---------------------------------------------------------------------
+    def solve(self, method: str, x0_c: np.ndarray, zeta0: float, tbar: float, sigma: float,
+              zeta_max: float, settings: McpSettings,
+              x_full: np.ndarray | None = None) -> tuple[np.ndarray, float, int, int]:
+        """Run one SNES VI solve; returns (x replicated, t, converged reason, iterations).
+
+        The start is ``x_c = x0_c`` scaled to ``e^T x_c = c`` and ``x_f = 0``, or ``x_full``.
+        """
+        self.tbar, self.sigma = tbar, sigma
+        X = self.J.createVecRight()
+        xl, xu = X.duplicate(), X.duplicate()
+        lo = np.full(X.getLocalSize(), PETSc.NINFINITY)
+        hi = np.full(X.getLocalSize(), PETSc.INFINITY)
+        lo[self.comp_local] = 0.0
+        x = np.zeros(X.getLocalSize())
+        if x_full is not None:
+            x[:self.nloc] = x_full[self.r0:self.r1]
+        else:
+            mine = (self.comp >= self.r0) & (self.comp < self.r1)
+            x[self.comp_local] = x0_c[mine] * self.c / max(np.sum(x0_c), 1e-300)
+        if self.is_last:
+            lo[-1], hi[-1], x[-1] = 0.0, zeta_max, zeta0
+        xl.setArray(lo)
+        xu.setArray(hi)
+        X.setArray(x)
+        snes = PETSc.SNES().create(self.comm)
+        snes.setType(method)
+        snes.setFunction(self.residual, self.F)
+        snes.setJacobian(self.jacobian, self.J)
+        snes.setVariableBounds(xl, xu)
+        snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=1e-16, max_it=settings.max_it)
+        snes.setMaxFunctionEvaluations(100 * settings.max_it)
+        ksp = snes.getKSP()
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        if self.comm.size > 1:
+            pc.setFactorSolverType("mumps")
+        else:
+            pc.setFactorShift(PETSc.Mat.FactorShiftType.NONZERO, 1e-14)
+        snes.solve(None, X)
+        reason, its = snes.getConvergedReason(), snes.getIterationNumber()
+        z = np.concatenate(self.comm.allgather(X.getArray(readonly=True).copy()))  # MPI collective
+        snes.destroy()
+        for v in (X, xl, xu):
+            v.destroy()
+        return z[:self.n], tbar + sigma * float(z[self.n]), reason, its
+
+    def check(self, x: np.ndarray, t: float, tol: float) -> McpSolution | None:
+        """Check a candidate against (12)-(14)/(21)-(23) in the scaled problem; None if not a solution."""
+        xc = x[self.comp]
+        total = float(np.sum(xc))
+        if not np.isfinite(t) or t < -tol or total <= 0 or not np.all(np.isfinite(x)):
+            return None
+        x = x / total
+        r0, r1 = self.r0, self.r1
+        self.v.setArray(x[r0:r1])
+        self.A0.mult(self.v, self.y0)
+        self.A1.mult(self.v, self.y1)
+        y = np.concatenate(self.comm.allgather(                         # MPI collective
+            self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)))
+        free = np.ones(self.n, dtype=bool)
+        free[self.comp] = False
+        xc, yc = x[self.comp], y[self.comp]
+        res = float(np.max(np.abs(y[free]), initial=0.0))
+        compl = float(np.max(np.abs(xc * yc), initial=0.0))
+        min_x, min_y = float(np.min(xc)), float(np.min(yc))
+        if res > tol or compl > tol or min_x < -tol or min_y < -tol:
+            return None
+        pattern = ["slip" if v > np.sqrt(tol) * np.max(xc) else "stick" for v in xc]
+        return McpSolution(value=max(t, 0.0), x_c=xc.copy(), pattern=pattern, residual=res,
+                           complementarity=compl, min_x=min_x, min_y=min_y, x=x)
+
+    def destroy(self) -> None:
+        for obj in (self.J, self.F, self.v, self.y0, self.y1):
+            obj.destroy()
+
+
+def _same(a: McpSolution, b: McpSolution, tol: float) -> bool:
+    return (abs(a.value - b.value) <= tol * max(1.0, abs(a.value), abs(b.value))
+            and float(np.max(np.abs(a.x_c - b.x_c))) <= 1e-6)
+
+
+def _scale_of(A: PETSc.Mat) -> float:
+    d = A.getDiagonal()
+    s = d.norm(PETSc.NormType.NORM_INFINITY)
+    d.destroy()
+    return s if s > 0 else max(A.norm(PETSc.NormType.NORM_INFINITY), 1e-300)
+
+
+def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
+                 settings: McpSettings, value_scale: float | None = None) -> SearchReport:
+    """Find the distinct solutions of the MCEIP ``(A0 + t A1) x = y`` reachable by the search.
+
+    The problem is scaled first: ``A0 / alpha`` and ``A1 * tau / alpha`` with ``alpha`` the
+    largest diagonal entry of ``A0`` and ``t = tau * t_scaled`` (``tau = 1`` for mu, a
+    frequency-squared scale for lambda^2), so tolerances are unit-free.
+    """
+    alpha = _scale_of(A0)
+    tau = 1.0 if value_scale is None else value_scale
+    S0, S1 = A0.copy(), A1.copy()
+    S0.scale(1.0 / alpha)
+    S1.scale(tau / alpha)
+    op = BorderedMcp(S0, S1, comp)
+    s = len(comp)
+    report = SearchReport(problem=problem, solutions=[])
+    tol = settings.accept_tol
+
+    def attempt(method: str, x0: np.ndarray, label: str, t0: float, tbar: float = 0.0,
+                sigma: float = 1.0, zeta_max: float = PETSc.INFINITY) -> McpSolution | None:
+        zeta0 = min(max((t0 - tbar) * sigma, 0.0), zeta_max)
+        x, t, reason, its = op.solve(method, x0, zeta0, tbar, sigma, zeta_max, settings)
+        tag = method
+        if method == SSLS:  # polish the semismooth result with the reduced-space solver
+            xs = x[comp]
+            if np.all(np.isfinite(x)) and np.isfinite(t) and np.sum(np.maximum(xs, 0)) > 0:
+                xp = x.copy()
+                xp[comp] = np.maximum(xs, 0)
+                zeta = min(max((t - tbar) * sigma, 0.0), zeta_max)
+                x, t, reason, its2 = op.solve(RSLS, xs, zeta, tbar, sigma, zeta_max, settings, x_full=xp)
+                its += its2
+                tag = f"{SSLS}+{RSLS}"
+        report.attempts += 1
+        stats = report.by_method.setdefault(tag, {"attempts": 0, "converged": 0, "accepted": 0})
+        stats["attempts"] += 1
+        if reason > 0:
+            report.converged += 1
+            stats["converged"] += 1
+        sol = op.check(x, t, tol)
+        if sol is None:
+            return None
+        report.accepted += 1
+        stats["accepted"] += 1
+        sol.value *= tau
+        sol.iterations = its
+        sol.found_by.append(f"{tag} from {label}, t0={t0 * tau:.6g}")
+        for old in report.solutions:
+            if _same(old, sol, 1e-7):
+                old.found_by.extend(sol.found_by)
+                return None
+        report.solutions.append(sol)
+        return sol
+
+    uniform = np.ones(s)
+    x0s = [("uniform x_Ts", uniform)]
+    if settings.pattern_starts and s > 1:
+        x0s += [(f"x_Ts on slip node {i}", np.eye(s)[i]) for i in range(s)]
+        if s > 2:
+            x0s += [(f"x_Ts zero on slip node {i}", 1.0 - np.eye(s)[i]) for i in range(s)]
+    report.starts = [label for label, _ in x0s]
+    t0s = list(settings.starts)
+    report.intervals.append("[0, inf)")
+    for t0 in t0s:
+        for method in (RSLS, SSLS):
+            attempt(method, uniform, "uniform x_Ts", t0)
+    for label, x0 in x0s[1:]:
+        for method in (RSLS, SSLS):
+            attempt(method, x0, label, t0s[0])
+
+    # Section 4 of the paper: search above and below each value found.
+    done: set[float] = set()
+    for _ in range(settings.shift_rounds):
+        new = sorted({round(sol.value / tau, 9) for sol in report.solutions} - done)
+        if not new:
+            break
+        for v in new:
+            done.add(v)
+            eps = 1e-6 * max(v, 1e-12)
+            report.intervals.append(f"above {v * tau:.10g}: [{(v + eps) * tau:.10g}, inf)")
+            for method in (RSLS, SSLS):
+                for label, x0 in x0s[:1]:
+                    attempt(method, x0, label, 2 * v + 1.0, tbar=v + eps, sigma=1.0)
+            if v - eps > 0:
+                report.intervals.append(f"below {v * tau:.10g}: [0, {(v - eps) * tau:.10g}]")
+                for method in (RSLS, SSLS):
+                    for label, x0 in x0s[:1]:
+                        attempt(method, x0, label, 0.5 * v, tbar=v - eps, sigma=-1.0, zeta_max=v - eps)
+    op.destroy()
+    S0.destroy()
+    S1.destroy()
+    return report

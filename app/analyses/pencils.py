@@ -1,0 +1,156 @@
+"""Reduced pencils of an equilibrium state: paper eqs. (10)-(16), DESIGN.md section 2.
+
+For any matrix A of the system (A = K or A = M) the state's classification defines
+
+    A*(mu) = A0 + mu A1,   A0 = D A_kk D,   A1 = -P sign_N A_{Ns,k} D,
+
+where ``k`` are the kept DOFs (everything except the DOFs of stick nodes and the normal DOFs of
+slip nodes), ``D = diag(1 on f, -S sign_T on Ts)`` is the change of variables (10), and ``P``
+places the normal rows of the slip nodes on the rows of their tangential DOFs (11).
+The kept DOFs keep the system's order, so ``A0`` is distributed like ``A``.
+
+For MCEIP-mu the exact condensation onto the slip nodes (DESIGN.md section 3) gives the small
+dense pencil ``S Ŝ_TT S + mu Ŝ_NT S`` from the contact Schur complement.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from app.analyses.classify import FREE, SLIP, STICK, ZERO, Classification
+from app.system.base import System
+
+
+class UnsupportedState(Exception):
+    """The state has a feature the analyses do not handle (reported in the state's results)."""
+
+
+@dataclass
+class ReducedSpace:
+    """Kept DOFs of a classified state and where the slip nodes' x_Ts sit among them."""
+    kept: PETSc.IS            # system DOFs kept (owned part on each rank), ascending
+    n: int                    # global number of kept DOFs (N* of the paper)
+    comp: np.ndarray          # global positions of x_Ts in the kept numbering, slip-node order
+    slip_nodes: np.ndarray    # indices of the slip nodes (into system.nodes)
+    d_local: np.ndarray       # diagonal of D on the owned kept DOFs
+
+    def destroy(self) -> None:
+        self.kept.destroy()
+
+
+def _check_supported(cls: Classification) -> None:
+    if ZERO in cls.status:
+        raise UnsupportedState(
+            "zero-reaction contact nodes (the paper's set Z) are present; their rate conditions (9) "
+            "are not part of the reduced pencils (10)-(16)")
+
+
+def reduced_space(system: System, cls: Classification) -> ReducedSpace:
+    """Kept DOFs ``f + Ts`` of the classified state, as an IS in the system's numbering."""
+    _check_supported(cls)
+    comm = system.comm
+    removed: list[int] = []
+    ts_dof: dict[int, int] = {}
+    d_ts: dict[int, float] = {}
+    for i, (node, st) in enumerate(zip(system.nodes, cls.status)):
+        if st == STICK:
+            removed += [node.dof_T, node.dof_N]
+        elif st == SLIP:
+            removed.append(node.dof_N)
+            ts_dof[i] = node.dof_T
+            d_ts[node.dof_T] = -cls.signs[i] * node.sign_T
+    r0, r1 = system.K.getOwnershipRange()
+    owned = np.arange(r0, r1, dtype=np.int64)
+    kept_local = np.setdiff1d(owned, np.asarray(removed, dtype=np.int64), assume_unique=True)
+    offset = comm.exscan(len(kept_local)) or 0          # MPI collective
+    n = comm.allreduce(len(kept_local))                  # MPI collective
+    slip = cls.slip
+    pos_local = {}
+    for i in slip:
+        dof = ts_dof[int(i)]
+        if r0 <= dof < r1:
+            pos_local[int(i)] = offset + int(np.searchsorted(kept_local, dof))
+    pos_all: dict[int, int] = {}
+    for d in comm.allgather(pos_local):                  # MPI collective
+        pos_all.update(d)
+    comp = np.array([pos_all[int(i)] for i in slip], dtype=np.int64)
+    d_local = np.array([d_ts.get(int(dof), 1.0) for dof in kept_local])
+    kept = PETSc.IS().createGeneral(kept_local.astype(PETSc.IntType), comm=comm)
+    return ReducedSpace(kept=kept, n=n, comp=comp, slip_nodes=slip, d_local=d_local)
+
+
+def reduced_pencil(A: PETSc.Mat, system: System, cls: Classification,
+                   space: ReducedSpace) -> tuple[PETSc.Mat, PETSc.Mat]:
+    """``(A0, A1)`` of eq. (16) for the matrix ``A`` (K or M) of ``system``; caller destroys them."""
+    comm = system.comm
+    A0 = A.createSubMatrix(space.kept, space.kept)
+    d = A0.createVecRight()
+    d.setArray(space.d_local)
+    A0.diagonalScale(d, d)
+
+    # Rows of the slip nodes' normal DOFs, moved to the rows of their x_Ts.
+    r0, r1 = A.getOwnershipRange()
+    ns_local = [system.nodes[int(i)].dof_N for i in space.slip_nodes if r0 <= system.nodes[int(i)].dof_N < r1]
+    is_ns = PETSc.IS().createGeneral(np.asarray(ns_local, dtype=PETSc.IntType), comm=comm)
+    ANk = A.createSubMatrix(is_ns, space.kept)
+    A1 = PETSc.Mat().createAIJ(A0.getSizes(), comm=comm)
+    A1.setPreallocationNNZ(0)
+    A1.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    A1.setUp()
+    pos = {system.nodes[int(i)].dof_N: (int(p), system.nodes[int(i)].sign_N)
+           for i, p in zip(space.slip_nodes, space.comp)}
+    q0, q1 = ANk.getOwnershipRange()
+    for row, dof in zip(range(q0, q1), ns_local):
+        cols, vals = ANk.getRow(row)
+        p, sign_n = pos[dof]
+        A1.setValues(p, cols, -sign_n * vals)
+    A1.assemble()
+    A1.diagonalScale(None, d)
+    for obj in (d, is_ns, ANk):
+        obj.destroy()
+    return A0, A1
+
+
+def dense(A: PETSc.Mat) -> np.ndarray:
+    """Replicated dense copy of a small distributed matrix (MPI collective)."""
+    comm = A.getComm().tompi4py()
+    m, n = A.getSize()
+    r0, r1 = A.getOwnershipRange()
+    local = np.zeros((r1 - r0, n))
+    for i in range(r0, r1):
+        cols, vals = A.getRow(i)
+        local[i - r0, cols] = vals
+    return np.vstack(comm.allgather(local))
+
+
+def gather_vec(v: PETSc.Vec) -> np.ndarray:
+    """Replicated numpy copy of a distributed vector (MPI collective)."""
+    comm = v.getComm().tompi4py()
+    return np.concatenate(comm.allgather(v.getArray(readonly=True).copy()))
+
+
+def condensed_mu_pencil(Sc: np.ndarray, cls: Classification) -> tuple[np.ndarray, np.ndarray]:
+    """Exact condensation of MCEIP-mu (21)-(23) onto the slip nodes: ``(S Ŝ_TT S, Ŝ_NT S)``.
+
+    ``Sc`` is the contact Schur complement (paper axes, order T_0, N_0, T_1, ...). Stick DOFs are
+    deleted (clamped), the free nodes' DOFs eliminated, and ``Ŝ`` is the Schur complement onto
+    the slip nodes' (T, N) DOFs (quotient property of Schur complements).
+    """
+    _check_supported(cls)
+    slip = cls.slip
+    free = cls.indices(FREE)
+    T = 2 * slip
+    N = 2 * slip + 1
+    F = np.sort(np.concatenate([2 * free, 2 * free + 1]))
+    c = np.concatenate([T, N])
+    S_cc = Sc[np.ix_(c, c)]
+    if len(F):
+        S_cc = S_cc - Sc[np.ix_(c, F)] @ np.linalg.solve(Sc[np.ix_(F, F)], Sc[np.ix_(F, c)])
+    s = len(slip)
+    S = np.diag(cls.slip_signs)
+    A0 = S @ S_cc[:s, :s] @ S
+    A1 = S_cc[s:, :s] @ S
+    return A0, A1

@@ -1,0 +1,196 @@
+"""All analyses the scene asks for at one classified equilibrium state (paper sections 3-4).
+
+Only what the requested analyses need is built: the mass matrix only for the necessary and
+sufficient conditions and MCEIP-lambda^2, the full-size stiffness pencil only when a full-size
+problem is solved, the contact Schur complement only for the condensed MCEIP-mu.
+"""
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.analyses import eigen
+from app.analyses.classify import Classification
+from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
+from app.analyses.mcp import search_mceip
+from app.analyses.pencils import condensed_mu_pencil, dense, reduced_pencil, reduced_space
+from app.config import Scene
+from app.system.base import System
+
+FULL_DENSE_LIMIT = 3000
+
+
+def _seq_aij(A: np.ndarray) -> PETSc.Mat:
+    """Small dense matrix as a sequential AIJ matrix (replicated problems run on COMM_SELF)."""
+    n = A.shape[0]
+    M = PETSc.Mat().createAIJ((n, n), nnz=n, comm=PETSc.COMM_SELF)
+    rows = np.arange(n, dtype=PETSc.IntType)
+    M.setValues(rows, rows, A)
+    M.assemble()
+    return M
+
+
+class _Pencils:
+    """Lazily built reduced pencils of one state; destroyed at the end of the analyses."""
+
+    def __init__(self, system: System, cls: Classification):
+        self.system, self.cls = system, cls
+        self._space = None
+        self._K = None
+        self._M = None
+        self._cond = None
+
+    @property
+    def space(self):
+        if self._space is None:
+            with self.system.stages("reduced pencils"):
+                self._space = reduced_space(self.system, self.cls)
+        return self._space
+
+    def K(self):
+        if self._K is None:
+            space = self.space
+            with self.system.stages("reduced pencils"):
+                self._K = reduced_pencil(self.system.K, self.system, self.cls, space)
+        return self._K
+
+    def M(self):
+        if self._M is None:
+            Mfull = self.system.mass()
+            space = self.space
+            with self.system.stages("reduced pencils"):
+                self._M = reduced_pencil(Mfull, self.system, self.cls, space)
+        return self._M
+
+    def condensed_mu(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._cond is None:
+            Sc = self.system.contact_schur()
+            with self.system.stages("condensed pencil"):
+                self._cond = condensed_mu_pencil(Sc, self.cls)
+        return self._cond
+
+    def destroy(self):
+        for pair in (self._K, self._M):
+            if pair is not None:
+                for m in pair:
+                    m.destroy()
+        if self._space is not None:
+            self._space.destroy()
+
+
+def _combine(A0: PETSc.Mat, A1: PETSc.Mat, mu: float) -> PETSc.Mat:
+    A = A0.copy()
+    A.axpy(mu, A1, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    return A
+
+
+def _diag_scale(A: PETSc.Mat) -> float:
+    d = A.getDiagonal()
+    s = d.norm(PETSc.NormType.NORM_INFINITY)
+    d.destroy()
+    return s
+
+
+def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
+    """Run the scene's analyses on one classification; returns the ``analyses`` dict of results.json."""
+    wants = scene.analyses
+    st = system.stages
+    p = _Pencils(system, cls)
+    out: dict = {}
+    s = len(cls.slip)
+    try:
+        if "necessary" in wants:
+            with st("necessary condition (19)"):
+                K0, K1 = p.K()
+                M0, M1 = p.M()
+                out["necessary"] = eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig)
+        if "sufficient" in wants:
+            K0, K1 = p.K()
+            M0, M1 = p.M()
+            with st("sufficient condition (17)-(18)"):
+                Ks, Ms = _combine(K0, K1, scene.mu), _combine(M0, M1, scene.mu)
+                out["sufficient"] = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig)
+                out["sufficient"]["mu"] = scene.mu
+                Ks.destroy()
+                Ms.destroy()
+        if "mceip_mu" in wants:
+            out["mceip_mu"] = _mceip_mu(system, p, scene, s)
+        if "mceip_lambda2" in wants:
+            out["mceip_lambda2"] = _mceip_lambda2(system, p, scene, s)
+        if "enumerate" in wants:
+            out["enumerate"] = _enumerate(system, p, scene, s)
+    finally:
+        p.destroy()
+    return out
+
+
+def _no_slip(problem: str) -> dict:
+    return {"solutions": [], "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
+                                                  "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
+                                          "complete": True}}
+
+
+def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
+    if s == 0:
+        return _no_slip("mu")
+    method = scene.settings.mceip_mu_method
+    if method == "condensed":
+        A0, A1 = p.condensed_mu()
+        with system.stages("MCEIP-mu (21)-(23)"):
+            M0, M1 = _seq_aij(A0), _seq_aij(A1)
+            rep = search_mceip(M0, M1, np.arange(s), "mu", scene.settings.mcp)
+            M0.destroy()
+            M1.destroy()
+    else:
+        K0, K1 = p.K()
+        with system.stages("MCEIP-mu (21)-(23)"):
+            rep = search_mceip(K0, K1, p.space.comp, "mu", scene.settings.mcp)
+    d = rep.as_dict()
+    d["method"] = method
+    return d
+
+
+def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
+    mu = scene.lambda2_mu
+    if s == 0:
+        d = _no_slip("lambda2")
+    else:
+        K0, K1 = p.K()
+        M0, M1 = p.M()
+        with system.stages("MCEIP-lambda2 (12)-(14)"):
+            Ks, Ms = _combine(K0, K1, mu), _combine(M0, M1, mu)
+            tau = _diag_scale(Ks) / _diag_scale(Ms)
+            d = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau).as_dict()
+            Ks.destroy()
+            Ms.destroy()
+    d["mu"] = mu
+    return d
+
+
+def _enumerate(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
+    settings = scene.settings
+    problems: dict = {}
+    with system.stages("enumeration (24)-(26)"):
+        for problem in settings.enumerate_problems:
+            try:
+                if s == 0:
+                    sols = []
+                elif problem == "mu":
+                    A0, A1 = p.condensed_mu()
+                    sols = enumerate_mceip(A0, A1, np.arange(s), settings.enumerate_max_slip)
+                else:
+                    if p.space.n > FULL_DENSE_LIMIT:
+                        raise TooManySlipNodes(f"{p.space.n} DOFs: dense enumeration of MCEIP-lambda2 "
+                                               f"refused above {FULL_DENSE_LIMIT}")
+                    K0, K1 = p.K()
+                    M0, M1 = p.M()
+                    mu = scene.lambda2_mu
+                    Ks = dense(K0) + mu * dense(K1)
+                    Ms = dense(M0) + mu * dense(M1)
+                    sols = enumerate_mceip(Ks, Ms, p.space.comp, settings.enumerate_max_slip)
+                problems[problem] = {"problem": problem, "solutions": sols, "complete": True,
+                                     **({"mu": scene.lambda2_mu} if problem == "lambda2" else {})}
+            except TooManySlipNodes as err:
+                problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err)}
+    first = problems[settings.enumerate_problems[0]]
+    return {**first, "problems": problems}

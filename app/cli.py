@@ -1,0 +1,110 @@
+"""Command line: ``python -m app run|validate`` (also the ``contact-divergence`` console script).
+
+Exit status: 0 success, 2 a user mistake (bad scene file, unwritable output folder),
+3 the study ran but some states failed (listed in results.json "failures").
+Under ``mpirun`` every rank computes, only rank 0 prints and writes.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import pathlib
+import sys
+
+DESCRIPTION = """\
+Divergence instabilities of elastic bodies in frictional contact.
+
+A scene file (YAML) describes a system (the paper's two-particle system or a finite element
+block pressed and dragged on a rigid flat obstacle), the friction coefficient mu and the
+analyses wanted at every equilibrium state:
+  necessary      eq. (19): smallest eigenvalues of the symmetric parts of K*(mu), M*(mu)
+  sufficient     eqs. (17)-(18): real eigenpairs lambda^2 > 0 with x_Ts >= 0 (SLEPc)
+  mceip_mu       eqs. (21)-(23): critical friction coefficients and modes (SNES VI MCP search)
+  mceip_lambda2  eqs. (12)-(14): divergence rates lambda^2 and modes (SNES VI MCP search)
+  enumerate      eqs. (24)-(26): exhaustive stick/slip enumeration (exact, small problems)
+Units: mm, N, MPa, tonne, s (so lambda^2 is in 1/s^2).
+"""
+
+EPILOG = """\
+examples:
+  python -m app run                         # the paper's block study (embedded default)
+  python -m app run scene.yaml -o out/      # results in out/results.json and out/steps.csv
+  mpirun -n 2 python -m app run scene.yaml  # same numbers, in parallel
+  python -m app validate scene.yaml         # check a scene file without running it
+exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json)
+"""
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION, epilog=EPILOG,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    run = sub.add_parser("run", help="run a loading study and write its results",
+                         description="Run a loading study: every equilibrium state is classified "
+                                     "and gets the scene's analyses.")
+    run.add_argument("scene", nargs="?", help="scene YAML file (default: the embedded paper study)")
+    run.add_argument("-o", "--output", help="results folder (default: output/<scene name>)")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no summary")
+    run.add_argument("--log-level", default="WARNING",
+                     choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")
+    val = sub.add_parser("validate", help="check a scene file and print what it asks for")
+    val.add_argument("scene", help="scene YAML file")
+    return p
+
+
+def _fail(msg: str, code: int = 2) -> int:
+    from mpi4py import MPI
+    if MPI.COMM_WORLD.rank == 0:
+        print(f"error: {msg}", file=sys.stderr)
+    return code
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.command is None:
+        _parser().print_help()
+        return 2
+    from app.config import SceneError, default_scene_path, load_scene
+    try:
+        scene = load_scene(args.scene or default_scene_path())
+    except SceneError as err:
+        return _fail(str(err))
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    if args.command == "validate":
+        if comm.rank == 0:
+            print(f"{args.scene}: ok: scene '{scene.name}', system {scene.system.type}, mu = {scene.mu}, "
+                  f"analyses: {', '.join(scene.analyses)}")
+        return 0
+
+    logging.basicConfig(level=getattr(logging, args.log_level), format="%(levelname)s: %(message)s")
+    outdir = pathlib.Path(args.output or pathlib.Path("output") / scene.name)
+    if comm.rank == 0:
+        problem = _check_writable(outdir)
+    else:
+        problem = None
+    problem = comm.bcast(problem, root=0)                     # MPI collective
+    if problem:
+        return _fail(problem)
+
+    from app.outputs.results import write_results
+    from app.progress import Progress
+    from app.study import run_study
+    results = run_study(scene, comm, Progress(enabled=not args.quiet, comm=comm))
+    if comm.rank == 0:
+        write_results(results, outdir)
+        if not args.quiet:
+            from app.outputs.summary import summary
+            print(summary(results, outdir))
+    return 3 if results["failures"] else 0
+
+
+def _check_writable(outdir: pathlib.Path) -> str | None:
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        return f"cannot create the output folder {outdir}: {err.strerror}"
+    if not os.access(outdir, os.W_OK):
+        return f"the output folder {outdir} is not writable"
+    return None

@@ -1,0 +1,81 @@
+"""results.json and steps.csv (DESIGN.md section 6), written atomically by rank 0."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import pathlib
+import tempfile
+
+import numpy as np
+
+
+def _atomic_write(path: pathlib.Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        pathlib.Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _clean(obj):
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items() if not str(k).startswith("_")}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None if np.isnan(obj) else ("inf" if obj > 0 else "-inf")
+    return obj
+
+
+STEP_COLUMNS = ["index", "phase", "u_x_CD_mm", "u_y_CD_mm", "normal_resultant_N", "tangential_resultant_N",
+                "n_free", "n_zero", "n_stick", "n_slip", "necessary_min_eig_K_sym", "necessary_satisfied",
+                "sufficient_max_lambda2_per_s2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",
+                "shared_with", "analysis_seconds"]
+
+
+def step_rows(results: dict) -> list[dict]:
+    """One row per state for steps.csv."""
+    rows = []
+    for st in results["states"]:
+        a = st.get("analyses", {})
+        load = st.get("load", {})
+        mu_sols = [s["value"] for s in a.get("mceip_mu", {}).get("solutions", [])]
+        l2_sols = [s["value"] for s in a.get("mceip_lambda2", {}).get("solutions", [])]
+        suff = a.get("sufficient", {}).get("lambda2", [])
+        nec = a.get("necessary", {})
+        c = st["classification"]
+        rows.append({
+            "index": st["index"], "phase": load.get("phase", ""),
+            "u_x_CD_mm": load.get("u_x", ""), "u_y_CD_mm": load.get("u_y", ""),
+            "normal_resultant_N": load.get("normal_resultant", ""),
+            "tangential_resultant_N": load.get("tangential_resultant", ""),
+            "n_free": c["free"], "n_zero": c["zero"], "n_stick": c["stick"], "n_slip": c["slip"],
+            "necessary_min_eig_K_sym": nec.get("min_eig_K_sym", ""),
+            "necessary_satisfied": nec.get("satisfied", ""),
+            "sufficient_max_lambda2_per_s2": max(suff) if suff else "",
+            "mceip_mu_min": min(mu_sols) if mu_sols else "",
+            "mceip_mu_count": len(mu_sols) if "mceip_mu" in a else "",
+            "mceip_lambda2_max": max(l2_sols) if l2_sols else "",
+            "shared_with": "" if st.get("analyses_shared_with") is None else st["analyses_shared_with"],
+            "analysis_seconds": st.get("analysis_seconds", ""),
+        })
+    return rows
+
+
+def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Write steps.csv then results.json (last: its presence marks a complete run)."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS)
+    w.writeheader()
+    w.writerows(step_rows(results))
+    _atomic_write(outdir / "steps.csv", buf.getvalue())
+    _atomic_write(outdir / "results.json", json.dumps(_clean(results), indent=1))
+    return [outdir / "steps.csv", outdir / "results.json"]

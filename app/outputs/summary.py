@@ -1,0 +1,42 @@
+"""Short human summary of a study printed at the end of a run."""
+from __future__ import annotations
+
+import pathlib
+
+
+def summary(results: dict, outdir: pathlib.Path) -> str:
+    states = results["states"]
+    lines = [f"scene '{results['scene']}': {results['system']}",
+             f"  {len(states)} equilibrium state(s), {results['distinct_classifications']} distinct "
+             f"classification(s); path: {results['path'].get('end', '')}"]
+    first_mu = next((s for s in states if s["analyses"].get("mceip_mu", {}).get("solutions")), None)
+    if first_mu is not None:
+        c = first_mu["classification"]
+        lines.append(f"  MCEIP-mu first has a solution at state {first_mu['index']} "
+                     f"({c['stick']} stick / {c['slip']} slip / {c['free']} free)")
+    last = states[-1]
+    c = last["classification"]
+    lines.append(f"  final state {last['index']}: {c['stick']} stick / {c['slip']} slip / {c['free']} free"
+                 + (f" / {c['zero']} zero" if c["zero"] else ""))
+    a = last["analyses"]
+    if "necessary" in a:
+        lines.append(f"    necessary condition (19): {'satisfied' if a['necessary']['satisfied'] else 'not satisfied'}"
+                     f" (min eig sym K* = {a['necessary']['min_eig_K_sym']:.6g})")
+    if "sufficient" in a:
+        lam = a["sufficient"]["lambda2"]
+        lines.append(f"    sufficient condition (17)-(18): " + (f"satisfied, lambda^2 = {max(lam):.6g} 1/s^2" if lam else "not satisfied"))
+    for key, name in (("mceip_mu", "MCEIP-mu"), ("mceip_lambda2", "MCEIP-lambda^2")):
+        if key in a:
+            sols = a[key]["solutions"]
+            vals = ", ".join(f"{s['value']:.6g} ({''.join('S' if p == 'slip' else '-' for p in s['pattern'])})"
+                             for s in sols) or "none found"
+            extra = f" at mu = {a[key]['mu']}" if key == "mceip_lambda2" else ""
+            lines.append(f"    {name}{extra}: {vals}")
+    if results["failures"]:
+        lines.append(f"  INCOMPLETE: {len(results['failures'])} state(s) failed: "
+                     + "; ".join(f"state {f['state']}: {f['reason']}" for f in results["failures"][:3]))
+    total = sum(s["seconds"] for s in results["stages"])
+    lines.append(f"  wall time {results['wall_seconds']:.2f} s; stages: "
+                 + ", ".join(f"{s['name']} {s['seconds']:.2f} s" for s in results["stages"]))
+    lines.append(f"  results: {outdir / 'results.json'}, {outdir / 'steps.csv'}")
+    return "\n".join(lines)

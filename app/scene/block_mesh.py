@@ -1,0 +1,316 @@
+"""Triangular meshes of the rectangular block [0, length] x [0, height].
+
+Every pattern goes through gmsh the same way: the structured patterns are
+built as exact numpy node/element arrays and handed to gmsh as a discrete
+model, the unstructured one is meshed by gmsh from a built-in geometry.
+The model is written to a ``.msh`` file on rank 0 (cached, written
+atomically), read back into a fresh gmsh model and distributed with
+:func:`dolfinx.io.gmshio.model_to_mesh`.
+
+Physical groups (= DOLFINx facet/cell tag values)::
+
+    D +---------- CD = 2 ----------+ C       y = height
+      |                            |
+      LATERAL = 3       cells = 1  LATERAL = 3
+      |                            |
+    A +---------- AB = 1 ----------+ B       y = 0
+     x = 0                        x = length
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pathlib
+import uuid
+
+import numpy as np
+import numpy.typing as npt
+
+import dolfinx.io.gmshio
+import dolfinx.mesh
+from dolfinx.cpp.mesh import MeshTags_int32
+from mpi4py import MPI
+
+__all__ = ["AB", "CD", "LATERAL", "CELLS", "PATTERNS", "DEFAULT_CACHE_DIR", "block_mesh",
+           "structured_triangulation", "mesh_file_name"]
+
+AB, CD, LATERAL = 1, 2, 3
+CELLS = 1
+PATTERNS = ("crossed", "right", "left", "alternate", "unstructured")
+DEFAULT_CACHE_DIR = pathlib.Path(__file__).resolve().parents[2] / "meshes"
+
+# Bump when the generated meshes change, so that stale cache files are not reused.
+_GENERATOR_VERSION = 1
+
+# Gmsh element types
+_GMSH_LINE, _GMSH_TRIANGLE = 1, 2
+
+
+def structured_triangulation(length: float, height: float, nx: int, ny: int,
+                             pattern: str) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """Nodes and counter-clockwise triangles of a structured mesh of the block.
+
+    Grid node (i, j), 0 <= i <= nx, 0 <= j <= ny, has index j*(nx+1) + i.
+    For ``pattern == "crossed"`` the centre of cell (i, j) follows as node
+    (nx+1)*(ny+1) + j*nx + i.
+
+    Args:
+        length: Length of the block (x direction).
+        height: Height of the block (y direction).
+        nx: Number of cells along x.
+        ny: Number of cells along y.
+        pattern: "crossed" (4 triangles per cell), "right" (diagonal from
+            lower left to upper right), "left" (lower right to upper
+            left) or "alternate" (checkerboard of right and left).
+
+    Returns:
+        ``(x, cells)``: node coordinates of shape (num_nodes, 2) and
+        zero-based triangle connectivity of shape (num_cells, 3).
+    """
+    if pattern not in ("crossed", "right", "left", "alternate"):
+        raise ValueError(f"Not a structured pattern: {pattern!r}")
+    if nx < 1 or ny < 1:
+        raise ValueError(f"nx and ny must be positive, got nx={nx}, ny={ny}")
+
+    xs = np.linspace(0.0, length, nx + 1)
+    ys = np.linspace(0.0, height, ny + 1)
+    X, Y = np.meshgrid(xs, ys)  # shape (ny+1, nx+1): row j, column i
+    x = np.column_stack([X.ravel(), Y.ravel()])
+
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny))
+    i, j = i.ravel(), j.ravel()
+    v0 = j * (nx + 1) + i  # lower left
+    v1 = v0 + 1            # lower right
+    v2 = v0 + (nx + 1)     # upper left
+    v3 = v2 + 1            # upper right
+
+    if pattern == "crossed":
+        c = (nx + 1) * (ny + 1) + j * nx + i
+        centres = np.column_stack([(xs[i] + xs[i + 1]) / 2, (ys[j] + ys[j + 1]) / 2])
+        x = np.vstack([x, centres])
+        # Four triangles per cell, stored cell by cell: bottom, right, top, left
+        cells = np.stack([np.column_stack([v0, v1, c]), np.column_stack([v1, v3, c]),
+                          np.column_stack([v3, v2, c]), np.column_stack([v2, v0, c])], axis=1)
+    else:
+        right = np.stack([np.column_stack([v0, v1, v3]), np.column_stack([v0, v3, v2])], axis=1)
+        left = np.stack([np.column_stack([v0, v1, v2]), np.column_stack([v1, v3, v2])], axis=1)
+        if pattern == "right":
+            use_right = np.ones(i.shape, dtype=bool)
+        elif pattern == "left":
+            use_right = np.zeros(i.shape, dtype=bool)
+        else:
+            use_right = (i + j) % 2 == 0
+        cells = np.where(use_right[:, None, None], right, left)
+    return x, cells.reshape(-1, 3).astype(np.int64)
+
+
+def mesh_file_name(length: float, height: float, nx: int, ny: int, pattern: str,
+                   mesh_size: float | None = None) -> str:
+    """Readable, parameter-hashed cache file name of a block mesh."""
+    key = repr((_GENERATOR_VERSION, float(length), float(height), int(nx), int(ny), pattern,
+                None if mesh_size is None else float(mesh_size)))
+    digest = hashlib.sha1(key.encode()).hexdigest()[:10]
+    if pattern == "unstructured":
+        readable = f"unstructured_h{mesh_size:g}"
+    else:
+        readable = f"{pattern}_{nx}x{ny}"
+    return f"block_{readable}_{length:g}x{height:g}_{digest}.msh"
+
+
+def _gmsh_is_initialized(gmsh) -> bool:
+    """Whether the gmsh API is initialized (gmsh 4.8 has no ``gmsh.isInitialized``)."""
+    try:
+        # Options are only populated between initialize() and finalize();
+        # after finalize() the call raises.
+        return bool(gmsh.option.getString("General.BuildInfo"))
+    except Exception:
+        return False
+
+
+def _add_structured_model(gmsh, length: float, height: float, nx: int, ny: int, pattern: str) -> None:
+    """Fill the current (empty) gmsh model with a discrete structured mesh."""
+    x, cells = structured_triangulation(length, height, nx, ny, pattern)
+    num_nodes = x.shape[0]
+
+    # Discrete entities: surface 1, curves AB=1, CD=2, x=0 -> 3, x=length -> 4
+    gmsh.model.addDiscreteEntity(2, 1)
+    for tag in (1, 2, 3, 4):
+        gmsh.model.addDiscreteEntity(1, tag)
+
+    # All nodes live on the surface; gmsh node tags are 1..num_nodes
+    coords = np.column_stack([x, np.zeros(num_nodes)])
+    gmsh.model.mesh.addNodes(2, 1, np.arange(1, num_nodes + 1), coords.ravel())
+    gmsh.model.mesh.addElementsByType(1, _GMSH_TRIANGLE, np.arange(1, cells.shape[0] + 1),
+                                      (cells + 1).ravel())
+
+    # Boundary edges (node index 0-based on the (nx+1) x (ny+1) grid)
+    bottom = np.arange(nx + 1)
+    top = ny * (nx + 1) + np.arange(nx + 1)
+    left = np.arange(ny + 1) * (nx + 1)
+    right = left + nx
+    next_tag = cells.shape[0] + 1
+    for curve, chain in ((1, bottom), (2, top), (3, left), (4, right)):
+        edges = np.column_stack([chain[:-1], chain[1:]]) + 1
+        gmsh.model.mesh.addElementsByType(curve, _GMSH_LINE,
+                                          np.arange(next_tag, next_tag + edges.shape[0]), edges.ravel())
+        next_tag += edges.shape[0]
+
+    gmsh.model.addPhysicalGroup(2, [1], CELLS)
+    gmsh.model.addPhysicalGroup(1, [1], AB)
+    gmsh.model.addPhysicalGroup(1, [2], CD)
+    gmsh.model.addPhysicalGroup(1, [3, 4], LATERAL)
+    gmsh.model.setPhysicalName(1, AB, "AB")
+    gmsh.model.setPhysicalName(1, CD, "CD")
+    gmsh.model.setPhysicalName(1, LATERAL, "lateral")
+    gmsh.model.setPhysicalName(2, CELLS, "block")
+
+
+def _add_unstructured_model(gmsh, length: float, height: float, mesh_size: float) -> None:
+    """Fill the current (empty) gmsh model with an unstructured mesh of the block."""
+    geo = gmsh.model.geo
+    pts = [geo.addPoint(0.0, 0.0, 0.0, mesh_size), geo.addPoint(length, 0.0, 0.0, mesh_size),
+           geo.addPoint(length, height, 0.0, mesh_size), geo.addPoint(0.0, height, 0.0, mesh_size)]
+    ab = geo.addLine(pts[0], pts[1])
+    bc = geo.addLine(pts[1], pts[2])
+    cd = geo.addLine(pts[2], pts[3])
+    da = geo.addLine(pts[3], pts[0])
+    loop = geo.addCurveLoop([ab, bc, cd, da])
+    surface = geo.addPlaneSurface([loop])
+    geo.synchronize()
+
+    gmsh.model.addPhysicalGroup(2, [surface], CELLS)
+    gmsh.model.addPhysicalGroup(1, [ab], AB)
+    gmsh.model.addPhysicalGroup(1, [cd], CD)
+    gmsh.model.addPhysicalGroup(1, [bc, da], LATERAL)
+    gmsh.model.setPhysicalName(1, AB, "AB")
+    gmsh.model.setPhysicalName(1, CD, "CD")
+    gmsh.model.setPhysicalName(1, LATERAL, "lateral")
+    gmsh.model.setPhysicalName(2, CELLS, "block")
+
+    gmsh.option.setNumber("Mesh.MeshSizeMin", mesh_size)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", mesh_size)
+    gmsh.model.mesh.generate(2)
+    # model_to_mesh needs node tags 1..N
+    gmsh.model.mesh.renumberNodes()
+    gmsh.model.mesh.renumberElements()
+
+
+def _write_msh_atomically(gmsh, path: pathlib.Path) -> None:
+    """Write the current gmsh model to ``path`` via a temporary file and os.replace."""
+    # gmsh picks the format from the extension, so the temporary name ends in .msh
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp.msh")
+    try:
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.option.setNumber("Mesh.Binary", 0)
+        gmsh.option.setNumber("Mesh.SaveAll", 0)
+        gmsh.write(str(tmp))
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _ensure_msh_file(gmsh, path: pathlib.Path, length: float, height: float, nx: int, ny: int,
+                     pattern: str, mesh_size: float | None) -> None:
+    """Generate the mesh file ``path`` unless it exists (rank-0 only)."""
+    if path.exists():
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    previous = gmsh.model.getCurrent()
+    name = f"block_build_{uuid.uuid4().hex[:8]}"
+    gmsh.model.add(name)
+    try:
+        if pattern == "unstructured":
+            _add_unstructured_model(gmsh, length, height, mesh_size)
+        else:
+            _add_structured_model(gmsh, length, height, nx, ny, pattern)
+        _write_msh_atomically(gmsh, path)
+    finally:
+        gmsh.model.setCurrent(name)
+        gmsh.model.remove()
+        if previous in gmsh.model.list():
+            gmsh.model.setCurrent(previous)
+
+
+def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, pattern: str,
+               mesh_size: float | None = None,
+               cache_dir: pathlib.Path = DEFAULT_CACHE_DIR) -> tuple[dolfinx.mesh.Mesh, MeshTags_int32]:
+    """Distributed triangular mesh of the block with tagged facets (collective).
+
+    The mesh is generated on rank 0 of ``comm`` as a gmsh model, cached in
+    ``cache_dir`` as a ``.msh`` file (reused if present), read back and
+    distributed over ``comm``.
+
+    Args:
+        comm: MPI communicator of the mesh.
+        length: Length of AB (x direction), in mm.
+        height: Height of the block (y direction), in mm.
+        nx: Number of cells along x (structured patterns).
+        ny: Number of cells along y (structured patterns).
+        pattern: One of :data:`PATTERNS`.
+        mesh_size: Target element size (required for "unstructured",
+            ignored otherwise).
+        cache_dir: Directory of the cached ``.msh`` files.
+
+    Returns:
+        ``(mesh, facet_tags)`` with facet tags :data:`AB`, :data:`CD` and
+        :data:`LATERAL`.
+    """
+    if pattern not in PATTERNS:
+        raise ValueError(f"Unknown pattern {pattern!r}, expected one of {PATTERNS}")
+    if not (length > 0 and height > 0):
+        raise ValueError(f"length and height must be positive, got {length}, {height}")
+    if pattern == "unstructured":
+        if mesh_size is None or not mesh_size > 0:
+            raise ValueError("pattern 'unstructured' needs a positive mesh_size")
+    else:
+        mesh_size = None
+        if nx < 1 or ny < 1:
+            raise ValueError(f"nx and ny must be positive, got nx={nx}, ny={ny}")
+
+    import gmsh
+
+    root = 0
+    path = pathlib.Path(cache_dir) / mesh_file_name(length, height, nx, ny, pattern, mesh_size)
+
+    # Rank 0 generates or reads the file into a fresh gmsh model; errors are
+    # broadcast so that no rank is left waiting in model_to_mesh.
+    error = None
+    initialized_here = False
+    model_name = None
+    if comm.rank == root:
+        try:
+            if not _gmsh_is_initialized(gmsh):
+                gmsh.initialize()
+                initialized_here = True
+            gmsh.option.setNumber("General.Terminal", 0)
+            _ensure_msh_file(gmsh, path, length, height, nx, ny, pattern, mesh_size)
+            model_name = f"block_{uuid.uuid4().hex[:8]}"
+            gmsh.model.add(model_name)
+            gmsh.merge(str(path))
+        except Exception as e:  # noqa: BLE001 -- re-raised on every rank below
+            error = f"{type(e).__name__}: {e}"
+    error = comm.bcast(error, root=root)
+    if error is not None:
+        if comm.rank == root:
+            _cleanup_gmsh(gmsh, model_name, initialized_here)
+        raise RuntimeError(f"block_mesh: mesh generation failed on rank {root}: {error}")
+
+    try:
+        mesh, _cell_tags, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model, comm, root, gdim=2)
+    finally:
+        if comm.rank == root:
+            _cleanup_gmsh(gmsh, model_name, initialized_here)
+    mesh.name = path.stem
+    facet_tags.name = "facet_tags"
+    return mesh, facet_tags
+
+
+def _cleanup_gmsh(gmsh, model_name: str | None, finalize: bool) -> None:
+    """Remove the model read by block_mesh and finalize gmsh if block_mesh initialized it."""
+    if finalize:
+        gmsh.finalize()
+    elif model_name is not None and model_name in gmsh.model.list():
+        gmsh.model.setCurrent(model_name)
+        gmsh.model.remove()

@@ -1,0 +1,85 @@
+"""A loading study end to end: scene -> system -> loading path -> per-state analyses -> results.
+
+Analyses depend only on a state's classification and slip signs (DESIGN.md section 3), so they
+are computed once per distinct classification and shared; each state says which state it shares
+its analyses with.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+from app.analyses.classify import classify
+from app.analyses.pencils import UnsupportedState
+from app.analyses.runner import analyse_state
+from app.config import Block, Scene, TwoParticles
+from app.loading.state import EquilibriumState
+from app.progress import Progress
+from app.stages import Stages
+from app.system.particles import two_particle_system
+
+
+def _two_particle_path(scene: Scene, comm: MPI.Comm, stages: Stages):
+    """The paper's two-particle state: both particles in impending slip with signs S1, S2.
+
+    The scene fixes only the signs; the static reactions are taken with unit normal reaction
+    (r_N = -1 N), so r_T = S mu. The pencils do not depend on the reaction values.
+    """
+    cfg: TwoParticles = scene.system
+    with stages("build system"):
+        system = two_particle_system(cfg, comm, stages)
+    S = np.array(cfg.signs, dtype=float)
+    mu_state = max(scene.mu, 1e-300)
+    state = EquilibriumState(index=0, load={}, u_T=np.zeros(2), u_N=np.zeros(2),
+                             r_T=S * mu_state, r_N=-np.ones(2))
+    return system, [state], {"end": "single equilibrium state"}
+
+
+def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None) -> dict:
+    """Run ``scene``; returns the results dictionary (identical on every rank)."""
+    t_start = time.perf_counter()
+    stages = Stages()
+    progress = progress or Progress(enabled=False)
+    if isinstance(scene.system, TwoParticles):
+        system, states, path_info = _two_particle_path(scene, comm, stages)
+    elif isinstance(scene.system, Block):
+        from app.loading.block_path import block_path  # DOLFINx only when a block is asked for
+        system, states, path_info = block_path(scene, comm, stages, progress)
+    else:  # pragma: no cover - the schema forbids it
+        raise TypeError(type(scene.system))
+
+    cache: dict = {}
+    out_states, failures = [], []
+    bar = progress.bar(len(states), "analyses")
+    for state in states:
+        cls = classify(state, scene.mu, scene.settings.classify_rtol)
+        entry = {"index": state.index, "load": state.load, "classification": cls.counts(),
+                 "nodes": [{"id": n.id, "x": n.x, "status": st, "sign": sg,
+                            "u_N": float(uN), "u_T": float(uT), "r_N": float(rN), "r_T": float(rT)}
+                           for n, st, sg, uN, uT, rN, rT in zip(system.nodes, cls.status, cls.signs,
+                                                               state.u_N, state.u_T, state.r_N, state.r_T)],
+                 **state.extra}
+        if cls.key in cache:
+            first, analyses = cache[cls.key]
+            entry["analyses_shared_with"] = first
+        else:
+            try:
+                analyses = analyse_state(system, cls, scene)
+            except UnsupportedState as err:
+                analyses = {"error": str(err)}
+                failures.append({"state": state.index, "reason": str(err)})
+            cache[cls.key] = (state.index, analyses)
+            entry["analyses_shared_with"] = None
+        entry["analyses"] = analyses
+        out_states.append(entry)
+        bar.update(1)
+    bar.close()
+    system.destroy()
+    return {"scene": scene.name, "units": system.units, "system": system.description,
+            "mu": scene.mu, "analyses_requested": list(scene.analyses),
+            "path": path_info, "distinct_classifications": len(cache),
+            "stages": stages.as_list(), "failures": failures,
+            "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
+            "states": out_states}

@@ -1,0 +1,301 @@
+"""Linear elasticity operators of the block, reduced to the non-Dirichlet DOFs.
+
+Units: mm, N, MPa (N/mm^2), tonne/mm^3, so that K is in N/mm and M in
+tonne. The top side CD carries a prescribed displacement and is removed
+from the system; nothing is prescribed on the contact side AB or on the
+lateral sides.
+
+Reduced numbering: every rank keeps its OWNED DOLFINx dofs (blocked
+numbering, ``node*2 + component``) that are not on CD, in ascending
+order. The reduced global index of a kept dof is its position in the
+rank-ordered concatenation of these lists, i.e. the row of ``K``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.mesh
+import ufl
+from dolfinx.cpp.mesh import MeshTags_int32
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from app.scene.block_mesh import AB, CD
+
+__all__ = ["BlockOperators", "block_operators", "lame_parameters"]
+
+
+def lame_parameters(E: float, nu: float, plane: str = "stress") -> tuple[float, float]:
+    """Lamé parameters (mu, lambda) of the 2D model.
+
+    For plane stress lambda is replaced by lambda* = 2 mu lambda / (lambda + 2 mu)
+    = E nu / (1 - nu^2).
+    """
+    if plane not in ("stress", "strain"):
+        raise ValueError(f"plane must be 'stress' or 'strain', got {plane!r}")
+    if not (E > 0 and -1.0 < nu < 0.5):
+        raise ValueError(f"Need E > 0 and -1 < nu < 0.5, got E={E}, nu={nu}")
+    mu = E / (2.0 * (1.0 + nu))
+    lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+    if plane == "stress":
+        lmbda = 2.0 * mu * lmbda / (lmbda + 2.0 * mu)
+    return mu, lmbda
+
+
+@dataclass
+class BlockOperators:
+    """Reduced stiffness (and mass) operators of the block.
+
+    Attributes:
+        mesh: The mesh.
+        facet_tags: Facet tags (AB, CD, LATERAL).
+        V: Vector Lagrange space of the displacement.
+        K: Reduced stiffness in N/mm (CD dofs removed), SPD, distributed.
+        kept: Owned global DOLFINx (unrolled) dof indices kept in the
+            reduced system, ascending; rank-ordered they define the
+            reduced numbering.
+        load_x: Reduced right-hand side -K_{kept,D} u_D for u_D = (1, 0) on CD.
+        load_y: Same for u_D = (0, 1).
+        contact_x: x coordinate of every dof-carrying node of AB, sorted
+            from A to B, identical on every rank.
+        contact_dof_x: Reduced global index of the ux dof of each contact node.
+        contact_dof_y: Reduced global index of the uy dof of each contact node.
+        mass_kind: "consistent" or "lumped" (row sums).
+    """
+
+    mesh: dolfinx.mesh.Mesh
+    facet_tags: MeshTags_int32
+    V: dolfinx.fem.FunctionSpace
+    K: PETSc.Mat
+    kept: PETSc.IS
+    load_x: PETSc.Vec
+    load_y: PETSc.Vec
+    contact_x: npt.NDArray[np.float64]
+    contact_dof_x: npt.NDArray[np.int64]
+    contact_dof_y: npt.NDArray[np.int64]
+    mass_kind: str = "consistent"
+    # Local (unrolled) indices of the owned kept dofs, in reduced order
+    _kept_local: npt.NDArray[np.int32] = field(default=None, repr=False)
+    # Local (unrolled, owned and ghost) indices of the CD dofs, per component
+    _cd_local_x: npt.NDArray[np.int32] = field(default=None, repr=False)
+    _cd_local_y: npt.NDArray[np.int32] = field(default=None, repr=False)
+    _mass_form: dolfinx.fem.FormMetaClass = field(default=None, repr=False)
+    _M: PETSc.Mat | None = field(default=None, repr=False)
+    _M_full: PETSc.Mat | None = field(default=None, repr=False)
+
+    @property
+    def reduced_offset(self) -> int:
+        """Reduced global index of this rank's first kept dof."""
+        return self.K.getOwnershipRange()[0]
+
+    def mass(self, full: bool = False) -> PETSc.Mat:
+        """Mass matrix in tonne (density * thickness * int u.v), built on first call and cached.
+
+        Args:
+            full: If True, return the matrix on all dofs of ``V`` (CD
+                included, DOLFINx numbering) instead of the reduced one.
+
+        Returns:
+            The consistent or row-sum lumped mass matrix, according to
+            :attr:`mass_kind`.
+        """
+        if self._M_full is None:
+            M_full = dolfinx.fem.petsc.assemble_matrix(self._mass_form)
+            M_full.assemble()
+            if self.mass_kind == "lumped":
+                # Row sums of the consistent matrix, on a diagonal matrix
+                d = M_full.getRowSum()
+                M_full.destroy()
+                M_full = _diagonal_matrix(d)
+                d.destroy()
+            self._M_full = M_full
+        if full:
+            return self._M_full
+        if self._M is None:
+            self._M = self._M_full.createSubMatrix(self.kept, self.kept)
+        return self._M
+
+    def to_function(self, u_reduced: PETSc.Vec | np.ndarray, gx: float, gy: float) -> dolfinx.fem.Function:
+        """Full displacement field from a reduced vector and the displacement (gx, gy) of CD.
+
+        Args:
+            u_reduced: Reduced displacement: a PETSc vector with the layout
+                of ``K``, or a numpy array holding either this rank's part
+                (length ``kept.getLocalSize()``) or the whole reduced vector
+                (length ``kept.getSize()``).
+            gx: Prescribed x displacement of CD.
+            gy: Prescribed y displacement of CD.
+
+        Returns:
+            The displacement as a Function in ``V`` (ghosts updated).
+        """
+        n_local = self._kept_local.size
+        if isinstance(u_reduced, PETSc.Vec):
+            values = u_reduced.getArray(readonly=True)
+            if values.size != n_local:
+                raise ValueError(f"Reduced vector has local size {values.size}, expected {n_local}")
+        else:
+            values = np.asarray(u_reduced, dtype=PETSc.ScalarType).ravel()
+            if values.size == n_local:
+                pass
+            elif values.size == self.kept.getSize():
+                start = self.reduced_offset
+                values = values[start:start + n_local]
+            else:
+                raise ValueError(f"Reduced array has size {values.size}, expected {n_local} (local) "
+                                 f"or {self.kept.getSize()} (global)")
+
+        u = dolfinx.fem.Function(self.V, name="displacement")
+        u.x.array[:] = 0.0
+        u.x.array[self._kept_local] = values
+        u.x.array[self._cd_local_x] = gx
+        u.x.array[self._cd_local_y] = gy
+        u.x.scatter_forward()
+        return u
+
+    def destroy(self) -> None:
+        """Destroy the PETSc objects held by the operators."""
+        for obj in (self.K, self.kept, self.load_x, self.load_y, self._M, self._M_full):
+            if obj is not None:
+                obj.destroy()
+        self._M = self._M_full = None
+
+
+def _diagonal_matrix(d: PETSc.Vec) -> PETSc.Mat:
+    """Distributed AIJ matrix with diagonal ``d`` and the layout of ``d``."""
+    A = PETSc.Mat().createAIJ((d.getSizes(), d.getSizes()), nnz=(1, 0), comm=d.getComm())
+    A.setUp()
+    A.setDiagonal(d)
+    A.assemble()
+    return A
+
+
+def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: float, nu: float,
+                    thickness: float, density: float, plane: str = "stress", degree: int = 1,
+                    mass_kind: str = "consistent") -> BlockOperators:
+    """Assemble the reduced elasticity operators of the block (collective).
+
+    Args:
+        mesh: Mesh of the block (see :func:`app.scene.block_mesh.block_mesh`).
+        facet_tags: Facet tags with AB and CD.
+        E: Young's modulus in MPa.
+        nu: Poisson's ratio.
+        thickness: Out-of-plane thickness in mm (multiplies K and M).
+        density: Density in tonne/mm^3.
+        plane: "stress" or "strain".
+        degree: Degree of the vector Lagrange space (1 or 2).
+        mass_kind: "consistent" or "lumped" (row sums of the consistent
+            matrix; singular for degree 2, whose vertex row sums vanish).
+
+    Returns:
+        The reduced operators.
+    """
+    if degree not in (1, 2):
+        raise ValueError(f"degree must be 1 or 2, got {degree}")
+    if mass_kind not in ("consistent", "lumped"):
+        raise ValueError(f"mass_kind must be 'consistent' or 'lumped', got {mass_kind!r}")
+    if mass_kind == "lumped" and degree == 2:
+        warnings.warn("Row-sum lumping of P2 triangles gives zero vertex masses (singular M)",
+                      stacklevel=2)
+    if not (thickness > 0 and density > 0):
+        raise ValueError(f"thickness and density must be positive, got {thickness}, {density}")
+    mu_value, lmbda_value = lame_parameters(E, nu, plane)
+
+    comm = mesh.comm
+    fdim = mesh.topology.dim - 1
+    V = dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree))
+    bs = V.dofmap.index_map_bs
+    index_map = V.dofmap.index_map
+    n_owned = index_map.size_local * bs
+    owned_start = index_map.local_range[0] * bs  # global index of the first owned dof
+
+    # Forms; parameters are Constants so that the generated code is reused
+    mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(mu_value))
+    lmbda = dolfinx.fem.Constant(mesh, PETSc.ScalarType(lmbda_value))
+    t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(thickness))
+    rho = dolfinx.fem.Constant(mesh, PETSc.ScalarType(density))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+
+    def epsilon(w):
+        return ufl.sym(ufl.grad(w))
+
+    def sigma(w):
+        return 2.0 * mu * epsilon(w) + lmbda * ufl.tr(epsilon(w)) * ufl.Identity(len(w))
+
+    a = dolfinx.fem.form(t * ufl.inner(sigma(u), epsilon(v)) * ufl.dx)
+    m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx)
+
+    # Dirichlet (CD) dofs: local block indices, owned and ghost (remote=True
+    # also finds dofs of CD reachable only through another rank's facets)
+    cd_facets = facet_tags.indices[facet_tags.values == CD]
+    cd_blocks = dolfinx.fem.locate_dofs_topological(V, fdim, cd_facets)
+    cd_local_x = (cd_blocks * bs).astype(np.int32)
+    cd_local_y = (cd_blocks * bs + 1).astype(np.int32)
+    if comm.allreduce(cd_blocks.size, op=MPI.SUM) == 0:
+        raise ValueError(f"No facets tagged CD={CD}")
+
+    # Kept dofs: owned minus CD, ascending; reduced numbering by exscan offset
+    is_dirichlet = np.zeros(n_owned, dtype=bool)
+    cd_owned = cd_blocks[cd_blocks < index_map.size_local]
+    is_dirichlet[cd_owned * bs] = True
+    is_dirichlet[cd_owned * bs + 1] = True
+    kept_local = np.flatnonzero(~is_dirichlet).astype(np.int32)
+    n_kept = kept_local.size
+    offset = comm.exscan(n_kept, op=MPI.SUM)
+    offset = 0 if comm.rank == 0 else offset
+    reduced_index = np.full(n_owned, -1, dtype=np.int64)
+    reduced_index[kept_local] = offset + np.arange(n_kept, dtype=np.int64)
+    kept = PETSc.IS().createGeneral((owned_start + kept_local).astype(PETSc.IntType), comm=comm)
+
+    # Stiffness: full assembly without bcs, then restriction
+    K_full = dolfinx.fem.petsc.assemble_matrix(a)
+    K_full.assemble()
+    K = K_full.createSubMatrix(kept, kept)
+    assert K.getOwnershipRange() == (offset, offset + n_kept)
+
+    # Loads -K_{kept,D} u_D of a unit displacement of CD in x, resp. y.
+    # Rows of K_full u_D on kept dofs are K_{kept,D} u_D (u_D vanishes off CD);
+    # kept dofs are owned, so the restriction is local.
+    u_D, Ku_D = K_full.createVecs()
+    loads = []
+    for component in range(bs):
+        u_D.zeroEntries()
+        rows = (owned_start + cd_owned * bs + component).astype(PETSc.IntType)
+        u_D.setValues(rows, np.ones(rows.size, dtype=PETSc.ScalarType), addv=PETSc.InsertMode.INSERT_VALUES)
+        u_D.assemble()
+        K_full.mult(u_D, Ku_D)
+        load = K.createVecRight()
+        load.setArray(-Ku_D.getArray(readonly=True)[kept_local])
+        loads.append(load)
+    u_D.destroy()
+    Ku_D.destroy()
+    K_full.destroy()
+
+    # Contact nodes on AB: owned dof-carrying nodes, gathered on every rank
+    ab_facets = facet_tags.indices[facet_tags.values == AB]
+    ab_blocks = dolfinx.fem.locate_dofs_topological(V, fdim, ab_facets)
+    ab_blocks = ab_blocks[ab_blocks < index_map.size_local]
+    x_dofs = V.tabulate_dof_coordinates()
+    local_contact = (x_dofs[ab_blocks, 0].copy(), reduced_index[ab_blocks * bs], reduced_index[ab_blocks * bs + 1])
+    if np.any(local_contact[1] < 0) or np.any(local_contact[2] < 0):
+        raise RuntimeError("A contact dof on AB is also on CD")
+    gathered = comm.allgather(local_contact)
+    cx = np.concatenate([g[0] for g in gathered])
+    cdx = np.concatenate([g[1] for g in gathered])
+    cdy = np.concatenate([g[2] for g in gathered])
+    _, unique = np.unique(cdx, return_index=True)
+    order = unique[np.argsort(cx[unique], kind="stable")]
+
+    return BlockOperators(mesh=mesh, facet_tags=facet_tags, V=V, K=K, kept=kept,
+                          load_x=loads[0], load_y=loads[1],
+                          contact_x=cx[order], contact_dof_x=cdx[order].astype(np.int64),
+                          contact_dof_y=cdy[order].astype(np.int64), mass_kind=mass_kind,
+                          _kept_local=kept_local, _cd_local_x=cd_local_x, _cd_local_y=cd_local_y,
+                          _mass_form=m)

@@ -1,0 +1,303 @@
+"""Tests of the block mesh (app.scene.block_mesh) and the reduced elasticity operators
+(app.system.elasticity)."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import dolfinx.fem
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from app.scene.block_mesh import AB, CD, LATERAL, block_mesh
+from app.system.elasticity import block_operators, lame_parameters
+
+REPO = pathlib.Path(__file__).resolve().parents[1]
+LENGTH, HEIGHT = 80.0, 40.0
+E, NU, THICKNESS, DENSITY = 2000.0, 0.3, 10.0, 1.2e-9
+
+
+@pytest.fixture(scope="module")
+def cache_dir(tmp_path_factory) -> pathlib.Path:
+    return tmp_path_factory.mktemp("meshes")
+
+
+def dense(A: PETSc.Mat) -> np.ndarray:
+    """Dense copy of a (serial) PETSc matrix."""
+    n, m = A.getSize()
+    return A.getValues(np.arange(n, dtype=PETSc.IntType), np.arange(m, dtype=PETSc.IntType))
+
+
+def reduced_field(ops, fx, fy) -> np.ndarray:
+    """Restriction of the vector field (fx(x, y), fy(x, y)) to the kept dofs (serial)."""
+    idx = ops.kept.getIndices()
+    x = ops.V.tabulate_dof_coordinates()[idx // 2]
+    return np.where(idx % 2 == 0, fx(x[:, 0], x[:, 1]), fy(x[:, 0], x[:, 1]))
+
+
+# --- mesh ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("pattern, cells_per_square", [("crossed", 4), ("right", 2), ("left", 2),
+                                                       ("alternate", 2)])
+def test_structured_patterns(cache_dir, pattern, cells_per_square):
+    nx, ny = 20, 10
+    mesh, ft = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, nx, ny, pattern, cache_dir=cache_dir)
+    tdim = mesh.topology.dim
+    assert mesh.comm.allreduce(mesh.topology.index_map(tdim).size_local) == cells_per_square * nx * ny
+    area = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(
+        dolfinx.fem.form(dolfinx.fem.Constant(mesh, 1.0) * ufl.dx)))
+    assert area == pytest.approx(LENGTH * HEIGHT, rel=1e-12)
+
+    # Tagged facets: AB and CD have nx edges, the lateral sides 2*ny, at the right places
+    owned = ft.indices < mesh.topology.index_map(tdim - 1).size_local
+    mid = dolfinx.mesh.compute_midpoints(mesh, tdim - 1, ft.indices)
+    for tag, n_expected, on_side in ((AB, nx, lambda p: np.isclose(p[:, 1], 0.0)),
+                                     (CD, nx, lambda p: np.isclose(p[:, 1], HEIGHT)),
+                                     (LATERAL, 2 * ny,
+                                      lambda p: np.isclose(p[:, 0], 0.0) | np.isclose(p[:, 0], LENGTH))):
+        sel = ft.values == tag
+        assert mesh.comm.allreduce(int(np.sum(sel & owned))) == n_expected
+        assert np.all(on_side(mid[sel]))
+
+
+def test_unstructured_needs_mesh_size_and_has_nodes_on_ab(cache_dir):
+    with pytest.raises(ValueError):
+        block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 0, 0, "unstructured", cache_dir=cache_dir)
+    mesh, ft = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 0, 0, "unstructured", mesh_size=8.0,
+                          cache_dir=cache_dir)
+    ops = block_operators(mesh, ft, E, NU, THICKNESS, DENSITY)
+    assert ops.contact_x[0] == pytest.approx(0.0, abs=1e-12)
+    assert ops.contact_x[-1] == pytest.approx(LENGTH)
+    assert len(ops.contact_x) >= LENGTH / 8.0
+    assert np.all(np.diff(ops.contact_x) > 0)
+
+
+def test_cache_file_created_once_and_reused(tmp_path):
+    cache = tmp_path / "cache"
+    mesh, _ = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
+    files = sorted(cache.iterdir())
+    assert len(files) == 1 and files[0].name.startswith("block_") and files[0].suffix == ".msh"
+    stat = files[0].stat()
+
+    block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
+    assert sorted(cache.iterdir()) == files  # no second file, no temporary left behind
+    assert files[0].stat().st_mtime_ns == stat.st_mtime_ns and files[0].stat().st_ino == stat.st_ino
+
+    # The cached file is really what is read: replace it by another mesh (2 triangles per cell)
+    other = tmp_path / "other"
+    block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "right", cache_dir=other)
+    shutil.copyfile(next(other.iterdir()), files[0])
+    mesh, _ = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
+    assert mesh.comm.allreduce(mesh.topology.index_map(2).size_local) == 16
+
+
+# --- operators ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("degree, n_contact", [(1, 21), (2, 41)])
+def test_contact_nodes_crossed_20x10(cache_dir, degree, n_contact):
+    mesh, ft = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 20, 10, "crossed", cache_dir=cache_dir)
+    assert mesh.comm.allreduce(mesh.topology.index_map(2).size_local) == 800
+    ops = block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, degree=degree)
+    np.testing.assert_allclose(ops.contact_x, np.linspace(0.0, LENGTH, n_contact), atol=1e-12)
+    n_kept = ops.kept.getSize()
+    for dofs in (ops.contact_dof_x, ops.contact_dof_y):
+        assert dofs.shape == (n_contact,)
+        assert len(np.unique(dofs)) == n_contact
+        assert np.all((dofs >= 0) & (dofs < n_kept))
+    # The reduced indices point at the kept dofs with the right component and position
+    if MPI.COMM_WORLD.size == 1:
+        idx = ops.kept.getIndices()
+        x = ops.V.tabulate_dof_coordinates()
+        assert np.all(idx[ops.contact_dof_x] % 2 == 0) and np.all(idx[ops.contact_dof_y] == idx[ops.contact_dof_x] + 1)
+        np.testing.assert_allclose(x[idx[ops.contact_dof_x] // 2, :2],
+                                   np.column_stack([ops.contact_x, np.zeros(n_contact)]), atol=1e-12)
+    # Size: all dofs minus those of CD (nx*degree + 1 nodes)
+    n_nodes = ops.V.dofmap.index_map.size_global
+    assert n_kept == 2 * (n_nodes - (20 * degree + 1))
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="dense serial check")
+@pytest.mark.parametrize("degree", [1, 2])
+def test_stiffness_symmetric_positive_definite(cache_dir, degree):
+    mesh, ft = block_mesh(MPI.COMM_WORLD, 8.0, 4.0, 4, 2, "crossed", cache_dir=cache_dir)
+    ops = block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, degree=degree)
+    K = dense(ops.K)
+    assert K.shape == (ops.kept.getSize(),) * 2
+    assert np.abs(K - K.T).max() <= 1e-12 * np.abs(K).max()
+    eig = np.linalg.eigvalsh(K)
+    assert eig[0] > 1e-6 * eig[-1]
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_rigid_translation(cache_dir, degree):
+    """K u + K_{kept,D} u_D = 0 for a rigid translation, i.e. K 1_c = load_c."""
+    mesh, ft = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 8, 4, "alternate", cache_dir=cache_dir)
+    ops = block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, degree=degree)
+    idx = ops.kept.getIndices()  # owned global DOLFINx indices, node*2 + component
+    u, r = ops.K.createVecs()
+    for component, load in ((0, ops.load_x), (1, ops.load_y)):
+        assert load.norm() > 1.0
+        u.setArray((idx % 2 == component).astype(PETSc.ScalarType))
+        ops.K.mult(u, r)
+        r.axpy(-1.0, load)
+        assert r.norm() < 1e-10 * load.norm()
+        # The reduced solution of K u = load is the translation itself, and to_function
+        # rebuilds the uniform field
+        gx, gy = (1.0, 0.0) if component == 0 else (0.0, 1.0)
+        f = ops.to_function(u, gx, gy).x.array.reshape(-1, 2)
+        np.testing.assert_array_equal(f, np.tile([gx, gy], (f.shape[0], 1)))
+    u.destroy()
+    r.destroy()
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="serial energy check")
+def test_plane_stress_and_plane_strain_energies(cache_dir):
+    """Energies of linear fields vanishing on CD are exact for P1:
+    uniaxial u = (0, y - H): t L H (2 mu + lambda), shear u = (y - H, 0): t L H mu."""
+    L, H = 8.0, 4.0
+    mesh, ft = block_mesh(MPI.COMM_WORLD, L, H, 4, 2, "right", cache_dir=cache_dir)
+    energies = {}
+    for plane in ("stress", "strain"):
+        ops = block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, plane=plane)
+        K = dense(ops.K)
+        uni = reduced_field(ops, lambda x, y: 0 * x, lambda x, y: y - H)
+        shear = reduced_field(ops, lambda x, y: y - H, lambda x, y: 0 * x)
+        energies[plane] = (uni @ K @ uni, shear @ K @ shear)
+    mu = E / (2 * (1 + NU))
+    assert energies["stress"][0] == pytest.approx(THICKNESS * L * H * E / (1 - NU**2), rel=1e-12)
+    assert energies["strain"][0] == pytest.approx(
+        THICKNESS * L * H * E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)), rel=1e-12)
+    assert energies["stress"][1] == pytest.approx(THICKNESS * L * H * mu, rel=1e-12)
+    assert energies["strain"][1] == pytest.approx(THICKNESS * L * H * mu, rel=1e-12)
+    assert energies["strain"][0] > 1.1 * energies["stress"][0]
+
+    # Plane strain is stiffer, the difference (lambda - lambda*) B is positive semi-definite
+    K_stress = dense(block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, plane="stress").K)
+    K_strain = dense(block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, plane="strain").K)
+    eig = np.linalg.eigvalsh(K_strain - K_stress)
+    assert eig[0] > -1e-9 * eig[-1] and eig[-1] > 0
+    # ... and they coincide for nu = 0
+    K0_stress = dense(block_operators(mesh, ft, E, 0.0, THICKNESS, DENSITY, plane="stress").K)
+    K0_strain = dense(block_operators(mesh, ft, E, 0.0, THICKNESS, DENSITY, plane="strain").K)
+    np.testing.assert_allclose(K0_stress, K0_strain, rtol=0, atol=1e-12 * np.abs(K0_stress).max())
+
+
+def test_lame_parameters():
+    mu, lam_strain = lame_parameters(E, NU, "strain")
+    _, lam_stress = lame_parameters(E, NU, "stress")
+    assert lam_strain == pytest.approx(E * NU / ((1 + NU) * (1 - 2 * NU)))
+    assert lam_stress == pytest.approx(E * NU / (1 - NU**2))
+    assert lam_stress == pytest.approx(2 * mu * lam_strain / (lam_strain + 2 * mu))
+    with pytest.raises(ValueError):
+        lame_parameters(E, NU, "shell")
+
+
+@pytest.mark.parametrize("degree, mass_kind", [(1, "consistent"), (1, "lumped"), (2, "consistent")])
+def test_total_mass(cache_dir, degree, mass_kind):
+    mesh, ft = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 8, 4, "crossed", cache_dir=cache_dir)
+    ops = block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, degree=degree, mass_kind=mass_kind)
+    total = DENSITY * THICKNESS * LENGTH * HEIGHT
+
+    # Full matrix: M e_x sums to the total mass
+    M_full = ops.mass(full=True)
+    e_x, y = M_full.createVecs()
+    imap = ops.V.dofmap.index_map
+    first = imap.local_range[0] * 2
+    rows = np.arange(first, first + 2 * imap.size_local, 2, dtype=PETSc.IntType)
+    e_x.setValues(rows, np.ones(rows.size))
+    e_x.assemble()
+    M_full.mult(e_x, y)
+    assert y.sum() == pytest.approx(total, rel=1e-12)
+
+    # Reduced matrix: cached, layout of K, symmetric, the kept part of the mass
+    M = ops.mass()
+    assert ops.mass() is M
+    assert M.getSizes() == ops.K.getSizes()
+    assert M.isSymmetric(1e-12 * M.norm())
+    u = M.createVecRight()
+    idx = ops.kept.getIndices()
+    u.setArray((idx % 2 == 0).astype(PETSc.ScalarType))
+    assert 0.5 * total < u.dot(M * u) < total
+    if mass_kind == "lumped":
+        d = M.getDiagonal()
+        assert d.min()[1] > 0
+        assert M.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"] == M.getSize()[0]  # diagonal
+
+
+def test_lumped_p2_warns(cache_dir):
+    mesh, ft = block_mesh(MPI.COMM_WORLD, 8.0, 4.0, 4, 2, "crossed", cache_dir=cache_dir)
+    with pytest.warns(UserWarning, match="P2"):
+        block_operators(mesh, ft, E, NU, THICKNESS, DENSITY, degree=2, mass_kind="lumped")
+
+
+# --- serial vs parallel -------------------------------------------------------------------
+
+_PARALLEL_SCRIPT = textwrap.dedent("""
+    import pathlib, sys
+    import numpy as np
+    from mpi4py import MPI
+    from app.scene.block_mesh import block_mesh
+    from app.system.elasticity import block_operators
+
+    comm = MPI.COMM_WORLD
+    cache, out = pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[2])
+    result = {}
+    for name, pattern, nx, ny, degree in (("p1", "crossed", 20, 10, 1), ("p2", "right", 8, 4, 2)):
+        mesh, ft = block_mesh(comm, 80.0, 40.0, nx, ny, pattern, cache_dir=cache)
+        ops = block_operators(mesh, ft, 2000.0, 0.3, 10.0, 1.2e-9, plane="strain", degree=degree)
+        cols = ops.contact_dof_y.astype(np.int32)
+        lo, hi = ops.K.getOwnershipRange()
+        rows = [(i, ops.K.getValues([r], cols).ravel()) for i, r in enumerate(cols) if lo <= r < hi]
+        rows = sum(comm.allgather(rows), [])
+        Kcc = np.array([v for _, v in sorted(rows, key=lambda t: t[0])])
+        load = [(i, ops.load_y.getValue(r)) for i, r in enumerate(cols) if lo <= r < hi]
+        load = np.array([v for _, v in sorted(sum(comm.allgather(load), []), key=lambda t: t[0])])
+        result[name + "_x"] = ops.contact_x
+        result[name + "_Kcc"] = Kcc
+        result[name + "_load"] = load
+        result[name + "_n"] = np.array([ops.kept.getSize()])
+        # The same arrays on every rank
+        assert all(np.array_equal(a, ops.contact_x) for a in comm.allgather(ops.contact_x))
+        assert all(np.array_equal(a, ops.contact_dof_y) for a in comm.allgather(ops.contact_dof_y))
+    if comm.rank == 0:
+        np.savez(out, **result)
+""")
+
+
+def _run_mpi(n: int, script: pathlib.Path, cache: pathlib.Path, out: pathlib.Path) -> dict[str, np.ndarray]:
+    cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(n), sys.executable, str(script),
+           str(cache), str(out)]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    with np.load(out) as data:
+        return dict(data)
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="launches mpirun itself")
+def test_contact_dofs_agree_between_1_and_2_ranks(tmp_path):
+    script = tmp_path / "parallel_operators.py"
+    script.write_text(_PARALLEL_SCRIPT)
+    serial = _run_mpi(1, script, tmp_path / "cache", tmp_path / "n1.npz")
+    parallel = _run_mpi(2, script, tmp_path / "cache", tmp_path / "n2.npz")
+    assert serial.keys() == parallel.keys()
+    for name in ("p1", "p2"):
+        np.testing.assert_array_equal(serial[f"{name}_x"], parallel[f"{name}_x"])
+        np.testing.assert_array_equal(serial[f"{name}_n"], parallel[f"{name}_n"])
+        Kcc = serial[f"{name}_Kcc"]
+        assert Kcc.shape == (len(serial[f"{name}_x"]),) * 2
+        assert np.abs(np.diag(Kcc)).min() > 0
+        np.testing.assert_allclose(parallel[f"{name}_Kcc"], Kcc, rtol=0, atol=1e-12 * np.abs(Kcc).max())
+        np.testing.assert_allclose(parallel[f"{name}_load"], serial[f"{name}_load"], rtol=0,
+                                   atol=1e-12 * np.abs(Kcc).max())
