@@ -88,6 +88,7 @@ class McpSettings(_Strict):
     starts: Annotated[list[PosFloat], Field(min_length=1)] = [0.5, 2.0, 10.0, 100.0]
     shift_rounds: Annotated[int, Field(ge=0, le=100)] = 6
     pattern_starts: bool = True
+    pattern_eig_limit: Annotated[int, Field(ge=0)] = 300
 
 
 class EigSettings(_Strict):

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 from petsc4py import PETSc
 
 from app.config import McpSettings
@@ -196,6 +197,23 @@ class BorderedMcp:
             v.destroy()
         return z[:self.n], tbar + sigma * float(z[self.n]), reason, its
 
+    def consistent_t(self, x0_c: np.ndarray) -> float | None:
+        """Least-squares eigenvalue guess for a start: ``t`` minimising ``|((A0 + t A1) x0)_P|``
+        over the rows ``P`` where ``x0_c > 0`` (``x_f = 0``); None when it is not positive."""
+        x = np.zeros(self.n)
+        x[self.comp] = x0_c
+        self.v.setArray(x[self.r0:self.r1])
+        self.A0.mult(self.v, self.y0)
+        self.A1.mult(self.v, self.y1)
+        mine = (self.comp >= self.r0) & (self.comp < self.r1) & (x0_c > 0)
+        rows = self.comp[mine] - self.r0
+        a0 = self.y0.getArray(readonly=True)[rows]
+        a1 = self.y1.getArray(readonly=True)[rows]
+        num = self.comm.allreduce(float(a0 @ a1))                     # MPI collective
+        den = self.comm.allreduce(float(a1 @ a1))                     # MPI collective
+        t = -num / den if den > 0 else -1.0
+        return t if t > 0 else None
+
     def check(self, x: np.ndarray, t: float, tol: float) -> McpSolution | None:
         """Check a candidate against (12)-(14)/(21)-(23) in the scaled problem; None if not a solution."""
         xc = x[self.comp]
@@ -238,13 +256,46 @@ def _scale_of(A: PETSc.Mat) -> float:
     return s if s > 0 else max(A.norm(PETSc.NormType.NORM_INFINITY), 1e-300)
 
 
+def _pattern_eig_starts(D0: np.ndarray, D1: np.ndarray, comp: np.ndarray, slip: np.ndarray) -> list[tuple[float, np.ndarray]]:
+    """Starts from the linear eigenproblem of one stick/slip pattern (eq. (25)): every real
+    ``t >= 0`` whose eigenvector has ``x_P`` of one sign gives ``(t, x_c)``."""
+    n = D0.shape[0]
+    free = np.setdiff1d(np.arange(n), comp)
+    R = np.concatenate([free, comp[slip]])
+    w, V = scipy.linalg.eig(D0[np.ix_(R, R)], -D1[np.ix_(R, R)])
+    out = []
+    for t, v in zip(w, V.T):
+        if not np.isfinite(t) or abs(t.imag) > 1e-9 * max(1.0, abs(t)) or t.real < 0:
+            continue
+        xp = v.real[len(free):]
+        if np.sum(xp) < 0:
+            xp = -xp
+        if np.min(xp) < -1e-9 * np.max(np.abs(xp)):
+            continue
+        xc = np.zeros(len(comp))
+        xc[slip] = np.maximum(xp, 0)
+        out.append((float(t.real), xc))
+    return out
+
+
 def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
                  settings: McpSettings, value_scale: float | None = None) -> SearchReport:
     """Find the distinct solutions of the MCEIP ``(A0 + t A1) x = y`` reachable by the search.
 
     The problem is scaled first: ``A0 / alpha`` and ``A1 * tau / alpha`` with ``alpha`` the
     largest diagonal entry of ``A0`` and ``t = tau * t_scaled`` (``tau = 1`` for mu, a
-    frequency-squared scale for lambda^2), so tolerances are unit-free.
+    frequency-squared scale for lambda^2), so tolerances are unit-free. Phases:
+
+    1. global starts: uniform ``x_Ts`` with the configured ``t0``; ``x_Ts`` on one slip node, and
+       zero on one slip node, each with its least-squares ``t0``; ``vinewtonrsls`` and
+       ``vinewtonssls`` (polished by ``vinewtonrsls``) from each;
+    2. pattern neighbourhoods (problems of at most ``pattern_eig_limit`` unknowns): the
+       eigenpairs of the pattern of every solution found, of the patterns with one node
+       flipped and of those with one slip node swapped for a stick node are used as starts
+       for ``vinewtonrsls``;
+    3. gaps (the paper's section 4, systematic): the values found split ``[0, inf)`` into
+       intervals; each is searched with ``t = lo + zeta``, ``0 <= zeta <= hi - lo``.
+    Phases 2-3 repeat while they find something (at most ``shift_rounds`` times).
     """
     alpha = _scale_of(A0)
     tau = 1.0 if value_scale is None else value_scale
@@ -255,6 +306,10 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     s = len(comp)
     report = SearchReport(problem=problem, solutions=[])
     tol = settings.accept_tol
+    dense_ops = None
+    if op.n <= settings.pattern_eig_limit:
+        from app.analyses.pencils import dense
+        dense_ops = (dense(S0), dense(S1))
 
     def attempt(method: str, x0: np.ndarray, label: str, t0: float, tbar: float = 0.0,
                 sigma: float = 1.0, zeta_max: float = PETSc.INFINITY) -> McpSolution | None:
@@ -276,9 +331,17 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
         if reason > 0:
             report.converged += 1
             stats["converged"] += 1
+        zeta = (t - tbar) * sigma
+        if (tbar > 0 and zeta <= 1e-12 * max(tbar, 1.0)) or (np.isfinite(zeta_max) and zeta >= zeta_max * (1 - 1e-12)):
+            return None  # stopped on an artificial bound of a shifted search: not a solution
         sol = op.check(x, t, tol)
         if sol is None:
             return None
+        # Final polish on the unshifted problem: a true solution is a fixed point of it.
+        x2, t2, reason2, its2 = op.solve(RSLS, sol.x[comp], t, 0.0, 1.0, PETSc.INFINITY, settings, x_full=sol.x * op.c)
+        sol2 = op.check(x2, t2, tol) if reason2 > 0 else None
+        if sol2 is not None and abs(sol2.value - sol.value) <= 1e-6 * max(1.0, sol.value):
+            sol, its = sol2, its + its2
         report.accepted += 1
         stats["accepted"] += 1
         sol.value *= tau
@@ -298,33 +361,60 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
         if s > 2:
             x0s += [(f"x_Ts zero on slip node {i}", 1.0 - np.eye(s)[i]) for i in range(s)]
     report.starts = [label for label, _ in x0s]
-    t0s = list(settings.starts)
     report.intervals.append("[0, inf)")
-    for t0 in t0s:
+    for t0 in settings.starts:
         for method in (RSLS, SSLS):
             attempt(method, uniform, "uniform x_Ts", t0)
-    for label, x0 in x0s[1:]:
-        for method in (RSLS, SSLS):
-            attempt(method, x0, label, t0s[0])
-
-    # Section 4 of the paper: search above and below each value found.
-    done: set[float] = set()
-    for _ in range(settings.shift_rounds):
-        new = sorted({round(sol.value / tau, 9) for sol in report.solutions} - done)
-        if not new:
-            break
-        for v in new:
-            done.add(v)
-            eps = 1e-6 * max(v, 1e-12)
-            report.intervals.append(f"above {v * tau:.10g}: [{(v + eps) * tau:.10g}, inf)")
+    for label, x0 in x0s:
+        t0 = op.consistent_t(x0)
+        if t0 is not None:
             for method in (RSLS, SSLS):
-                for label, x0 in x0s[:1]:
-                    attempt(method, x0, label, 2 * v + 1.0, tbar=v + eps, sigma=1.0)
-            if v - eps > 0:
-                report.intervals.append(f"below {v * tau:.10g}: [0, {(v - eps) * tau:.10g}]")
+                attempt(method, x0, label + " (least-squares t0)", t0)
+
+    expanded: set[tuple[bool, ...]] = set()
+    searched: set[tuple[float, float]] = set()
+    for _ in range(settings.shift_rounds):
+        n_before = len(report.solutions)
+        # Phase 2: pattern neighbourhoods.
+        if dense_ops is not None:
+            if "pattern eigenvector starts" not in report.starts:
+                report.starts.append("pattern eigenvector starts")
+            for sol in list(report.solutions):
+                base = tuple(p == "slip" for p in sol.pattern)
+                on = [i for i in range(s) if base[i]]
+                off = [i for i in range(s) if not base[i]]
+                # the pattern itself, one node flipped, and one slip node swapped with a stick node
+                moves = [()] + [(j,) for j in range(s)] + [(i, j) for i in on for j in off]
+                for move in moves:
+                    pat = list(base)
+                    for j in move:
+                        pat[j] = not pat[j]
+                    pat = tuple(pat)
+                    if pat in expanded or not any(pat):
+                        continue
+                    expanded.add(pat)
+                    slip = np.flatnonzero(pat)
+                    for t0, xc in _pattern_eig_starts(*dense_ops, op.comp, slip):
+                        attempt(RSLS, xc, "eigenvector of pattern " + "".join("S" if q else "-" for q in pat), t0)
+        # Phase 3: gaps between the values found (paper section 4).
+        values = sorted({round(sol.value / tau, 12) for sol in report.solutions})
+        edges = [0.0] + [v for v in values for _ in (0, 1)] + [np.inf]
+        for lo, hi in zip(edges[0::2], edges[1::2]):
+            lo = lo * (1 + 1e-6)
+            hi = hi * (1 - 1e-6) if np.isfinite(hi) else hi
+            key = (round(lo, 12), round(hi, 12))
+            if not values or hi <= lo or key in searched:
+                continue
+            searched.add(key)
+            report.intervals.append(f"[{lo * tau:.10g}, {hi * tau:.10g}]" if np.isfinite(hi)
+                                    else f"[{lo * tau:.10g}, inf)")
+            zmax = hi - lo if np.isfinite(hi) else PETSc.INFINITY
+            guesses = [0.5 * (lo + hi)] if np.isfinite(hi) else [2.0 * lo + 1.0, 10.0 * lo + 10.0]
+            for t0 in guesses:
                 for method in (RSLS, SSLS):
-                    for label, x0 in x0s[:1]:
-                        attempt(method, x0, label, 0.5 * v, tbar=v - eps, sigma=-1.0, zeta_max=v - eps)
+                    attempt(method, uniform, "uniform x_Ts, t in gap", t0, tbar=lo, sigma=1.0, zeta_max=zmax)
+        if len(report.solutions) == n_before:
+            break
     op.destroy()
     S0.destroy()
     S1.destroy()

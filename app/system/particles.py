@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from app.config import TwoParticles
 from app.stages import Stages
 from app.system.base import ContactNode, System
+from app.system.discrete import discrete_system
 
 UNITS = {"length": "mm", "force": "N", "stiffness": "N/mm", "mass": "tonne",
          "lambda2": "1/s^2", "mu": "1"}
@@ -25,24 +25,9 @@ def particle_matrices(k: float, m: float, phi_deg: float) -> tuple[np.ndarray, n
     return K, m * np.eye(4)
 
 
-def _petsc_from_dense(A: np.ndarray, comm: MPI.Comm) -> PETSc.Mat:
-    """Distributed AIJ copy of a small dense matrix (every rank sets its own rows)."""
-    n = A.shape[0]
-    mat = PETSc.Mat().createAIJ((n, n), comm=comm)
-    mat.setUp()
-    r0, r1 = mat.getOwnershipRange()
-    for i in range(r0, r1):
-        cols = np.flatnonzero(A[i]).astype(PETSc.IntType)
-        mat.setValues(i, cols, A[i, cols])
-    mat.assemble()
-    return mat
-
-
 def two_particle_system(cfg: TwoParticles, comm: MPI.Comm, stages: Stages) -> System:
     """System of the two-particle scene: both particles are contact nodes, no interior DOFs."""
     K, M = particle_matrices(cfg.k, cfg.m, cfg.phi_deg)
     nodes = [ContactNode(id=0, x=0.0, dof_T=0, dof_N=1), ContactNode(id=1, x=1.0, dof_T=2, dof_N=3)]
-    return System(comm=comm, K=_petsc_from_dense(K, comm), nodes=nodes, units=UNITS, stages=stages,
-                  build_mass=lambda: _petsc_from_dense(M, comm),
-                  build_contact_schur=lambda: K.copy(),
-                  description=f"two particles, k={cfg.k} N/mm, m={cfg.m} tonne, phi={cfg.phi_deg} deg")
+    return discrete_system(K, M, nodes, comm, stages, UNITS,
+                           f"two particles, k={cfg.k} N/mm, m={cfg.m} tonne, phi={cfg.phi_deg} deg")

@@ -1,0 +1,36 @@
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+from mpi4py import MPI
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+PY = sys.executable
+
+
+def run_scene(data: dict) -> dict:
+    """Run a scene given as a dict in this process; returns the results dictionary."""
+    from app.config import parse_scene
+    from app.study import run_study
+    return run_study(parse_scene(data), MPI.COMM_WORLD)
+
+
+def run_cli(*args: str, ranks: int = 1, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
+    """Run ``python -m app ARGS`` (under mpirun when ranks > 1)."""
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1", PYTHONPATH=str(ROOT))
+    cmd = [PY, "-m", "app", *args]
+    if ranks > 1:
+        cmd = ["mpirun", "--oversubscribe", "-n", str(ranks), *cmd]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd or ROOT)
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    def write(text: str, name: str = "scene.yaml") -> pathlib.Path:
+        p = tmp_path / name
+        p.write_text(text)
+        return p
+    return write
