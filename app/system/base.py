@@ -42,6 +42,7 @@ class System:
     build_mass: Callable[[], PETSc.Mat]
     build_contact_schur: Callable[[], np.ndarray]
     description: str = ""
+    extra: dict = field(default_factory=dict)
     _M: Optional[PETSc.Mat] = field(default=None, repr=False)
     _Sc: Optional[np.ndarray] = field(default=None, repr=False)
 
@@ -67,6 +68,9 @@ class System:
         return self._Sc
 
     def destroy(self) -> None:
+        flex = self.extra.get("flexibility")
+        if flex is not None:
+            flex.destroy()
         self.K.destroy()
         if self._M is not None:
             self._M.destroy()

@@ -1,0 +1,158 @@
+"""One quasi-static increment of node-to-flat Signorini contact with Coulomb friction.
+
+Unknowns per contact node ``i`` (paper axes): the gap ``g_i = -u_N,i`` (bounded below by 0)
+and the slip increment ``d_i`` (free), ``u_T,i = u_T,i^prev + d_i``. The reactions follow from
+the contact displacements through the contact stiffness ``Kc = W^-1``:
+``r = Kc (u_c - u0(load))``, ``p = -r_N``. The increment is the mixed complementarity problem
+
+    0 <= g ⊥ p >= 0                                           (Signorini, eq. (1))
+    r_T - proj_[-mu p+, mu p+](r_T - c d) = 0                 (time-discrete Coulomb law (2))
+
+(the tangential condition is the standard semismooth projection form: inside the cone d = 0,
+on it r_T = -mu p sign(d)). It is solved exactly with PETSc SNES VI (``vinewtonrsls``, with
+``vinewtonssls`` as a fallback) on the small dense problem, replicated on every rank, and the
+result is checked against the complementarity conditions. Writing the tangential law as an
+equation avoids the degenerate split d = a - b of the LCP form, whose reduced Jacobians are
+singular at free nodes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from petsc4py import PETSc
+
+
+@dataclass
+class IncrementResult:
+    u_T: np.ndarray
+    u_N: np.ndarray
+    r_T: np.ndarray
+    r_N: np.ndarray
+    slip_increment: np.ndarray
+    iterations: int
+    method: str
+    violation: float              # largest violation of (1)-(2), relative to the reaction scale
+
+
+class ContactSolveError(RuntimeError):
+    pass
+
+
+class FrictionalContact:
+    """Incremental frictional contact on the contact stiffness (one instance per study)."""
+
+    def __init__(self, Kc: np.ndarray, mu: float):
+        n = Kc.shape[0] // 2
+        self.n, self.mu = n, mu
+        self.kscale = float(np.max(np.abs(np.diag(Kc))))
+        self.Kc = Kc / self.kscale                       # scaled: forces in mm
+        # u_c = P z + u_fixed,  z = (g, d)
+        P = np.zeros((2 * n, 2 * n))
+        P[1::2, :n] = -np.eye(n)
+        P[0::2, n:] = np.eye(n)
+        self.KP = self.Kc @ P
+        self.P = P
+        self.base = np.zeros(2 * n)
+        self.J = PETSc.Mat().createDense((2 * n, 2 * n), comm=PETSc.COMM_SELF)
+        self.J.setUp()
+        self.J.assemble()
+
+    def _reactions(self, z: np.ndarray) -> np.ndarray:
+        return self.KP @ z + self.base
+
+    def _F(self, z: np.ndarray) -> np.ndarray:
+        n, mu = self.n, self.mu
+        r = self._reactions(z)
+        rT, p = r[0::2], -r[1::2]
+        d = z[n:]
+        bound = mu * np.maximum(p, 0.0)
+        return np.concatenate([p, rT - np.clip(rT - d, -bound, bound)])
+
+    def _residual(self, snes, X, F):
+        F.setArray(self._F(X.getArray(readonly=True)))
+
+    def _jacobian(self, snes, X, J, Pm):
+        n, mu = self.n, self.mu
+        z = X.getArray(readonly=True)
+        r = self._reactions(z)
+        rT, p = r[0::2], -r[1::2]
+        w = rT - z[n:]
+        dT, dN = self.KP[0::2], self.KP[1::2]
+        Jd = np.zeros((2 * n, 2 * n))
+        Jd[:n] = -dN
+        for i in range(n):
+            b = mu * max(p[i], 0.0)
+            if -b < w[i] < b:                          # stick: F = c d
+                Jd[n + i, n + i] = 1.0
+            elif p[i] > 0:                             # slip: F = r_T -/+ mu p
+                Jd[n + i] = dT[i] + (mu if w[i] >= b else -mu) * dN[i]
+            else:                                      # no pressure: F = r_T
+                Jd[n + i] = dT[i]
+        Pm.setValues(range(2 * n), range(2 * n), Jd)
+        Pm.assemble()
+
+    def _snes(self, method: str, z0: np.ndarray, atol: float) -> tuple[np.ndarray, int, int]:
+        m = 2 * self.n
+        X = PETSc.Vec().createSeq(m, comm=PETSc.COMM_SELF)
+        X.setArray(z0)
+        lo, hi = X.duplicate(), X.duplicate()
+        lo.setArray(np.concatenate([np.zeros(self.n), np.full(self.n, PETSc.NINFINITY)]))
+        hi.set(PETSc.INFINITY)
+        F = X.duplicate()
+        snes = PETSc.SNES().create(PETSc.COMM_SELF)
+        snes.setType(method)
+        snes.setFunction(self._residual, F)
+        snes.setJacobian(self._jacobian, self.J)
+        snes.setVariableBounds(lo, hi)
+        snes.setTolerances(rtol=1e-14, atol=atol, stol=1e-16, max_it=100)
+        snes.getKSP().setType("preonly")
+        snes.getKSP().getPC().setType("lu")
+        snes.solve(None, X)
+        z, reason, its = X.getArray().copy(), snes.getConvergedReason(), snes.getIterationNumber()
+        snes.destroy()
+        for v in (X, lo, hi, F):
+            v.destroy()
+        return z, reason, its
+
+    def violation(self, z: np.ndarray, scale: float) -> float:
+        """Largest violation of g >= 0, p >= 0, g p = 0, |r_T| <= mu p and of the slip rule."""
+        n, mu = self.n, self.mu
+        r = self._reactions(z)
+        rT, p = r[0::2], -r[1::2]
+        g, d = z[:n], z[n:]
+        dscale = max(float(np.max(np.abs(d), initial=0.0)), 1e-300)
+        v = [-np.min(g) / max(np.max(np.abs(g)), 1e-300) if np.min(g) < 0 else 0.0,
+             -np.min(p) / scale, np.max(np.abs(g * p)) / (scale * max(np.max(np.abs(g)), 1e-300)),
+             np.max(np.abs(rT) - mu * p) / scale,
+             # sliding nodes carry r_T = -mu p sign(d)
+             np.max(np.where(np.abs(d) > 1e-12 * dscale, np.abs(rT + mu * p * np.sign(d)), 0.0)) / scale]
+        return float(max(0.0, *v))
+
+    def solve(self, u0: np.ndarray, u_T_prev: np.ndarray, g_prev: np.ndarray) -> IncrementResult:
+        """Equilibrium for the contact displacements ``u0`` caused by the load with r = 0."""
+        n = self.n
+        u_fixed = np.zeros(2 * n)
+        u_fixed[0::2] = u_T_prev
+        self.base = self.Kc @ (u_fixed - u0)
+        scale = max(float(np.max(np.abs(self.base))), 1e-300)
+        z0 = np.concatenate([g_prev, np.zeros(n)])
+        best = None
+        for method in ("vinewtonrsls", "vinewtonssls"):
+            z, reason, its = self._snes(method, z0, 1e-14 * scale)
+            viol = self.violation(z, scale) if np.all(np.isfinite(z)) else np.inf
+            if best is None or viol < best[1]:
+                best = (z, viol, its, method)
+            if viol <= 1e-9:
+                break
+        z, viol, its, method = best
+        if viol > 1e-9:
+            raise ContactSolveError(f"SNES VI did not solve the contact increment (violation {viol:.3g})")
+        z[:n] = np.maximum(z[:n], 0.0)
+        u_c = self.P @ z + u_fixed
+        r = self._reactions(z) * self.kscale
+        return IncrementResult(u_T=u_c[0::2], u_N=u_c[1::2], r_T=r[0::2], r_N=r[1::2],
+                               slip_increment=z[n:], iterations=its, method=method, violation=viol)
+
+    def destroy(self) -> None:
+        self.J.destroy()

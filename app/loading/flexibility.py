@@ -1,0 +1,99 @@
+"""Factor K once per study and build the contact flexibility W = B K^-1 B^T (DESIGN.md section 3).
+
+For linear elasticity K does not change along the loading, so one sparse LU factorisation
+(MUMPS) gives, by 2n solves, the flexibility of the n contact nodes and, by two more, the
+contact displacements caused by a unit motion of the loaded side. Every quasi-static increment
+is then a small dense complementarity problem, and the contact Schur complement W^-1 feeds the
+exact condensation of MCEIP-mu.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+
+@dataclass
+class ContactFlexibility:
+    """Contact flexibility in the paper's axes, order (T_0, N_0, T_1, N_1, ...)."""
+    W: np.ndarray                 # u_c = u0x gx + u0y gy + W r   [mm/N]
+    u0x: np.ndarray               # contact displacements for a unit gx with r = 0 [mm/mm]
+    u0y: np.ndarray
+    ksp: PETSc.KSP                # factorised K, kept to rebuild whole fields
+    dofs: np.ndarray              # system DOFs of (T_0, N_0, T_1, ...)
+    signs: np.ndarray             # paper-axis signs of those DOFs
+    loads: tuple[PETSc.Vec, PETSc.Vec]
+
+    @property
+    def schur(self) -> np.ndarray:
+        """Schur complement of K onto the contact DOFs: W^-1 (symmetrised)."""
+        S = np.linalg.inv(self.W)
+        return 0.5 * (S + S.T)
+
+    def field(self, gx: float, gy: float, r: np.ndarray) -> PETSc.Vec:
+        """Reduced displacement solving K u = gx f_x + gy f_y + B^T (signs * r) (one solve)."""
+        rhs = self.loads[0].duplicate()
+        rhs.zeroEntries()
+        rhs.axpy(gx, self.loads[0])
+        rhs.axpy(gy, self.loads[1])
+        r0, r1 = rhs.getOwnershipRange()
+        mine = (self.dofs >= r0) & (self.dofs < r1)
+        rhs.setValues(self.dofs[mine].astype(PETSc.IntType), (self.signs * r)[mine], addv=PETSc.InsertMode.ADD_VALUES)
+        rhs.assemble()
+        u = rhs.duplicate()
+        self.ksp.solve(rhs, u)
+        rhs.destroy()
+        return u
+
+    def destroy(self) -> None:
+        self.ksp.destroy()
+
+
+def _lu(K: PETSc.Mat) -> PETSc.KSP:
+    ksp = PETSc.KSP().create(K.getComm())
+    ksp.setOperators(K)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    ksp.setUp()
+    return ksp
+
+
+def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
+                        dofs: np.ndarray, signs: np.ndarray) -> ContactFlexibility:
+    """Factor ``K`` and compute W and the unit-load contact displacements (MPI collective)."""
+    comm = K.getComm().tompi4py()
+    dofs = np.asarray(dofs, dtype=np.int64)
+    signs = np.asarray(signs, dtype=float)
+    ksp = _lu(K)
+    x, b = K.createVecRight(), K.createVecLeft()
+    # Gather the contact entries of a distributed vector onto every rank.
+    seq = PETSc.Vec().createSeq(len(dofs), comm=PETSc.COMM_SELF)
+    is_from = PETSc.IS().createGeneral(dofs.astype(PETSc.IntType), comm=PETSc.COMM_SELF)
+    scatter = PETSc.Scatter().create(x, is_from, seq, None)
+
+    def contact_values(v: PETSc.Vec) -> np.ndarray:
+        scatter.scatter(v, seq, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
+        return signs * seq.getArray(readonly=True).copy()
+
+    n2 = len(dofs)
+    W = np.zeros((n2, n2))
+    r0, r1 = b.getOwnershipRange()
+    for j, dof in enumerate(dofs):
+        b.zeroEntries()
+        if r0 <= dof < r1:
+            b.setValue(int(dof), signs[j])
+        b.assemble()
+        ksp.solve(b, x)
+        W[:, j] = contact_values(x)
+    ksp.solve(load_x, x)
+    u0x = contact_values(x)
+    ksp.solve(load_y, x)
+    u0y = contact_values(x)
+    for obj in (x, b, seq, is_from, scatter):
+        obj.destroy()
+    W = 0.5 * (W + W.T)
+    return ContactFlexibility(W=W, u0x=u0x, u0y=u0y, ksp=ksp, dofs=dofs, signs=signs, loads=(load_x, load_y))
