@@ -7,6 +7,8 @@ is allowed (:class:`SceneError`); the CLI prints that line and exits with status
 from __future__ import annotations
 
 import pathlib
+import re
+import reprlib
 from typing import Annotated, Any, Literal, Optional, Union
 
 import yaml
@@ -18,6 +20,38 @@ Analysis = Literal["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enum
 
 class SceneError(Exception):
     """A user mistake in a scene file: ``str(err)`` is the one-line message."""
+
+    def __init__(self, msg: str):
+        super().__init__(_one_line(msg))
+
+
+def _one_line(text: str) -> str:
+    """``text`` with every line break (as ``str.splitlines`` sees them) replaced by a space."""
+    return " ".join(text.splitlines()) if text else text
+
+
+class _PathError(ValueError):
+    """A model-level check that blames one key: ``path`` is relative to the model validated."""
+
+    def __init__(self, path: str, value: Any, msg: str):
+        super().__init__(msg)
+        self.path, self.value, self.msg = path, value, msg
+
+
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxdict, _REPR.maxlist, _REPR.maxtuple = 2, 6, 6, 6
+_REPR.maxset = _REPR.maxfrozenset = 6
+_REPR.maxstring, _REPR.maxlong, _REPR.maxother = 60, 40, 60
+
+
+def _show(value: Any) -> str:
+    """A short one-line repr of a user value (bounded: YAML aliases can build huge or cyclic values)."""
+    try:
+        text = _REPR.repr(value)
+    except Exception:                      # e.g. ints beyond the int-to-str digit limit
+        text = f"<{type(value).__name__}>"
+    text = _one_line(text)
+    return text if len(text) <= 160 else text[:150] + "...(cut)"
 
 
 class _Strict(BaseModel):
@@ -41,10 +75,9 @@ class TwoParticles(_Strict):
     @field_validator("signs", mode="before")
     @classmethod
     def _signs_are_ints(cls, v: Any) -> Any:
-        if isinstance(v, (list, tuple)):
-            for s in v:
-                if isinstance(s, bool) or not isinstance(s, int):
-                    raise ValueError("each sign must be the integer -1 or 1")
+        if (not isinstance(v, (list, tuple)) or len(v) != 2
+                or any(isinstance(s, bool) or not isinstance(s, int) or s not in (-1, 1) for s in v)):
+            raise ValueError("allowed: a list of two signs [S1, S2], each the integer -1 or 1")
         return v
 
 
@@ -68,7 +101,7 @@ class Block(_Strict):
     @model_validator(mode="after")
     def _mesh_size_for_unstructured(self) -> "Block":
         if self.pattern == "unstructured" and self.mesh_size is None:
-            raise ValueError("pattern 'unstructured' needs mesh_size (a positive length in mm)")
+            raise _PathError("mesh_size", None, "pattern 'unstructured' needs mesh_size (a positive length in mm)")
         return self
 
 
@@ -83,7 +116,7 @@ class Loading(_Strict):
 class McpSettings(_Strict):
     """Search settings for the MCPs of Propositions 1-2 (PETSc SNES VI)."""
     rtol: Annotated[float, Field(gt=0, lt=1)] = 1e-12
-    max_it: Annotated[int, Field(ge=1, le=10000)] = 100
+    max_it: Annotated[int, Field(ge=1, le=10000)] = 50
     accept_tol: Annotated[float, Field(gt=0, lt=1)] = 1e-8
     starts: Annotated[list[PosFloat], Field(min_length=1)] = [0.5, 2.0, 10.0, 100.0]
     shift_rounds: Annotated[int, Field(ge=0, le=100)] = 6
@@ -93,7 +126,7 @@ class McpSettings(_Strict):
 
 class EigSettings(_Strict):
     """SLEPc settings for the necessary and sufficient conditions."""
-    dense_limit: Annotated[int, Field(ge=1)] = 4000
+    dense_limit: Annotated[int, Field(ge=1)] = 500
     nev: Annotated[int, Field(ge=1)] = 30
     tol: Annotated[float, Field(gt=0, lt=1)] = 1e-10
 
@@ -109,7 +142,7 @@ class Settings(_Strict):
 
 class Scene(_Strict):
     """A loading study: system, friction coefficient, loading and the analyses wanted."""
-    name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")]
+    name: Annotated[str, Field(min_length=1)]
     system: Annotated[Union[TwoParticles, Block], Field(discriminator="type")]
     mu: NonNegFloat
     analyses: list[Analysis] = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2"]
@@ -117,12 +150,21 @@ class Scene(_Strict):
     loading: Optional[Loading] = None
     settings: Settings = Settings()
 
+    @field_validator("name")
+    @classmethod
+    def _name_is_folder_name(cls, v: str) -> str:
+        # The name is the default output folder (output/<name>): one plain path component.
+        if not re.fullmatch(r"[A-Za-z0-9_.\-]+", v) or set(v) == {"."}:
+            raise ValueError("allowed: letters, digits, '_', '-' and '.' only (no spaces or slashes; "
+                             "not just dots): the name is used as the output folder name")
+        return v
+
     @field_validator("analyses")
     @classmethod
     def _unique(cls, v: list[str]) -> list[str]:
         dup = sorted({a for a in v if v.count(a) > 1})
         if dup:
-            raise ValueError(f"analyses listed twice: {', '.join(dup)}")
+            raise ValueError(f"each analysis may be listed once; listed twice: {', '.join(dup)}")
         return v
 
     @model_validator(mode="after")
@@ -130,7 +172,9 @@ class Scene(_Strict):
         if isinstance(self.system, Block) and self.loading is None:
             object.__setattr__(self, "loading", Loading())
         if isinstance(self.system, TwoParticles) and self.loading is not None:
-            raise ValueError("a two_particles system is a single equilibrium state: remove 'loading'")
+            raise _PathError("loading", self.loading.model_dump(),
+                             "not allowed for a two_particles system (a single equilibrium state): "
+                             "remove 'loading', or use a block system")
         return self
 
     @property
@@ -142,49 +186,75 @@ class Scene(_Strict):
 def _format_error(err: ValidationError) -> str:
     e = err.errors(include_url=False)[0]
     # Drop the discriminator tag pydantic inserts in the location of tagged unions.
-    loc = [str(p) for p in e["loc"] if p not in ("two_particles", "block")]
+    loc = [_one_line(str(p)) for p in e["loc"] if p not in ("two_particles", "block")]
     path = ".".join(loc) if loc else "(top level)"
     msg = e["msg"]
+    value = e.get("input")
     if e["type"] == "extra_forbidden":
         return f"unknown key '{path}' (not allowed here; check the spelling)"
     if e["type"] == "missing":
         return f"missing key '{path}'"
+    if e["type"] == "invalid_key":
+        where = ".".join(loc[:-1]) or "(top level)"
+        return f"{where}: key {_show(value)} is not allowed: keys must be strings (names)"
     if e["type"] == "union_tag_invalid":
-        return f"{path}.type = {e['input'].get('type')!r}: allowed types are 'two_particles', 'block'"
+        tag = value.get("type") if isinstance(value, dict) else value
+        return f"{path}.type = {_show(tag)}: allowed types are 'two_particles', 'block'"
     if e["type"] == "union_tag_not_found":
         return f"missing key '{path}.type' (allowed: 'two_particles', 'block')"
-    value = e.get("input")
+    cause = (e.get("ctx") or {}).get("error")
+    if isinstance(cause, _PathError):
+        path = ".".join(loc + [cause.path]) if loc else cause.path
+        return f"{path} = {_show(cause.value)}: {cause.msg}"
+    if e["type"] in ("model_type", "model_attributes_type", "dict_type"):
+        msg = "allowed: a mapping of keys (key: value, or {key: value, ...})"
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
-    return f"{path} = {value!r}: {msg}"
+    return f"{path} = {_show(value)}: {_one_line(msg)}"
 
 
 def parse_scene(data: Any, source: str = "scene") -> Scene:
     """Validate an already loaded YAML document."""
+    if data is None:
+        raise SceneError(f"{source}: the scene file is empty: it must be a YAML mapping with the keys "
+                         f"name, system, mu (and optionally analyses, loading, settings)")
     if not isinstance(data, dict):
-        raise SceneError(f"{source}: the scene must be a YAML mapping of keys, got {type(data).__name__}")
+        raise SceneError(f"{source}: (top level) = {_show(data)}: the scene must be a YAML mapping of keys "
+                         f"(name, system, mu, ...), not a {type(data).__name__}")
     try:
         return Scene.model_validate(data)
     except ValidationError as err:
         raise SceneError(f"{source}: {_format_error(err)}") from None
+    except RecursionError:
+        raise SceneError(f"{source}: the scene is nested too deeply") from None
 
 
 def load_scene(path: str | pathlib.Path) -> Scene:
     """Read and validate a scene file. Raises :class:`SceneError` with a one-line message."""
     path = pathlib.Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise SceneError(f"{path}: cannot read the scene file ({err.__class__.__name__}: {err})") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a folder, not a scene file") from None
+    except UnicodeDecodeError as err:
+        raise SceneError(f"{path}: not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset {err.start}): "
+                         f"a scene file must be UTF-8 encoded YAML") from None
+    except OSError as err:
+        raise SceneError(f"{path}: cannot read the scene file ({err.strerror or err})") from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+        problem = getattr(err, "problem", None) or (str(err).splitlines() or [type(err).__name__])[0]
         raise SceneError(f"{path}: invalid YAML: {where}{problem}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: invalid YAML: nested too deeply") from None
+    except Exception as err:     # the YAML constructors' own errors, e.g. "!!int abc", over-long integers
+        raise SceneError(f"{path}: invalid YAML: a value could not be converted "
+                         f"({type(err).__name__}: {err})") from None
     return parse_scene(data, str(path))
 
 

@@ -26,6 +26,18 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
         eps.setType(SLEPc.EPS.Type.LAPACK)
         eps.setDimensions(nev=n)
         how = f"SLEPc lapack, all {n} eigenvalues"
+        if B is not None and not hermitian:
+            # LAPACK's generalised reordering (tgexc) fails on these pencils; work on the
+            # standard problem of shift-and-invert about 0 instead: K*^-1 M* x = (1/theta) x.
+            st = eps.getST()
+            st.setType(SLEPc.ST.Type.SINVERT)
+            eps.setTarget(0.0)
+            eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+            st.getKSP().setType("preonly")
+            st.getKSP().getPC().setType("lu")
+            if A.getComm().getSize() > 1:
+                st.getKSP().getPC().setFactorSolverType("mumps")
+            how += " (shift-and-invert about 0)"
     else:
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
         nev = min(settings.nev, n)

@@ -158,11 +158,21 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
         K0, K1 = p.K()
         M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
-            Ks, Ms = _combine(K0, K1, mu), _combine(M0, M1, mu)
-            tau = _diag_scale(Ks) / _diag_scale(Ms)
-            d = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau).as_dict()
-            Ks.destroy()
-            Ms.destroy()
+            nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig)
+            if not nec["satisfied"]:
+                # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
+                # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
+                d = {"solutions": [], "search": {
+                    "complete": True, "necessary_condition": nec,
+                    "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
+                            "which proves that (12)-(14) has no solution"}}
+            else:
+                Ks, Ms = _combine(K0, K1, mu), _combine(M0, M1, mu)
+                tau = _diag_scale(Ks) / _diag_scale(Ms)
+                d = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau).as_dict()
+                d["search"]["necessary_condition"] = nec
+                Ks.destroy()
+                Ms.destroy()
     d["mu"] = mu
     return d
 
