@@ -8,7 +8,7 @@ cd "$root"
 
 debs=(python3-dolfinx-real python3-petsc4py-real python3-slepc4py-real python3-gmsh
       python3-mpi4py openmpi-bin python3-venv python3-pip python3-scipy python3-yaml
-      python3-h5py make git)
+      python3-h5py libopenblas0-pthread make git)
 missing=()
 for p in "${debs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
