@@ -103,6 +103,10 @@ class BorderedMcp:
         C1.axpy(1.0, A1, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         I, J, self.V0 = C0.getValuesCSR()
         _, _, self.V1 = C1.getValuesCSR()
+        self.I, self.Jc = I, J
+        free_local = np.setdiff1d(np.arange(self.r0, self.r1), self.comp)
+        self.has_free = self.comm.allreduce(len(free_local)) > 0           # MPI collective
+        self.is_f = PETSc.IS().createGeneral(free_local.astype(PETSc.IntType), comm=self.comm)
         for m in (B, C0, C1):
             m.destroy()
         # Bordered pattern: one extra column (index n) per row, one extra row on the last rank.
@@ -197,22 +201,56 @@ class BorderedMcp:
             v.destroy()
         return z[:self.n], tbar + sigma * float(z[self.n]), reason, its
 
-    def consistent_t(self, x0_c: np.ndarray) -> float | None:
-        """Least-squares eigenvalue guess for a start: ``t`` minimising ``|((A0 + t A1) x0)_P|``
-        over the rows ``P`` where ``x0_c > 0`` (``x_f = 0``); None when it is not positive."""
+    def lift(self, x0_c: np.ndarray, t: float) -> np.ndarray:
+        """Full start vector with the given ``x_c`` and ``x_f`` solving the free rows at ``t``:
+        ``A_ff(t) x_f = -A_fc(t) x_c`` (one sparse LU), so starts are as good as condensed ones."""
         x = np.zeros(self.n)
         x[self.comp] = x0_c
+        if not self.has_free:
+            return x
+        At = PETSc.Mat().createAIJ(self.A0.getSizes(), csr=(self.I, self.Jc, self.V0 + t * self.V1), comm=self.comm)
+        Aff = At.createSubMatrix(self.is_f, self.is_f)
         self.v.setArray(x[self.r0:self.r1])
-        self.A0.mult(self.v, self.y0)
-        self.A1.mult(self.v, self.y1)
-        mine = (self.comp >= self.r0) & (self.comp < self.r1) & (x0_c > 0)
-        rows = self.comp[mine] - self.r0
-        a0 = self.y0.getArray(readonly=True)[rows]
-        a1 = self.y1.getArray(readonly=True)[rows]
-        num = self.comm.allreduce(float(a0 @ a1))                     # MPI collective
-        den = self.comm.allreduce(float(a1 @ a1))                     # MPI collective
-        t = -num / den if den > 0 else -1.0
-        return t if t > 0 else None
+        At.mult(self.v, self.y0)
+        rhs = Aff.createVecLeft()
+        rhs.setArray(-self.y0.getArray(readonly=True)[self.is_f.getIndices() - self.r0])
+        xf = rhs.duplicate()
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOperators(Aff)
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        if self.comm.size > 1:
+            ksp.getPC().setFactorSolverType("mumps")
+        ksp.solve(rhs, xf)
+        local = np.zeros(self.nloc)
+        local[self.is_f.getIndices() - self.r0] = xf.getArray(readonly=True)
+        full = np.concatenate(self.comm.allgather(local))                 # MPI collective
+        x[~np.isin(np.arange(self.n), self.comp)] = full[~np.isin(np.arange(self.n), self.comp)]
+        for obj in (At, Aff, rhs, xf, ksp):
+            obj.destroy()
+        return x
+
+    def consistent_t(self, x0_c: np.ndarray, t_guess: float = 1.0, lifts: int = 2) -> tuple[float | None, np.ndarray]:
+        """Least-squares eigenvalue guess for a start: ``t`` minimising ``|((A0 + t A1) x)_P|``
+        over the rows ``P`` where ``x0_c > 0``, with ``x_f`` lifted (:meth:`lift`) at the current
+        guess; returns (t or None when it is not positive, the lifted start)."""
+        t = t_guess
+        for _ in range(lifts):
+            x = self.lift(x0_c, t)
+            self.v.setArray(x[self.r0:self.r1])
+            self.A0.mult(self.v, self.y0)
+            self.A1.mult(self.v, self.y1)
+            mine = (self.comp >= self.r0) & (self.comp < self.r1) & (x0_c > 0)
+            rows = self.comp[mine] - self.r0
+            a0 = self.y0.getArray(readonly=True)[rows]
+            a1 = self.y1.getArray(readonly=True)[rows]
+            num = self.comm.allreduce(float(a0 @ a1))                     # MPI collective
+            den = self.comm.allreduce(float(a1 @ a1))                     # MPI collective
+            t_new = -num / den if den > 0 else -1.0
+            if t_new <= 0:
+                return None, x
+            t = t_new
+        return t, self.lift(x0_c, t)
 
     def check(self, x: np.ndarray, t: float, tol: float) -> McpSolution | None:
         """Check a candidate against (12)-(14)/(21)-(23) in the scaled problem; None if not a solution."""
@@ -240,7 +278,7 @@ class BorderedMcp:
                            complementarity=compl, min_x=min_x, min_y=min_y, x=x)
 
     def destroy(self) -> None:
-        for obj in (self.J, self.F, self.v, self.y0, self.y1):
+        for obj in (self.J, self.F, self.v, self.y0, self.y1, self.is_f):
             obj.destroy()
 
 
@@ -312,9 +350,13 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
         dense_ops = (dense(S0), dense(S1))
 
     def attempt(method: str, x0: np.ndarray, label: str, t0: float, tbar: float = 0.0,
-                sigma: float = 1.0, zeta_max: float = PETSc.INFINITY) -> McpSolution | None:
+                sigma: float = 1.0, zeta_max: float = PETSc.INFINITY,
+                x_start: np.ndarray | None = None) -> McpSolution | None:
         zeta0 = min(max((t0 - tbar) * sigma, 0.0), zeta_max)
-        x, t, reason, its = op.solve(method, x0, zeta0, tbar, sigma, zeta_max, settings)
+        if x_start is None:
+            x_start = op.lift(x0 / max(np.sum(x0), 1e-300), t0)
+        x, t, reason, its = op.solve(method, x0, zeta0, tbar, sigma, zeta_max, settings,
+                                     x_full=x_start * op.c)
         tag = method
         if method == SSLS:  # polish the semismooth result with the reduced-space solver
             xs = x[comp]
@@ -366,10 +408,10 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
         for method in (RSLS, SSLS):
             attempt(method, uniform, "uniform x_Ts", t0)
     for label, x0 in x0s:
-        t0 = op.consistent_t(x0)
+        t0, xs = op.consistent_t(x0 / np.sum(x0))
         if t0 is not None:
             for method in (RSLS, SSLS):
-                attempt(method, x0, label + " (least-squares t0)", t0)
+                attempt(method, x0, label + " (least-squares t0)", t0, x_start=xs)
 
     expanded: set[tuple[bool, ...]] = set()
     searched: set[tuple[float, float]] = set()
