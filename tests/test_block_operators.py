@@ -18,7 +18,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.scene.block_mesh import AB, CD, LATERAL, block_mesh
+from app.scene.block_mesh import AB, CD, LATERAL, block_mesh, structured_triangulation
 from app.system.elasticity import block_operators, lame_parameters
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
@@ -69,6 +69,25 @@ def test_structured_patterns(cache_dir, pattern, cells_per_square):
         assert np.all(on_side(mid[sel]))
 
 
+@pytest.mark.parametrize("pattern", ["crossed", "right", "left", "alternate"])
+def test_structured_triangulation_arrays(pattern):
+    nx, ny, L, H = 3, 2, 6.0, 3.0
+    x, cells = structured_triangulation(L, H, nx, ny, pattern)
+    a, b, c = x[cells[:, 0]], x[cells[:, 1]], x[cells[:, 2]]
+    area = 0.5 * ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    np.testing.assert_allclose(area, L * H / cells.shape[0])  # counter-clockwise, equal areas
+    if pattern == "crossed":
+        assert x.shape == ((nx + 1) * (ny + 1) + nx * ny, 2)
+        return
+    # Diagonal of cell (i, j): the edge shared by its two triangles
+    for k, (i, j) in enumerate((i, j) for j in range(ny) for i in range(nx)):
+        v0 = j * (nx + 1) + i
+        shared = set(cells[2 * k]) & set(cells[2 * k + 1])
+        right = shared == {v0, v0 + nx + 2}
+        assert right or shared == {v0 + 1, v0 + nx + 1}
+        assert right == {"right": True, "left": False, "alternate": (i + j) % 2 == 0}[pattern]
+
+
 def test_unstructured_needs_mesh_size_and_has_nodes_on_ab(cache_dir):
     with pytest.raises(ValueError):
         block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 0, 0, "unstructured", cache_dir=cache_dir)
@@ -82,22 +101,31 @@ def test_unstructured_needs_mesh_size_and_has_nodes_on_ab(cache_dir):
 
 
 def test_cache_file_created_once_and_reused(tmp_path):
-    cache = tmp_path / "cache"
-    mesh, _ = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
-    files = sorted(cache.iterdir())
-    assert len(files) == 1 and files[0].name.startswith("block_") and files[0].suffix == ".msh"
-    stat = files[0].stat()
+    """Only rank 0 writes and reads the cache, so file checks run there and are broadcast."""
+    comm = MPI.COMM_WORLD
+    root_dir = pathlib.Path(comm.bcast(str(tmp_path), root=0))
+    cache, other = root_dir / "cache", root_dir / "other"
 
-    block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
-    assert sorted(cache.iterdir()) == files  # no second file, no temporary left behind
-    assert files[0].stat().st_mtime_ns == stat.st_mtime_ns and files[0].stat().st_ino == stat.st_ino
+    def listing(d: pathlib.Path) -> list[tuple[str, int, int]]:
+        """(name, mtime_ns, inode) of the files of d, as seen by rank 0."""
+        files = None
+        if comm.rank == 0:
+            files = [(p.name, p.stat().st_mtime_ns, p.stat().st_ino) for p in sorted(d.iterdir())]
+        return comm.bcast(files, root=0)
+
+    block_mesh(comm, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
+    files = listing(cache)
+    assert len(files) == 1 and files[0][0].startswith("block_") and files[0][0].endswith(".msh")
+
+    block_mesh(comm, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
+    assert listing(cache) == files  # not rewritten, no second file, no temporary left behind
 
     # The cached file is really what is read: replace it by another mesh (2 triangles per cell)
-    other = tmp_path / "other"
-    block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "right", cache_dir=other)
-    shutil.copyfile(next(other.iterdir()), files[0])
-    mesh, _ = block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
-    assert mesh.comm.allreduce(mesh.topology.index_map(2).size_local) == 16
+    block_mesh(comm, LENGTH, HEIGHT, 4, 2, "right", cache_dir=other)
+    if comm.rank == 0:
+        shutil.copyfile(next(other.iterdir()), cache / files[0][0])
+    mesh, _ = block_mesh(comm, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
+    assert comm.allreduce(mesh.topology.index_map(2).size_local) == 16
 
 
 # --- operators ----------------------------------------------------------------------------
@@ -249,6 +277,8 @@ _PARALLEL_SCRIPT = textwrap.dedent("""
     from app.system.elasticity import block_operators
 
     comm = MPI.COMM_WORLD
+    # An exception on one rank must not leave the other one waiting in a collective
+    sys.excepthook = lambda *exc: (sys.__excepthook__(*exc), sys.stderr.flush(), comm.Abort(1))
     cache, out = pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[2])
     result = {}
     for name, pattern, nx, ny, degree in (("p1", "crossed", 20, 10, 1), ("p2", "right", 8, 4, 2)):
@@ -277,7 +307,7 @@ def _run_mpi(n: int, script: pathlib.Path, cache: pathlib.Path, out: pathlib.Pat
     cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(n), sys.executable, str(script),
            str(cache), str(out)]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
-    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
+    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     with np.load(out) as data:
         return dict(data)

@@ -177,6 +177,30 @@ def _diagonal_matrix(d: PETSc.Vec) -> PETSc.Mat:
     return A
 
 
+def _snap_to_facet_points(x: npt.NDArray[np.float64], mesh: dolfinx.mesh.Mesh,
+                          facets: npt.NDArray[np.int32]) -> npt.NDArray[np.float64]:
+    """Replace tabulated dof x coordinates by the exact vertex or midpoint x of the facets.
+
+    ``tabulate_dof_coordinates`` pushes reference points forward with
+    round-off (e.g. -4e-17 instead of 0) that depends on the cell, hence on
+    the partition. Dofs of P1/P2 on straight facets sit at the vertices or
+    midpoints, whose coordinates are computed here from the geometry alone.
+    """
+    fdim = mesh.topology.dim - 1
+    nodes = dolfinx.cpp.mesh.entities_to_geometry(mesh._mesh, fdim, np.asarray(facets, dtype=np.int32), False)
+    ends = mesh.geometry.x[nodes[:, [0, 1]], 0]  # first two geometry nodes are the facet vertices
+    candidates = np.unique(np.concatenate([ends.ravel(), 0.5 * (ends[:, 0] + ends[:, 1])]))
+    if x.size == 0:
+        return x.copy()
+    pos = np.clip(np.searchsorted(candidates, x), 1, candidates.size - 1)
+    nearest = np.where(np.abs(candidates[pos - 1] - x) <= np.abs(candidates[pos] - x), pos - 1, pos) \
+        if candidates.size > 1 else np.zeros(x.size, dtype=np.intp)
+    scale = max(1.0, float(np.abs(candidates).max()))
+    if np.any(np.abs(candidates[nearest] - x) > 1e-10 * scale):
+        raise RuntimeError("Contact dofs are not at facet vertices or midpoints")
+    return candidates[nearest]
+
+
 def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: float, nu: float,
                     thickness: float, density: float, plane: str = "stress", degree: int = 1,
                     mass_kind: str = "consistent") -> BlockOperators:
@@ -258,7 +282,6 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     K_full = dolfinx.fem.petsc.assemble_matrix(a)
     K_full.assemble()
     K = K_full.createSubMatrix(kept, kept)
-    assert K.getOwnershipRange() == (offset, offset + n_kept)
 
     # Loads -K_{kept,D} u_D of a unit displacement of CD in x, resp. y.
     # Rows of K_full u_D on kept dofs are K_{kept,D} u_D (u_D vanishes off CD);
@@ -282,9 +305,9 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     ab_facets = facet_tags.indices[facet_tags.values == AB]
     ab_blocks = dolfinx.fem.locate_dofs_topological(V, fdim, ab_facets)
     ab_blocks = ab_blocks[ab_blocks < index_map.size_local]
-    x_dofs = V.tabulate_dof_coordinates()
-    local_contact = (x_dofs[ab_blocks, 0].copy(), reduced_index[ab_blocks * bs], reduced_index[ab_blocks * bs + 1])
-    if np.any(local_contact[1] < 0) or np.any(local_contact[2] < 0):
+    x_contact = _snap_to_facet_points(V.tabulate_dof_coordinates()[ab_blocks, 0], mesh, ab_facets)
+    local_contact = (x_contact, reduced_index[ab_blocks * bs], reduced_index[ab_blocks * bs + 1])
+    if comm.allreduce(bool(np.any(local_contact[1] < 0)), op=MPI.LOR):
         raise RuntimeError("A contact dof on AB is also on CD")
     gathered = comm.allgather(local_contact)
     cx = np.concatenate([g[0] for g in gathered])
