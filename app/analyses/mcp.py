@@ -317,7 +317,8 @@ def _pattern_eig_starts(D0: np.ndarray, D1: np.ndarray, comp: np.ndarray, slip: 
 
 
 def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
-                 settings: McpSettings, value_scale: float | None = None) -> SearchReport:
+                 settings: McpSettings, value_scale: float | None = None,
+                 t_upper: float = np.inf) -> SearchReport:
     """Find the distinct solutions of the MCEIP ``(A0 + t A1) x = y`` reachable by the search.
 
     The problem is scaled first: ``A0 / alpha`` and ``A1 * tau / alpha`` with ``alpha`` the
@@ -334,6 +335,7 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     3. gaps (the paper's section 4, systematic): the values found split ``[0, inf)`` into
        intervals; each is searched with ``t = lo + zeta``, ``0 <= zeta <= hi - lo``.
     Phases 2-3 repeat while they find something (at most ``shift_rounds`` times).
+    ``t_upper`` is a proven bound on the values (every search is boxed by it).
     """
     alpha = _scale_of(A0)
     tau = 1.0 if value_scale is None else value_scale
@@ -344,14 +346,18 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     s = len(comp)
     report = SearchReport(problem=problem, solutions=[])
     tol = settings.accept_tol
+    top = t_upper / tau if np.isfinite(t_upper) else PETSc.INFINITY
     dense_ops = None
     if op.n <= settings.pattern_eig_limit:
         from app.analyses.pencils import dense
         dense_ops = (dense(S0), dense(S1))
 
     def attempt(method: str, x0: np.ndarray, label: str, t0: float, tbar: float = 0.0,
-                sigma: float = 1.0, zeta_max: float = PETSc.INFINITY,
+                sigma: float = 1.0, zeta_max: float | None = None,
                 x_start: np.ndarray | None = None) -> McpSolution | None:
+        if zeta_max is None:
+            zeta_max = top - tbar if sigma > 0 else tbar
+        t0 = min(t0, 0.5 * (tbar + top)) if np.isfinite(top) else t0
         zeta0 = min(max((t0 - tbar) * sigma, 0.0), zeta_max)
         if x_start is None:
             x_start = op.lift(x0 / max(np.sum(x0), 1e-300), t0)
@@ -403,7 +409,7 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
         if s > 2:
             x0s += [(f"x_Ts zero on slip node {i}", 1.0 - np.eye(s)[i]) for i in range(s)]
     report.starts = [label for label, _ in x0s]
-    report.intervals.append("[0, inf)")
+    report.intervals.append(f"[0, {t_upper:.10g}]" if np.isfinite(t_upper) else "[0, inf)")
     for t0 in settings.starts:
         for method in (RSLS, SSLS):
             attempt(method, uniform, "uniform x_Ts", t0)
@@ -440,7 +446,7 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
                         attempt(RSLS, xc, "eigenvector of pattern " + "".join("S" if q else "-" for q in pat), t0)
         # Phase 3: gaps between the values found (paper section 4).
         values = sorted({round(sol.value / tau, 12) for sol in report.solutions})
-        edges = [0.0] + [v for v in values for _ in (0, 1)] + [np.inf]
+        edges = [0.0] + [v for v in values for _ in (0, 1)] + [top if np.isfinite(top) else np.inf]
         for lo, hi in zip(edges[0::2], edges[1::2]):
             lo = lo * (1 + 1e-6)
             hi = hi * (1 - 1e-6) if np.isfinite(hi) else hi

@@ -169,8 +169,15 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
             else:
                 Ks, Ms = _combine(K0, K1, mu), _combine(M0, M1, mu)
                 tau = _diag_scale(Ks) / _diag_scale(Ms)
-                d = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau).as_dict()
+                # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
+                # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD.
+                upper = np.inf
+                if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
+                    upper = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+                d = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
+                                 t_upper=upper).as_dict()
                 d["search"]["necessary_condition"] = nec
+                d["search"]["lambda2_upper_bound"] = upper
                 Ks.destroy()
                 Ms.destroy()
     d["mu"] = mu
