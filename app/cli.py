@@ -42,13 +42,19 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     run = sub.add_parser("run", help="run a loading study and write its results",
                          description="Run a loading study: every equilibrium state is classified "
-                                     "and gets the scene's analyses.")
+                                     "and gets the scene's analyses.\n"
+                                     "Units: mm, N, MPa, tonne, s (so lambda^2 is in 1/s^2).",
+                         epilog="check a scene file first with: python -m app validate SCENE\n"
+                                "exit status: 0 ok, 2 bad input, 3 study incomplete (see results.json)",
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
     run.add_argument("scene", nargs="?", help="scene YAML file (default: the embedded paper study)")
     run.add_argument("-o", "--output", help="results folder (default: output/<scene name>)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no summary")
     run.add_argument("--log-level", default="WARNING",
                      choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")
-    val = sub.add_parser("validate", help="check a scene file and print what it asks for")
+    val = sub.add_parser("validate", help="check a scene file and print what it asks for",
+                         description="Check a scene file without running it (exit status 0 ok, 2 bad "
+                                     "input); then run it with: python -m app run SCENE")
     val.add_argument("scene", help="scene YAML file")
     return p
 
@@ -104,7 +110,7 @@ def _check_writable(outdir: pathlib.Path) -> str | None:
     try:
         outdir.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        return f"cannot create the output folder {outdir}: {err.strerror}"
+        return f"cannot create the output folder {outdir}: {err.strerror or err}"
     if not os.access(outdir, os.W_OK):
         return f"the output folder {outdir} is not writable"
     return None
