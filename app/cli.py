@@ -67,7 +67,36 @@ def _fail(msg: str, code: int = 2) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
+        # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     args = _parser().parse_args(argv)
+    if args.command == "run":
+        return _guarded(_main, args)
+    return _main(args)
+
+
+def _guarded(fn, args) -> int:
+    """Under mpirun an exception on one rank would leave the others waiting forever:
+    print it and abort the whole job instead."""
+    from mpi4py import MPI
+    try:
+        return fn(args)
+    except KeyboardInterrupt:
+        if MPI.COMM_WORLD.size > 1:
+            MPI.COMM_WORLD.Abort(130)
+        raise
+    except Exception:
+        if MPI.COMM_WORLD.size == 1:
+            raise
+        import traceback
+        traceback.print_exc()
+        print(f"error: rank {MPI.COMM_WORLD.rank} failed; aborting all ranks", file=sys.stderr, flush=True)
+        MPI.COMM_WORLD.Abort(1)
+        return 1
+
+
+def _main(args) -> int:
     if args.command is None:
         _parser().print_help()
         return 2
@@ -97,7 +126,11 @@ def main(argv: list[str] | None = None) -> int:
     from app.outputs.results import write_results
     from app.progress import Progress
     from app.study import run_study
-    results = run_study(scene, comm, Progress(enabled=not args.quiet, comm=comm))
+    from app.loading.block_path import UnreachableLoad
+    try:
+        results = run_study(scene, comm, Progress(enabled=not args.quiet, comm=comm))
+    except UnreachableLoad as err:   # raised identically on every rank
+        return _fail(f"{args.scene or 'default scene'}: loading: {err}")
     if comm.rank == 0:
         write_results(results, outdir)
         if not args.quiet:

@@ -122,6 +122,7 @@ class McpSettings(_Strict):
     shift_rounds: Annotated[int, Field(ge=0, le=100)] = 6
     pattern_starts: bool = True
     pattern_eig_limit: Annotated[int, Field(ge=0)] = 300
+    rsls_linesearch: Literal["bt", "basic", "l2", "cp"] = "bt"
 
 
 class EigSettings(_Strict):

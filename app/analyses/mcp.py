@@ -180,6 +180,11 @@ class BorderedMcp:
         X.setArray(x)
         snes = PETSc.SNES().create(self.comm)
         snes.setType(method)
+        if method == RSLS and settings.rsls_linesearch != "bt":
+            # petsc4py 3.18 has no SNESLineSearch object: set it through a private options prefix
+            snes.setOptionsPrefix("mcp_rsls_")
+            PETSc.Options().setValue("mcp_rsls_snes_linesearch_type", settings.rsls_linesearch)
+            snes.setFromOptions()
         snes.setFunction(self.residual, self.F)
         snes.setJacobian(self.jacobian, self.J)
         snes.setVariableBounds(xl, xu)

@@ -116,7 +116,8 @@ def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
         if "mceip_mu" in wants:
             out["mceip_mu"] = _mceip_mu(system, p, scene, s)
         if "mceip_lambda2" in wants:
-            out["mceip_lambda2"] = _mceip_lambda2(system, p, scene, s)
+            nec = out.get("necessary") if scene.lambda2_mu == scene.mu else None
+            out["mceip_lambda2"] = _mceip_lambda2(system, p, scene, s, nec)
         if "enumerate" in wants:
             out["enumerate"] = _enumerate(system, p, scene, s)
     finally:
@@ -150,7 +151,7 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
     return d
 
 
-def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
+def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
     mu = scene.lambda2_mu
     if s == 0:
         d = _no_slip("lambda2")
@@ -158,7 +159,8 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
         K0, K1 = p.K()
         M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
-            nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig)
+            if nec is None:
+                nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig)
             if not nec["satisfied"]:
                 # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
                 # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
