@@ -54,6 +54,7 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None) ->
     out_states, failures = [], []
     bar = progress.bar(len(states), "analyses")
     for state in states:
+        t_state = time.perf_counter()
         cls = classify(state, scene.mu, scene.settings.classify_rtol)
         entry = {"index": state.index, "load": state.load, "classification": cls.counts(),
                  "nodes": [{"id": n.id, "x": n.x, "status": st, "sign": sg,
@@ -73,6 +74,7 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None) ->
             cache[cls.key] = (state.index, analyses)
             entry["analyses_shared_with"] = None
         entry["analyses"] = analyses
+        entry["analysis_seconds"] = time.perf_counter() - t_state
         out_states.append(entry)
         bar.update(1)
     bar.close()

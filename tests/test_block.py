@@ -169,3 +169,63 @@ def test_condensed_mu_agrees_with_full_size_mcp():
         assert [v for v, _ in x] == pytest.approx([v for v, _ in y], rel=1e-8)
         n_compared += len(x)
     assert n_compared > 0
+
+
+def test_equilibrium_of_resultants_with_the_reactions(paper):
+    """Rebuild whole fields from the reported reactions and assemble the internal forces with
+    DOLFINx: they vanish at interior nodes, equal the reactions on AB, and the force on CD
+    balances the resultants of the reactions."""
+    import dolfinx.fem
+    import dolfinx.fem.petsc
+    import ufl
+    from mpi4py import MPI
+    from app.config import parse_scene
+    from app.loading.block_path import build_block_system
+    from app.stages import Stages
+    from app.system.elasticity import lame_parameters
+    cfg = parse_scene(scene()).system
+    system, ops, flex = build_block_system(cfg, MPI.COMM_WORLD, Stages())
+    V = ops.V
+    mu_l, lam = lame_parameters(cfg.E, cfg.nu, cfg.plane)
+    u = dolfinx.fem.Function(V)
+    v = ufl.TestFunction(V)
+    eps = ufl.sym(ufl.grad(u))
+    sigma = 2 * mu_l * eps + lam * ufl.tr(eps) * ufl.Identity(2)
+    form = dolfinx.fem.form(cfg.thickness * ufl.inner(sigma, ufl.sym(ufl.grad(v))) * ufl.dx)
+    coords = V.tabulate_dof_coordinates()
+    n_own = V.dofmap.index_map.size_local
+    on_ab = np.isclose(coords[:n_own, 1], 0.0)
+    on_cd = np.isclose(coords[:n_own, 1], cfg.height)
+    inside = ~(on_ab | on_cd)
+    picks = [paper["states"][9], paper["states"][150], paper["states"][-1]]
+    for st in picks:
+        r = np.ravel([[n["r_T"], n["r_N"]] for n in st["nodes"]])
+        uh = flex.field(st["load"]["u_x"], st["load"]["u_y"], r)
+        u.x.array[:] = ops.to_function(uh, st["load"]["u_x"], st["load"]["u_y"]).x.array
+        f = dolfinx.fem.petsc.assemble_vector(form)
+        f.ghostUpdate(addv=PETSc_ADD(), mode=PETSc_REVERSE())
+        fa = f.getArray().reshape(-1, 2)[:n_own]
+        scale = st["load"]["normal_resultant"]
+        assert np.max(np.abs(fa[inside])) < 1e-9 * scale
+        # internal force on AB = reaction (R_x = r_T, R_y = -r_N), sorted by x
+        order = np.argsort(coords[:n_own][on_ab, 0])
+        R = fa[on_ab][order]
+        assert R[:, 0] == pytest.approx([n["r_T"] for n in st["nodes"]], abs=1e-9 * scale)
+        assert R[:, 1] == pytest.approx([-n["r_N"] for n in st["nodes"]], abs=1e-9 * scale)
+        # the force transmitted through CD balances the resultants on AB
+        F_cd = fa[on_cd].sum(axis=0)
+        assert F_cd[0] == pytest.approx(-st["load"]["tangential_resultant"], rel=1e-9)
+        assert F_cd[1] == pytest.approx(-st["load"]["normal_resultant"], rel=1e-9)
+        f.destroy()
+        uh.destroy()
+    system.destroy()
+
+
+def PETSc_ADD():
+    from petsc4py import PETSc
+    return PETSc.InsertMode.ADD
+
+
+def PETSc_REVERSE():
+    from petsc4py import PETSc
+    return PETSc.ScatterMode.REVERSE
