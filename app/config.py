@@ -117,6 +117,7 @@ class McpSettings(_Strict):
     """Search settings for the MCPs of Propositions 1-2 (PETSc SNES VI)."""
     rtol: Annotated[float, Field(gt=0, lt=1)] = 1e-12
     max_it: Annotated[int, Field(ge=1, le=10000)] = 50
+    stol: Annotated[float, Field(ge=0, lt=1)] = 1e-10
     accept_tol: Annotated[float, Field(gt=0, lt=1)] = 1e-8
     starts: Annotated[list[PosFloat], Field(min_length=1)] = [0.5, 2.0, 10.0, 100.0]
     shift_rounds: Annotated[int, Field(ge=0, le=100)] = 6
@@ -141,6 +142,140 @@ class Settings(_Strict):
     mceip_mu_method: Literal["condensed", "full"] = "condensed"
 
 
+_SWEEP_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
+_SWEEP_MAX_VALUES = 10000
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _sweep_range(key: str, spec: dict) -> list:
+    """Values of a range ``{start, stop, num}`` (evenly spaced, both ends included) or
+    ``{start, stop, step}`` (start, start + step, ... up to stop); integers stay integers."""
+    allowed = "a range is {start, stop, num} or {start, stop, step} (stop included)"
+    extra = sorted(str(k) for k in spec if k not in ("start", "stop", "num", "step"))
+    if extra:
+        raise _PathError(key, spec, f"unknown range key '{extra[0]}': {allowed}")
+    if "start" not in spec or "stop" not in spec or ("num" in spec) == ("step" in spec):
+        raise _PathError(key, spec, allowed)
+    start, stop = spec["start"], spec["stop"]
+    if not (_is_number(start) and _is_number(stop) and all(abs(v) <= 1e300 for v in (start, stop))):
+        raise _PathError(key, spec, f"start and stop must be finite numbers: {allowed}")
+    if "num" in spec:
+        num = spec["num"]
+        if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= _SWEEP_MAX_VALUES:
+            raise _PathError(key, spec, f"num must be an integer from 1 to {_SWEEP_MAX_VALUES}")
+        if num == 1 and start != stop:
+            raise _PathError(key, spec, "num = 1 needs start = stop (a single value)")
+        raw = [float(start) + (float(stop) - float(start)) * i / max(num - 1, 1) for i in range(num)]
+        ints = isinstance(start, int) and isinstance(stop, int)
+    else:
+        step = spec["step"]
+        if not _is_number(step) or not 0 < step <= 1e300:
+            raise _PathError(key, spec, "step must be a positive number (it goes from start towards stop)")
+        count = abs(float(stop) - float(start)) / float(step)
+        if not count < _SWEEP_MAX_VALUES:
+            raise _PathError(key, spec, f"more than {_SWEEP_MAX_VALUES} values")
+        count = int(count + 1e-9) + 1
+        sign = 1 if stop >= start else -1
+        raw = [float(start) + sign * float(step) * i for i in range(count)]
+        ints = all(isinstance(v, int) for v in (start, stop, step))
+    # round away the binary noise of the arithmetic (0.30000000000000004 -> 0.3): stable case names
+    out = [float(f"{v:.12g}") for v in raw]
+    return [int(v) for v in out] if ints and all(v == int(v) for v in out) else out
+
+
+class Sweep(_Strict):
+    """A batch of studies: the scene with ``parameters`` (dotted key paths into the scene, e.g.
+    ``system.length``) set to each of their values; ``product`` runs every combination, ``zip``
+    runs the i-th values together. Values: a list, or a range {start, stop, num|step}."""
+    mode: Literal["product", "zip"] = "product"
+    parameters: dict[str, list[Any]]
+
+    @field_validator("parameters", mode="before")
+    @classmethod
+    def _expand(cls, v: Any) -> Any:
+        if not isinstance(v, dict) or not v:
+            raise ValueError("allowed: a mapping of one or more dotted scene keys to their values, "
+                             "e.g. {mu: [0.8, 1.1], system.length: {start: 40, stop: 120, num: 5}}")
+        out = {}
+        for key, values in v.items():
+            if not isinstance(key, str) or not _SWEEP_KEY.fullmatch(key):
+                raise _PathError(_one_line(str(key)), values, "a swept key must be a dotted path of scene keys, "
+                                 "e.g. mu or system.length")
+            if key.split(".")[0] in ("name", "sweep"):
+                raise _PathError(key, values, "cannot be swept (the case names and the output folders are "
+                                 "made from the swept values)")
+            if isinstance(values, dict):
+                values = _sweep_range(key, values)
+            if not isinstance(values, (list, tuple)) or not values:
+                raise _PathError(key, values, "allowed: a non-empty list of values [v1, v2, ...] or a range "
+                                 "{start, stop, num} or {start, stop, step}")
+            if len(values) > _SWEEP_MAX_VALUES:
+                raise _PathError(key, values, f"more than {_SWEEP_MAX_VALUES} values")
+            for x in values:
+                if not (x is None or isinstance(x, (bool, int, float, str)) or (
+                        isinstance(x, (list, tuple)) and all(isinstance(y, (bool, int, float, str)) for y in x))):
+                    raise _PathError(key, values, f"the value {_show(x)} is not allowed: values are numbers, strings, "
+                                     "booleans or lists of them (sweep the keys inside a section, e.g. system.nx)")
+            seen: set = set()
+            dup = sorted({n for n in map(repr, values) if n in seen or seen.add(n)})
+            if dup:
+                raise _PathError(key, values, f"each value may be listed once; listed twice: {', '.join(dup)}")
+            out[key] = list(values)
+        for a in out:
+            for b in out:
+                if b.startswith(a + "."):
+                    raise _PathError(b, out[b], f"inside the swept key '{a}': sweep one or the other")
+        return out
+
+    @model_validator(mode="after")
+    def _sizes(self) -> "Sweep":
+        sizes = {k: len(v) for k, v in self.parameters.items()}
+        if self.mode == "zip" and len(set(sizes.values())) > 1:
+            raise _PathError("parameters", sizes, "mode 'zip' needs the same number of values for every key "
+                             "(numbers of values shown)")
+        total = 1
+        for n in sizes.values():
+            total = n if self.mode == "zip" else total * n
+        if total > _SWEEP_MAX_VALUES:
+            raise _PathError("parameters", sizes, f"{total} cases (numbers of values shown): "
+                             f"at most {_SWEEP_MAX_VALUES} per sweep")
+        return self
+
+
+def _check_sweep_keys(scene: "Scene") -> None:
+    """Every swept key must name a key of the scene's schema (the system's, for system.*)."""
+    for key, values in scene.sweep.parameters.items():
+        cls: Any = type(scene)
+        parts = key.split(".")
+        for i, part in enumerate(parts):
+            where = ".".join(parts[:i]) or "the scene"
+            if part not in cls.model_fields:
+                if cls in (Block, TwoParticles):
+                    where += f" ({scene.system.type})"
+                raise _PathError(f"sweep.parameters.{key}", values,
+                                 f"'{part}' is not a key of {where}; allowed: {', '.join(cls.model_fields)}")
+            if i == len(parts) - 1:
+                break
+            if cls is Scene and part == "system":
+                cls = type(scene.system)
+                continue
+            sub = [t for t in _annotation_types(cls.model_fields[part].annotation)
+                   if isinstance(t, type) and issubclass(t, BaseModel)]
+            if not sub:
+                raise _PathError(f"sweep.parameters.{key}", values,
+                                 f"'{'.'.join(parts[:i + 1])}' is a value, not a section with keys")
+            cls = sub[0]
+
+
+def _annotation_types(tp: Any) -> list:
+    import typing
+    args = typing.get_args(tp)
+    return [tp] if not args else [t for a in args for t in _annotation_types(a)]
+
+
 class Scene(_Strict):
     """A loading study: system, friction coefficient, loading and the analyses wanted."""
     name: Annotated[str, Field(min_length=1)]
@@ -150,6 +285,7 @@ class Scene(_Strict):
     mceip_lambda2_mu: Optional[NonNegFloat] = None
     loading: Optional[Loading] = None
     settings: Settings = Settings()
+    sweep: Optional[Sweep] = None   # a batch of cases (app/sweep.py); None: one study
 
     @field_validator("name")
     @classmethod
@@ -176,6 +312,12 @@ class Scene(_Strict):
             raise _PathError("loading", self.loading.model_dump(),
                              "not allowed for a two_particles system (a single equilibrium state): "
                              "remove 'loading', or use a block system")
+        return self
+
+    @model_validator(mode="after")
+    def _sweep_keys_exist(self) -> "Scene":
+        if self.sweep is not None:
+            _check_sweep_keys(self)
         return self
 
     @property
