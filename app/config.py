@@ -270,6 +270,72 @@ def _check_sweep_keys(scene: "Scene") -> None:
             cls = sub[0]
 
 
+STATE_WORDS = ("final", "first_mceip_mu", "all_distinct")
+_STATE_ALLOWED = ("allowed: a state index (an integer >= 0), 'final', 'first_mceip_mu', 'all_distinct', or node "
+                  "counts selecting the first state that has them, e.g. {stick: 2, slip: 15, free: 4}")
+
+
+class StateCounts(_Strict):
+    """The first state whose node counts equal every count given, e.g. {stick: 2, slip: 15, free: 4}."""
+    stick: Optional[Annotated[int, Field(ge=0)]] = None
+    slip: Optional[Annotated[int, Field(ge=0)]] = None
+    free: Optional[Annotated[int, Field(ge=0)]] = None
+    zero: Optional[Annotated[int, Field(ge=0)]] = None
+
+
+class Screenshots(_Strict):
+    """Off-screen pyvista pictures of the block (app/outputs/screenshots.py)."""
+    resolution: tuple[Annotated[int, Field(ge=100, le=8192)], Annotated[int, Field(ge=100, le=8192)]] = (1200, 800)
+    field: Literal["displacement", "von_mises"] = "von_mises"
+    modes: bool = True               # also draw every divergence mode found at the pictured states
+    scale: PosFloat = 1.0            # magnification of the state displacements (modes are scaled to fit)
+
+
+class Outputs(_Strict):
+    """Files and pictures for people (app/outputs/); all off unless asked for."""
+    paraview: bool = False           # XDMF time series of the states, VTU of the modes (block only)
+    plots: bool = False              # matplotlib PNG + SVG
+    report: bool = False             # report.md
+    states: list[Union[Annotated[int, Field(ge=0, strict=True)], Literal["final", "first_mceip_mu", "all_distinct"],
+                       StateCounts]] = ["final"]   # the states pictured (screenshots, reactions along AB)
+    screenshots: Optional[Screenshots] = None     # true: the defaults (block only)
+
+    @field_validator("screenshots", mode="before")
+    @classmethod
+    def _screenshots_bool(cls, v: Any) -> Any:
+        return {} if v is True else (None if v is False else v)
+
+    @field_validator("states", mode="before")
+    @classmethod
+    def _states(cls, v: Any) -> Any:
+        if not isinstance(v, (list, tuple)) or not v:
+            raise ValueError(f"allowed: a non-empty list of states; each is {_STATE_ALLOWED[9:]}")
+        for i, s in enumerate(v):
+            if isinstance(s, bool) or not (isinstance(s, (int, dict)) or s in STATE_WORDS):
+                raise _PathError(str(i), s, _STATE_ALLOWED)
+            if isinstance(s, int) and s < 0:
+                raise _PathError(str(i), s, _STATE_ALLOWED)
+            if isinstance(s, dict):
+                for key, n in s.items():
+                    if key not in StateCounts.model_fields:
+                        raise _PathError(f"{i}.{_one_line(str(key))}", s, "unknown node status: allowed keys are "
+                                         "stick, slip, free, zero (node counts)")
+                    if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+                        raise _PathError(f"{i}.{key}", n, "allowed: a node count (an integer >= 0)")
+                if not s:
+                    raise _PathError(str(i), s, _STATE_ALLOWED)
+        return v
+
+    @property
+    def fields(self) -> bool:
+        """Displacement/stress/mode fields are needed (ParaView files or screenshots)."""
+        return self.paraview or self.screenshots is not None
+
+    @property
+    def any(self) -> bool:
+        return self.fields or self.plots or self.report
+
+
 def _annotation_types(tp: Any) -> list:
     import typing
     args = typing.get_args(tp)
@@ -281,11 +347,14 @@ class Scene(_Strict):
     name: Annotated[str, Field(min_length=1)]
     system: Annotated[Union[TwoParticles, Block], Field(discriminator="type")]
     mu: NonNegFloat
+    units: Literal["mm-N-MPa-tonne-s", "m-N-Pa-kg-s"] = Field(
+        "mm-N-MPa-tonne-s", description="the consistent unit system the scene's numbers are in (labels only)")
     analyses: list[Analysis] = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2"]
     mceip_lambda2_mu: Optional[NonNegFloat] = None
     loading: Optional[Loading] = None
     settings: Settings = Settings()
     sweep: Optional[Sweep] = None   # a batch of cases (app/sweep.py); None: one study
+    outputs: Outputs = Outputs()    # files and pictures (app/outputs/); all off by default
 
     @field_validator("name")
     @classmethod
@@ -312,6 +381,18 @@ class Scene(_Strict):
             raise _PathError("loading", self.loading.model_dump(),
                              "not allowed for a two_particles system (a single equilibrium state): "
                              "remove 'loading', or use a block system")
+        return self
+
+    @model_validator(mode="after")
+    def _outputs_match(self) -> "Scene":
+        out = self.outputs
+        if isinstance(self.system, TwoParticles):
+            for key in ("paraview", "screenshots"):
+                if getattr(out, key):
+                    raise _PathError(f"outputs.{key}", getattr(out, key) if key == "paraview" else True,
+                                     "needs a mesh: not available for a two_particles system (use plots and report)")
+        if "first_mceip_mu" in out.states and "mceip_mu" not in self.analyses:
+            raise _PathError("outputs.states", out.states, "'first_mceip_mu' needs the analysis mceip_mu")
         return self
 
     @model_validator(mode="after")

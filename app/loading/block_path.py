@@ -25,15 +25,17 @@ from app.system.base import ContactNode, System
 
 log = logging.getLogger(__name__)
 
-UNITS = {"length": "mm", "force": "N", "stress": "MPa", "stiffness": "N/mm", "mass": "tonne",
-         "density": "tonne/mm^3", "time": "s", "lambda2": "1/s^2", "mu": "1"}
+UNITS = {"mm-N-MPa-tonne-s": {"length": "mm", "force": "N", "stress": "MPa", "stiffness": "N/mm", "mass": "tonne",
+                               "density": "tonne/mm^3", "time": "s", "lambda2": "1/s^2", "mu": "1"},
+         "m-N-Pa-kg-s": {"length": "m", "force": "N", "stress": "Pa", "stiffness": "N/m", "mass": "kg",
+                         "density": "kg/m^3", "time": "s", "lambda2": "1/s^2", "mu": "1"}}
 
 
 class UnreachableLoad(Exception):
     """The prescribed path cannot reach the requested normal force."""
 
 
-def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages):
+def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s"):
     """Mesh (Gmsh), operators (DOLFINx), factorisation and contact flexibility."""
     from app.scene.block_mesh import block_mesh
     from app.system.elasticity import block_operators
@@ -52,10 +54,10 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages):
     signs = np.array([[nd.sign_T, nd.sign_N] for nd in nodes], dtype=float).ravel()
     with stages("factorise K, contact flexibility"):
         flex = contact_flexibility(ops.K, ops.load_x, ops.load_y, dofs, signs)
-    system = System(comm=comm, K=ops.K, nodes=nodes, units=UNITS, stages=stages,
+    system = System(comm=comm, K=ops.K, nodes=nodes, units=UNITS[units], stages=stages,
                     build_mass=lambda: ops.mass().copy(), build_contact_schur=lambda: flex.schur,
-                    description=(f"block {cfg.length}x{cfg.height}x{cfg.thickness} mm, {cfg.nx}x{cfg.ny} "
-                                 f"{cfg.pattern} P{cfg.degree}, plane {cfg.plane}, E={cfg.E} MPa, nu={cfg.nu}, "
+                    description=(f"block {cfg.length}x{cfg.height}x{cfg.thickness} {UNITS[units]['length']}, {cfg.nx}x{cfg.ny} "
+                                 f"{cfg.pattern} P{cfg.degree}, plane {cfg.plane}, E={cfg.E} {UNITS[units]['stress']}, nu={cfg.nu}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     system.extra = {"operators": ops, "flexibility": flex}
     return system, ops, flex
@@ -74,7 +76,7 @@ def block_path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress)
     """Run the loading; returns (system, states, path_info)."""
     cfg: Block = scene.system
     ld = scene.loading
-    system, ops, flex = build_block_system(cfg, comm, stages)
+    system, ops, flex = build_block_system(cfg, comm, stages, scene.units)
     n = len(system.nodes)
     with stages("quasi-static loading"):
         solver = FrictionalContact(flex.schur, scene.mu)
