@@ -8,8 +8,8 @@ setup:
 	@bash scripts/setup.sh
 
 run: setup
-	@if [ "$(MPI)" = "1" ]; then $(PY) -m app run $(SCENE); \
-	else mpirun --allow-run-as-root --oversubscribe -n $(MPI) $(PY) -m app run $(SCENE); fi
+	@if [ "$(MPI)" = "1" ]; then $(PY) -m app run --overwrite $(SCENE); \
+	else mpirun --allow-run-as-root --oversubscribe -n $(MPI) $(PY) -m app run --overwrite $(SCENE); fi
 
 test: setup
 	@$(PY) -m pytest -q -p no:cacheprovider tests

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import os
 import pathlib
 import sys
@@ -49,7 +50,12 @@ def _parser() -> argparse.ArgumentParser:
                          formatter_class=argparse.RawDescriptionHelpFormatter)
     run.add_argument("scene", nargs="?", help="scene YAML file (default: the embedded paper study)")
     run.add_argument("-o", "--output", help="results folder (default: output/<scene name>)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the results already in the output folder (atomically, at the end of the run)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no summary")
+    run.add_argument("--ranks-per-case", type=int, default=None, metavar="K",
+                     help="sweep scenes (a 'sweep' section): MPI ranks per case; the ranks form groups of K "
+                          "that take cases as they become free (default 1)")
     run.add_argument("--log-level", default="WARNING",
                      choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")
     val = sub.add_parser("validate", help="check a scene file and print what it asks for",
@@ -107,6 +113,9 @@ def _main(args) -> int:
         return _fail(str(err))
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
+    if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
+        from app.sweep import main as sweep_main       # a batch of cases (app/sweep.py)
+        return sweep_main(scene, args, comm)
     if args.command == "validate":
         if comm.rank == 0:
             print(f"{args.scene}: ok: scene '{scene.name}', system {scene.system.type}, mu = {scene.mu}, "
@@ -114,36 +123,47 @@ def _main(args) -> int:
         return 0
 
     logging.basicConfig(level=getattr(logging, args.log_level), format="%(levelname)s: %(message)s")
-    outdir = pathlib.Path(args.output or pathlib.Path("output") / scene.name)
-    if comm.rank == 0:
-        problem = _check_writable(outdir)
-    else:
-        problem = None
+    from app.outputs.folder import ResultsFolder
+    folder = ResultsFolder(pathlib.Path(args.output or pathlib.Path("output") / scene.name), args.overwrite)
+    problem = folder.check() if comm.rank == 0 else None
     problem = comm.bcast(problem, root=0)                     # MPI collective
     if problem:
         return _fail(problem)
+    if comm.rank == 0:
+        folder.open()
+    # Everything is written into the staging folder and moved into place at the very end.
+    outdir = folder.staging
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _run(args, scene, comm, folder, outdir)
+    finally:
+        if comm.rank == 0 and folder.staging.exists():
+            folder.abort()                                    # interrupted or failed: drop the partial files
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
 
     from app.outputs.results import write_results
     from app.progress import Progress
     from app.study import run_study
     from app.loading.block_path import UnreachableLoad
+    if scene.refinement is not None:                          # a mesh-refinement study (app/refinement.py)
+        from app.refinement import main as refinement_main
+        return refinement_main(scene, args, comm, folder, outdir)
     try:
         results = run_study(scene, comm, Progress(enabled=not args.quiet, comm=comm))
     except UnreachableLoad as err:   # raised identically on every rank
         return _fail(f"{args.scene or 'default scene'}: loading: {err}")
     if comm.rank == 0:
         write_results(results, outdir)
+    comm.Barrier()                                            # MPI collective: every rank has written
+    if comm.rank == 0:
+        final = folder.commit()
         if not args.quiet:
             from app.outputs.summary import summary
-            print(summary(results, outdir))
+            print(summary(results, final))
     return 3 if results["failures"] else 0
-
-
-def _check_writable(outdir: pathlib.Path) -> str | None:
-    try:
-        outdir.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        return f"cannot create the output folder {outdir}: {err.strerror or err}"
-    if not os.access(outdir, os.W_OK):
-        return f"the output folder {outdir} is not writable"
-    return None

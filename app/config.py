@@ -131,6 +131,7 @@ class EigSettings(_Strict):
     dense_limit: Annotated[int, Field(ge=1)] = 500
     nev: Annotated[int, Field(ge=1)] = 30
     tol: Annotated[float, Field(gt=0, lt=1)] = 1e-10
+    max_it: Annotated[int, Field(ge=1)] = 1000
 
 
 class Settings(_Strict):
@@ -342,6 +343,24 @@ def _annotation_types(tp: Any) -> list:
     return [tp] if not args else [t for a in args for t in _annotation_types(a)]
 
 
+class Refinement(_Strict):
+    """A mesh-refinement study of a block scene (app/refinement.py): the scene at every mesh level
+    (nx cells along AB, ny = nx * height / length), every degree and every plane model."""
+    levels: Annotated[list[Annotated[int, Field(ge=1, le=4096)]], Field(min_length=2)]
+    degrees: Annotated[list[Literal[1, 2]], Field(min_length=1)] = [1]
+    planes: Annotated[list[Literal["stress", "strain"]], Field(min_length=1)] = ["stress"]
+    mu_fixed: Optional[NonNegFloat] = None     # mu of the sufficient condition at the final state
+    resultant_at: PosFloat = 1.0               # |CD u_x| [mm] of the state whose resultants are compared
+    first_solution: Literal["bisect", "scan"] = "bisect"
+
+    @field_validator("levels", "degrees", "planes")
+    @classmethod
+    def _distinct(cls, v: list) -> list:
+        if len(set(v)) != len(v):
+            raise ValueError("each value may be listed once")
+        return sorted(v) if v and isinstance(v[0], int) else v
+
+
 class Scene(_Strict):
     """A loading study: system, friction coefficient, loading and the analyses wanted."""
     name: Annotated[str, Field(min_length=1)]
@@ -355,6 +374,7 @@ class Scene(_Strict):
     settings: Settings = Settings()
     sweep: Optional[Sweep] = None   # a batch of cases (app/sweep.py); None: one study
     outputs: Outputs = Outputs()    # files and pictures (app/outputs/); all off by default
+    refinement: Optional[Refinement] = None   # a mesh-refinement study (app/refinement.py)
 
     @field_validator("name")
     @classmethod
@@ -399,6 +419,14 @@ class Scene(_Strict):
     def _sweep_keys_exist(self) -> "Scene":
         if self.sweep is not None:
             _check_sweep_keys(self)
+        return self
+
+    @model_validator(mode="after")
+    def _refinement_needs_block(self) -> "Scene":
+        if self.refinement is not None and not isinstance(self.system, Block):
+            raise _PathError("refinement", self.refinement.model_dump(), "needs a block system (it refines its mesh)")
+        if self.refinement is not None and self.sweep is not None:
+            raise _PathError("refinement", self.refinement.model_dump(), "cannot be combined with 'sweep': use one")
         return self
 
     @property

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 class Stages:
     """Ordered record of named stages; a stage run several times is summed and counted."""
     records: dict[str, dict] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     @contextlib.contextmanager
     def __call__(self, name: str):

@@ -12,7 +12,6 @@ import numpy as np
 from mpi4py import MPI
 
 from app.analyses.classify import classify
-from app.analyses.pencils import UnsupportedState
 from app.analyses.runner import analyse_state
 from app.config import Block, Scene, TwoParticles
 from app.loading.state import EquilibriumState
@@ -37,8 +36,16 @@ def _two_particle_path(scene: Scene, comm: MPI.Comm, stages: Stages):
     return system, [state], {"end": "single equilibrium state"}
 
 
-def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None) -> dict:
-    """Run ``scene``; returns the results dictionary (identical on every rank)."""
+def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
+              outdir=None) -> dict:
+    """Run ``scene``; returns the results dictionary (identical on every rank).
+
+    ``inspect(system, states, cache)``, if given, runs after the per-state analyses while the
+    system is alive (``cache``: classification key -> (first state, analyses)); what it
+    returns is stored as ``results["inspection"]`` (used by app/refinement.py).
+    ``outdir``: the results folder, where the field stage (app/outputs/fields.py: ParaView
+    files, screenshot data) writes when the scene's ``outputs`` ask for fields.
+    """
     t_start = time.perf_counter()
     stages = Stages()
     progress = progress or Progress(enabled=False)
@@ -51,7 +58,8 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None) ->
         raise TypeError(type(scene.system))
 
     cache: dict = {}
-    out_states, failures = [], []
+    out_states = []
+    failures = [path_info["failure"]] if path_info.get("failure") else []
     bar = progress.bar(len(states), "analyses")
     for state in states:
         t_state = time.perf_counter()
@@ -66,11 +74,10 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None) ->
             first, analyses = cache[cls.key]
             entry["analyses_shared_with"] = first
         else:
-            try:
-                analyses = analyse_state(system, cls, scene)
-            except UnsupportedState as err:
-                analyses = {"error": str(err)}
-                failures.append({"state": state.index, "reason": str(err)})
+            analyses = analyse_state(system, cls, scene)
+            for name, a in analyses.items():
+                if a.get("failed"):
+                    failures.append({"state": state.index, "analysis": name, "reason": a["reason"]})
             cache[cls.key] = (state.index, analyses)
             entry["analyses_shared_with"] = None
         entry["analyses"] = analyses
@@ -78,10 +85,18 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None) ->
         out_states.append(entry)
         bar.update(1)
     bar.close()
+    inspection = inspect(system, states, cache) if inspect is not None else None
+    outputs_record = None
+    from app.outputs.fields import wants_fields
+    if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
+        from app.outputs.fields import compute_fields
+        outputs_record = compute_fields(scene, system, out_states, stages, progress, outdir)
     system.destroy()
-    return {"scene": scene.name, "units": system.units, "system": system.description,
+    return {**({"inspection": inspection} if inspect is not None else {}), "scene": scene.name, "units": system.units, "system": system.description,
             "mu": scene.mu, "analyses_requested": list(scene.analyses),
             "path": path_info, "distinct_classifications": len(cache),
-            "stages": stages.as_list(), "failures": failures,
+            "stages": stages.as_list(), "failures": failures, "warnings": stages.warnings,
             "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
+            "scene_config": scene.model_dump(mode="json"),
+            **({"outputs": outputs_record} if outputs_record is not None else {}),
             "states": out_states}

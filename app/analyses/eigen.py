@@ -42,7 +42,7 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
         nev = min(settings.nev, n)
         eps.setDimensions(nev=nev)
-        eps.setTolerances(tol=settings.tol, max_it=1000)
+        eps.setTolerances(tol=settings.tol, max_it=settings.max_it)
         if hermitian:
             eps.setWhichEigenpairs(SLEPc.EPS.Which.SMALLEST_REAL)
             how = f"SLEPc krylovschur, {nev} smallest"
@@ -72,7 +72,8 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings) -> float:
     eps.destroy()
     At.destroy()
     if not vals:
-        raise RuntimeError("SLEPc did not converge any eigenvalue of the symmetric part")
+        raise RuntimeError("SLEPc did not converge the smallest eigenvalue of the symmetric part "
+                           f"(settings.eig: tol={settings.tol}, max_it={settings.max_it})")
     return float(min(vals))
 
 

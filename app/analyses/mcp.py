@@ -63,7 +63,12 @@ class SearchReport:
     starts: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict:
+        result = (f"{len(self.solutions)} distinct solution(s) found" if self.solutions else
+                  f"no solution found in {self.intervals[0]} from {len(self.starts)} start vector(s), "
+                  f"{self.attempts} SNES VI runs ({self.converged} converged, none satisfied the "
+                  f"MCP to the acceptance tolerance); not a proof of absence")
         return {"solutions": [s.as_dict() for s in sorted(self.solutions, key=lambda s: s.value)],
+                "result": result,
                 "search": {"attempts": self.attempts, "converged": self.converged,
                            "accepted": self.accepted, "by_method": self.by_method,
                            "intervals": self.intervals, "starts": self.starts,

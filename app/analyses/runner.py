@@ -13,7 +13,7 @@ from app.analyses import eigen
 from app.analyses.classify import Classification
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
-from app.analyses.pencils import condensed_mu_pencil, dense, reduced_pencil, reduced_space
+from app.analyses.pencils import UnsupportedState, condensed_mu_pencil, dense, reduced_pencil, reduced_space
 from app.config import Scene
 from app.system.base import System
 
@@ -91,42 +91,75 @@ def _diag_scale(A: PETSc.Mat) -> float:
     return s
 
 
+class AnalysisFailure(Exception):
+    """A solver failed on one analysis of one state (reported, and the study goes on)."""
+
+
+def _necessary(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
+    K0, K1 = p.K()
+    M0, M1 = p.M()
+    with system.stages("necessary condition (19)"):
+        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig)
+
+
+def _sufficient(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
+    K0, K1 = p.K()
+    M0, M1 = p.M()
+    with system.stages("sufficient condition (17)-(18)"):
+        Ks, Ms = _combine(K0, K1, scene.mu), _combine(M0, M1, scene.mu)
+        try:
+            out = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=_keep_modes(scene))
+        finally:
+            Ks.destroy()
+            Ms.destroy()
+    out["mu"] = scene.mu
+    return out
+
+
 def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
-    """Run the scene's analyses on one classification; returns the ``analyses`` dict of results.json."""
-    wants = scene.analyses
-    st = system.stages
+    """Run the scene's analyses on one classification; returns the ``analyses`` dict of results.json.
+
+    An analysis whose solver fails (PETSc/SLEPc error, no convergence, unsupported state) is
+    reported as ``{"failed": true, "reason": ...}`` and the other analyses still run.
+    """
     p = _Pencils(system, cls)
     out: dict = {}
     s = len(cls.slip)
+    runs = {"necessary": _necessary, "sufficient": _sufficient, "mceip_mu": _mceip_mu,
+            "mceip_lambda2": _mceip_lambda2, "enumerate": _enumerate}
     try:
-        if "necessary" in wants:
-            with st("necessary condition (19)"):
-                K0, K1 = p.K()
-                M0, M1 = p.M()
-                out["necessary"] = eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig)
-        if "sufficient" in wants:
-            K0, K1 = p.K()
-            M0, M1 = p.M()
-            with st("sufficient condition (17)-(18)"):
-                Ks, Ms = _combine(K0, K1, scene.mu), _combine(M0, M1, scene.mu)
-                out["sufficient"] = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig)
-                out["sufficient"]["mu"] = scene.mu
-                Ks.destroy()
-                Ms.destroy()
-        if "mceip_mu" in wants:
-            out["mceip_mu"] = _mceip_mu(system, p, scene, s)
-        if "mceip_lambda2" in wants:
-            nec = out.get("necessary") if scene.lambda2_mu == scene.mu else None
-            out["mceip_lambda2"] = _mceip_lambda2(system, p, scene, s, nec)
-        if "enumerate" in wants:
-            out["enumerate"] = _enumerate(system, p, scene, s)
+        for name in ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"):
+            if name not in scene.analyses:
+                continue
+            try:
+                if name == "mceip_lambda2":
+                    nec = out.get("necessary") if scene.lambda2_mu == scene.mu else None
+                    out[name] = _mceip_lambda2(system, p, scene, s, nec if nec and "failed" not in nec else None)
+                else:
+                    out[name] = runs[name](system, p, scene, s)
+            except (UnsupportedState, AnalysisFailure, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+                reason = f"{type(err).__name__}: {err}".splitlines()[0]
+                out[name] = {"failed": True, "reason": reason}
     finally:
         p.destroy()
     return out
 
 
+def _keep_modes(scene: Scene) -> bool:
+    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/outputs/fields.py."""
+    outputs = getattr(scene, "outputs", None)
+    return bool(outputs is not None and outputs.fields)
+
+
+def _attach_vectors(d: dict, rep) -> None:
+    """Attach each solution's full kept-space vector (same order as ``as_dict``: sorted by value)."""
+    for sd, sol in zip(d["solutions"], sorted(rep.solutions, key=lambda s: s.value)):
+        if sol.x is not None:
+            sd["_x"] = sol.x
+
+
 def _no_slip(problem: str) -> dict:
-    return {"solutions": [], "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
+    return {"solutions": [], "result": "no solution (no slip nodes)", "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
                                                   "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
                                           "complete": True}}
 
@@ -148,6 +181,8 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
             rep = search_mceip(K0, K1, p.space.comp, "mu", scene.settings.mcp)
     d = rep.as_dict()
     d["method"] = method
+    if method == "full" and _keep_modes(scene):
+        _attach_vectors(d, rep)
     return d
 
 
@@ -164,7 +199,7 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict 
             if not nec["satisfied"]:
                 # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
                 # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
-                d = {"solutions": [], "search": {
+                d = {"solutions": [], "result": "no solution (proved by the necessary condition (19))", "search": {
                     "complete": True, "necessary_condition": nec,
                     "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
                             "which proves that (12)-(14) has no solution"}}
@@ -176,8 +211,11 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict 
                 upper = np.inf
                 if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
                     upper = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
-                d = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
-                                 t_upper=upper).as_dict()
+                rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
+                                   t_upper=upper)
+                d = rep.as_dict()
+                if _keep_modes(scene):
+                    _attach_vectors(d, rep)
                 d["search"]["necessary_condition"] = nec
                 d["search"]["lambda2_upper_bound"] = upper
                 Ks.destroy()

@@ -44,6 +44,11 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
     with stages("assemble stiffness"):
         ops = block_operators(mesh, facets, cfg.E, cfg.nu, cfg.thickness, cfg.density, plane=cfg.plane,
                               degree=cfg.degree, mass_kind=cfg.mass)
+    if cfg.degree == 1 and cfg.plane == "strain" and cfg.nu >= 0.45:
+        log.warning("P1 triangles lock in plane strain as nu -> 0.5 (nu = %s): displacements, reactions "
+                    "and mode shapes are too stiff; use degree: 2", cfg.nu)
+        stages.warnings.append(f"volumetric locking: P1 triangles in plane strain with nu = {cfg.nu} "
+                               f"are too stiff as nu -> 0.5; use degree: 2")
     n = len(ops.contact_x)
     if n == 0:
         raise UnreachableLoad("the mesh has no contact nodes on AB")
@@ -110,7 +115,8 @@ def block_path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress)
         states = [_state(i, "normal", gx, gy, r, {}) for i, (gx, gy, r) in enumerate(phase1)]
         uT, g = phase1[-1][2].u_T, -phase1[-1][2].u_N
         gy = -depth
-        end = f"tangential_max = {ld.tangential_max} mm reached"
+        failure = None
+        end = f"tangential_max = {ld.tangential_max} reached"
         nsteps = int(np.floor(ld.tangential_max / ld.tangential_step + 1e-9))
         bar = progress.bar(nsteps, "loading")
         for k in range(1, nsteps + 1):
@@ -118,7 +124,8 @@ def block_path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress)
             try:
                 inc = solver.solve(flex.u0x * gx + flex.u0y * gy, uT, g)
             except ContactSolveError as err:
-                end = f"contact solve failed at CD u_x = {gx} mm: {err}"
+                end = f"contact solve failed at CD u_x = {gx}: {err}"
+                failure = {"state": len(states), "analysis": "contact increment", "reason": end}
                 break
             uT, g = inc.u_T, -inc.u_N
             st = _state(len(states), "tangential", gx, gy, inc, {})
@@ -133,5 +140,5 @@ def block_path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress)
         bar.close()
         solver.destroy()
     info = {"end": end, "normal_displacement_mm": depth, "normal_force_N": float(-np.sum(states[ld.normal_steps - 1].r_N)),
-            "normal_steps": ld.normal_steps, "tangential_step_mm": ld.tangential_step}
+            "normal_steps": ld.normal_steps, "tangential_step_mm": ld.tangential_step, "failure": failure}
     return system, states, info

@@ -18,7 +18,10 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
     c = last["classification"]
     lines.append(f"  final state {last['index']}: {c['stick']} stick / {c['slip']} slip / {c['free']} free"
                  + (f" / {c['zero']} zero" if c["zero"] else ""))
-    a = last["analyses"]
+    a = {k: v for k, v in last["analyses"].items() if not v.get("failed")}
+    for k, v in last["analyses"].items():
+        if v.get("failed"):
+            lines.append(f"    {k}: FAILED ({v['reason']})")
     if "necessary" in a:
         lines.append(f"    necessary condition (19): {'satisfied' if a['necessary']['satisfied'] else 'not satisfied'}"
                      f" (min eig sym K* = {a['necessary']['min_eig_K_sym']:.6g})")
@@ -32,9 +35,11 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
                              for s in sols) or "none found"
             extra = f" at mu = {a[key]['mu']}" if key == "mceip_lambda2" else ""
             lines.append(f"    {name}{extra}: {vals}")
+    for w in results.get("warnings", []):
+        lines.append(f"  WARNING: {w}")
     if results["failures"]:
         lines.append(f"  INCOMPLETE: {len(results['failures'])} state(s) failed: "
-                     + "; ".join(f"state {f['state']}: {f['reason']}" for f in results["failures"][:3]))
+                     + "; ".join(f"state {f['state']} {f.get('analysis', '')}: {f['reason']}" for f in results["failures"][:3]))
     total = sum(s["seconds"] for s in results["stages"])
     lines.append(f"  wall time {results['wall_seconds']:.2f} s; stages: "
                  + ", ".join(f"{s['name']} {s['seconds']:.2f} s" for s in results["stages"]))

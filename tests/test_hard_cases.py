@@ -1,0 +1,166 @@
+"""Hard cases stay numerically stable, failures are reported, and interrupted runs lose nothing."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from app.analyses.classify import classify
+from app.loading.state import EquilibriumState
+from conftest import ROOT, run_cli, run_scene
+
+SMALL = {"name": "hard", "mu": 1.1, "system": {"type": "block", "nx": 10, "ny": 5},
+         "analyses": ["mceip_mu"]}
+
+
+def _with(**system):
+    return {**SMALL, "system": {**SMALL["system"], **system}}
+
+
+@pytest.fixture(scope="module")
+def small():
+    return run_scene(SMALL)
+
+
+def test_classification_does_not_flip_under_tiny_perturbations(small):
+    """Nodes on the cone and reactions near zero: a 1e-12 relative perturbation changes nothing."""
+    rng = np.random.default_rng(0)
+    for s in small["states"]:
+        arr = {k: np.array([n[k] for n in s["nodes"]]) for k in ("u_T", "u_N", "r_T", "r_N")}
+        ref = classify(EquilibriumState(0, {}, **arr), 1.1)
+        for _ in range(3):
+            pert = {k: v * (1 + 1e-12 * rng.uniform(-1, 1, v.shape)) for k, v in arr.items()}
+            assert classify(EquilibriumState(0, {}, **pert), 1.1) == ref
+
+
+def test_huge_critical_mu_is_found(small):
+    """Stick-slip modes with mu in the hundreds are found with small residuals."""
+    vals = [x for s in small["states"] for x in s["analyses"]["mceip_mu"]["solutions"]]
+    big = [x for x in vals if x["value"] > 50]
+    assert big and all(x["residual"] < 1e-8 and x["complementarity"] < 1e-8 for x in big)
+
+
+def test_no_solution_is_reported_with_its_evidence():
+    res = run_scene({"name": "none", "mu": 4.0, "analyses": ["mceip_mu", "mceip_lambda2"],
+                     "system": {"type": "two_particles", "k": 1000.0, "m": 2.0, "phi_deg": 35.0, "signs": [-1, 1]}})
+    a = res["states"][0]["analyses"]
+    assert a["mceip_mu"]["solutions"] == []
+    assert a["mceip_mu"]["result"].startswith("no solution found in [0, inf)")
+    assert a["mceip_mu"]["search"]["attempts"] > 0 and a["mceip_mu"]["search"]["intervals"]
+    assert res["failures"] == []
+
+
+@pytest.mark.parametrize("plane", ["stress", "strain"])
+@pytest.mark.parametrize("nu", [0.49, 0.499, 0.4999])
+def test_near_incompressible(plane, nu):
+    """The study completes; plane strain with P1 warns about locking; plane stress does not."""
+    res = run_scene(_with(nu=nu, plane=plane))
+    assert res["failures"] == []
+    assert all(s["contact_solve"]["violation"] < 1e-9 for s in res["states"])
+    final = res["states"][-1]["analyses"]["mceip_mu"]["solutions"]
+    assert final and all(np.isfinite(x["value"]) for x in final)
+    locking = [w for w in res["warnings"] if "locking" in w]
+    assert bool(locking) == (plane == "strain")
+
+
+def test_plane_stress_converges_as_nu_goes_to_half():
+    """Plane stress stays well posed at nu -> 1/2 (lambda* = 2 mu lambda / (lambda + 2 mu) is finite)."""
+    a = run_scene(_with(nu=0.499))["states"][-1]["analyses"]["mceip_mu"]["solutions"][0]["value"]
+    b = run_scene(_with(nu=0.4999))["states"][-1]["analyses"]["mceip_mu"]["solutions"][0]["value"]
+    assert a == pytest.approx(b, rel=1e-3)
+
+
+@pytest.mark.parametrize("system", [{"pattern": "unstructured", "mesh_size": 6.0},
+                                    {"pattern": "alternate", "nx": 16, "ny": 2},
+                                    {"nx": 40, "ny": 20}], ids=["unstructured", "distorted", "fine"])
+def test_distorted_and_fine_meshes(system):
+    res = run_scene(_with(**system))
+    assert res["failures"] == []
+    assert all(s["contact_solve"]["violation"] < 1e-9 for s in res["states"])
+    last = res["states"][-1]
+    assert "gross sliding" in res["path"]["end"]
+    sols = last["analyses"]["mceip_mu"]["solutions"]
+    assert sols and sols[0]["pattern"] == ["slip"] * last["classification"]["slip"]
+
+
+def test_solver_failure_is_reported_and_the_study_goes_on(scene_file, tmp_path):
+    scene = scene_file("name: failing\nsystem: {type: block, nx: 10, ny: 5}\nmu: 1.1\n"
+                       "loading: {tangential_max: 2.0}\nanalyses: [necessary, mceip_mu]\n"
+                       "settings: {eig: {dense_limit: 1, max_it: 1}}\n")
+    p = run_cli("run", str(scene), "-o", str(tmp_path / "out"))
+    assert p.returncode == 3, p.stderr
+    assert "INCOMPLETE" in p.stdout
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert res["failures"] and all(f["analysis"] == "necessary" for f in res["failures"])
+    last = res["states"][-1]["analyses"]
+    assert last["necessary"]["failed"] and "did not converge" in last["necessary"]["reason"]
+    assert last["mceip_mu"]["solutions"]          # the other analyses still ran
+
+
+def _start(out, *extra):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    return subprocess.Popen([sys.executable, "-m", "app", "run", "-o", str(out), "-q", *extra], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+
+
+def _wait_busy(proc, seconds=3.0):
+    time.sleep(seconds)
+    assert proc.poll() is None, "the run finished before it could be interrupted"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+def test_interrupted_first_run_leaves_no_results_folder(tmp_path, sig):
+    out = tmp_path / "out"
+    proc = _start(out)
+    _wait_busy(proc)
+    os.killpg(proc.pid, sig)
+    proc.wait(timeout=60)
+    assert proc.returncode != 0
+    assert not out.exists()
+    partial = [p for p in tmp_path.iterdir() if ".partial-" in p.name]
+    assert partial == [] or sig == signal.SIGKILL     # a killed process cannot clean up: it stays hidden
+
+
+@pytest.mark.slow
+def test_interrupted_overwrite_keeps_the_previous_results(tmp_path, scene_file):
+    out = tmp_path / "out"
+    p = run_cli("run", str(scene_file(
+        "name: tp\nsystem: {type: two_particles, k: 1000.0, m: 2.0, phi_deg: 35.0, signs: [1, -1]}\n"
+        "mu: 2.5\nanalyses: [mceip_mu]\n")), "-o", str(out), "-q")
+    assert p.returncode == 0
+    before = (out / "results.json").read_bytes()
+    # without --overwrite the run refuses
+    p = run_cli("run", "-o", str(out), "-q")
+    assert p.returncode == 2 and "--overwrite" in p.stderr
+    proc = _start(out, "--overwrite")
+    _wait_busy(proc)
+    os.killpg(proc.pid, signal.SIGTERM)
+    proc.wait(timeout=60)
+    assert (out / "results.json").read_bytes() == before
+
+
+@pytest.mark.slow
+@pytest.mark.mpi
+def test_killed_rank_leaves_no_results_folder(tmp_path):
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    proc = subprocess.Popen(["mpirun", "--oversubscribe", "-n", "2", sys.executable, "-m", "app", "run", "-o",
+                             str(out), "-q"], cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    time.sleep(5)
+    assert proc.poll() is None
+    ranks = subprocess.run(["pgrep", "-f", "-P", str(proc.pid), "app run"], capture_output=True, text=True).stdout.split()
+    assert ranks
+    os.kill(int(ranks[-1]), signal.SIGKILL)
+    try:
+        proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    assert proc.returncode != 0
+    assert not out.exists()
