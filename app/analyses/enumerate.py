@@ -19,7 +19,7 @@ class TooManySlipNodes(Exception):
 
 
 def enumerate_mceip(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, max_slip: int,
-                    tol: float = 1e-9) -> list[dict]:
+                    tol: float = 1e-9, pairs: list[tuple[int, int]] | None = None) -> list[dict]:
     """All solutions of ``(A0 + t A1) x = y, y_f = 0, 0 <= x_c ⊥ y_c >= 0, t >= 0`` (dense).
 
     Returns dicts with ``value``, ``x_Ts`` (sum 1), ``pattern``, sorted by value. ``tol`` is
@@ -34,8 +34,12 @@ def enumerate_mceip(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, max_slip: 
     scale = float(np.max(np.abs(np.diag(A0)))) or 1.0
     free = np.setdiff1d(np.arange(n), comp)
     out: list[dict] = []
+    cpos = {int(c): k for k, c in enumerate(comp)}
+    cpairs = [(cpos[a], cpos[b]) for a, b in (pairs or [])]
     for k in range(1, s + 1):
         for P in itertools.combinations(range(s), k):
+            if any(a in P and b in P for a, b in cpairs):
+                continue   # both directions of one split tangential rate: degenerate (a = b)
             P = np.array(P)
             stick = np.setdiff1d(np.arange(s), P)
             R = np.concatenate([free, comp[P]])

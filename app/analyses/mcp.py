@@ -85,8 +85,10 @@ class BorderedMcp:
     on the last rank.
     """
 
-    def __init__(self, A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, c: float = 1.0):
+    def __init__(self, A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, c: float = 1.0,
+                 pairs: list[tuple[int, int]] | None = None):
         self.comm = A0.getComm().tompi4py()
+        self.pairs = list(pairs or [])   # (a, b) positions of split tangential rates (zero nodes)
         self.A0, self.A1, self.c = A0, A1, c
         self.n = A0.getSize()[0]
         self.r0, self.r1 = A0.getOwnershipRange()
@@ -265,6 +267,12 @@ class BorderedMcp:
 
     def check(self, x: np.ndarray, t: float, tol: float) -> McpSolution | None:
         """Check a candidate against (12)-(14)/(21)-(23) in the scaled problem; None if not a solution."""
+        x = x.copy()
+        for ia, ib in self.pairs:     # v_T = a - b: remove the spurious common part min(a, b)
+            m = min(x[ia], x[ib])
+            if m > 0:
+                x[ia] -= m
+                x[ib] -= m
         xc = x[self.comp]
         total = float(np.sum(xc))
         if not np.isfinite(t) or t < -tol or total <= 0 or not np.all(np.isfinite(x)):
@@ -329,7 +337,7 @@ def _pattern_eig_starts(D0: np.ndarray, D1: np.ndarray, comp: np.ndarray, slip: 
 
 def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
                  settings: McpSettings, value_scale: float | None = None,
-                 t_upper: float = np.inf) -> SearchReport:
+                 t_upper: float = np.inf, pairs: list[tuple[int, int]] | None = None) -> SearchReport:
     """Find the distinct solutions of the MCEIP ``(A0 + t A1) x = y`` reachable by the search.
 
     The problem is scaled first: ``A0 / alpha`` and ``A1 * tau / alpha`` with ``alpha`` the
@@ -353,8 +361,11 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     S0, S1 = A0.copy(), A1.copy()
     S0.scale(1.0 / alpha)
     S1.scale(tau / alpha)
-    op = BorderedMcp(S0, S1, comp)
+    op = BorderedMcp(S0, S1, comp, pairs=pairs)
     s = len(comp)
+    # positions of split pairs within x_c (a pattern with both a and b active is degenerate)
+    cpos = {int(c): k for k, c in enumerate(comp)}
+    cpairs = [(cpos[a], cpos[b]) for a, b in (pairs or [])]
     report = SearchReport(problem=problem, solutions=[])
     tol = settings.accept_tol
     top = t_upper / tau if np.isfinite(t_upper) else PETSc.INFINITY
@@ -449,7 +460,7 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
                     for j in move:
                         pat[j] = not pat[j]
                     pat = tuple(pat)
-                    if pat in expanded or not any(pat):
+                    if pat in expanded or not any(pat) or any(pat[a] and pat[b] for a, b in cpairs):
                         continue
                     expanded.add(pat)
                     slip = np.flatnonzero(pat)

@@ -154,3 +154,91 @@ def condensed_mu_pencil(Sc: np.ndarray, cls: Classification) -> tuple[np.ndarray
     A0 = S @ S_cc[:s, :s] @ S
     A1 = S_cc[s:, :s] @ S
     return A0, A1
+
+
+# --- Zero-reaction nodes (the paper's set Z): the general rate conditions (9) -------------------
+#
+# For a node in contact with zero reaction the rates satisfy v_N <= 0, w_N <= 0, v_N w_N = 0,
+# |w_T| <= -mu w_N, and sliding opposes the tangential reaction rate. With v_T = a - b
+# (a, b >= 0) and x_N = -v_N this is complementarity in (a, b, x_N):
+#     0 <= a   ⊥  y_a = w_T - mu w_N >= 0      (a > 0: slides in +T, w_T = mu w_N)
+#     0 <= b   ⊥  y_b = -w_T - mu w_N >= 0     (b > 0: slides in -T, w_T = -mu w_N)
+#     0 <= x_N ⊥  y_N = -w_N >= 0              (lift-off or contact)
+# The pencil is then A*(mu) = R(mu) A Q with rectangular Q (v = Q x) and R (y = R w). The split
+# of v_T has the spurious null direction a = b: solutions are reported with min(a, b) = 0.
+
+
+@dataclass
+class SplitPencil:
+    """Dense pencil (A0, A1) with zero-reaction nodes; x = (x_f, x_c), x_c complementarity block."""
+    A0: np.ndarray
+    A1: np.ndarray
+    comp: np.ndarray                 # positions of x_c in x
+    pairs: list[tuple[int, int]]     # positions (a, b) of each zero node's split tangential rate
+    labels: list[str]                # what each x_c entry is: "T<node>" (slip), "a<node>", "b<node>", "N<node>"
+
+
+def split_pencil(A: np.ndarray, T: np.ndarray, N: np.ndarray, sT: np.ndarray, sN: np.ndarray,
+                 cls: Classification, f: np.ndarray) -> SplitPencil:
+    """``A0 = R0 A Q`` and ``A1 = R1 A Q`` for a dense matrix ``A`` whose node ``i`` has DOFs
+    ``T[i], N[i]`` with paper-axis signs ``sT[i], sN[i]``; ``f`` are the DOFs kept as x_f."""
+    nf = len(f)
+    cols = [("T", i) for i, st in enumerate(cls.status) if st == SLIP]
+    cols += [(kind, i) for i, st in enumerate(cls.status) if st == ZERO for kind in ("a", "b", "N")]
+    n = nf + len(cols)
+    Q = np.zeros((A.shape[0], n))
+    R0 = np.zeros((n, A.shape[0]))
+    R1 = np.zeros((n, A.shape[0]))
+    Q[f, np.arange(nf)] = 1.0
+    R0[np.arange(nf), f] = 1.0
+    pos = {}
+    for k, (kind, i) in enumerate(cols):
+        j = nf + k
+        pos[(kind, i)] = j
+        S = cls.signs[i]
+        if kind == "T":                       # slip node: v_T = -S x, y = -(S w_T + mu w_N)
+            Q[T[i], j] = R0[j, T[i]] = -S * sT[i]
+            R1[j, N[i]] = -sN[i]
+        elif kind == "a":                     # v_T += a, y_a = w_T - mu w_N
+            Q[T[i], j] = R0[j, T[i]] = sT[i]
+            R1[j, N[i]] = -sN[i]
+        elif kind == "b":                     # v_T -= b, y_b = -w_T - mu w_N
+            Q[T[i], j] = R0[j, T[i]] = -sT[i]
+            R1[j, N[i]] = -sN[i]
+        else:                                 # v_N = -x_N, y_N = -w_N
+            Q[N[i], j] = R0[j, N[i]] = -sN[i]
+    pairs = [(j, pos[("b", i)]) for (kind, i), j in pos.items() if kind == "a"]
+    AQ = A @ Q
+    return SplitPencil(R0 @ AQ, R1 @ AQ, np.arange(nf, n), pairs, [f"{k}{i}" for k, i in cols])
+
+
+def split_pencils(system: System, cls: Classification, A: np.ndarray | None = None) -> SplitPencil:
+    """Dense split pencil of a state with zero-reaction nodes.
+
+    Without ``A``: MCEIP-mu on the contact Schur complement (free nodes eliminated, stick DOFs
+    deleted, no x_f). With ``A`` (dense, system DOFs): the full pencil, x_f the DOFs of the
+    free nodes and of the interior.
+    """
+    nodes = system.nodes
+    if A is None:
+        Sc = system.contact_schur()
+        free = cls.indices(FREE)
+        keep = [i for i, st in enumerate(cls.status) if st in (SLIP, ZERO)]
+        F = np.sort(np.concatenate([2 * free, 2 * free + 1])).astype(int)
+        c = np.ravel([[2 * i, 2 * i + 1] for i in keep]).astype(int)
+        S = Sc[np.ix_(c, c)]
+        if len(F):
+            S = S - Sc[np.ix_(c, F)] @ np.linalg.solve(Sc[np.ix_(F, F)], Sc[np.ix_(F, c)])
+        T = np.full(len(nodes), -1)
+        N = np.full(len(nodes), -1)
+        for k, i in enumerate(keep):
+            T[i], N[i] = 2 * k, 2 * k + 1
+        ones = np.ones(len(nodes))
+        return split_pencil(S, T, N, ones, ones, cls, np.array([], dtype=int))
+    T = np.array([nd.dof_T for nd in nodes])
+    N = np.array([nd.dof_N for nd in nodes])
+    sT = np.array([nd.sign_T for nd in nodes], dtype=float)
+    sN = np.array([nd.sign_N for nd in nodes], dtype=float)
+    removed = {int(d) for i, st in enumerate(cls.status) if st in (STICK, SLIP, ZERO) for d in (T[i], N[i])}
+    f = np.array(sorted(set(range(A.shape[0])) - removed), dtype=int)
+    return split_pencil(A, T, N, sT, sN, cls, f)
