@@ -483,6 +483,12 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
             for t0 in guesses:
                 for method in (RSLS, SSLS):
                     attempt(method, uniform, "uniform x_Ts, t in gap", t0, tbar=lo, sigma=1.0, zeta_max=zmax)
+            gap_starts = [(label, x0) for label, x0 in x0s[1:] if label.startswith("x_Ts on")]
+            for label, x0 in (gap_starts if dense_ops is not None else []):  # one-node starts again, boxed in the gap
+                t_ls, xs = op.consistent_t(x0 / np.sum(x0), t_guess=guesses[0])
+                t0 = t_ls if t_ls is not None and lo <= t_ls <= hi else guesses[0]
+                attempt(RSLS, x0, f"{label}, t in gap", t0, tbar=lo, sigma=1.0, zeta_max=zmax,
+                        x_start=xs if t_ls is not None and lo <= t_ls <= hi else None)
         if len(report.solutions) == n_before:
             break
     op.destroy()
