@@ -33,6 +33,8 @@ examples:
   python -m app run scene.yaml -o out/      # results in out/results.json and out/steps.csv
   mpirun -n 2 python -m app run scene.yaml  # same numbers, in parallel
   python -m app validate scene.yaml         # check a scene file without running it
+  mpirun -n 4 python -m app run sweep.yaml --ranks-per-case 2   # a scene with a 'sweep' section:
+                                            # its cases farmed out to groups of 2 ranks
 exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json)
 """
 
@@ -58,6 +60,14 @@ def _parser() -> argparse.ArgumentParser:
                           "that take cases as they become free (default 1)")
     run.add_argument("--log-level", default="WARNING",
                      choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")
+    ren = sub.add_parser("render", help="redraw the plots, screenshots and report of a results folder",
+                         description="Redraw every picture the scene's 'outputs' asked for (plots, "
+                                     "screenshots, report.md) from a results folder, without recomputing "
+                                     "the study (the screenshots use the fields saved by the run).")
+    ren.add_argument("results", help="results folder (the one holding results.json)")
+    ren.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no list of files")
+    ren.add_argument("--log-level", default="WARNING",
+                     choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")
     val = sub.add_parser("validate", help="check a scene file and print what it asks for",
                          description="Check a scene file without running it (exit status 0 ok, 2 bad "
                                      "input); then run it with: python -m app run SCENE")
@@ -77,6 +87,9 @@ def main(argv: list[str] | None = None) -> int:
         # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     args = _parser().parse_args(argv)
+    if args.command == "render":
+        from app.outputs.render import render_main
+        return render_main(args)
     if args.command == "run":
         return _guarded(_main, args)
     return _main(args)
@@ -122,7 +135,8 @@ def _main(args) -> int:
                   f"analyses: {', '.join(scene.analyses)}")
         return 0
 
-    logging.basicConfig(level=getattr(logging, args.log_level), format="%(levelname)s: %(message)s")
+    from app.logs import setup_logging
+    setup_logging(args.log_level, comm.rank)           # app logs at --log-level; rank 0 only below WARNING
     from app.outputs.folder import ResultsFolder
     folder = ResultsFolder(pathlib.Path(args.output or pathlib.Path("output") / scene.name), args.overwrite)
     problem = folder.check() if comm.rank == 0 else None
@@ -155,10 +169,12 @@ def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
         from app.refinement import main as refinement_main
         return refinement_main(scene, args, comm, folder, outdir)
     try:
-        results = run_study(scene, comm, Progress(enabled=not args.quiet, comm=comm))
+        results = run_study(scene, comm, Progress(enabled=not args.quiet, comm=comm), outdir=outdir)
     except UnreachableLoad as err:   # raised identically on every rank
         return _fail(f"{args.scene or 'default scene'}: loading: {err}")
     if comm.rank == 0:
+        from app.outputs.pictures import draw_after_run       # plots, screenshots, report (if asked)
+        results = draw_after_run(results, outdir, Progress(enabled=not args.quiet, comm=comm))
         write_results(results, outdir)
     comm.Barrier()                                            # MPI collective: every rank has written
     if comm.rank == 0:

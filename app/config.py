@@ -351,7 +351,8 @@ class Refinement(_Strict):
     planes: Annotated[list[Literal["stress", "strain"]], Field(min_length=1)] = ["stress"]
     mu_fixed: Optional[NonNegFloat] = None     # mu of the sufficient condition at the final state
     resultant_at: PosFloat = 1.0               # |CD u_x| [mm] of the state whose resultants are compared
-    first_solution: Literal["bisect", "scan"] = "bisect"
+    first_solution: Literal["scan", "none"] = "scan"    # none: skip the search for the first solution
+    max_contact_nodes: Optional[Annotated[int, Field(ge=2)]] = None   # skip levels with more (degree * nx + 1)
 
     @field_validator("levels", "degrees", "planes")
     @classmethod

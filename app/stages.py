@@ -2,8 +2,11 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 import time
 from dataclasses import dataclass, field
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -19,8 +22,10 @@ class Stages:
             yield
         finally:
             rec = self.records.setdefault(name, {"name": name, "seconds": 0.0, "count": 0})
-            rec["seconds"] += time.perf_counter() - t0
+            dt = time.perf_counter() - t0
+            rec["seconds"] += dt
             rec["count"] += 1
+            log.debug("stage '%s': %.3f s", name, dt)
 
     def ran(self, name: str) -> bool:
         return name in self.records

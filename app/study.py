@@ -97,6 +97,6 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
             "path": path_info, "distinct_classifications": len(cache),
             "stages": stages.as_list(), "failures": failures, "warnings": stages.warnings,
             "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
-            "scene_config": scene.model_dump(mode="json"),
+            "scene_config": scene.model_dump(mode="json", exclude_none=True),
             **({"outputs": outputs_record} if outputs_record is not None else {}),
             "states": out_states}

@@ -44,4 +44,14 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
     lines.append(f"  wall time {results['wall_seconds']:.2f} s; stages: "
                  + ", ".join(f"{s['name']} {s['seconds']:.2f} s" for s in results["stages"]))
     lines.append(f"  results: {outdir / 'results.json'}, {outdir / 'steps.csv'}")
+    files = (results.get("outputs") or {}).get("files") or []
+    if files:
+        parts = [str(outdir / "report.md")] if "report.md" in files else []
+        for k in ("plots", "screenshots", "paraview"):
+            n = sum(f.startswith(k + "/") for f in files)
+            if n:
+                parts.append(f"{n} file(s) in {outdir / k}")
+        lines.append("  outputs: " + ", ".join(parts))
+    for note in (results.get("outputs") or {}).get("notes") or []:
+        lines.append(f"  note: {note}")
     return "\n".join(lines)

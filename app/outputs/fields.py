@@ -1,0 +1,367 @@
+"""Fields of the block for ParaView and the screenshots, computed while the system is alive.
+
+Per equilibrium state: the displacement (from the contact reactions and the prescribed motion of
+CD, one solve with the factorised K), the von Mises stress (cellwise, at the cell midpoint), and
+on the contact side AB the node status, the reactions and the impending slip direction.
+Per divergence mode found (sufficient condition, MCEIP-mu, MCEIP-lambda^2) its displacement,
+normalised to max |v| = 1 (a shape: the scale of an eigenvector is arbitrary):
+
+* when the analysis kept the full vector in the reduced space of (10) (the sufficient condition,
+  MCEIP-lambda^2, MCEIP-mu with ``mceip_mu_method: full``) it is mapped back exactly:
+  ``v_f = x_f``, ``v_Ts = -S sign_T x_Ts``, removed DOFs (stick nodes, slip normals) 0;
+* the condensed MCEIP-mu keeps only ``x_Ts``: the mode is the static response with
+  ``v_T = -S x_Ts`` and ``v_N = 0`` at slip nodes, ``v = 0`` at stick nodes and free nodes
+  unconstrained, i.e. ``W_cc r_c = v_c`` on the constrained contact DOFs and
+  ``v = K^-1 B^T r`` (exact for MCEIP-mu: its free rows are those of K).
+
+Everything is gathered on rank 0 in a canonical node and cell order (sorted by coordinates), so
+the files do not depend on the number of MPI ranks, and rank 0 writes:
+
+* ``paraview/states.xdmf`` (+ ``.h5``): one mesh, time = state index, fields ``displacement``
+  [length], ``von_mises`` [stress, cell data], ``contact_status`` (-1 not a contact node, 0 free,
+  1 zero, 2 stick, 3 slip), ``reaction`` (nodal contact force on the body, global x/y) [force],
+  ``slip_direction`` (unit x direction of impending slip, opposite to r_T; 0 elsewhere);
+* ``paraview/modes.vtu``: one point field per mode, named ``s<state>_<problem>_<k>_<value>``;
+* ``fields/fields.npz``: the mesh, the pictured states' fields and their modes, for the
+  screenshots and ``python -m app render``.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import pathlib
+
+import numpy as np
+
+from app.analyses.classify import Classification
+from app.outputs.select import analyses_of, mode_name, modes_of, select_states
+
+log = logging.getLogger(__name__)
+
+STATUS_CODE = {"free": 0, "zero": 1, "stick": 2, "slip": 3}
+
+
+def wants_fields(scene) -> bool:
+    from app.config import Block
+    outputs = getattr(scene, "outputs", None)
+    return isinstance(scene.system, Block) and outputs is not None and outputs.fields
+
+
+class MeshGather:
+    """Nodes and cells of the displacement space on rank 0, in a canonical (rank-independent) order."""
+
+    def __init__(self, V, length_scale: float):
+        import dolfinx.cpp
+        mesh = V.mesh
+        self.comm = mesh.comm
+        im = V.dofmap.index_map
+        self.n_own = im.size_local
+        self.gidx = np.arange(im.local_range[0], im.local_range[1], dtype=np.int64)
+        x = V.tabulate_dof_coordinates()[:self.n_own, :2]
+        tdim = mesh.topology.dim
+        self.n_cells = mesh.topology.index_map(tdim).size_local
+        ndofs = V.dofmap.dof_layout.num_dofs
+        perm = np.argsort(dolfinx.cpp.io.perm_vtk(mesh.topology.cell_type, ndofs))   # DOLFINx -> VTK order
+        local = V.dofmap.list.array.reshape(-1, ndofs)[:self.n_cells][:, perm]
+        cells = im.local_to_global(local.ravel().astype(np.int32)).reshape(local.shape)
+        parts = self.comm.gather((self.gidx, x, cells), root=0)              # MPI collective
+        self.points = self.cells = self.point_order = self.cell_order = None
+        self.cell_type = "triangle" if ndofs == 3 else "triangle6"
+        if self.comm.rank == 0:
+            g = np.concatenate([p[0] for p in parts])
+            xs = np.concatenate([p[1] for p in parts])
+            n = len(g)
+            pts = np.empty((n, 2))
+            pts[g] = xs
+            key = np.round(pts / length_scale, 9)
+            order = np.lexsort((key[:, 0], key[:, 1]))            # by y, then x
+            new_of_global = np.empty(n, dtype=np.int64)
+            new_of_global[order] = np.arange(n)
+            self.points = pts[order]
+            cells = new_of_global[np.concatenate([p[2] for p in parts])]
+            ckey = np.sort(cells, axis=1)
+            self.cell_order = np.lexsort(ckey.T[::-1])
+            self.cells = cells[self.cell_order]
+            self.new_of_global = new_of_global
+
+    def nodal(self, values: np.ndarray) -> np.ndarray | None:
+        """(N, 2) nodal vector on rank 0 from a blocked Function array (local, with ghosts)."""
+        own = np.asarray(values)[:2 * self.n_own].reshape(-1, 2)
+        parts = self.comm.gather((self.gidx, own), root=0)                 # MPI collective
+        if self.comm.rank != 0:
+            return None
+        out = np.empty((len(self.points), 2))
+        for g, v in parts:
+            out[self.new_of_global[g]] = v
+        return out
+
+    def cellwise(self, values: np.ndarray) -> np.ndarray | None:
+        """(C,) cell values on rank 0 from this rank's owned-cell values (in local cell order)."""
+        parts = self.comm.gather(np.asarray(values)[:self.n_cells], root=0)   # MPI collective
+        if self.comm.rank != 0:
+            return None
+        return np.concatenate(parts)[self.cell_order]
+
+    def contact_points(self, xs: np.ndarray, length_scale: float) -> np.ndarray:
+        """Indices (rank 0) of the nodes at (x, 0) for the contact nodes' x."""
+        on_ab = np.flatnonzero(np.abs(self.points[:, 1]) <= 1e-9 * length_scale)
+        idx = []
+        for x in xs:
+            j = on_ab[np.argmin(np.abs(self.points[on_ab, 0] - x))]
+            if abs(self.points[j, 0] - x) > 1e-9 * length_scale:
+                raise RuntimeError(f"no mesh node at contact position x = {x}")
+            idx.append(j)
+        return np.asarray(idx, dtype=np.int64)
+
+
+def _von_mises_expression(u, E: float, nu: float, plane: str):
+    """UFL von Mises stress of the 2D displacement ``u`` (plane stress: s_zz = 0; plane strain:
+    s_zz = lambda tr(eps))."""
+    import ufl
+    from app.system.elasticity import lame_parameters
+    mu, lmbda = lame_parameters(E, nu, plane)
+    eps = ufl.sym(ufl.grad(u))
+    s = 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(2)
+    szz = lmbda * ufl.tr(eps) if plane == "strain" else 0.0
+    sxx, syy, sxy = s[0, 0], s[1, 1], s[0, 1]
+    return ufl.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3.0 * sxy ** 2)
+
+
+def _classification(entry: dict) -> Classification:
+    return Classification(tuple(n["status"] for n in entry["nodes"]), tuple(int(n["sign"]) for n in entry["nodes"]))
+
+
+class _FieldMaker:
+    """Fields of one block system (collective methods)."""
+
+    def __init__(self, scene, system):
+        import dolfinx.fem
+        cfg = scene.system
+        self.system = system
+        self.ops = system.extra["operators"]
+        self.flex = system.extra["flexibility"]
+        self.comm = system.comm
+        V = self.ops.V
+        self.scale = max(cfg.length, cfg.height)
+        self.gather = MeshGather(V, self.scale)
+        Q = dolfinx.fem.FunctionSpace(V.mesh, ("DG", 0))
+        self.q = dolfinx.fem.Function(Q, name="von_mises")
+        self.u = dolfinx.fem.Function(V, name="displacement")
+        self.vm = dolfinx.fem.Expression(_von_mises_expression(self.u, cfg.E, cfg.nu, cfg.plane),
+                                         Q.element.interpolation_points())
+        n_cells = V.mesh.topology.index_map(V.mesh.topology.dim).size_local
+        self.q_dofs = Q.dofmap.list.array[:n_cells]
+        self.n = len(system.nodes)
+
+    def state(self, entry: dict) -> tuple[np.ndarray | None, np.ndarray | None, float]:
+        """Displacement (N, 2) and von Mises (C,) of a state on rank 0, and the largest mismatch
+        of the field's contact displacements with the state's (relative)."""
+        nodes = entry["nodes"]
+        r = np.ravel([[n["r_T"], n["r_N"]] for n in nodes])
+        gx, gy = float(entry["load"]["u_x"]), float(entry["load"]["u_y"])
+        vec = self.flex.field(gx, gy, r)
+        uc = self._contact_values(vec)
+        vec_f = self.ops.to_function(vec, gx, gy)
+        vec.destroy()
+        self.u.x.array[:] = vec_f.x.array
+        self.q.interpolate(self.vm)
+        want = np.ravel([[n["u_T"], n["u_N"]] for n in nodes])
+        # relative to the prescribed motion of CD (contact displacements are 0 while all nodes stick)
+        mismatch = float(np.max(np.abs(uc - want)) / max(np.max(np.abs(want)), abs(gx), abs(gy), 1e-300))
+        return self.gather.nodal(self.u.x.array), self.gather.cellwise(self.q.x.array[self.q_dofs]), mismatch
+
+    def _contact_values(self, vec) -> np.ndarray:
+        """Contact displacements of a reduced vector in paper axes (T0, N0, T1, ...), replicated."""
+        r0, r1 = vec.getOwnershipRange()
+        arr = vec.getArray(readonly=True)
+        dofs = self.flex.dofs
+        mine = (dofs >= r0) & (dofs < r1)
+        local = np.zeros(len(dofs))
+        local[mine] = arr[dofs[mine] - r0]
+        return self.flex.signs * self.comm.allreduce(local)                     # MPI collective
+
+    def mode(self, entry: dict, problem: str, sol: dict) -> tuple[np.ndarray | None, str]:
+        """Mode displacement (N, 2) on rank 0, normalised to max |v| = 1, and how it was built."""
+        cls = _classification(entry)
+        x = sol.get("_x")
+        if x is not None:
+            from app.analyses.pencils import reduced_space
+            space = reduced_space(self.system, cls)
+            kept = space.kept.getIndices()
+            offset = self.comm.exscan(len(kept)) or 0                            # MPI collective
+            vec = self.system.K.createVecRight()
+            r0, _ = vec.getOwnershipRange()
+            arr = np.zeros(vec.getLocalSize())
+            arr[kept - r0] = space.d_local * np.asarray(x)[offset:offset + len(kept)]
+            vec.setArray(arr)
+            space.destroy()
+            how = "exact: kept-space vector mapped back (v_f = x_f, v_Ts = -S x_Ts, removed DOFs 0)"
+        else:
+            v_c = np.zeros(2 * self.n)
+            # constrained: both DOFs of stick and slip nodes (v_N = 0 at slip nodes); free nodes are not
+            con = [d for i, st in enumerate(cls.status) if st in ("stick", "slip") for d in (2 * i, 2 * i + 1)]
+            slip = cls.slip
+            xts = np.asarray(sol["x_Ts"], dtype=float)
+            v_c[2 * slip] = -cls.slip_signs * xts
+            con = np.asarray(con, dtype=np.int64)
+            r = np.zeros(2 * self.n)
+            r[con] = np.linalg.solve(self.flex.W[np.ix_(con, con)], v_c[con])
+            vec = self.flex.field(0.0, 0.0, r)
+            how = "static response to the contact rates (W_cc r_c = v_c): exact for MCEIP-mu"
+        f = self.ops.to_function(vec, 0.0, 0.0)
+        vec.destroy()
+        v = self.gather.nodal(f.x.array)
+        if v is not None:
+            big = float(np.max(np.linalg.norm(v, axis=1)))
+            v = v / big if big > 0 else v
+        return v, how
+
+
+class _XdmfSeries:
+    """meshio's XDMF time-series writer with the .h5 next to the .xdmf (meshio puts it in the cwd)."""
+
+    def __init__(self, path: pathlib.Path):
+        import meshio
+        import h5py
+
+        class Writer(meshio.xdmf.TimeSeriesWriter):
+            def __enter__(self):
+                self.h5_filename = str(self.filename.with_suffix(".h5"))
+                self.h5_file = h5py.File(self.h5_filename, "w")
+                return self
+
+        self.writer = Writer(path)
+
+    def __enter__(self):
+        return self.writer.__enter__()
+
+    def __exit__(self, *exc):
+        return self.writer.__exit__(*exc)
+
+
+def _pad3(v: np.ndarray) -> np.ndarray:
+    return np.column_stack([v, np.zeros(len(v))])
+
+
+def compute_fields(scene, system, out_states: list[dict], stages, progress, outdir: pathlib.Path | None) -> dict:
+    """The field stage of a study (MPI collective); writes the files on rank 0; returns the record
+    of what it did (identical on every rank) for results.json ``outputs``."""
+    try:
+        if outdir is None:
+            return {"notes": ["fields not computed: the study was run without an output folder"], "files": []}
+        return _compute_fields(scene, system, out_states, stages, progress, outdir)
+    finally:
+        # the in-memory mode vectors are not results
+        for entry in out_states:
+            for _, _, sol in modes_of(entry.get("analyses") or {}):
+                sol.pop("_x", None)
+
+
+def _compute_fields(scene, system, out_states: list[dict], stages, progress, outdir: pathlib.Path) -> dict:
+    outputs = scene.outputs
+    comm = system.comm
+    record: dict = {"notes": [], "files": []}
+    pictured, notes = select_states(out_states, outputs.states)
+    record["pictured_states"] = pictured
+    record["notes"] += notes
+    shots = outputs.screenshots
+    with stages("fields (ParaView files, screenshot data)"):
+        maker = _FieldMaker(scene, system)
+        g = maker.gather
+        by_index = {s["index"]: s for s in out_states}
+        state_ids = [s["index"] for s in out_states] if outputs.paraview else list(pictured)
+        # modes: of every distinct classification for ParaView, of the pictured states for screenshots
+        mode_firsts = set()
+        if outputs.paraview:
+            mode_firsts |= {s["index"] for s in out_states if s.get("analyses_shared_with") is None}
+        if shots is not None and shots.modes:
+            mode_firsts |= {analyses_of(out_states, i)[1] for i in pictured}
+        rank0 = comm.rank == 0
+        paraview_dir = outdir / "paraview"
+        contact = None
+        if rank0:
+            contact = g.contact_points(np.array([n.x for n in system.nodes]), maker.scale)
+            if outputs.paraview:
+                paraview_dir.mkdir(parents=True, exist_ok=True)
+        series = _XdmfSeries(paraview_dir / "states.xdmf") if (rank0 and outputs.paraview) else None
+        writer = series.__enter__() if series is not None else None
+        if writer is not None:
+            writer.write_points_cells(g.points, [(g.cell_type, g.cells)])
+        kept_u, kept_vm = {}, {}
+        worst = 0.0
+        bar = progress.bar(len(state_ids), "fields")
+        try:
+            for idx in state_ids:
+                entry = by_index[idx]
+                u, vm, mismatch = maker.state(entry)
+                worst = max(worst, mismatch)
+                if rank0:
+                    if writer is not None:
+                        writer.write_data(idx, point_data=_contact_fields(entry, u, contact, system.nodes),
+                                          cell_data={"von_mises": [vm]})
+                    if idx in pictured:
+                        kept_u[idx], kept_vm[idx] = u, vm
+                bar.update(1)
+        finally:
+            bar.close()
+            if series is not None:
+                series.__exit__(None, None, None)
+        record["contact_displacement_check"] = worst
+        log.info("fields: %d state(s) computed (contact displacements reproduced to %.2g relative)",
+                 len(state_ids), worst)
+        if worst > 1e-6:
+            log.warning("fields: the displacement fields differ from the states' contact displacements by %.3g "
+                        "(relative)", worst)
+        # modes
+        modes, meta = {}, []
+        for first in sorted(mode_firsts):
+            entry = by_index[first]
+            for problem, k, sol in modes_of(entry.get("analyses") or {}):
+                name = mode_name(first, problem, k, sol["value"])
+                v, how = maker.mode(entry, problem, sol)
+                if rank0:
+                    modes[name] = v
+                    meta.append({"name": name, "state": first, "problem": problem, "k": k,
+                                 "value": float(sol["value"]), "pattern": sol.get("pattern", []),
+                                 "x_Ts": sol.get("x_Ts", []), "built": how})
+        record["modes"] = [{"name": m["name"], "built": m["built"]} for m in meta] if rank0 else []
+        if rank0:
+            if outputs.paraview:
+                import meshio
+                paraview_dir.mkdir(parents=True, exist_ok=True)
+                meshio.write(paraview_dir / "modes.vtu",
+                             meshio.Mesh(_pad3(g.points), [(g.cell_type, g.cells)],
+                                         point_data={n: _pad3(v) for n, v in modes.items()}))
+                record["files"] += ["paraview/states.xdmf", "paraview/states.h5", "paraview/modes.vtu"]
+            if shots is not None:
+                fdir = outdir / "fields"
+                fdir.mkdir(parents=True, exist_ok=True)
+                ids = sorted(kept_u)
+                names = [m["name"] for m in meta]
+                np.savez_compressed(
+                    fdir / "fields.npz", points=g.points, cells=g.cells, cell_type=np.array(g.cell_type),
+                    contact_points=contact, state_index=np.array(ids, dtype=np.int64),
+                    state_u=np.array([kept_u[i] for i in ids]).reshape(len(ids), len(g.points), 2),
+                    state_von_mises=np.array([kept_vm[i] for i in ids]).reshape(len(ids), len(g.cells)),
+                    mode_v=np.array([modes[n] for n in names]).reshape(len(names), len(g.points), 2),
+                    modes_json=np.array(json.dumps(meta)),
+                    block=np.array([scene.system.length, scene.system.height]))
+                record["files"].append("fields/fields.npz")
+            log.info("fields: %d mode(s); wrote %s", len(meta), ", ".join(record["files"]) or "nothing")
+    record = comm.bcast(record, root=0)                                          # MPI collective
+    return record
+
+
+def _contact_fields(entry: dict, u: np.ndarray, contact: np.ndarray, nodes) -> dict:
+    """Point fields of one state: displacement and the contact side's status, reaction, slip direction."""
+    n_pts = len(u)
+    status = np.full(n_pts, -1, dtype=np.int32)
+    reaction = np.zeros((n_pts, 3))
+    slip_dir = np.zeros((n_pts, 3))
+    for node, j, cn in zip(entry["nodes"], contact, nodes):
+        status[j] = STATUS_CODE[node["status"]]
+        # paper axes -> global: T = sign_T x, N = sign_N y (the block: T = +x, N = -y, outward normal of AB)
+        reaction[j, 0], reaction[j, 1] = cn.sign_T * node["r_T"], cn.sign_N * node["r_N"]
+        if node["status"] == "slip":
+            slip_dir[j, 0] = -float(node["sign"]) * cn.sign_T      # impending slip opposes r_T
+    return {"displacement": _pad3(u), "contact_status": status, "reaction": reaction, "slip_direction": slip_dir}

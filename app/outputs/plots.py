@@ -1,0 +1,250 @@
+"""Plots of a study (matplotlib, PNG and SVG), drawn from the results alone.
+
+* ``status_map``: the status of every contact node (free, zero, stick, slip) against the load
+  step: how slip spreads along AB;
+* ``reactions``: normal and tangential reactions along AB at the pictured states, with the
+  Coulomb limits +-mu |r_N|;
+* ``mceip_mu``: the smallest MCEIP-mu value (every value as dots) and the number of slip nodes
+  against the load step, with the scene's mu;
+* ``necessary``: the smallest eigenvalue of sym K*(mu) (necessary condition (19)) against the
+  load step: the condition holds where it is <= 0.
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+
+STATUS_ORDER = ("free", "zero", "stick", "slip")
+STATUS_COLOURS = {"free": "#d9d9d9", "zero": "#9467bd", "stick": "#1f77b4", "slip": "#d62728"}
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _num(v) -> float:
+    """A results.json number (written 'inf'/None for non-finite values) as a float."""
+    if v is None:
+        return math.nan
+    if isinstance(v, str):
+        return {"inf": math.inf, "-inf": -math.inf}.get(v, math.nan)
+    return float(v)
+
+
+def _save(fig, path: pathlib.Path) -> list[pathlib.Path]:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    out = []
+    for ext in ("png", "svg"):
+        p = path.with_suffix("." + ext)
+        fig.savefig(p, dpi=150 if ext == "png" else None, bbox_inches="tight")
+        out.append(p)
+    _plt().close(fig)
+    return out
+
+
+def _tangential_start(states: list[dict]) -> int | None:
+    for s in states:
+        if (s.get("load") or {}).get("phase") == "tangential":
+            return s["index"]
+    return None
+
+
+def _mark_phases(ax, states: list[dict]) -> None:
+    t0 = _tangential_start(states)
+    if t0 is not None:
+        ax.axvline(t0 - 0.5, color="0.4", lw=0.8, ls=":")
+        ax.annotate("tangential loading ->", (t0 - 0.5, 0.0), xycoords=("data", "axes fraction"),
+                    xytext=(3, 3), textcoords="offset points", va="bottom", fontsize=8, color="0.3")
+
+
+def _title(results: dict, what: str) -> str:
+    return f"{results.get('scene', '')}: {what}"
+
+
+def _is_block(results: dict) -> bool:
+    return ((results.get("scene_config") or {}).get("system") or {}).get("type", "block") == "block"
+
+
+def _few_states(ax, idx: np.ndarray) -> None:
+    """A study of one or a few states: integer ticks on the state axis."""
+    if len(idx) <= 3:
+        ax.set_xticks(idx)
+        ax.set_xlim(idx.min() - 0.5, idx.max() + 0.5)
+
+
+def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+    states = results["states"]
+    n = len(states[0]["nodes"])
+    codes = np.array([[STATUS_ORDER.index(nd["status"]) for nd in s["nodes"]] for s in states]).T
+    xs = np.array([nd["x"] for nd in states[0]["nodes"]])
+    idx = np.array([s["index"] for s in states])
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    cmap = ListedColormap([STATUS_COLOURS[k] for k in STATUS_ORDER])
+    # node rows at their positions along AB: edges halfway between neighbours
+    if n > 1:
+        mid = 0.5 * (xs[1:] + xs[:-1])
+        yedges = np.concatenate([[xs[0] - (mid[0] - xs[0])], mid, [xs[-1] + (xs[-1] - mid[-1])]])
+    else:
+        yedges = np.array([xs[0] - 0.5, xs[0] + 0.5])
+    xedges = np.concatenate([idx - 0.5, [idx[-1] + 0.5]])
+    ax.pcolormesh(xedges, yedges, codes, cmap=cmap, norm=BoundaryNorm(np.arange(-0.5, 4.5), 4), shading="flat")
+    length = results.get("units", {}).get("length", "mm")
+    ax.set_xlabel("load step (state index)")
+    ax.hlines(yedges[1:-1], xedges[0], xedges[-1], colors="white", linewidth=0.6)    # one row per node
+    if n <= 12 or not _is_block(results):
+        ax.set_yticks(xs)
+        ax.set_yticklabels([f"{x:g}" for x in xs] if _is_block(results) else [f"node {i}" for i in range(n)])
+    ax.set_ylabel(f"contact node position x [{length}] (A at the bottom)" if _is_block(results) else "contact node")
+    _few_states(ax, idx)
+    _mark_phases(ax, states)
+    present = sorted({s for row in codes for s in row})
+    ax.legend(handles=[Patch(color=STATUS_COLOURS[STATUS_ORDER[k]], label=STATUS_ORDER[k]) for k in present],
+              loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.set_title(_title(results, f"contact status of the {n} contact nodes along the loading"))
+    return _save(fig, outdir / "status_map")
+
+
+def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    by_index = {s["index"]: s for s in results["states"]}
+    ids = [i for i in pictured if i in by_index] or [results["states"][-1]["index"]]
+    mu = _num(results.get("mu"))
+    units = results.get("units", {})
+    force, length = units.get("force", "N"), units.get("length", "mm")
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    many = len(ids) > 8
+    cmap = plt.get_cmap("viridis")
+    for k, i in enumerate(ids):
+        s = by_index[i]
+        x = np.array([nd["x"] for nd in s["nodes"]])
+        rn = -np.array([nd["r_N"] for nd in s["nodes"]])
+        rt = np.array([nd["r_T"] for nd in s["nodes"]])
+        c = cmap(k / max(len(ids) - 1, 1)) if many else f"C{k % 10}"
+        cl = s["classification"]
+        label = None if many else f"state {i} ({cl['stick']} stick / {cl['slip']} slip / {cl['free']} free)"
+        a1.plot(x, rn, "-o", color=c, ms=3.5, lw=1.2, label=label)
+        a2.plot(x, rt, "-o", color=c, ms=3.5, lw=1.2)
+        if np.isfinite(mu):
+            a2.plot(x, mu * rn, ls="--", color=c, lw=0.8, alpha=0.7)
+            a2.plot(x, -mu * rn, ls="--", color=c, lw=0.8, alpha=0.7)
+        slip = np.array([nd["status"] == "slip" for nd in s["nodes"]])
+        a2.plot(x[slip], rt[slip], "s", mfc="none", mec=STATUS_COLOURS["slip"], ms=6)
+    a1.set_ylabel(f"normal reaction -r_N [{force}]\n(compression > 0)")
+    a2.set_ylabel(f"tangential reaction r_T [{force}]\n(dashed: +-mu |r_N|)")
+    a2.set_xlabel(f"position along AB, x [{length}] (A at x = 0)" if _is_block(results) else "contact node")
+    if not _is_block(results):
+        a2.set_xticks(x)
+    for a in (a1, a2):
+        a.axhline(0, color="0.5", lw=0.6)
+        a.grid(alpha=0.3)
+    if many:
+        sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(min(ids), max(ids)))
+        fig.colorbar(sm, ax=(a1, a2), label="state index")
+    else:
+        a1.legend(fontsize=8)
+    a2.plot([], [], "s", mfc="none", mec=STATUS_COLOURS["slip"], label="slip nodes (on the Coulomb limit)")
+    a2.plot([], [], "--", color="0.4", lw=0.8, label="Coulomb limits +-mu |r_N|")
+    a2.legend(fontsize=8, loc="best")
+    where = "along AB" if _is_block(results) else "at the contact nodes"
+    a1.set_title(_title(results, f"reactions {where} (mu = {results.get('mu')})"))
+    return _save(fig, outdir / "reactions")
+
+
+def mceip_mu(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    states = results["states"]
+    idx = np.array([s["index"] for s in states])
+    nslip = np.array([s["classification"]["slip"] for s in states])
+    best = np.full(len(states), np.nan)
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    allx, ally = [], []
+    for k, s in enumerate(states):
+        sols = ((s.get("analyses") or {}).get("mceip_mu") or {}).get("solutions") or []
+        vals = [_num(v["value"]) for v in sols]
+        if vals:
+            best[k] = min(vals)
+            allx += [s["index"]] * len(vals)
+            ally += vals
+    positive = np.concatenate([best[np.isfinite(best) & (best > 0)], [v for v in ally if v > 0]])
+    ax.plot(allx, ally, ".", color="0.6", ms=3, label="every MCEIP-mu value found")
+    ax.plot(idx, best, "-", color="C0", lw=1.6, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
+            label="smallest MCEIP-mu value")
+    mu = _num(results.get("mu"))
+    if np.isfinite(mu):
+        ax.axhline(mu, color="C3", ls="--", lw=1.2, label=f"scene mu = {mu:g}")
+    if len(positive) and positive.max() / max(positive.min(), 1e-300) > 50:
+        ax.set_yscale("log")
+    ax.set_xlabel("load step (state index)")
+    ax.set_ylabel("critical friction coefficient mu (MCEIP-mu)")
+    _mark_phases(ax, states)
+    ax2 = ax.twinx()
+    ax2.step(idx, nslip, where="mid", color="C2", lw=1.0, alpha=0.8, marker="s" if len(idx) <= 3 else None,
+             label="slip nodes")
+    _few_states(ax, idx)
+    ax2.set_ylabel("number of slip nodes", color="C2")
+    ax2.tick_params(axis="y", colors="C2")
+    ax2.set_ylim(0, max(1, nslip.max()) * 1.05)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=4, frameon=False)
+    if not np.isfinite(best).any():
+        ax.text(0.5, 0.5, "no MCEIP-mu solution at any state", transform=ax.transAxes, ha="center", color="0.3")
+    ax.grid(alpha=0.3)
+    ax.set_title(_title(results, "MCEIP-mu (transition to divergence) along the loading"))
+    return _save(fig, outdir / "mceip_mu")
+
+
+def necessary(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    states = results["states"]
+    idx = np.array([s["index"] for s in states])
+    lamK = np.array([_num(((s.get("analyses") or {}).get("necessary") or {}).get("min_eig_K_sym")) for s in states])
+    lamM = np.array([_num(((s.get("analyses") or {}).get("necessary") or {}).get("min_eig_M_sym")) for s in states])
+    units = results.get("units", {})
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    ax.plot(idx, lamK, "-", color="C0", lw=1.5, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
+            label="smallest eigenvalue of sym K*(mu)")
+    _few_states(ax, idx)
+    ax.axhline(0, color="0.3", lw=0.8)
+    sat = np.array([bool(((s.get("analyses") or {}).get("necessary") or {}).get("satisfied")) for s in states])
+    if sat.any():
+        ax.fill_between(idx, 0, 1, where=sat, transform=ax.get_xaxis_transform(), color="C3", alpha=0.08,
+                        step="mid", label="necessary condition (19) holds")
+    finite = lamK[np.isfinite(lamK)]
+    if len(finite) and np.abs(finite).max() > 100 * max(np.abs(finite[finite != 0]).min(initial=1.0), 1e-300):
+        ax.set_yscale("symlog", linthresh=max(np.abs(finite[finite != 0]).min(initial=1.0), 1e-12))
+    if np.isfinite(lamM).any() and np.nanmin(lamM) < 0:
+        ax.text(0.99, 0.02, f"sym M*(mu) is indefinite at some states (min {np.nanmin(lamM):.3g})",
+                transform=ax.transAxes, ha="right", fontsize=8, color="C3")
+    ax.set_xlabel("load step (state index)")
+    ax.set_ylabel(f"min eig sym K*(mu) [{units.get('stiffness', 'N/mm')}]")
+    _mark_phases(ax, states)
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3)
+    ax.set_title(_title(results, f"necessary condition (19) at mu = {results.get('mu')}"))
+    return _save(fig, outdir / "necessary")
+
+
+def draw_plots(results: dict, pictured: list[int], outdir: pathlib.Path) -> tuple[list[pathlib.Path], list[str]]:
+    """Every plot the results allow; returns (files, notes on plots left out)."""
+    files, notes = [], []
+    files += status_map(results, outdir)
+    files += reactions(results, pictured, outdir)
+    asked = results.get("analyses_requested", [])
+    if "mceip_mu" in asked:
+        files += mceip_mu(results, outdir)
+    else:
+        notes.append("plot mceip_mu left out: the scene did not ask for the analysis mceip_mu")
+    if "necessary" in asked:
+        files += necessary(results, outdir)
+    else:
+        notes.append("plot necessary left out: the scene did not ask for the analysis necessary")
+    return files, notes

@@ -1,0 +1,215 @@
+"""report.md: one page per study tying together the summary table, the plots, the screenshots,
+the ParaView files, the scene and the versions used."""
+from __future__ import annotations
+
+import datetime
+import math
+import pathlib
+
+import yaml
+
+from app.outputs.select import describe
+
+PROBLEM_NAMES = {"sufficient": "sufficient condition (17)-(18), lambda^2", "mceip_mu": "MCEIP-mu, mu",
+                 "mceip_lambda2": "MCEIP-lambda^2, lambda^2"}
+PLOT_CAPTIONS = {
+    "status_map": "Contact status of every node of AB (rows, A at the bottom) against the load step: "
+                  "slip spreading along the contact side.",
+    "reactions": "Normal and tangential reactions along AB at the pictured states; dashed: the Coulomb "
+                 "limits +-mu |r_N|, squares: slip nodes (on the limit).",
+    "mceip_mu": "Smallest critical friction coefficient (MCEIP-mu) at each state (grey dots: every value "
+                "found) and the number of slip nodes; the dashed line is the scene's mu.",
+    "necessary": "Smallest eigenvalue of sym K*(mu): the necessary condition (19) for divergence holds "
+                 "where it is <= 0 (shaded).",
+}
+
+
+def versions() -> dict:
+    """Versions of the software a run used (read from package metadata and loaded modules)."""
+    import importlib.metadata as md
+    import platform
+    import sys
+    out = {"python": platform.python_version()}
+    for name in ("contact-divergence", "fenics-dolfinx", "petsc4py", "slepc4py", "mpi4py", "numpy", "scipy",
+                 "pydantic", "matplotlib", "pyvista", "vtk", "meshio", "h5py", "gmsh"):
+        try:
+            out[name] = md.version(name)
+        except md.PackageNotFoundError:
+            pass
+    for mod, key in (("dolfinx", "fenics-dolfinx"), ("gmsh", "gmsh")):
+        m = sys.modules.get(mod)
+        if key not in out and m is not None and getattr(m, "__version__", None):
+            out[key] = str(m.__version__)
+    try:
+        from petsc4py import PETSc
+        out["PETSc"] = ".".join(str(v) for v in PETSc.Sys.getVersion())
+    except Exception:  # pragma: no cover - PETSc is always there in this app
+        pass
+    return out
+
+
+def _fmt(v, spec: str = ".6g") -> str:
+    if v is None or v == "":
+        return ""
+    if isinstance(v, str):
+        return v
+    if isinstance(v, float) and not math.isfinite(v):
+        return str(v)
+    return format(v, spec)
+
+
+def _solutions(a: dict | None, key: str = "solutions") -> str:
+    if not a:
+        return ""
+    if a.get("failed"):
+        return "failed"
+    sols = a.get(key) or []
+    if not sols:
+        return "none"
+    return ", ".join(f"{_fmt(s['value'])} ({''.join('S' if p == 'slip' else '-' for p in s.get('pattern', []))})"
+                     for s in sols)
+
+
+def summary_table(results: dict) -> list[str]:
+    """One row per distinct classification (its first state and the range of states sharing it)."""
+    states = results["states"]
+    groups: dict[int, list[dict]] = {}
+    for s in states:
+        first = s["index"] if s.get("analyses_shared_with") is None else s["analyses_shared_with"]
+        groups.setdefault(first, []).append(s)
+    asked = results.get("analyses_requested", [])
+    length = results.get("units", {}).get("length", "mm")
+    head = ["states", f"CD u_x [{length}]", "stick / slip / free"]
+    if "necessary" in asked:
+        head.append("min eig sym K* (19)")
+    if "sufficient" in asked:
+        head.append("sufficient (17)-(18): lambda^2")
+    if "mceip_mu" in asked:
+        head.append("MCEIP-mu (pattern A to B)")
+    if "mceip_lambda2" in asked:
+        head.append("MCEIP-lambda^2")
+    rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for first, members in groups.items():
+        s0 = members[0]
+        a = s0.get("analyses") or {}
+        ids = [m["index"] for m in members]
+        rng = f"{ids[0]}" if len(ids) == 1 else f"{ids[0]}-{ids[-1]}" if ids == list(range(ids[0], ids[-1] + 1)) \
+            else f"{ids[0]}, ... ({len(ids)})"
+        ux = [m.get("load", {}).get("u_x") for m in members]
+        ux = [u for u in ux if isinstance(u, (int, float))]
+        uxs = "" if not ux else (_fmt(ux[0], ".4g") if len(ux) == 1 or ux[0] == ux[-1]
+                                  else f"{_fmt(ux[0], '.4g')} to {_fmt(ux[-1], '.4g')}")
+        c = s0["classification"]
+        row = [rng, uxs, f"{c['stick']} / {c['slip']} / {c['free']}" + (f" / {c['zero']} zero" if c.get("zero") else "")]
+        if "necessary" in asked:
+            nec = a.get("necessary") or {}
+            row.append("failed" if nec.get("failed") else
+                       f"{_fmt(nec.get('min_eig_K_sym'), '.4g')}" + (" (holds)" if nec.get("satisfied") else ""))
+        if "sufficient" in asked:
+            suf = a.get("sufficient") or {}
+            row.append("failed" if suf.get("failed") else
+                       (", ".join(_fmt(v) for v in suf.get("lambda2", [])) or "none"))
+        if "mceip_mu" in asked:
+            row.append(_solutions(a.get("mceip_mu")))
+        if "mceip_lambda2" in asked:
+            row.append(_solutions(a.get("mceip_lambda2")))
+        rows.append("| " + " | ".join(row) + " |")
+    return rows
+
+
+def _rel(path: pathlib.Path, outdir: pathlib.Path) -> str:
+    try:
+        return path.relative_to(outdir).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_files: list[pathlib.Path],
+                 shot_files: list[pathlib.Path], notes: list[str]) -> pathlib.Path:
+    cfg = results.get("scene_config") or {}
+    out = cfg.get("outputs") or {}
+    L: list[str] = []
+    name = results.get("scene", "")
+    L += [f"# Study report: {name}", ""]
+    L += [f"{results.get('system', '')}; mu = {results.get('mu')}; analyses: "
+          f"{', '.join(results.get('analyses_requested', []))}; MPI ranks: {results.get('mpi_ranks', 1)}.", ""]
+    states = results["states"]
+    path = results.get("path") or {}
+    L += [f"- {len(states)} equilibrium state(s), {results.get('distinct_classifications', '')} distinct "
+          f"classification(s); the path ended: {path.get('end', '')}."]
+    first_mu = next((s for s in states if ((s.get("analyses") or {}).get("mceip_mu") or {}).get("solutions")), None)
+    if first_mu is not None:
+        c = first_mu["classification"]
+        vals = ", ".join(_fmt(v["value"]) for v in first_mu["analyses"]["mceip_mu"]["solutions"])
+        L.append(f"- MCEIP-mu first has a solution at state {first_mu['index']} ({c['stick']} stick / "
+                 f"{c['slip']} slip / {c['free']} free): mu = {vals}.")
+    last = states[-1]
+    a = last.get("analyses") or {}
+    if "mceip_mu" in a:
+        L.append(f"- final state {last['index']}: MCEIP-mu {_solutions(a['mceip_mu'])}.")
+    if results.get("failures"):
+        L.append(f"- **incomplete**: {len(results['failures'])} failure(s): " + "; ".join(
+            f"state {f.get('state')}: {f.get('reason')}" for f in results["failures"][:5]))
+    for w in results.get("warnings") or []:
+        L.append(f"- warning: {w}")
+    L += [f"- wall time {_fmt(results.get('wall_seconds'), '.2f')} s. Units: "
+          + ", ".join(f"{k} {v}" for k, v in (results.get("units") or {}).items()) + ".", ""]
+
+    L += ["## Distinct classifications", "",
+          "Analyses depend only on the classification, so each row is computed once, at its first state, "
+          "and shared by the others. Patterns list the slip nodes from A to B: `S` slips in the mode, "
+          "`-` is stuck in it. Full numbers: `results.json`, one row per state: `steps.csv`.", ""]
+    L += summary_table(results) + [""]
+
+    if plot_files:
+        L += ["## Plots", ""]
+        for p in plot_files:
+            if p.suffix != ".png":
+                continue
+            L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{PLOT_CAPTIONS.get(p.stem, p.stem)}* "
+                  f"(also [{p.with_suffix('.svg').name}]({_rel(p.with_suffix('.svg'), outdir)}))", ""]
+
+    modes_built = sorted({m["built"] for m in (results.get("outputs") or {}).get("modes") or []})
+    if shot_files:
+        L += ["## Screenshots", "", "Pictured states: " + ", ".join(describe(s) for s in out.get("states", []))
+              + f" -> states {', '.join(str(i) for i in pictured)}.", ""]
+        if any(p.name.startswith("mode_") for p in shot_files):
+            L += ["Mode shapes (drawn with the largest displacement at 12 % of the block height): "
+                  + "; ".join(modes_built) + ".", ""]
+        for p in shot_files:
+            kind = "state" if p.name.startswith("state_") else "mode"
+            cap = ("The block at this state (contact nodes marked by status; grey: the obstacle; thin line: "
+                   "the undeformed block)." if kind == "state" else
+                   "Divergence mode (shape scaled to fit; contact nodes marked; black: slip nodes stuck in the mode).")
+            L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{p.stem}*: {cap}", ""]
+
+    files = (results.get("outputs") or {}).get("files") or []
+    if any(f.startswith("paraview/") for f in files):
+        L += ["## ParaView files", "",
+              "- `paraview/states.xdmf` (+ `states.h5`): every equilibrium state, time = state index. "
+              "Fields: `displacement` (apply *Warp By Vector*), `von_mises` (cells), and on AB "
+              "`contact_status` (-1 not a contact node, 0 free, 1 zero, 2 stick, 3 slip), `reaction` "
+              "(contact force on the block, global x/y) and `slip_direction` (impending slip, unit x).",
+              "- `paraview/modes.vtu`: every divergence mode found, one point field per mode, named "
+              "`s<state>_<problem>_<k>_<value>`, normalised to max |v| = 1.", ""]
+        if modes_built:
+            L += ["Mode fields: " + "; ".join(modes_built) + ".", ""]
+
+    if notes:
+        L += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
+
+    L += ["## Stages", "", "| stage | seconds | count |", "|---|---|---|"]
+    for st in results.get("stages", []):
+        L.append(f"| {st['name']} | {_fmt(st.get('seconds'), '.3f')} | {st.get('count', '')} |")
+    L += [""]
+
+    L += ["## Scene", "", "```yaml", yaml.safe_dump(cfg, sort_keys=False, default_flow_style=None).rstrip(), "```", ""]
+    vers = results.get("versions") or {}
+    if vers:
+        L += ["## Versions", "", "| software | version |", "|---|---|"]
+        L += [f"| {k} | {v} |" for k, v in vers.items()] + [""]
+    L += [f"Report written {datetime.datetime.now().astimezone().isoformat(timespec='seconds')}."]
+    path_out = outdir / "report.md"
+    path_out.write_text("\n".join(L) + "\n", encoding="utf-8")
+    return path_out
+

@@ -1,0 +1,364 @@
+"""Off-screen pyvista pictures of the block (no display or X server needed).
+
+* ``state_XXXX_<field>.png``: the block deformed at a pictured state (true scale unless
+  ``screenshots.scale``), coloured by |u| or the von Mises stress with a colour bar, the
+  undeformed outline, the obstacle, and the contact nodes marked by status;
+* ``mode_<name>.png``: a divergence mode drawn like the paper's Figs. 2-3: the mesh displaced by
+  the mode shape (scaled to fit), coloured by the mode amplitude, the contact nodes marked (stick,
+  slip nodes that slip in the mode, slip nodes stuck in the mode, free), eigenvalue in the title.
+
+Drawn from ``fields/fields.npz`` and the results only, so ``python -m app render`` redraws them.
+
+In a process that has loaded DOLFINx the drawing runs in a child process: DOLFINx switches the
+interpreter to RTLD_GLOBAL library loading, after which VTK's scalar bar aborts the process
+(conflicting C++ template symbols). The child also keeps a rendering failure (no EGL/OSMesa on
+the machine, say) from taking the study's results with it.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+
+MARKERS = {  # legend label, colour
+    "stick": ("stick", "#1f77b4"),
+    "slip": ("slip (impending)", "#d62728"),
+    "slip_mode": ("slip node, slips in the mode", "#d62728"),
+    "stuck_mode": ("slip node, stuck in the mode", "#111111"),
+    "free": ("free (no contact)", "#9a9a9a"),
+    "zero": ("zero reaction", "#9467bd"),
+}
+PROBLEM_TITLE = {"mceip_mu": "MCEIP-\u03bc mode: \u03bc", "mceip_lambda2": "MCEIP-\u03bb\u00b2 mode: \u03bb\u00b2",
+                 "sufficient": "sufficient condition (17)-(18) mode: \u03bb\u00b2"}
+
+
+def _pyvista():
+    # Off screen, with no X server: pick EGL directly when there is no display (VTK would try X first
+    # and print a warning before falling back).
+    if not os.environ.get("DISPLAY"):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+    pv.OFF_SCREEN = True
+    return pv
+
+
+class FieldData:
+    """The content of fields/fields.npz."""
+
+    def __init__(self, path: pathlib.Path):
+        with np.load(path, allow_pickle=False) as z:
+            self.points = z["points"]
+            self.cells = z["cells"]
+            self.cell_type = str(z["cell_type"])
+            self.contact = z["contact_points"]
+            self.state_index = [int(i) for i in z["state_index"]]
+            self.state_u = z["state_u"]
+            self.state_vm = z["state_von_mises"]
+            self.mode_v = z["mode_v"]
+            self.modes = json.loads(str(z["modes_json"]))
+            self.length, self.height = (float(v) for v in z["block"])
+
+    def grid(self, displacement: np.ndarray):
+        pv = _pyvista()
+        vtk_type = pv.CellType.TRIANGLE if self.cell_type == "triangle" else pv.CellType.QUADRATIC_TRIANGLE
+        k = self.cells.shape[1]
+        conn = np.hstack([np.full((len(self.cells), 1), k), self.cells]).ravel()
+        pts = np.column_stack([self.points + displacement, np.zeros(len(self.points))])
+        return pv.UnstructuredGrid(conn, np.full(len(self.cells), vtk_type, dtype=np.uint8), pts)
+
+    def mode(self, name: str) -> np.ndarray:
+        names = [m["name"] for m in self.modes]
+        return self.mode_v[names.index(name)]
+
+
+def _font() -> str | None:
+    """A TrueType font with the symbols used (matplotlib's DejaVu Sans), or None for VTK's own."""
+    try:
+        from matplotlib import font_manager
+        return font_manager.findfont("DejaVu Sans", fallback_to_default=False)
+    except Exception:
+        return None
+
+
+def _plotter(res: tuple[int, int]):
+    pv = _pyvista()
+    pl = pv.Plotter(off_screen=True, window_size=list(res))
+    pl.set_background("white")
+    return pl
+
+
+def _font_size(res) -> int:
+    return max(8, int(round(11 * min(res[0] / 1000, res[1] / 640))))
+
+
+def _obstacle(pl, fd: FieldData, xmin: float, xmax: float) -> None:
+    """The rigid obstacle: a grey strip under AB, hatched."""
+    pv = _pyvista()
+    depth = 0.08 * fd.height
+    rect = pv.Rectangle([[xmin, -depth, -0.02], [xmax, -depth, -0.02], [xmax, 0.0, -0.02]])
+    pl.add_mesh(rect, color="#9a9a9a")
+    step = (xmax - xmin) / 40
+    x0 = xmin
+    while x0 + depth <= xmax:
+        pl.add_mesh(pv.Line((x0, -depth, -0.01), (x0 + depth, 0.0, -0.01)), color="#5f5f5f", line_width=1)
+        x0 += step
+
+
+def _outline(fd: FieldData):
+    """Boundary of the undeformed block."""
+    L, H = fd.length, fd.height
+    pv = _pyvista()
+    return pv.MultipleLines(points=[[0, 0, 0.01], [L, 0, 0.01], [L, H, 0.01], [0, H, 0.01], [0, 0, 0.01]])
+
+
+def _markers(pl, pts: np.ndarray, groups: dict[str, list[int]], size: float) -> list[tuple[str, str]]:
+    """Contact nodes as coloured spheres; returns the legend entries used."""
+    used = []
+    for key, ids in groups.items():
+        if not ids:
+            continue
+        label, colour = MARKERS[key]
+        xyz = np.column_stack([pts[ids], np.full(len(ids), 0.05)])
+        pl.add_points(xyz, color=colour, point_size=size, render_points_as_spheres=True)
+        used.append((label, colour))
+    return used
+
+
+def _text(pl, text: str, x: float, y: float, size: int, colour: str = "black") -> None:
+    font = _font()
+    kw = {"font_file": font} if font else {}
+    pl.add_text(text, position=(x, y), viewport=True, font_size=size, color=colour, **kw)
+
+
+def _finish(pl, fd: FieldData, pts: np.ndarray, title: list[str], legend: list[tuple[str, str]],
+            path: pathlib.Path, res) -> pathlib.Path:
+    """Obstacle, outline, title lines and legend row at the top, camera, screenshot."""
+    xmin = min(float(pts[:, 0].min()), 0.0) - 0.06 * fd.length
+    xmax = max(float(pts[:, 0].max()), fd.length) + 0.06 * fd.length
+    _obstacle(pl, fd, xmin, xmax)
+    pl.add_mesh(_outline(fd), color="#666666", line_width=1.5, style="wireframe")
+    fs = _font_size(res)
+    line = 1.9 * fs / res[1]                      # one text line, as a fraction of the height
+    char = 1.0 * fs / res[0]                      # mean character width (DejaVu Sans), fraction of the width
+    y = 1.0 - 0.012 - line * 1.2
+    _text(pl, title[0], 0.012, y, int(round(fs * 1.2)))
+    for t in title[1:]:
+        for part in _wrap(t, int(0.97 / char)):
+            y -= line
+            _text(pl, part, 0.012, y, fs)
+    y -= line
+    x = 0.012
+    for label, colour in legend:
+        entry = ("\u25cf " if _font() else "o ") + label
+        width = (len(entry) + 3) * char
+        if x > 0.012 and x + width > 0.99:        # next legend row
+            x, y = 0.012, y - line
+        _text(pl, entry, x, y, fs, colour)
+        x += width
+    top_band = 1.0 - (y - 0.02)                   # fraction of the picture used by the text at the top
+    pl.view_xy()
+    pl.enable_parallel_projection()
+    depth = 0.08 * fd.height
+    ymin, ymax = -depth, max(float(pts[:, 1].max()), fd.height)
+    band = max(0.3, 1.0 - top_band - 0.17)        # free band between the text and the colour bar
+    aspect = res[0] / res[1]
+    height = max((ymax - ymin) / band, (xmax - xmin) / (0.97 * aspect))
+    # place [ymin, ymax] in the middle of the free band
+    v_mid = 0.17 + 0.5 * band
+    cx = 0.5 * (xmin + xmax)
+    cy = 0.5 * (ymin + ymax) + (0.5 - v_mid) * height
+    cam = pl.camera
+    cam.focal_point = (cx, cy, 0.0)
+    cam.position = (cx, cy, 10.0 * fd.length)
+    cam.up = (0.0, 1.0, 0.0)
+    cam.parallel_scale = 0.5 * height
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pl.screenshot(str(path))
+    pl.close()
+    return path
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    """A long line as lines of at most ``width`` characters, broken at '; ' first, then at spaces."""
+    import textwrap
+    if len(text) <= width:
+        return [text]
+    out = []
+    for phrase in text.split("; "):
+        out += textwrap.wrap(phrase, width) or [""]
+    return out
+
+
+def _bar(title: str, fmt: str, res) -> dict:
+    fs = _font_size(res)
+    return {"title": title, "vertical": False, "position_x": 0.25, "position_y": 0.02, "width": 0.5,
+            "height": 0.08, "color": "black", "fmt": fmt, "title_font_size": int(fs * 2.1),
+            "label_font_size": int(fs * 1.9), "unconstrained_font_size": True, "n_labels": 5}
+
+
+def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, path: pathlib.Path,
+                  units: dict, scene: str) -> pathlib.Path:
+    k = fd.state_index.index(state["index"])
+    u = fd.state_u[k]
+    grid = fd.grid(scale * u)
+    pl = _plotter(res)
+    if field == "von_mises":
+        grid.cell_data["von Mises"] = fd.state_vm[k]
+        name, bar = "von Mises", f"von Mises stress [{units.get('stress', 'MPa')}]"
+    else:
+        grid.point_data["u"] = np.linalg.norm(u, axis=1)
+        name, bar = "u", f"displacement magnitude [{units.get('length', 'mm')}]"
+    pl.add_mesh(grid, scalars=name, cmap="viridis", show_edges=True, edge_color="#303030", line_width=0.5,
+                scalar_bar_args=_bar(bar, "%.3g", res))
+    pts = fd.points + scale * u
+    groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip", "free", "zero")}
+    for nd, j in zip(state["nodes"], fd.contact):
+        groups[nd["status"]].append(int(j))
+    legend = _markers(pl, pts, groups, size=max(9.0, res[0] / 100))
+    c = state["classification"]
+    load = state.get("load") or {}
+    length = units.get("length", "mm")
+    where = f"CD moved by u_x = {load['u_x']:.4g} {length}, u_y = {load['u_y']:.4g} {length}" if "u_x" in load else ""
+    title = [f"{scene}: state {state['index']}, {c['stick']} stick / {c['slip']} slip / {c['free']} free"
+             + (f" / {c['zero']} zero" if c.get("zero") else ""),
+             where + ("" if scale == 1.0 else f"; displacements drawn x{scale:g}")]
+    return _finish(pl, fd, pts, title, legend, path, res)
+
+
+def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path, scene: str,
+                 units: dict | None = None) -> pathlib.Path:
+    v = fd.mode(meta["name"])
+    amp = 0.12 * fd.height                       # max mode displacement drawn: 12 % of the height
+    grid = fd.grid(amp * v)
+    grid.point_data["mode"] = np.linalg.norm(v, axis=1)
+    pl = _plotter(res)
+    pl.add_mesh(grid, scalars="mode", cmap="plasma", show_edges=True, edge_color="#303030", line_width=0.5,
+                scalar_bar_args=_bar("mode displacement magnitude (max 1)", "%.2f", res))
+    pts = fd.points + amp * v
+    groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip_mode", "stuck_mode", "free", "zero")}
+    pattern = list(meta.get("pattern") or [])
+    slip_k = 0
+    stuck_nodes = []
+    for pos, (nd, j) in enumerate(zip(state["nodes"], fd.contact)):
+        st = nd["status"]
+        if st == "slip":
+            in_mode = pattern[slip_k] if slip_k < len(pattern) else "slip"
+            slip_k += 1
+            groups["slip_mode" if in_mode == "slip" else "stuck_mode"].append(int(j))
+            if in_mode != "slip":
+                stuck_nodes.append(pos + 1)
+        else:
+            groups[st].append(int(j))
+    legend = _markers(pl, pts, groups, size=max(9.0, res[0] / 100))
+    c = state["classification"]
+    what = PROBLEM_TITLE.get(meta["problem"], meta["problem"])
+    if not _font():      # VTK's own font has no Greek letters
+        what = what.replace("\u03bc", "mu").replace("\u03bb\u00b2", "lambda^2")
+    stuck = (f"{len(stuck_nodes)} of {c['slip']} slip nodes stuck in the mode (node{'s' if len(stuck_nodes) > 1 else ''} "
+             + ", ".join(str(k) for k in stuck_nodes) + " from A)") if stuck_nodes else \
+        f"all {c['slip']} slip nodes slip in the mode"
+    unit = "" if meta["problem"] == "mceip_mu" else " " + (units or {}).get("lambda2", "1/s^2")
+    title = [f"{what} = {meta['value']:.6g}{unit}",
+             f"{scene}: state {meta['state']}, {c['stick']} stick / {c['slip']} slip / {c['free']} free; {stuck}"]
+    return _finish(pl, fd, pts, title, legend, path, res)
+
+
+def draw_screenshots(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
+                     fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
+    """Every screenshot the scene asks for; returns (files, notes)."""
+    if "dolfinx.cpp" in sys.modules:
+        return _draw_in_child(results, pictured, cfg, outdir, fields_path, progress)
+    return _draw(results, pictured, cfg, outdir, fields_path, progress)
+
+
+def _draw_in_child(results, pictured, cfg, outdir, fields_path, progress):
+    """``_draw`` in a fresh interpreter (``python -m app.outputs.screenshots JOB.json``)."""
+    fields_path = pathlib.Path(fields_path)
+    job = fields_path.parent / f".screenshots-job-{os.getpid()}.json"
+    job.write_text(json.dumps({"results": results, "pictured": pictured, "cfg": cfg, "outdir": str(outdir),
+                               "fields": str(fields_path),
+                               "progress": bool(progress is not None and getattr(progress, "enabled", False))}))
+    # not an MPI process: drop the launcher's variables so nothing in the child joins the MPI job
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_"))}
+    root = str(pathlib.Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    try:
+        proc = subprocess.run([sys.executable, "-m", "app.outputs.screenshots", str(job)], env=env,
+                              stdout=subprocess.PIPE, text=True)
+    finally:
+        job.unlink(missing_ok=True)
+    if proc.returncode != 0:
+        return [], [f"screenshots failed: the drawing process exited with status {proc.returncode} "
+                    f"(its messages are above); the results are complete, redraw with: python -m app render"]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    return [pathlib.Path(f) for f in out["files"]], out["notes"]
+
+
+def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
+          fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
+    from app.outputs.select import analyses_of, mode_name, modes_of
+    if not fields_path.exists():
+        return [], [f"screenshots left out: {fields_path} is missing (the fields are computed by the run)"]
+    fd = FieldData(fields_path)
+    res = tuple(cfg.get("resolution") or (1200, 800))
+    field = cfg.get("field", "von_mises")
+    scale = float(cfg.get("scale", 1.0))
+    units = results.get("units", {})
+    scene = results.get("scene", "")
+    by_index = {s["index"]: s for s in results["states"]}
+    files, notes = [], []
+    jobs = []
+    for i in pictured:
+        if i not in fd.state_index:
+            notes.append(f"screenshot of state {i} left out: its field is not in {fields_path.name}")
+            continue
+        jobs.append(("state", i, None))
+        if cfg.get("modes", True):
+            analyses, first = analyses_of(results["states"], i)
+            for problem, k, sol in modes_of(analyses):
+                name = mode_name(first, problem, k, _value(sol["value"]))
+                if name in [j[2] for j in jobs if j[0] == "mode"]:
+                    continue
+                jobs.append(("mode", i, name))
+    known = {m["name"]: m for m in fd.modes}
+    bar = progress.bar(len(jobs), "screenshots", unit="picture") if progress is not None else None
+    for kind, i, name in jobs:
+        if kind == "state":
+            files.append(state_picture(fd, by_index[i], field, res, scale,
+                                       outdir / f"state_{i:04d}_{field}.png", units, scene))
+        elif name in known:
+            meta = known[name]
+            files.append(mode_picture(fd, meta, by_index[meta["state"]], res, outdir / f"mode_{name}.png", scene,
+                                      units))
+        else:
+            notes.append(f"screenshot of mode {name} left out: its field is not in {fields_path.name}")
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    return files, notes
+
+
+def _value(v) -> float:
+    return float(v)
+
+
+def _child(job_file: str) -> int:
+    import types
+    job = json.loads(pathlib.Path(job_file).read_text())
+    progress = None
+    if job["progress"]:
+        from app.progress import Progress
+        progress = Progress(enabled=True, comm=types.SimpleNamespace(rank=0))
+    files, notes = _draw(job["results"], job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
+                         pathlib.Path(job["fields"]), progress)
+    print(json.dumps({"files": [str(f) for f in files], "notes": notes}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_child(sys.argv[1]))
