@@ -1,0 +1,82 @@
+"""The refinement study (app/refinement.py): a tiny two-level study, the order estimator, the schema."""
+import csv
+import math
+
+import pytest
+from mpi4py import MPI
+
+from app.config import SceneError, parse_scene
+from app.refinement import observed_order, run_level, run_refinement
+
+TINY = {"name": "tiny-refinement", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": [],
+        "system": {"type": "block", "nx": 4, "ny": 2},
+        "loading": {"normal_force": 55.0, "normal_steps": 4, "tangential_step": 0.1, "tangential_max": 10.0},
+        "refinement": {"levels": [4, 8], "degrees": [1], "planes": ["stress"]}}
+
+
+def test_two_level_refinement_writes_table_plot_and_csv(tmp_path):
+    summary = run_refinement(parse_scene(TINY), MPI.COMM_WORLD, outdir=tmp_path, log=lambda *a: None)
+    rows = summary["rows"]
+    assert [r["nx"] for r in rows] == [4, 8] and [r["ny"] for r in rows] == [2, 4]
+    assert [r["contact_nodes"] for r in rows] == [5, 9]
+    for r in rows:
+        # the final all-slip value is close to the paper's 1.7 even on these coarse meshes
+        assert 1.6 < r["final_mu"] < 1.8
+        assert r["first_mu_ux"] is not None and r["first_mu_ux"] < 0
+        assert r["lambda2"] is not None and r["lambda2"] > 0
+        assert r["depth"] > 0 and r["tangential_resultant"] > 0 and r["sliding_ux"] < 0
+        assert r["wall_s"] > 0 and r["t_mceip_mu"] > 0
+    assert not summary["failures"]
+    for name in ("refinement.csv", "refinement.md", "refinement.png", "refinement.svg", "refinement.json"):
+        assert (tmp_path / name).stat().st_size > 0
+    with open(tmp_path / "refinement.csv") as f:
+        table = list(csv.DictReader(f))
+    assert len(table) == 2 and "err_final_mu" in table[0] and "t_factor_W" in table[0]
+    md = (tmp_path / "refinement.md").read_text()
+    assert "fewer than 3 levels" in md                     # two levels: no order claimed
+    assert (tmp_path / "levels" / "P1-stress-nx8" / "steps.csv").exists()
+
+
+def test_first_solution_is_skipped_with_none_and_found_by_the_scan():
+    none = parse_scene({**TINY, "refinement": {**TINY["refinement"], "first_solution": "none"}})
+    a, _ = run_level(none, 8, 1, "stress", MPI.COMM_WORLD)
+    b, res = run_level(parse_scene(TINY), 8, 1, "stress", MPI.COMM_WORLD)
+    assert a["first_mu_ux"] is None and a["final_mu"] == pytest.approx(b["final_mu"], rel=1e-12)
+    assert b["first_method"].startswith("scan")
+    # no state before the one found has an MCEIP-mu solution
+    first = next(s for s in res["states"] if s["load"]["u_x"] == b["first_mu_ux"])
+    assert first["classification"]["slip"] > 0
+
+
+def test_observed_order_and_richardson_on_a_known_sequence():
+    h = [8.0, 4.0, 2.0, 1.0]
+    est = observed_order(h, [3.0 + 0.5 * x ** 2 for x in h])
+    assert est["p"] == pytest.approx(2.0) and est["richardson"]
+    assert est["reference"] == pytest.approx(3.0) and est["fitted"] == pytest.approx(2.0)
+    osc = observed_order(h, [3.0 + (-1) ** i * 0.5 * x for i, x in enumerate(h)])
+    assert not osc["richardson"] and "oscillating" in osc["note"] and osc["reference"] == osc_finest(h)
+    stuck = observed_order(h, [1.0, 2.0, 3.0, 4.0])
+    assert stuck["p"] == pytest.approx(0.0) and "no convergence" in stuck["note"]
+    none = observed_order(h, [None, None, 2.0, math.nan])
+    assert none["reference"] == 2.0 and none["p"] is None
+
+
+def osc_finest(h):
+    return 3.0 + (-1) ** (len(h) - 1) * 0.5 * h[-1]
+
+
+@pytest.mark.parametrize("section, message", [
+    ({"levels": [5]}, "at least 2"),
+    ({"levels": [5, 5]}, "listed once"),
+    ({"levels": [5, 10], "planes": ["membrane"]}, "refinement.planes.0"),
+    ({"levels": [5, 10], "bogus": 1}, "unknown key 'refinement.bogus'"),
+])
+def test_bad_refinement_sections_are_one_line_errors(section, message):
+    with pytest.raises(SceneError, match=message):
+        parse_scene({**TINY, "refinement": section})
+
+
+def test_refinement_needs_a_block():
+    with pytest.raises(SceneError, match="needs a block system"):
+        parse_scene({"name": "x", "mu": 1.0, "refinement": {"levels": [2, 4]},
+                     "system": {"type": "two_particles", "k": 1, "m": 1, "phi_deg": 30, "signs": [1, -1]}})
