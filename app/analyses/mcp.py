@@ -127,8 +127,14 @@ class BorderedMcp:
         self.Ib, self.Jb = Ib, Jb
         nb_loc = self.nloc + (1 if self.is_last else 0)
         self.sizes = ((nb_loc, self.n + 1), (nb_loc, self.n + 1))
-        self.J = PETSc.Mat().createAIJ(self.sizes, csr=(Ib, Jb, np.zeros(len(Jb))), comm=self.comm)
-        self.J.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        self.dense = self.comm.size == 1 and len(Jb) > 0.3 * (self.n + 1) ** 2
+        if self.dense:   # small, nearly full problems (the condensed pencils): dense LU is faster
+            self.J = PETSc.Mat().createDense(self.sizes, comm=self.comm)
+            self.J.setUp()
+            self.J.assemble()
+        else:
+            self.J = PETSc.Mat().createAIJ(self.sizes, csr=(Ib, Jb, np.zeros(len(Jb))), comm=self.comm)
+            self.J.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
         self.F = self.J.createVecLeft()
         self.v = A0.createVecRight()
         self.y0 = A0.createVecLeft()
@@ -157,7 +163,11 @@ class BorderedMcp:
         if self.is_last:
             vals = np.concatenate([vals, np.ones(len(self.comp)), [0.0]])
         P.zeroEntries()
-        P.setValuesCSR(self.Ib, self.Jb, vals)
+        if self.dense:
+            rows = np.repeat(np.arange(len(self.Ib) - 1), np.diff(self.Ib))
+            P.getDenseArray()[rows, self.Jb] = vals
+        else:
+            P.setValuesCSR(self.Ib, self.Jb, vals)
         P.assemble()
 
     # -- one SNES VI run ---------------------------------------------------------------------
@@ -206,8 +216,11 @@ class BorderedMcp:
         else:
             pc.setFactorShift(PETSc.Mat.FactorShiftType.NONZERO, 1e-14)
             pc.setFactorOrdering("qmd")  # minimum degree: 3x less fill than nd with the dense border
-        snes.solve(None, X)
-        reason, its = snes.getConvergedReason(), snes.getIterationNumber()
+        try:
+            snes.solve(None, X)
+            reason, its = snes.getConvergedReason(), snes.getIterationNumber()
+        except PETSc.Error:          # e.g. a zero pivot in a dense reduced Jacobian: a failed run
+            reason, its = -3, snes.getIterationNumber()
         z = np.concatenate(self.comm.allgather(X.getArray(readonly=True).copy()))  # MPI collective
         snes.destroy()
         for v in (X, xl, xu):
