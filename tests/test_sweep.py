@@ -302,6 +302,14 @@ def test_killed_sweep_finishes_only_the_missing_cases(serial_sweep, tmp_path):
     finally:
         os.killpg(p.pid, signal.SIGKILL)                 # mpirun and its ranks, without warning
         p.wait(timeout=60)
+        # OpenMPI may put the ranks in process groups of their own: kill them too, and wait
+        # until none is left, so that no orphaned rank finishes a case after the count below.
+        pattern = str(tmp_path / "s.yaml")
+        for _ in range(600):
+            subprocess.run(["pkill", "-KILL", "-f", pattern], capture_output=True)
+            if subprocess.run(["pgrep", "-f", pattern], capture_output=True).returncode != 0:
+                break
+            time.sleep(0.05)
     time.sleep(0.5)
     done = {x.parent.name: x.stat().st_mtime_ns for x in out.glob("cases/*/results.json")}
     assert 2 <= len(done) < 6, done
