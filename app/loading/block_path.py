@@ -116,7 +116,7 @@ def block_path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress)
         uT, g = phase1[-1][2].u_T, -phase1[-1][2].u_N
         gy = -depth
         failure = None
-        end = f"tangential_max = {ld.tangential_max} reached"
+        end = f"tangential_max = {ld.tangential_max} {UNITS[scene.units]['length']} reached"
         nsteps = int(np.floor(ld.tangential_max / ld.tangential_step + 1e-9))
         bar = progress.bar(nsteps, "loading")
         for k in range(1, nsteps + 1):
