@@ -164,3 +164,35 @@ def test_killed_rank_leaves_no_results_folder(tmp_path):
         proc.wait()
     assert proc.returncode != 0
     assert not out.exists()
+
+
+def test_missing_cached_mesh_file_is_regenerated():
+    """Meshes are generated, never read from user files: a deleted cache file is rebuilt."""
+    from app.scene.block_mesh import DEFAULT_CACHE_DIR, mesh_file_name
+    scene = _with(nx=6, ny=3)
+    first = run_scene(scene)
+    path = DEFAULT_CACHE_DIR / mesh_file_name(80.0, 40.0, 6, 3, "crossed", None)
+    assert path.exists()
+    path.unlink()
+    again = run_scene(scene)
+    assert path.exists()
+    assert [s["classification"] for s in again["states"]] == [s["classification"] for s in first["states"]]
+
+
+def test_empty_contact_set_is_a_clear_error(monkeypatch):
+    """A mesh without contact nodes on AB stops with a clear error, not a crash later on."""
+    import app.system.elasticity as elasticity
+    from app.config import parse_scene
+    from app.loading.block_path import UnreachableLoad
+    from app.study import run_study
+    from mpi4py import MPI
+    original = elasticity.block_operators
+
+    def no_contact(*args, **kwargs):
+        ops = original(*args, **kwargs)
+        ops.contact_x = ops.contact_x[:0]
+        return ops
+
+    monkeypatch.setattr(elasticity, "block_operators", no_contact)
+    with pytest.raises(UnreachableLoad, match="no contact nodes"):
+        run_study(parse_scene(_with(nx=6, ny=3)), MPI.COMM_WORLD)
