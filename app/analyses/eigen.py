@@ -11,7 +11,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.config import EigSettings
-from app.analyses.pencils import gather_vec
+from app.analyses.pencils import combine, diag_scale, gather_vec
 
 
 def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> tuple[SLEPc.EPS, str]:
@@ -86,11 +86,8 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
     """
     out = {"mu": mu}
     for name, A0, A1 in (("K", K0, K1), ("M", M0, M1)):
-        A = A0.copy()
-        A.axpy(mu, A1, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        d = A.getDiagonal()
-        scale = d.norm(PETSc.NormType.NORM_INFINITY)
-        d.destroy()
+        A = combine(A0, A1, mu)
+        scale = diag_scale(A)
         lam = min_sym_eig(A, settings)
         A.destroy()
         out[f"min_eig_{name}_sym"] = lam

@@ -24,6 +24,7 @@ import numpy as np
 import scipy.linalg
 from petsc4py import PETSc
 
+from app.analyses.pencils import dense, diag_scale
 from app.config import McpSettings
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
@@ -319,13 +320,6 @@ def _same(a: McpSolution, b: McpSolution, tol: float) -> bool:
             and float(np.max(np.abs(a.x_c - b.x_c))) <= 1e-6)
 
 
-def _scale_of(A: PETSc.Mat) -> float:
-    d = A.getDiagonal()
-    s = d.norm(PETSc.NormType.NORM_INFINITY)
-    d.destroy()
-    return s if s > 0 else max(A.norm(PETSc.NormType.NORM_INFINITY), 1e-300)
-
-
 def _pattern_eig_starts(D0: np.ndarray, D1: np.ndarray, comp: np.ndarray, slip: np.ndarray) -> list[tuple[float, np.ndarray]]:
     """Starts from the linear eigenproblem of one stick/slip pattern (eq. (25)): every real
     ``t >= 0`` whose eigenvector has ``x_P`` of one sign gives ``(t, x_c)``."""
@@ -369,7 +363,7 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     Phases 2-3 repeat while they find something (at most ``shift_rounds`` times).
     ``t_upper`` is a proven bound on the values (every search is boxed by it).
     """
-    alpha = _scale_of(A0)
+    alpha = diag_scale(A0)
     tau = 1.0 if value_scale is None else value_scale
     S0, S1 = A0.copy(), A1.copy()
     S0.scale(1.0 / alpha)
@@ -384,7 +378,6 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     top = t_upper / tau if np.isfinite(t_upper) else PETSc.INFINITY
     dense_ops = None
     if op.n <= settings.pattern_eig_limit:
-        from app.analyses.pencils import dense
         dense_ops = (dense(S0), dense(S1))
 
     def attempt(method: str, x0: np.ndarray, label: str, t0: float, tbar: float = 0.0,

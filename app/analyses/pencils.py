@@ -114,6 +114,22 @@ def reduced_pencil(A: PETSc.Mat, system: System, cls: Classification,
     return A0, A1
 
 
+def combine(A0: PETSc.Mat, A1: PETSc.Mat, mu: float) -> PETSc.Mat:
+    """A new matrix ``A0 + mu A1`` (the pencil (15) at a given mu); the caller destroys it."""
+    A = A0.copy()
+    A.axpy(mu, A1, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    return A
+
+
+def diag_scale(A: PETSc.Mat) -> float:
+    """Largest diagonal entry in magnitude (the infinity norm if the diagonal is zero): the
+    unit-free scale that tolerances are relative to."""
+    d = A.getDiagonal()
+    s = d.norm(PETSc.NormType.NORM_INFINITY)
+    d.destroy()
+    return s if s > 0 else max(A.norm(PETSc.NormType.NORM_INFINITY), 1e-300)
+
+
 def dense(A: PETSc.Mat) -> np.ndarray:
     """Replicated dense copy of a small distributed matrix (MPI collective)."""
     comm = A.getComm().tompi4py()

@@ -13,8 +13,8 @@ from app.analyses import eigen
 from app.analyses.classify import ZERO, Classification
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
-from app.analyses.pencils import (UnsupportedState, condensed_mu_pencil, dense, reduced_pencil, reduced_space,
-                                   split_pencils)
+from app.analyses.pencils import (UnsupportedState, combine, condensed_mu_pencil, dense, diag_scale,
+                                   reduced_pencil, reduced_space, split_pencils)
 from app.config import Scene
 from app.system.base import System
 
@@ -79,19 +79,6 @@ class _Pencils:
             self._space.destroy()
 
 
-def _combine(A0: PETSc.Mat, A1: PETSc.Mat, mu: float) -> PETSc.Mat:
-    A = A0.copy()
-    A.axpy(mu, A1, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    return A
-
-
-def _diag_scale(A: PETSc.Mat) -> float:
-    d = A.getDiagonal()
-    s = d.norm(PETSc.NormType.NORM_INFINITY)
-    d.destroy()
-    return s
-
-
 class AnalysisFailure(Exception):
     """A solver failed on one analysis of one state (reported, and the study goes on)."""
 
@@ -107,7 +94,7 @@ def _sufficient(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
     with system.stages("sufficient condition (17)-(18)"):
-        Ks, Ms = _combine(K0, K1, scene.mu), _combine(M0, M1, scene.mu)
+        Ks, Ms = combine(K0, K1, scene.mu), combine(M0, M1, scene.mu)
         try:
             out = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=_keep_modes(scene))
         finally:
@@ -161,7 +148,7 @@ def _attach_vectors(d: dict, rep) -> None:
             sd["_x"] = sol.x
 
 
-def _no_slip(problem: str) -> dict:
+def _no_slip() -> dict:
     return {"solutions": [], "result": "no solution (no slip nodes)", "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
                                                   "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
                                           "complete": True}}
@@ -169,7 +156,7 @@ def _no_slip(problem: str) -> dict:
 
 def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
     if s == 0:
-        return _no_slip("mu")
+        return _no_slip()
     method = scene.settings.mceip_mu_method
     if method == "condensed":
         A0, A1 = p.condensed_mu()
@@ -192,7 +179,7 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
 def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
     mu = scene.lambda2_mu
     if s == 0:
-        d = _no_slip("lambda2")
+        d = _no_slip()
     else:
         K0, K1 = p.K()
         M0, M1 = p.M()
@@ -207,8 +194,8 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict 
                     "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
                             "which proves that (12)-(14) has no solution"}}
             else:
-                Ks, Ms = _combine(K0, K1, mu), _combine(M0, M1, mu)
-                tau = _diag_scale(Ks) / _diag_scale(Ms)
+                Ks, Ms = combine(K0, K1, mu), combine(M0, M1, mu)
+                tau = diag_scale(Ks) / diag_scale(Ms)
                 # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
                 # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD.
                 upper = np.inf

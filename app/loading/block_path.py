@@ -14,7 +14,7 @@ import logging
 import numpy as np
 from mpi4py import MPI
 
-from app.analyses.classify import FREE, SLIP, ZERO, classify
+from app.analyses.classify import FREE, SLIP, classify
 from app.config import Block, Scene
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility

@@ -8,6 +8,7 @@ exact condensation of MCEIP-mu.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,9 +27,9 @@ class ContactFlexibility:
     signs: np.ndarray             # paper-axis signs of those DOFs
     loads: tuple[PETSc.Vec, PETSc.Vec]
 
-    @property
+    @functools.cached_property
     def schur(self) -> np.ndarray:
-        """Schur complement of K onto the contact DOFs: W^-1 (symmetrised)."""
+        """Schur complement of K onto the contact DOFs: W^-1 (symmetrised), computed once."""
         S = np.linalg.inv(self.W)
         return 0.5 * (S + S.T)
 
