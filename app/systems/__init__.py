@@ -16,6 +16,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Any
 
+from app.systems.gmsh_schema import GmshBody
 from app.systems.matrices_schema import Matrices
 
 
@@ -61,3 +62,5 @@ def schemas() -> tuple[type, ...]:
 
 register(SystemType("matrices", Matrices, "app.systems.matrices",
                     "K (and M) from Matrix Market or PETSc binary files, contact DOF pairs"))
+register(SystemType("gmsh", GmshBody, "app.systems.gmsh_body",
+                    "a 2D body from a Gmsh .geo/.msh file, a straight obstacle, a loading program"))

@@ -1,0 +1,182 @@
+"""Scene schema of ``system.type: gmsh``: a 2D elastic body from a Gmsh file, a straight rigid
+obstacle, and a loading program.
+
+    system:
+      type: gmsh
+      file: block.geo              # .geo (meshed in 2D by gmsh) or .msh, relative to the scene file
+      contact: AB                  # physical curve that may touch the obstacle
+      prescribed: {CD: xy}         # physical curves whose displacement components the program prescribes
+      material: {E: 5.0, nu: 0.48, density: 1.2e-9}   # or materials: {<physical surface>: {...}}
+      degree: 1                    # P1 or P2
+      plane: stress                # or strain
+      thickness: 9.6
+      obstacle: {point: [0, 0], normal: [0, -1]}      # a straight line; normal: the body's outward normal
+      program:                     # phases; each starts from the end of the previous one
+        - {steps: 10, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 55}}
+        - {steps: 310, displacement: {CD: {translation: [-6.2, 0]}}}
+
+Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase loads them
+(``traction`` per unit length, or ``force``: a total force spread uniformly over the curve).
+``gravity`` adds the body force density x acceleration. ``until: {normal_force: F}`` scales the
+phase's increments so that the normal resultant on the contact curve is F at its end (exact in one
+rescaling when the phase starts from the unloaded, touching state: the incremental problems are
+then positively homogeneous; otherwise a secant iteration). Not modelled: curved obstacles, two
+deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
+``contact`` curve.
+"""
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal, Optional
+
+import numpy as np
+from pydantic import Field, ValidationInfo, field_validator, model_validator
+
+from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, resolve_file
+
+Vec2 = tuple[Finite, Finite]
+
+
+class Material(StrictModel):
+    """Isotropic linear elastic material (E [stress], nu, density [mass/length^3])."""
+    E: PosFloat
+    nu: Annotated[float, Field(gt=-1.0, lt=0.5, allow_inf_nan=False)]
+    density: PosFloat = 1.2e-9
+
+
+class Obstacle(StrictModel):
+    """A rigid straight line through ``point``; ``normal`` is the body's outward normal at contact
+    (pointing into the obstacle; need not be a unit vector)."""
+    point: Vec2 = (0.0, 0.0)
+    normal: Vec2 = (0.0, -1.0)
+
+    @field_validator("normal")
+    @classmethod
+    def _nonzero(cls, v: Vec2) -> Vec2:
+        if math.hypot(*v) == 0:
+            raise ValueError("the normal must be a non-zero vector [nx, ny]")
+        return v
+
+    def frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit tangent t and outward normal n, with t = (-n_y, n_x) (for n = -y, t = +x)."""
+        n = np.array(self.normal, dtype=float)
+        n /= np.linalg.norm(n)
+        return np.array([-n[1], n[0]]), n
+
+
+class Motion(StrictModel):
+    """Increment of a prescribed curve's displacement during a phase: a rigid translation and an
+    optional (linearised) rotation ``rotation_deg`` about ``about``."""
+    translation: Vec2 = (0.0, 0.0)
+    rotation_deg: Finite = 0.0
+    about: Vec2 = (0.0, 0.0)
+
+
+class Until(StrictModel):
+    """Force control of a displacement phase: scale it to reach this normal resultant on the contact curve."""
+    normal_force: PosFloat
+
+
+class Phase(StrictModel):
+    """One phase of the loading program, applied in ``steps`` equal increments."""
+    name: str = ""
+    steps: Annotated[int, Field(ge=1, le=100000)] = 1
+    displacement: dict[str, Motion] = {}
+    traction: dict[str, Vec2] = {}      # increment of a uniform traction [force/length^2 x thickness = per length per thickness]
+    force: dict[str, Vec2] = {}         # increment of a total force spread uniformly over the curve
+    gravity: Optional[Vec2] = None      # increment of the acceleration [length/time^2]
+    until: Optional[Until] = None
+    stop_at_gross_sliding: bool = True
+
+
+class GmshBody(StrictModel):
+    """A 2D body meshed by Gmsh (physical groups name its curves and surfaces)."""
+    type: Literal["gmsh"]
+    file: str
+    contact: str
+    prescribed: dict[str, Literal["x", "y", "xy"]] = {}
+    material: Optional[Material] = None
+    materials: dict[str, Material] = {}
+    degree: Literal[1, 2] = 1
+    plane: Literal["stress", "strain"] = "stress"
+    thickness: PosFloat = 1.0
+    mass: Literal["consistent", "lumped"] = "consistent"
+    obstacle: Obstacle = Obstacle()
+    program: Annotated[list[Phase], Field(min_length=1)]
+
+    @field_validator("file", mode="before")
+    @classmethod
+    def _file(cls, v: Any, info: ValidationInfo) -> Any:
+        return str(resolve_file("", v, info))
+
+    @model_validator(mode="after")
+    def _groups(self) -> "GmshBody":
+        import pathlib
+
+        from app.systems.gmsh_mesh import model_info
+        shown = pathlib.Path(self.file).name
+        try:
+            info = model_info(pathlib.Path(self.file), shown)
+        except SystemPathError as err:
+            raise SystemPathError("file", shown, err.msg) from None
+        curves, surfaces = info.curves, info.surfaces
+
+        def curve(key: str, name: str) -> None:
+            if name not in curves:
+                allowed = ", ".join(sorted(curves)) or "none: the file defines no physical curve"
+                raise SystemPathError(key, name, f"no physical curve '{name}' in {shown}; physical curves: {allowed}")
+            if curves[name][1] == 0:
+                raise SystemPathError(key, name, f"the physical curve '{name}' has no mesh elements")
+
+        curve("contact", self.contact)
+        for name in self.prescribed:
+            curve(f"prescribed.{name}", name)
+            if name == self.contact:
+                raise SystemPathError(f"prescribed.{name}", self.prescribed[name],
+                                      "the contact curve cannot also be prescribed")
+        if (self.material is None) == (not self.materials):
+            raise SystemPathError("material", None, "give either 'material' (one material for the whole body) or "
+                                  f"'materials' (one per physical surface: {', '.join(sorted(surfaces))})")
+        if self.materials:
+            for name in self.materials:
+                if name not in surfaces:
+                    raise SystemPathError(f"materials.{name}", None, f"no physical surface '{name}' in {shown}; "
+                                          f"physical surfaces: {', '.join(sorted(surfaces))}")
+            missing = sorted(set(surfaces) - set(self.materials))
+            if missing:
+                raise SystemPathError("materials", sorted(self.materials), f"no material for the physical surface "
+                                      f"'{missing[0]}': give one for each of {', '.join(sorted(surfaces))}")
+        for i, ph in enumerate(self.program):
+            for name, m in ph.displacement.items():
+                key = f"program.{i}.displacement.{name}"
+                if name not in self.prescribed:
+                    raise SystemPathError(key, None, f"'{name}' is not a prescribed curve: list it under "
+                                          f"prescribed (with its components x, y or xy)")
+                comp = self.prescribed[name]
+                if comp != "xy" and (m.rotation_deg != 0 or m.translation[1 if comp == "x" else 0] != 0):
+                    raise SystemPathError(key, m.model_dump(), f"only the {comp} component of '{name}' is prescribed: "
+                                          "rotations and the other translation component need xy")
+            for kind in ("traction", "force"):
+                for name in getattr(ph, kind):
+                    curve(f"program.{i}.{kind}.{name}", name)
+                    if name in self.prescribed:
+                        raise SystemPathError(f"program.{i}.{kind}.{name}", None,
+                                              f"'{name}' is prescribed (displacement control): load another curve")
+            if ph.until is not None and not ph.displacement:
+                raise SystemPathError(f"program.{i}.until", ph.until.model_dump(), "needs a displacement in the "
+                                      "same phase (it scales the phase's prescribed motion)")
+        return self
+
+    def material_of(self, surface: str) -> Material:
+        return self.material if self.material is not None else self.materials[surface]
+
+    @classmethod
+    def check_scene(cls, scene: Any) -> None:
+        """Scene-level checks: no block loading; pictures of meshes are not drawn for this type yet."""
+        if scene.loading is not None:
+            raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a gmsh system: give "
+                                  "system.program (the phases of the loading)")
+        for key in ("paraview", "screenshots"):
+            if getattr(scene.outputs, key):
+                raise SystemPathError(f"outputs.{key}", True, "not available yet for a gmsh system (the field "
+                                      "writer assumes the built-in block): use plots and report")
