@@ -1,0 +1,87 @@
+"""The shipped Gmsh examples (app/scenes/gmsh/): Hertz contact of a half-disk, an L-shaped body
+dragged sideways, the paper's block from a .geo (its numbers: tests/test_gmsh_body.py)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, run_cli
+
+EX = ROOT / "app" / "scenes" / "gmsh"
+F, R, E, NU = 10.0, 20.0, 1000.0, 0.3          # the half-disk scene's data (plane strain, unit thickness)
+
+
+def hertz():
+    """Half-width and peak pressure of a cylinder on a rigid plane, line load F per unit thickness."""
+    Es = E / (1 - NU ** 2)
+    a = math.sqrt(4 * F * R / (math.pi * Es))
+    return a, 2 * F / (math.pi * a)
+
+
+def _half_disk(tmp_path, h):
+    (tmp_path / "half_disk.geo").write_text((EX / "half_disk.geo").read_text().replace("h = 0.04;", f"h = {h};"))
+    scene = (EX / "half_disk.yaml").read_text().replace("outputs: {plots: true, report: true}", "")
+    (tmp_path / "s.yaml").write_text(scene)
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    return json.loads((tmp_path / "out" / "results.json").read_text())
+
+
+def _measure(res):
+    """Contact half-width (halfway between the outermost nodes in contact and their free neighbours)
+    and peak pressure (nodal reaction / tributary length / thickness) of the final state."""
+    st = res["states"][-1]
+    x = np.array([n["x"] for n in st["nodes"]])
+    rN = np.array([n["r_N"] for n in st["nodes"]])
+    c = np.flatnonzero(rN < 0)
+    i0, i1 = c.min(), c.max()
+    a = 0.5 * ((x[i1] + x[i1 + 1]) / 2 - (x[i0] + x[i0 - 1]) / 2)
+    trib = 0.5 * (x[2:] - x[:-2])
+    p = -rN[1:-1] / trib
+    return a, p.max(), x, res["path"]["initial_gaps"]
+
+
+def test_half_disk_against_hertz_with_refinement():
+    import tempfile
+    import pathlib
+    a_ex, p_ex = hertz()
+    errs = []
+    for h in (0.08, 0.04, 0.02):
+        with tempfile.TemporaryDirectory() as d:
+            res = _half_disk(pathlib.Path(d), h)
+        assert res["states"][-1]["load"]["normal_resultant"] == pytest.approx(F, rel=1e-10)
+        assert res["path"]["phases"][0]["homogeneous"] is False          # initial gaps: secant iteration
+        a, p0, x, gaps = _measure(res)
+        # initial gaps from the geometry: the arc's height above the plane
+        assert np.array(gaps) == pytest.approx(R - np.sqrt(R ** 2 - x ** 2), abs=1e-9 * R)
+        assert all(n["status"] in ("slip", "free") for n in res["states"][-1]["nodes"])   # frictionless
+        errs.append((abs(a / a_ex - 1), abs(p0 / p_ex - 1)))
+        assert abs(a / a_ex - 1) <= 0.75 * h / a_ex + 0.005        # edge resolution: half a cell
+        assert abs(p0 / p_ex - 1) <= 0.02
+    assert errs[0][0] > errs[1][0] > errs[2][0]                     # half-width converges
+    assert errs[1][0] < 0.04 and errs[2][0] < 0.02                  # shipped mesh (h = 0.04): a few percent
+
+
+def test_l_shape_example_runs_with_outputs(tmp_path):
+    p = run_cli("run", str(EX / "l_shape.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert res["path"]["end"] == "all phases applied"
+    assert res["states"][9]["load"]["normal_resultant"] == pytest.approx(30.0, rel=1e-10)
+    for st in res["states"]:
+        assert st["contact_solve"]["violation"] < 1e-9
+    first = res["states"][0]["classification"]
+    assert first["free"] > 0            # pressing the arm lifts the far end of the foot
+    final = res["states"][-1]
+    assert final["classification"]["slip"] > 0
+    assert any(s["analyses"]["mceip_mu"]["solutions"] for s in res["states"] if "mceip_mu" in s["analyses"])
+    for name in ("status_map", "reactions", "mceip_mu", "necessary"):
+        assert (tmp_path / "out" / "plots" / f"{name}.png").stat().st_size > 1000
+    assert "gmsh body l_shape.geo" in (tmp_path / "out" / "report.md").read_text()
+
+
+@pytest.mark.parametrize("scene", ["block.yaml", "half_disk.yaml", "l_shape.yaml"])
+def test_shipped_scenes_validate_from_any_folder(scene):
+    p = run_cli("validate", str(EX / scene), cwd="/")
+    assert p.returncode == 0, p.stderr
