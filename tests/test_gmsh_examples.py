@@ -81,7 +81,41 @@ def test_l_shape_example_runs_with_outputs(tmp_path):
     assert "gmsh body l_shape.geo" in (tmp_path / "out" / "report.md").read_text()
 
 
-@pytest.mark.parametrize("scene", ["block.yaml", "half_disk.yaml", "l_shape.yaml"])
+@pytest.mark.parametrize("scene", ["block.yaml", "half_disk.yaml", "l_shape.yaml", "incline.yaml"])
 def test_shipped_scenes_validate_from_any_folder(scene):
     p = run_cli("validate", str(EX / scene), cwd="/")
     assert p.returncode == 0, p.stderr
+
+
+@pytest.mark.parametrize("alpha,mu,step", [(25.0, 0.505, 51), (25.0, 0.305, 31), (-40.0, 0.705, 71)])
+def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step):
+    """Gravity tilted by tan(theta) = 0.01 per step against the incline's normal: the path ends by
+    gross sliding (every node in contact slips) at the first step with tan(theta) > mu, and not
+    before; the incline (mesh and obstacle) is at any angle."""
+    import yaml
+    geo = (EX / "incline.geo").read_text().replace("alpha = 25 * Pi / 180", f"alpha = {alpha} * Pi / 180")
+    (tmp_path / "incline.geo").write_text(geo)
+    s = yaml.safe_load((EX / "incline.yaml").read_text())
+    a, g = math.radians(alpha), 9810.0
+    t, n = (math.cos(a), math.sin(a)), (math.sin(a), -math.cos(a))
+    s["system"]["obstacle"]["angle_deg"] = alpha
+    s["system"]["program"][0]["gravity"] = [g * n[0], g * n[1]]
+    s["system"]["program"][1]["gravity"] = [-g * t[0], -g * t[1]]
+    s["mu"] = mu
+    s["analyses"] = []
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert res["path"]["end"].startswith(f"gross sliding in phase 1 ('tilt gravity downhill') at step {step}:")
+    weight = 1.2e-9 * g * 40 * 20 * 10
+    for st in res["states"]:
+        k = st["load"]["step"] if st["load"]["phase"] == 1 else 0
+        tangential = abs(sum(x["r_T"] for x in st["nodes"]))
+        normal = -sum(x["r_N"] for x in st["nodes"])
+        # the obstacle carries the weight; the foundation (1e-2 E / L^2) takes a fraction below 1 %
+        # (0.3 % of the tangential load once most nodes slip): far below the 2 % load step
+        assert normal == pytest.approx(weight, rel=2e-3)
+        if k < step:
+            assert tangential == pytest.approx(0.01 * k * weight, rel=1e-2, abs=1e-3 * weight)
+            assert any(x["status"] == "stick" for x in st["nodes"])

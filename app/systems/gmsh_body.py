@@ -129,7 +129,10 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         return 2.0 * mu_f * eps(w) + lam_f * ufl.tr(eps(w)) * ufl.Identity(2)
 
     with stages("assemble stiffness"):
-        a = dolfinx.fem.form(t * ufl.inner(sigma(u), eps(v)) * ufl.dx)
+        stiff = t * ufl.inner(sigma(u), eps(v)) * ufl.dx
+        if cfg.foundation is not None:       # weak elastic foundation (a floating body)
+            stiff = stiff + dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.foundation)) * t * ufl.inner(u, v) * ufl.dx
+        a = dolfinx.fem.form(stiff)
         m = dolfinx.fem.form(rho_f * t * ufl.inner(u, v) * ufl.dx)
         K_full = dolfinx.fem.petsc.assemble_matrix(a)
         K_full.assemble()
@@ -298,10 +301,10 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
             flex = contact_flexibility(ops.K, zero, zero, dofs, signs)          # MPI collective
         except PETSc.Error:
             raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
-                            "body (a floating body held only by the obstacle is not supported)") from None
+                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)") from None
         if not np.all(np.isfinite(flex.W)) or np.linalg.eigvalsh(flex.W).min() <= 0:
             raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
-                            "body (a floating body held only by the obstacle is not supported)")
+                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)")
         U0 = _contact_columns(flex, ops.loads, ops.K)
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
     gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec

@@ -15,6 +15,12 @@ obstacle, and a loading program.
         - {steps: 10, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 55}}
         - {steps: 310, displacement: {CD: {translation: [-6.2, 0]}}}
 
+A body that no prescribed curve holds (e.g. resting on an inclined plane under gravity) has rigid
+motions that only the obstacle stops; the contact solver needs a non-singular K, so such a body
+needs ``foundation: k``: an elastic foundation ``k t int u.v dx`` on the whole body. Choose k
+small against E / L^2 (e.g. 1e-6 of it): it carries a fraction of the load of order k L^2 / E
+while the body sticks, and lets a body slide (by excess force / k) when friction cannot hold it.
+
 Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase loads them
 (``traction`` per unit length, or ``force``: a total force spread uniformly over the curve).
 ``gravity`` adds the body force density x acceleration. ``until: {normal_force: F}`` scales the
@@ -46,9 +52,17 @@ class Material(StrictModel):
 
 class Obstacle(StrictModel):
     """A rigid straight line through ``point``; ``normal`` is the body's outward normal at contact
-    (pointing into the obstacle; need not be a unit vector)."""
+    (pointing into the obstacle; need not be a unit vector), or ``angle_deg``: the line's slope,
+    i.e. the normal (0, -1) rotated counter-clockwise by that angle (exact for any angle)."""
     point: Vec2 = (0.0, 0.0)
     normal: Vec2 = (0.0, -1.0)
+    angle_deg: Optional[Finite] = None
+
+    @model_validator(mode="after")
+    def _one_way(self) -> "Obstacle":
+        if self.angle_deg is not None and "normal" in self.model_fields_set:
+            raise SystemPathError("angle_deg", self.angle_deg, "give either normal or angle_deg, not both")
+        return self
 
     @field_validator("normal")
     @classmethod
@@ -59,8 +73,12 @@ class Obstacle(StrictModel):
 
     def frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit tangent t and outward normal n, with t = (-n_y, n_x) (for n = -y, t = +x)."""
-        n = np.array(self.normal, dtype=float)
-        n /= np.linalg.norm(n)
+        if self.angle_deg is not None:
+            a = math.radians(self.angle_deg)
+            n = np.array([math.sin(a), -math.cos(a)])
+        else:
+            n = np.array(self.normal, dtype=float)
+            n /= np.linalg.norm(n)
         return np.array([-n[1], n[0]]), n
 
 
@@ -102,6 +120,7 @@ class GmshBody(StrictModel):
     thickness: PosFloat = 1.0
     mass: Literal["consistent", "lumped"] = "consistent"
     obstacle: Obstacle = Obstacle()
+    foundation: Optional[PosFloat] = None   # stiffness [stress/length] of a weak elastic foundation (see below)
     program: Annotated[list[Phase], Field(min_length=1)]
 
     @field_validator("file", mode="before")
