@@ -244,3 +244,27 @@ def test_inverted_elements_are_an_error(tmp_path):
     (tmp_path / "inv.msh").write_text(INVERTED_MSH.replace("5 2 2 3 1 1 5 2", "5 2 2 3 1 1 2 5"))
     p = run_cli("validate", str(tmp_path / "s.yaml"))
     assert p.returncode == 0, p.stderr
+
+
+def test_force_and_traction_loads(tmp_path):
+    """Pressed by CD's motion, then pushed sideways by a load on the lateral sides (80 mm of curve):
+    a total force F and the traction F / (80 mm x thickness) give the same states; the push changes
+    the tangential reactions; pure force control in the normal direction leaves the body floating
+    (a one-line error naming the remedy)."""
+    f = write_block_msh(tmp_path / "b.msh", 10, 5, "crossed")
+    base = gmsh_scene(f, mu=0.6)
+    press = base["system"]["program"][0]
+    base["system"]["program"] = [press, {"steps": 5, "force": {"lateral": [-20.0, 0.0]}}]
+    res_f = run_scene(base)
+    base["system"]["program"] = [press, {"steps": 5, "traction": {"lateral": [-20.0 / (80.0 * 9.6), 0.0]}}]
+    res_t = run_scene(base)
+    assert len(res_f["states"]) == 15
+    assert_same_path(res_f, res_t)
+    t = [s["load"]["tangential_resultant"] for s in res_f["states"][9:]]
+    assert all(abs(b - a) > 1e-3 for a, b in zip(t, t[1:]))
+    base["system"]["prescribed"] = {"lateral": "x"}
+    base["system"]["program"] = [{"steps": 4, "force": {"CD": [0.0, -55.0]}}]
+    import yaml
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(base))
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "o"), "-q")
+    assert p.returncode == 2 and "the stiffness is singular" in p.stderr and len(p.stderr.splitlines()) == 1, p.stderr

@@ -302,7 +302,13 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         except PETSc.Error:
             raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
                             "body: prescribe a curve or give system.foundation (a weak elastic foundation)") from None
-        if not np.all(np.isfinite(flex.W)) or np.linalg.eigvalsh(flex.W).min() <= 0:
+        # A (nearly) singular K gives a huge or indefinite flexibility: W k is O(1 ... 1e4) for a held
+        # body (k the largest diagonal entry of K), O(1/eps) for a floating one.
+        diag = ops.K.getDiagonal()
+        kmax = diag.norm(PETSc.NormType.NORM_INFINITY)                            # MPI collective
+        diag.destroy()
+        if (not np.all(np.isfinite(flex.W)) or np.linalg.eigvalsh(flex.W).min() <= 0
+                or np.abs(flex.W).max() * kmax > 1e10):
             raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
                             "body: prescribe a curve or give system.foundation (a weak elastic foundation)")
         U0 = _contact_columns(flex, ops.loads, ops.K)
