@@ -268,3 +268,23 @@ def test_force_and_traction_loads(tmp_path):
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(base))
     p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "o"), "-q")
     assert p.returncode == 2 and "the stiffness is singular" in p.stderr and len(p.stderr.splitlines()) == 1, p.stderr
+
+
+def test_rotation_about_a_point_mirrors(tmp_path):
+    """CD pressed, then rotated by +theta or -theta about its centre (40, 40): the crossed mesh is
+    mirror-symmetric about x = 40, so the normal reactions are mirror images, and the tilt loads
+    one side (the side CD's rotation moves down)."""
+    f = write_block_msh(tmp_path / "b.msh", 10, 5, "crossed")
+    out = {}
+    for th in (2.0, -2.0):
+        s = gmsh_scene(f, mu=0.0)
+        s["system"]["program"] = [s["system"]["program"][0],
+                                  {"steps": 3, "stop_at_gross_sliding": False,
+                                   "displacement": {"CD": {"rotation_deg": th, "about": [40.0, 40.0]}}}]
+        s["system"]["program"][0]["stop_at_gross_sliding"] = False
+        s["analyses"] = []
+        out[th] = run_scene(s)["states"][-1]["nodes"]
+    a = np.array([n["r_N"] for n in out[2.0]])
+    b = np.array([n["r_N"] for n in out[-2.0]])
+    assert a == pytest.approx(b[::-1], abs=1e-8 * np.abs(a).max())
+    assert a[0] < a[-1] and -a[:5].sum() > -a[-5:].sum()    # +theta (counter-clockwise) presses A's side (r_N < 0)
