@@ -288,3 +288,23 @@ def test_rotation_about_a_point_mirrors(tmp_path):
     b = np.array([n["r_N"] for n in out[-2.0]])
     assert a == pytest.approx(b[::-1], abs=1e-8 * np.abs(a).max())
     assert a[0] < a[-1] and -a[:5].sum() > -a[-5:].sum()    # +theta (counter-clockwise) presses A's side (r_N < 0)
+
+
+def test_p2_plane_strain_equals_built_in_block(tmp_path):
+    """P2 and plane strain through the .geo (10 x 5 cells) equal the built-in block with the same options."""
+    (tmp_path / "b.geo").write_text(GEO.read_text().replace("nx = 20; ny = 10;", "nx = 10; ny = 5;"))
+    ref = run_scene({"name": "b", "system": {"type": "block", "nx": 10, "ny": 5, "pattern": "right", "degree": 2,
+                                             "plane": "strain"}, "mu": 1.1, "analyses": ["mceip_mu"]})
+    got = run_scene(gmsh_scene(tmp_path / "b.geo", degree=2, plane="strain"))
+    assert_same_path(ref, got)
+
+
+def test_unnamed_physical_groups_are_named_by_their_tags(tmp_path):
+    geo = GOOD.replace('Physical Curve("bottom") = {1}; Physical Curve("top") = {3}; Physical Surface("body") = {1};',
+                       "Physical Curve(11) = {1}; Physical Curve(12) = {3}; Physical Surface(5) = {1};")
+    (tmp_path / "t.geo").write_text(geo)
+    res = run_scene({"name": "t", "mu": 0.5, "analyses": [],
+                     "system": {"type": "gmsh", "file": str(tmp_path / "t.geo"), "contact": 11, "prescribed": {12: "xy"},
+                                "materials": {5: {"E": 1.0, "nu": 0.3}},
+                                "program": [{"steps": 2, "displacement": {12: {"translation": [0, -0.1]}}}]}})
+    assert len(res["states"]) == 2 and res["states"][-1]["load"]["normal_resultant"] > 0

@@ -143,6 +143,10 @@ def model_info(path: pathlib.Path, value: str) -> ModelInfo:
     try:
         open_model(gmsh, path, value)
         info = check_model(gmsh, value)
+    except SystemPathError:
+        raise
+    except Exception as err:     # noqa: BLE001 - gmsh's own errors on a user's file
+        raise SystemPathError("file", value, f"gmsh: {' '.join(str(err).split())[:160]}") from None
     finally:
         gmsh.model.remove()
         if here:

@@ -123,6 +123,26 @@ class GmshBody(StrictModel):
     foundation: Optional[PosFloat] = None   # stiffness [stress/length] of a weak elastic foundation (see below)
     program: Annotated[list[Phase], Field(min_length=1)]
 
+    @model_validator(mode="before")
+    @classmethod
+    def _tags_as_names(cls, data: Any) -> Any:
+        """Unnamed physical groups are named by their tag: accept ``contact: 3`` for ``'3'``."""
+        if not isinstance(data, dict):
+            return data
+
+        def names(d: Any) -> Any:
+            return {(str(k) if isinstance(k, int) and not isinstance(k, bool) else k): v
+                    for k, v in d.items()} if isinstance(d, dict) else d
+        data = dict(data)
+        if isinstance(data.get("contact"), int) and not isinstance(data.get("contact"), bool):
+            data["contact"] = str(data["contact"])
+        for key in ("prescribed", "materials"):
+            data[key] = names(data[key]) if key in data else data.get(key, {})
+        if isinstance(data.get("program"), list):
+            data["program"] = [dict(ph, **{k: names(ph[k]) for k in ("displacement", "traction", "force") if k in ph})
+                               if isinstance(ph, dict) else ph for ph in data["program"]]
+        return data
+
     @field_validator("file", mode="before")
     @classmethod
     def _file(cls, v: Any, info: ValidationInfo) -> Any:

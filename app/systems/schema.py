@@ -43,12 +43,16 @@ def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.P
     """Absolute path of an existing, readable file named in the scene (relative to the scene file)."""
     if not isinstance(value, str) or not value.strip():
         raise SystemPathError(key, value, "allowed: a file path (relative to the scene file)")
-    path = pathlib.Path(value).expanduser()
-    if not path.is_absolute():
-        path = base_dir(info) / path
-    path = path.resolve()
-    if not path.exists():
+    try:
+        path = pathlib.Path(value).expanduser()
+        if not path.is_absolute():
+            path = base_dir(info) / path
+        path = path.resolve()
+        exists, is_file = path.exists(), path.is_file()
+    except (OSError, ValueError, RuntimeError) as err:     # e.g. a NUL byte, a name too long, a loop
+        raise SystemPathError(key, value, f"not a usable file path ({err})") from None
+    if not exists:
         raise SystemPathError(key, value, f"no such file ({path})")
-    if not path.is_file():
+    if not is_file:
         raise SystemPathError(key, value, f"not a file ({path})")
     return path
