@@ -119,3 +119,27 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step):
         if k < step:
             assert tangential == pytest.approx(0.01 * k * weight, rel=1e-2, abs=1e-3 * weight)
             assert any(x["status"] == "stick" for x in st["nodes"])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("scene", ["half_disk.yaml", "incline.yaml"])
+def test_examples_same_numbers_on_two_ranks(tmp_path, scene):
+    """Initial gaps (half-disk), the secant force control, an inclined obstacle with gravity and a
+    foundation (incline): the same states and MCEIP-mu on 1 and 2 ranks."""
+    out = {}
+    for ranks in (1, 2):
+        p = run_cli("run", str(EX / scene), "-o", str(tmp_path / f"o{ranks}"), "-q", ranks=ranks)
+        assert p.returncode == 0, p.stderr
+        out[ranks] = json.loads((tmp_path / f"o{ranks}" / "results.json").read_text())
+    a, b = out[1], out[2]
+    assert b["mpi_ranks"] == 2 and a["path"]["end"] == b["path"]["end"]
+    assert len(a["states"]) == len(b["states"])
+    for x, y in zip(a["states"], b["states"]):
+        assert [n["status"] for n in x["nodes"]] == [n["status"] for n in y["nodes"]]
+        scale = max(abs(n["r_N"]) for n in x["nodes"]) or 1.0
+        for p_, q_ in zip(x["nodes"], y["nodes"]):
+            assert q_["r_N"] == pytest.approx(p_["r_N"], abs=1e-9 * scale)
+            assert q_["r_T"] == pytest.approx(p_["r_T"], abs=1e-9 * scale)
+        va = sorted(s["value"] for s in x["analyses"].get("mceip_mu", {}).get("solutions", []))
+        vb = sorted(s["value"] for s in y["analyses"].get("mceip_mu", {}).get("solutions", []))
+        assert vb == pytest.approx(va, rel=1e-8)
