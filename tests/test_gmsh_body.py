@@ -112,10 +112,11 @@ def test_inclined_obstacle_is_the_rotated_problem(tmp_path, angle):
     assert_same_path(ref, got)
 
 
-def test_initial_gap_closed_by_a_rigid_motion(tmp_path):
-    """The block 0.3 mm above the obstacle: nodes are free with u_N = -(gap - CD's motion) until the
-    gap closes; the force-controlled press then reaches 55 N (secant iteration, not homogeneous)."""
-    gap = 0.3
+@pytest.mark.parametrize("gap", [0.3, 3.0])
+def test_initial_gap_closed_by_a_rigid_motion(tmp_path, gap):
+    """The block lifted above the obstacle (less and more than the bonded estimate of the press,
+    0.5 mm): nodes are free with u_N = -(gap - CD's motion) until the gap closes; the
+    force-controlled press then reaches 55 N (bracketing and regula falsi, not homogeneous)."""
     f = write_block_msh(tmp_path / "lifted.msh", 10, 5, "crossed", 0.0, (0.0, gap))
     res = run_scene(gmsh_scene(f))
     info = res["path"]

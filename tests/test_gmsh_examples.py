@@ -51,7 +51,7 @@ def test_half_disk_against_hertz_with_refinement():
         with tempfile.TemporaryDirectory() as d:
             res = _half_disk(pathlib.Path(d), h)
         assert res["states"][-1]["load"]["normal_resultant"] == pytest.approx(F, rel=1e-10)
-        assert res["path"]["phases"][0]["homogeneous"] is False          # initial gaps: secant iteration
+        assert res["path"]["phases"][0]["homogeneous"] is False          # initial gaps: regula falsi
         a, p0, x, gaps = _measure(res)
         # initial gaps from the geometry: the arc's height above the plane
         assert np.array(gaps) == pytest.approx(R - np.sqrt(R ** 2 - x ** 2), abs=1e-9 * R)
@@ -124,7 +124,7 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step):
 @pytest.mark.mpi
 @pytest.mark.parametrize("scene", ["half_disk.yaml", "incline.yaml"])
 def test_examples_same_numbers_on_two_ranks(tmp_path, scene):
-    """Initial gaps (half-disk), the secant force control, an inclined obstacle with gravity and a
+    """Initial gaps (half-disk), the regula falsi force control, an inclined obstacle with gravity and a
     foundation (incline): the same states and MCEIP-mu on 1 and 2 ranks."""
     out = {}
     for ranks in (1, 2):

@@ -11,8 +11,8 @@ Force control of a displacement phase (``until: normal_force F``): the phase's `
 by ``c`` so that the normal resultant ``-sum r_N`` is F at its end. When the phase starts from the
 unloaded state with zero gaps and no loads, every increment is positively homogeneous in ``c``
 (DESIGN.md section 5): one trial run gives the exact factor, as for the built-in block
-(app/loading/block_path.py), and the same two runs are made here. Otherwise ``c`` is found by a
-secant iteration on the resultant; either way the reached force is checked to 1e-10 relative.
+(app/loading/block_path.py), and the same two runs are made here. Otherwise ``c`` is bracketed
+(doubled until the force is passed, e.g. to close gaps) and found by regula falsi (Illinois); either way the reached force is checked to 1e-10 relative.
 """
 from __future__ import annotations
 
@@ -80,18 +80,36 @@ def _scale_for_force(solver, U0, G, a0, ph: ProgramPhase, u_prev, homogeneous: b
             c *= F / fn
             if abs(_end_force(solver, U0, G, a0, c * ph.da, ph.steps, u_prev) - F) <= 1e-10 * F:
                 return c
-    else:                            # secant iteration on f(c) = resultant(c) - F
-        c0, f0 = 0.0, _end_force(solver, U0, G, a0, 0.0 * ph.da, ph.steps, u_prev) - F
-        c1 = c
-        for _ in range(60):
-            f1 = _end_force(solver, U0, G, a0, c1 * ph.da, ph.steps, u_prev) - F
-            if abs(f1) <= 1e-10 * F:
-                return c1
-            if f1 == f0:
+    else:                            # bracket, then regula falsi (Illinois) on f(c) = resultant(c) - F
+        def f(c: float) -> float:
+            return _end_force(solver, U0, G, a0, c * ph.da, ph.steps, u_prev) - F
+        lo, f_lo = 0.0, f(0.0)
+        if f_lo >= 0:
+            raise ProgramError(f"phase '{ph.name}': the normal resultant already reaches {F} without this phase's motion")
+        hi, f_hi = c, f(c)
+        for _ in range(60):          # a gap to close: grow the motion until the force is passed
+            if f_hi >= 0:
                 break
-            c0, c1, f0 = c1, c1 - f1 * (c1 - c0) / (f1 - f0), f1
-            if c1 < 0:
-                c1 = 0.5 * c0
+            lo, f_lo, hi = hi, f_hi, 2.0 * hi
+            f_hi = f(hi)
+        else:
+            raise ProgramError(f"phase '{ph.name}': normal force {F} not reached by 2^60 times the bonded estimate")
+        side = 0
+        for _ in range(200):
+            c = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+            fc = f(c)
+            if abs(fc) <= 1e-10 * F:
+                return c
+            if fc > 0:
+                hi, f_hi = c, fc
+                if side == 1:
+                    f_lo *= 0.5
+                side = 1
+            else:
+                lo, f_lo = c, fc
+                if side == -1:
+                    f_hi *= 0.5
+                side = -1
     raise ProgramError(f"phase '{ph.name}': normal force {F} not reached to 1e-10 relative")
 
 

@@ -26,7 +26,7 @@ Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase l
 ``gravity`` adds the body force density x acceleration. ``until: {normal_force: F}`` scales the
 phase's increments so that the normal resultant on the contact curve is F at its end (exact in one
 rescaling when the phase starts from the unloaded, touching state: the incremental problems are
-then positively homogeneous; otherwise a secant iteration). Not modelled: curved obstacles, two
+then positively homogeneous; otherwise bracketing and regula falsi). Not modelled: curved obstacles, two
 deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
 ``contact`` curve.
 """
