@@ -267,7 +267,7 @@ def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
 
 def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     """Run ``case`` on ``gcomm``; the group's rank 0 writes it and returns its table row."""
-    from app.outputs.results import _atomic_write, write_results
+    from app.outputs.results import atomic_write, write_results
     from app.progress import Progress
     from app.study import run_study
     error = None
@@ -292,7 +292,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     if gcomm.rank != 0:
         return None
     if error is not None:
-        _atomic_write(folder / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
+        atomic_write(folder / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
         return error_row(case, error)
     results["sweep_case"] = {"sweep": case.scene.name, "name": case.name, "index": case.index,
                              "values": case.values, "scene_hash": case.scene_hash}
@@ -358,7 +358,7 @@ def _columns(cases: list[Case]) -> list[str]:
 def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: dict[int, dict],
                  info: dict) -> None:
     """sweep.csv and sweep.json (atomically): one row per case, finished or not."""
-    from app.outputs.results import _atomic_write, _clean
+    from app.outputs.results import atomic_write, json_clean
     cols = _columns(cases)
     table = []
     for c in cases:
@@ -371,7 +371,7 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
     w.writeheader()
     for r in table:
         w.writerow({k: "" if v is None else (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
-    _atomic_write(outdir / "sweep.csv", buf.getvalue())
+    atomic_write(outdir / "sweep.csv", buf.getvalue())
     missing = [r["case"] for r in table if r["status"] == "not run"]
     doc = {"scene": scene.name, "sweep": scene.sweep.model_dump(mode="json"), "n_cases": len(cases),
            "complete": not missing, "missing": missing, **info,
@@ -379,7 +379,7 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
                        "index": "case number in sweep order (from 0)",
                        **{k: "swept key" for k in cases[0].values}, **dict(QUANTITIES)},
            "cases": table}
-    _atomic_write(outdir / "sweep.json", json.dumps(_clean(doc), indent=1))
+    atomic_write(outdir / "sweep.json", json.dumps(json_clean(doc), indent=1))
 
 
 def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[int, dict]) -> list[pathlib.Path]:

@@ -111,7 +111,7 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """
     if not wants_pictures(results):
         return results
-    from app.outputs.results import _clean
-    data = json.loads(json.dumps(_clean(results)))
+    from app.outputs.results import json_clean
+    data = json.loads(json.dumps(json_clean(results)))
     draw_outputs(data, outdir, progress)
     return data

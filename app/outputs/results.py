@@ -10,8 +10,14 @@ import tempfile
 
 import numpy as np
 
+#: version of the results.json format, written as its ``format_version`` key (1: the format of
+#: the first release, documented in the README and docs/method.md)
+FORMAT_VERSION = 1
 
-def _atomic_write(path: pathlib.Path, text: str) -> None:
+
+def atomic_write(path: pathlib.Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename, so
+    that ``path`` is either absent, the old file, or complete (never half-written)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
@@ -22,11 +28,13 @@ def _atomic_write(path: pathlib.Path, text: str) -> None:
         raise
 
 
-def _clean(obj):
+def json_clean(obj):
+    """``obj`` as JSON data: keys starting with ``_`` (in-memory data) dropped, numpy scalars as
+    Python numbers, non-finite floats as ``"inf"``/``"-inf"``/``None``."""
     if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items() if not str(k).startswith("_")}
+        return {k: json_clean(v) for k, v in obj.items() if not str(k).startswith("_")}
     if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
+        return [json_clean(v) for v in obj]
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, float) and not np.isfinite(obj):
@@ -76,6 +84,7 @@ def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS)
     w.writeheader()
     w.writerows(step_rows(results))
-    _atomic_write(outdir / "steps.csv", buf.getvalue())
-    _atomic_write(outdir / "results.json", json.dumps(_clean(results), indent=1))
+    atomic_write(outdir / "steps.csv", buf.getvalue())
+    doc = {"format_version": FORMAT_VERSION, **json_clean(results)}
+    atomic_write(outdir / "results.json", json.dumps(doc, indent=1))
     return [outdir / "steps.csv", outdir / "results.json"]
