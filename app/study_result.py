@@ -26,11 +26,28 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
-from app.outputs.results import FORMAT_VERSION, json_clean
+
+#: version of the results.json format, written as its ``format_version`` key (1: the format of
+#: the first release, documented in the README and docs/method.md)
+FORMAT_VERSION = 1
 
 #: keys of an MCEIP solution dictionary that are the evidence that it is one (mcp.py, enumerate.py)
 EVIDENCE_KEYS = ("residual", "complementarity", "min_x_Ts", "min_y_Ts", "iterations", "found_by",
                  "found_count", "relative_error")
+
+
+def json_clean(obj):
+    """``obj`` as JSON data: keys starting with ``_`` (in-memory data) dropped, numpy scalars as
+    Python numbers, non-finite floats as ``"inf"``/``"-inf"``/``None``."""
+    if isinstance(obj, dict):
+        return {k: json_clean(v) for k, v in obj.items() if not str(k).startswith("_")}
+    if isinstance(obj, (list, tuple)):
+        return [json_clean(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None if np.isnan(obj) else ("inf" if obj > 0 else "-inf")
+    return obj
 
 
 class CriticalMu(float):
@@ -49,11 +66,7 @@ class CriticalMu(float):
 
 def _float(v: Any) -> float:
     """A number of the JSON document (``"inf"``/``"-inf"``/``None`` as written by json_clean)."""
-    if v is None:
-        return math.nan
-    if isinstance(v, str):
-        return float(v)
-    return float(v)
+    return math.nan if v is None else float(v)
 
 
 def _array(values: Any) -> np.ndarray:

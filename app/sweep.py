@@ -49,6 +49,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from app.config import Scene, SceneError, _format_error
+from app.study_result import StateResult
 
 TAG_REQUEST, TAG_REPLY = 7101, 7102
 DISPATCHER_ENV = "CONTACT_DIVERGENCE_SWEEP_DISPATCHER"   # "dedicated": force a non-working rank 0 (tests)
@@ -181,9 +182,8 @@ PLOTTED = ["final_mceip_mu_min", "first_mceip_mu_value", "first_mceip_mu_u_x_mm"
 
 
 def _min_mu(state: dict) -> float | None:
-    sols = state.get("analyses", {}).get("mceip_mu", {}).get("solutions") or []
-    vals = [s["value"] for s in sols if isinstance(s.get("value"), (int, float))]
-    return min(vals) if vals else None
+    m = StateResult.from_dict(state).min_mu()
+    return None if m is None else float(m)
 
 
 def case_row(results: dict, case: Case, ran: str = "this run") -> dict:

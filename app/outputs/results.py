@@ -8,11 +8,7 @@ import os
 import pathlib
 import tempfile
 
-import numpy as np
-
-#: version of the results.json format, written as its ``format_version`` key (1: the format of
-#: the first release, documented in the README and docs/method.md)
-FORMAT_VERSION = 1
+from app.study_result import FORMAT_VERSION, StateResult, json_clean
 
 
 def atomic_write(path: pathlib.Path, text: str) -> None:
@@ -28,20 +24,6 @@ def atomic_write(path: pathlib.Path, text: str) -> None:
         raise
 
 
-def json_clean(obj):
-    """``obj`` as JSON data: keys starting with ``_`` (in-memory data) dropped, numpy scalars as
-    Python numbers, non-finite floats as ``"inf"``/``"-inf"``/``None``."""
-    if isinstance(obj, dict):
-        return {k: json_clean(v) for k, v in obj.items() if not str(k).startswith("_")}
-    if isinstance(obj, (list, tuple)):
-        return [json_clean(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None if np.isnan(obj) else ("inf" if obj > 0 else "-inf")
-    return obj
-
-
 STEP_COLUMNS = ["index", "phase", "u_x_CD_mm", "u_y_CD_mm", "normal_resultant_N", "tangential_resultant_N",
                 "n_free", "n_zero", "n_stick", "n_slip", "necessary_min_eig_K_sym", "necessary_satisfied",
                 "sufficient_max_lambda2_per_s2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",
@@ -54,8 +36,9 @@ def step_rows(results: dict) -> list[dict]:
     for st in results["states"]:
         a = st.get("analyses", {})
         load = st.get("load", {})
-        mu_sols = [s["value"] for s in a.get("mceip_mu", {}).get("solutions", [])]
-        l2_sols = [s["value"] for s in a.get("mceip_lambda2", {}).get("solutions", [])]
+        res = StateResult.from_dict(st)
+        mu_sols = [] if res.mceip_mu is None else [float(v) for v in res.mceip_mu.values]
+        l2_sols = [] if res.mceip_lambda2 is None else [float(v) for v in res.mceip_lambda2.values]
         suff = a.get("sufficient", {}).get("lambda2", [])
         nec = a.get("necessary", {})
         c = st["classification"]

@@ -3,16 +3,18 @@ from __future__ import annotations
 
 import pathlib
 
+from app.study_result import StudyResult
+
 
 def summary(results: dict, outdir: pathlib.Path) -> str:
     states = results["states"]
     lines = [f"scene '{results['scene']}': {results['system']}",
              f"  {len(states)} equilibrium state(s), {results['distinct_classifications']} distinct "
              f"classification(s); path: {results['path'].get('end', '')}"]
-    first_mu = next((s for s in states if s["analyses"].get("mceip_mu", {}).get("solutions")), None)
+    first_mu = StudyResult.from_dict(results).first_instability()
     if first_mu is not None:
-        c = first_mu["classification"]
-        lines.append(f"  MCEIP-mu first has a solution at state {first_mu['index']} "
+        c = first_mu.classification
+        lines.append(f"  MCEIP-mu first has a solution at state {first_mu.index} "
                      f"({c['stick']} stick / {c['slip']} slip / {c['free']} free)")
     last = states[-1]
     c = last["classification"]
