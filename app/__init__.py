@@ -18,8 +18,20 @@ __all__ = ["CriticalMu", "MceipResult", "MceipSolution", "NecessaryResult", "Nod
            "StateResult", "StudyResult", "SufficientResult", "load_scene", "run_study"]
 
 if TYPE_CHECKING:
-    from app.api import (CriticalMu, MceipResult, MceipSolution, NecessaryResult, Node, Scene, SceneError,
-                         StateResult, StudyResult, SufficientResult, load_scene, run_study)
+    from app.api import (
+        CriticalMu,
+        MceipResult,
+        MceipSolution,
+        NecessaryResult,
+        Node,
+        Scene,
+        SceneError,
+        StateResult,
+        StudyResult,
+        SufficientResult,
+        load_scene,
+        run_study,
+    )
 
 
 def __getattr__(name: str) -> Any:

@@ -23,8 +23,16 @@ from mpi4py import MPI
 
 from app.config import Scene, SceneError, parse_scene
 from app.config import load_scene as _load_scene_file
-from app.study_result import (CriticalMu, MceipResult, MceipSolution, NecessaryResult, Node, StateResult,
-                              StudyResult, SufficientResult)
+from app.study_result import (
+    CriticalMu,
+    MceipResult,
+    MceipSolution,
+    NecessaryResult,
+    Node,
+    StateResult,
+    StudyResult,
+    SufficientResult,
+)
 
 __all__ = ["CriticalMu", "MceipResult", "MceipSolution", "NecessaryResult", "Node", "Scene", "SceneError",
            "StateResult", "StudyResult", "SufficientResult", "load_scene", "run_study"]
@@ -56,5 +64,5 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
         if getattr(scene, key, None) is not None:
             raise SceneError(f"scene '{scene.name}': has a '{key}' section: it is a batch of studies, "
                              f"run it with: python -m app run SCENE")
-    from app.study import run_study as _run_study   # PETSc, and DOLFINx for a block, only when running
+    from app.study import run_study as _run_study  # PETSc, and DOLFINx for a block, only when running
     return StudyResult.from_dict(_run_study(scene, comm, outdir=None))

@@ -26,7 +26,6 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
-
 #: version of the results.json format, written as its ``format_version`` key (1: the format of
 #: the first release, documented in the README and docs/method.md)
 FORMAT_VERSION = 1
@@ -37,8 +36,11 @@ EVIDENCE_KEYS = ("residual", "complementarity", "min_x_Ts", "min_y_Ts", "iterati
 
 
 def json_clean(obj):
-    """``obj`` as JSON data: keys starting with ``_`` (in-memory data) dropped, numpy scalars as
-    Python numbers, non-finite floats as ``"inf"``/``"-inf"``/``None``."""
+    """Return ``obj`` as JSON data (what results.json holds).
+
+    Keys starting with ``_`` (in-memory data such as mode vectors) are dropped, numpy scalars
+    become Python numbers, non-finite floats ``"inf"``/``"-inf"``/``None``.
+    """
     if isinstance(obj, dict):
         return {k: json_clean(v) for k, v in obj.items() if not str(k).startswith("_")}
     if isinstance(obj, (list, tuple)):

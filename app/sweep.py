@@ -296,7 +296,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
         return error_row(case, error)
     results["sweep_case"] = {"sweep": case.scene.name, "name": case.name, "index": case.index,
                              "values": case.values, "scene_hash": case.scene_hash}
-    from app.outputs.pictures import draw_after_run    # plots, screenshots, report, if the scene asks
+    from app.outputs.pictures import draw_after_run  # plots, screenshots, report, if the scene asks
     results = draw_after_run(results, folder, Progress(enabled=False))
     write_results(results, folder)
     (folder / "error.json").unlink(missing_ok=True)
@@ -487,10 +487,10 @@ def run_cases(cases: list[Case], todo: list[int], comm, ranks_per_case: int, out
         return "serial (one rank)"
     # PETSc and SLEPc initialise collectively on the world communicator when first imported: do it
     # here on every rank, not inside the first case (a rank may never run one).
-    from petsc4py import PETSc          # noqa: F401
-    from slepc4py import SLEPc          # noqa: F401
+    from petsc4py import PETSc  # noqa: F401
+    from slepc4py import SLEPc  # noqa: F401
     if any(c.scene.system.type == "block" for c in cases):
-        import app.loading.block_path   # noqa: F401 - DOLFINx
+        import app.loading.block_path  # noqa: F401 - DOLFINx
     threaded = (MPI.Query_thread() >= MPI.THREAD_MULTIPLE
                 and os.environ.get(DISPATCHER_ENV, "") != "dedicated")
     first = 0 if threaded else 1
@@ -608,7 +608,7 @@ def summary_table(cases: list[Case], rows: dict[int, dict]) -> str:
 
 def main(scene: Scene, args, comm) -> int:
     """``python -m app validate|run`` for a sweep scene."""
-    from app.cli import _fail
+    from app.errors import fail as _fail
     source = args.scene or "default scene"
     rpc = getattr(args, "ranks_per_case", None)
     if scene.sweep is None:

@@ -99,10 +99,6 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     return drawn
 
 
-def load_results(outdir: pathlib.Path) -> dict:
-    return json.loads((outdir / "results.json").read_text(encoding="utf-8"))
-
-
 def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """After a run (rank 0): the results as JSON data, with the pictures drawn if the scene asks.
 

@@ -11,8 +11,6 @@ import yaml
 from app.outputs.select import describe
 from app.study_result import StudyResult
 
-PROBLEM_NAMES = {"sufficient": "sufficient condition (17)-(18), lambda^2", "mceip_mu": "MCEIP-mu, mu",
-                 "mceip_lambda2": "MCEIP-lambda^2, lambda^2"}
 PLOT_CAPTIONS = {
     "status_map": "Contact status of every node of AB (rows, A at the bottom) against the load step: "
                   "slip spreading along the contact side.",
