@@ -8,10 +8,12 @@ import os
 import pathlib
 import tempfile
 
-import numpy as np
+from app.study_result import FORMAT_VERSION, StateResult, json_clean
 
 
-def _atomic_write(path: pathlib.Path, text: str) -> None:
+def atomic_write(path: pathlib.Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename, so
+    that ``path`` is either absent, the old file, or complete (never half-written)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
@@ -20,18 +22,6 @@ def _atomic_write(path: pathlib.Path, text: str) -> None:
     except BaseException:
         pathlib.Path(tmp).unlink(missing_ok=True)
         raise
-
-
-def _clean(obj):
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items() if not str(k).startswith("_")}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None if np.isnan(obj) else ("inf" if obj > 0 else "-inf")
-    return obj
 
 
 STEP_COLUMNS = ["index", "phase", "u_x_CD_mm", "u_y_CD_mm", "normal_resultant_N", "tangential_resultant_N",
@@ -46,8 +36,9 @@ def step_rows(results: dict) -> list[dict]:
     for st in results["states"]:
         a = st.get("analyses", {})
         load = st.get("load", {})
-        mu_sols = [s["value"] for s in a.get("mceip_mu", {}).get("solutions", [])]
-        l2_sols = [s["value"] for s in a.get("mceip_lambda2", {}).get("solutions", [])]
+        res = StateResult.from_dict(st)
+        mu_sols = [] if res.mceip_mu is None else [float(v) for v in res.mceip_mu.values]
+        l2_sols = [] if res.mceip_lambda2 is None else [float(v) for v in res.mceip_lambda2.values]
         suff = a.get("sufficient", {}).get("lambda2", [])
         nec = a.get("necessary", {})
         c = st["classification"]
@@ -76,6 +67,7 @@ def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS)
     w.writeheader()
     w.writerows(step_rows(results))
-    _atomic_write(outdir / "steps.csv", buf.getvalue())
-    _atomic_write(outdir / "results.json", json.dumps(_clean(results), indent=1))
+    atomic_write(outdir / "steps.csv", buf.getvalue())
+    doc = {"format_version": FORMAT_VERSION, **json_clean(results)}
+    atomic_write(outdir / "results.json", json.dumps(doc, indent=1))
     return [outdir / "steps.csv", outdir / "results.json"]

@@ -24,11 +24,10 @@ import os
 import pathlib
 import uuid
 
-import numpy as np
-import numpy.typing as npt
-
 import dolfinx.io.gmshio
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
 from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 
