@@ -14,7 +14,8 @@ from typing import Annotated, Any, Literal, Optional, Union
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from app.systems import SYSTEM_TYPES, schemas as registered_schemas   # system types beyond block/two_particles
+from app.systems import SYSTEM_TYPES  # system types beyond block/two_particles
+from app.systems import schemas as registered_schemas
 from app.systems.schema import SystemPathError
 
 ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")

@@ -16,7 +16,6 @@ import pathlib
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, run_cli, run_scene
 
 GEO = ROOT / "app" / "scenes" / "gmsh" / "block.geo"

@@ -5,7 +5,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, run_cli
 
 EX = ROOT / "app" / "scenes" / "gmsh"
@@ -43,8 +42,8 @@ def _measure(res):
 
 
 def test_half_disk_against_hertz_with_refinement():
-    import tempfile
     import pathlib
+    import tempfile
     a_ex, p_ex = hertz()
     errs = []
     for h in (0.08, 0.04, 0.02):

@@ -14,10 +14,11 @@ import numpy as np
 import pytest
 import scipy.io
 import scipy.sparse as sp
-from mpi4py import MPI
-
 from conftest import run_cli, run_scene
-from test_two_particles import CASES, K as KP, M as MP, PHI, analytic_lambda2, analytic_mu, assert_same_set
+from mpi4py import MPI
+from test_two_particles import CASES, PHI, analytic_lambda2, analytic_mu, assert_same_set
+from test_two_particles import K as KP
+from test_two_particles import M as MP
 
 
 def _write_mtx(path, A):

@@ -130,7 +130,7 @@ def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[
     ids = [i for i in pictured if i in by_index] or [results["states"][-1]["index"]]
     mu = _num(results.get("mu"))
     units = results.get("units", {})
-    force, length = units.get("force", "N"), units.get("length", "mm")
+    force = units.get("force", "N")
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     many = len(ids) > 8
     cmap = plt.get_cmap("viridis")

@@ -36,6 +36,7 @@ class ModelInfo:
 def gmsh_initialize():
     """The gmsh module, initialised (quietly); returns (gmsh, initialised_here)."""
     import gmsh
+
     from app.scene.block_mesh import _gmsh_is_initialized
     here = False
     if not _gmsh_is_initialized(gmsh):

@@ -54,9 +54,9 @@ class Obstacle(StrictModel):
     """A rigid straight line through ``point``; ``normal`` is the body's outward normal at contact
     (pointing into the obstacle; need not be a unit vector), or ``angle_deg``: the line's slope,
     i.e. the normal (0, -1) rotated counter-clockwise by that angle (exact for any angle)."""
-    point: Vec2 = (0.0, 0.0)
-    normal: Vec2 = (0.0, -1.0)
-    angle_deg: Optional[Finite] = None
+    point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length]")
+    normal: Vec2 = Field((0.0, -1.0), description="the body's outward normal at contact (into the obstacle)")
+    angle_deg: Optional[Finite] = Field(None, description="or: the line's slope, the normal (0, -1) rotated by it [deg]")
 
     @model_validator(mode="after")
     def _one_way(self) -> "Obstacle":
@@ -85,43 +85,45 @@ class Obstacle(StrictModel):
 class Motion(StrictModel):
     """Increment of a prescribed curve's displacement during a phase: a rigid translation and an
     optional (linearised) rotation ``rotation_deg`` about ``about``."""
-    translation: Vec2 = (0.0, 0.0)
-    rotation_deg: Finite = 0.0
-    about: Vec2 = (0.0, 0.0)
+    translation: Vec2 = Field((0.0, 0.0), description="rigid translation increment [length]")
+    rotation_deg: Finite = Field(0.0, description="rotation increment, linearised, counter-clockwise [deg]")
+    about: Vec2 = Field((0.0, 0.0), description="centre of the rotation [length]")
 
 
 class Until(StrictModel):
     """Force control of a displacement phase: scale it to reach this normal resultant on the contact curve."""
-    normal_force: PosFloat
+    normal_force: PosFloat = Field(description="normal resultant on the contact curve at the phase's end [force]")
 
 
 class Phase(StrictModel):
     """One phase of the loading program, applied in ``steps`` equal increments."""
-    name: str = ""
-    steps: Annotated[int, Field(ge=1, le=100000)] = 1
-    displacement: dict[str, Motion] = {}
-    traction: dict[str, Vec2] = {}      # increment of a uniform traction [force/length^2 x thickness = per length per thickness]
-    force: dict[str, Vec2] = {}         # increment of a total force spread uniformly over the curve
-    gravity: Optional[Vec2] = None      # increment of the acceleration [length/time^2]
-    until: Optional[Until] = None
-    stop_at_gross_sliding: bool = True
+    name: str = Field("", description="a label of the phase (results.json load.name)")
+    steps: Annotated[int, Field(ge=1, le=100000)] = Field(1, description="equal increments of the phase")
+    displacement: dict[str, Motion] = Field({}, description="motion increments of prescribed curves")
+    traction: dict[str, Vec2] = Field({}, description="uniform traction increments on curves [stress]")
+    force: dict[str, Vec2] = Field({}, description="total force increments, spread uniformly over curves [force]")
+    gravity: Optional[Vec2] = Field(None, description="acceleration increment of the body force [length/time^2]")
+    until: Optional[Until] = Field(None, description="force control: scale the phase's motion to reach it")
+    stop_at_gross_sliding: bool = Field(True, description="end the path when every node in contact slips")
 
 
 class GmshBody(StrictModel):
     """A 2D body meshed by Gmsh (physical groups name its curves and surfaces)."""
     type: Literal["gmsh"]
-    file: str
-    contact: str
-    prescribed: dict[str, Literal["x", "y", "xy"]] = {}
-    material: Optional[Material] = None
-    materials: dict[str, Material] = {}
+    file: str = Field(description="Gmsh .geo or .msh file, relative to the scene file")
+    contact: str = Field(description="physical curve that may touch the obstacle")
+    prescribed: dict[str, Literal["x", "y", "xy"]] = Field(
+        {}, description="physical curves whose displacement components the program prescribes")
+    material: Optional[Material] = Field(None, description="one material for the whole body")
+    materials: dict[str, Material] = Field({}, description="or: a material per physical surface")
     degree: Literal[1, 2] = 1
     plane: Literal["stress", "strain"] = "stress"
     thickness: PosFloat = 1.0
     mass: Literal["consistent", "lumped"] = "consistent"
-    obstacle: Obstacle = Obstacle()
-    foundation: Optional[PosFloat] = None   # stiffness [stress/length] of a weak elastic foundation (see below)
-    program: Annotated[list[Phase], Field(min_length=1)]
+    obstacle: Obstacle = Field(Obstacle(), description="the rigid straight line")
+    foundation: Optional[PosFloat] = Field(None, description="weak elastic foundation for a body nothing holds "
+                                           "[stress/length]")
+    program: Annotated[list[Phase], Field(min_length=1)] = Field(description="the loading program: phases")
 
     @model_validator(mode="before")
     @classmethod

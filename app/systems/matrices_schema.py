@@ -125,7 +125,7 @@ def read_vector(key: str, value: Any, path: Optional[pathlib.Path]) -> np.ndarra
 class ForcePhase(StrictModel):
     """One phase of applied forces: ``force`` (the increment of the whole phase) in ``steps`` equal steps."""
     force: Union[list[Finite], str] = Field(description="force increment of the phase: a vector file or a list")
-    steps: Annotated[int, Field(ge=1, le=100000)] = 1
+    steps: Annotated[int, Field(ge=1, le=100000)] = Field(1, description="equal increments of the phase")
 
     @field_validator("force", mode="before")
     @classmethod
@@ -140,8 +140,9 @@ class ForcePhase(StrictModel):
 
 class StaticState(StrictModel):
     """Reactions of one equilibrium state, paper axes: [r_T, r_N] per contact node, r_N <= 0."""
-    reactions: Annotated[list[tuple[Finite, Finite]], Field(min_length=1)]
-    u_T: Optional[list[Finite]] = None     # tangential displacements (reported only)
+    reactions: Annotated[list[tuple[Finite, Finite]], Field(min_length=1)] = Field(
+        description="[r_T, r_N] per contact node, paper axes (r_N <= 0)")
+    u_T: Optional[list[Finite]] = Field(None, description="tangential displacements (reported only)")
 
 
 def _contact_entry(i: int, e: Any) -> tuple[int, int, int, int]:
@@ -169,9 +170,10 @@ class Matrices(StrictModel):
         description="contact nodes: [T, N, sign_N] or [T, N, sign_T, sign_N] (0-based DOF indices)")
     gaps: Optional[list[NonNegFloat]] = Field(None, description="initial normal gaps (>= 0), one per contact node")
     positions: Optional[list[Finite]] = Field(None, description="a coordinate per contact node for plots (default 0, 1, ...)")
-    state: Optional[StaticState] = None
-    forces: Optional[Annotated[list[ForcePhase], Field(min_length=1)]] = None
-    description: str = ""
+    state: Optional[StaticState] = Field(None, description="the reactions of one equilibrium state (analyses only)")
+    forces: Optional[Annotated[list[ForcePhase], Field(min_length=1)]] = Field(
+        None, description="or: phases of applied forces (a loading path)")
+    description: str = Field("", description="a text for results.json and the summary")
 
     @field_validator("K", "M", mode="before")
     @classmethod
