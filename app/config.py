@@ -14,6 +14,10 @@ from typing import Annotated, Any, Literal, Optional, Union
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from app.systems import SYSTEM_TYPES  # system types beyond block/two_particles
+from app.systems import schemas as registered_schemas
+from app.systems.schema import SystemPathError
+
 ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")
 Analysis = Literal["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]
 
@@ -365,7 +369,7 @@ class Refinement(_Strict):
 class Scene(_Strict):
     """A loading study: system, friction coefficient, loading and the analyses wanted."""
     name: Annotated[str, Field(min_length=1)]
-    system: Annotated[Union[TwoParticles, Block], Field(discriminator="type")]
+    system: Annotated[Union[(TwoParticles, Block) + registered_schemas()], Field(discriminator="type")]
     mu: NonNegFloat
     units: Literal["mm-N-MPa-tonne-s", "m-N-Pa-kg-s"] = Field(
         "mm-N-MPa-tonne-s", description="the consistent unit system the scene's numbers are in (labels only)")
@@ -405,6 +409,13 @@ class Scene(_Strict):
         return self
 
     @model_validator(mode="after")
+    def _registered_system_checks(self) -> "Scene":
+        hook = getattr(type(self.system), "check_scene", None)   # registered types (app/systems/)
+        if hook is not None:
+            hook(self)
+        return self
+
+    @model_validator(mode="after")
     def _outputs_match(self) -> "Scene":
         out = self.outputs
         if isinstance(self.system, TwoParticles):
@@ -439,7 +450,7 @@ class Scene(_Strict):
 def _format_error(err: ValidationError) -> str:
     e = err.errors(include_url=False)[0]
     # Drop the discriminator tag pydantic inserts in the location of tagged unions.
-    loc = [_one_line(str(p)) for p in e["loc"] if p not in ("two_particles", "block")]
+    loc = [_one_line(str(p)) for p in e["loc"] if p not in ("two_particles", "block", *SYSTEM_TYPES)]
     path = ".".join(loc) if loc else "(top level)"
     msg = e["msg"]
     value = e.get("input")
@@ -452,12 +463,12 @@ def _format_error(err: ValidationError) -> str:
         return f"{where}: key {_show(value)} is not allowed: keys must be strings (names)"
     if e["type"] == "union_tag_invalid":
         tag = value.get("type") if isinstance(value, dict) else value
-        return f"{path}.type = {_show(tag)}: allowed types are 'two_particles', 'block'"
+        return f"{path}.type = {_show(tag)}: allowed types are {_system_types()}"
     if e["type"] == "union_tag_not_found":
-        return f"missing key '{path}.type' (allowed: 'two_particles', 'block')"
+        return f"missing key '{path}.type' (allowed: {_system_types()})"
     cause = (e.get("ctx") or {}).get("error")
-    if isinstance(cause, _PathError):
-        path = ".".join(loc + [cause.path]) if loc else cause.path
+    if isinstance(cause, (_PathError, SystemPathError)):
+        path = ".".join(loc + [cause.path] if cause.path else loc) if loc else cause.path
         return f"{path} = {_show(cause.value)}: {cause.msg}"
     if e["type"] in ("model_type", "model_attributes_type", "dict_type"):
         msg = "allowed: a mapping of keys (key: value, or {key: value, ...})"
@@ -466,8 +477,13 @@ def _format_error(err: ValidationError) -> str:
     return f"{path} = {_show(value)}: {_one_line(msg)}"
 
 
-def parse_scene(data: Any, source: str = "scene") -> Scene:
-    """Validate an already loaded YAML document."""
+def _system_types() -> str:
+    return ", ".join(f"'{t}'" for t in ("two_particles", "block", *SYSTEM_TYPES))
+
+
+def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path | None = None) -> Scene:
+    """Validate an already loaded YAML document; file paths in it are relative to ``base_dir``
+    (the scene file's folder; default the current directory)."""
     if data is None:
         raise SceneError(f"{source}: the scene file is empty: it must be a YAML mapping with the keys "
                          f"name, system, mu (and optionally analyses, loading, settings)")
@@ -475,7 +491,7 @@ def parse_scene(data: Any, source: str = "scene") -> Scene:
         raise SceneError(f"{source}: (top level) = {_show(data)}: the scene must be a YAML mapping of keys "
                          f"(name, system, mu, ...), not a {type(data).__name__}")
     try:
-        return Scene.model_validate(data)
+        return Scene.model_validate(data, context={"base_dir": base_dir} if base_dir is not None else None)
     except ValidationError as err:
         raise SceneError(f"{source}: {_format_error(err)}") from None
     except RecursionError:
@@ -508,7 +524,7 @@ def load_scene(path: str | pathlib.Path) -> Scene:
     except Exception as err:     # the YAML constructors' own errors, e.g. "!!int abc", over-long integers
         raise SceneError(f"{path}: invalid YAML: a value could not be converted "
                          f"({type(err).__name__}: {err})") from None
-    return parse_scene(data, str(path))
+    return parse_scene(data, str(path), path.parent)
 
 
 def default_scene_path() -> pathlib.Path:

@@ -54,8 +54,9 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     elif isinstance(scene.system, Block):
         from app.loading.block_path import block_path  # DOLFINx only when a block is asked for
         system, states, path_info = block_path(scene, comm, stages, progress)
-    else:  # pragma: no cover - the schema forbids it
-        raise TypeError(type(scene.system))
+    else:                       # a registered system type (app/systems/)
+        from app.systems import get as system_type
+        system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
 
     cache: dict = {}
     out_states = []

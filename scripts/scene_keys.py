@@ -22,7 +22,8 @@ OUT = ROOT / "docs" / "scene-keys.md"
 #: meaning of the keys whose schema field has no description (key path -> text)
 MEANING = {
     "name": "study name; also the default output folder output/<name>",
-    "system": "the system: `two_particles` (paper Fig. 1) or `block` (the FE block, section 5)",
+    "system": "the system: `two_particles` (paper Fig. 1), `block` (the FE block, section 5), or a type of app/systems/: "
+              "`matrices` (K, M and contact DOFs from files), `gmsh` (a 2D body from a Gmsh file)",
     "mu": "Coulomb friction coefficient of the loading path and of the analyses",
     "analyses": "analyses run at every distinct classification: necessary (19), sufficient (17)-(18), "
                 "mceip_mu (21)-(23), mceip_lambda2 (12)-(14), enumerate (24)-(26)",

@@ -72,6 +72,15 @@ def _is_block(results: dict) -> bool:
     return ((results.get("scene_config") or {}).get("system") or {}).get("type", "block") == "block"
 
 
+def _position_label(results: dict) -> str | None:
+    """Axis label of the contact nodes' ``x`` when it is a position (block: along AB; gmsh body:
+    along the obstacle's tangent), None when nodes are only numbered (particles, matrices)."""
+    kind = ((results.get("scene_config") or {}).get("system") or {}).get("type", "block")
+    length = results.get("units", {}).get("length", "mm")
+    return {"block": f"position along AB, x [{length}] (A at x = 0)",
+            "gmsh": f"position along the obstacle, s [{length}]"}.get(kind)
+
+
 def _few_states(ax, idx: np.ndarray) -> None:
     """A study of one or a few states: integer ticks on the state axis."""
     if len(idx) <= 3:
@@ -101,10 +110,11 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     length = results.get("units", {}).get("length", "mm")
     ax.set_xlabel("load step (state index)")
     ax.hlines(yedges[1:-1], xedges[0], xedges[-1], colors="white", linewidth=0.6)    # one row per node
-    if n <= 12 or not _is_block(results):
+    if n <= 12 or not _position_label(results):
         ax.set_yticks(xs)
-        ax.set_yticklabels([f"{x:g}" for x in xs] if _is_block(results) else [f"node {i}" for i in range(n)])
-    ax.set_ylabel(f"contact node position x [{length}] (A at the bottom)" if _is_block(results) else "contact node")
+        ax.set_yticklabels([f"{x:g}" for x in xs] if _position_label(results) else [f"node {i}" for i in range(n)])
+    ax.set_ylabel(f"contact node position x [{length}] (A at the bottom)" if _is_block(results)
+                  else _position_label(results) or "contact node")
     _few_states(ax, idx)
     _mark_phases(ax, states)
     present = sorted({s for row in codes for s in row})
@@ -120,7 +130,7 @@ def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[
     ids = [i for i in pictured if i in by_index] or [results["states"][-1]["index"]]
     mu = _num(results.get("mu"))
     units = results.get("units", {})
-    force, length = units.get("force", "N"), units.get("length", "mm")
+    force = units.get("force", "N")
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     many = len(ids) > 8
     cmap = plt.get_cmap("viridis")
@@ -141,8 +151,8 @@ def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[
         a2.plot(x[slip], rt[slip], "s", mfc="none", mec=STATUS_COLOURS["slip"], ms=6)
     a1.set_ylabel(f"normal reaction -r_N [{force}]\n(compression > 0)")
     a2.set_ylabel(f"tangential reaction r_T [{force}]\n(dashed: +-mu |r_N|)")
-    a2.set_xlabel(f"position along AB, x [{length}] (A at x = 0)" if _is_block(results) else "contact node")
-    if not _is_block(results):
+    a2.set_xlabel(_position_label(results) or "contact node")
+    if not _position_label(results):
         a2.set_xticks(x)
     for a in (a1, a2):
         a.axhline(0, color="0.5", lw=0.6)

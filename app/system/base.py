@@ -71,6 +71,8 @@ class System:
         flex = self.extra.get("flexibility")
         if flex is not None:
             flex.destroy()
+        for obj in self.extra.get("owned", ()):     # PETSc objects a builder handed over
+            obj.destroy()
         self.K.destroy()
         if self._M is not None:
             self._M.destroy()

@@ -1,0 +1,384 @@
+"""``system.type: gmsh``: operators of a 2D body from a Gmsh file, the obstacle frames, the
+loading program (app/loading/program.py).
+
+Operators (DOLFINx): K and M of plane stress/strain linear elasticity with a material per
+physical surface (DG0 coefficients), reduced to the DOFs not prescribed by the program
+(``prescribed`` curves, per component). Reduced numbering as in app/system/elasticity.py: each
+rank keeps its owned DOFs that are not prescribed, in ascending order.
+
+Load parameters (unit right-hand sides of the reduced system, ``-K_kD u_D`` for prescribed
+motions, assembled loads for the others): per prescribed curve its translations (x, y as
+prescribed) and, with both components, a rotation about the origin (``u = theta (-y, x)``; a
+rotation about a point p adds the translation ``theta (p_y, -p_x)``); per loaded curve the two
+components of a uniform traction and of a total force; gravity (x, y).
+
+Obstacle frames: the contact DOFs are rotated into the obstacle's tangent t and outward normal n
+(``u = t u_T + n u_N`` at every contact node): ``K' = R^T K R``, ``M' = R^T M R`` and loads
+``R^T f`` with R orthogonal and block-diagonal, so the stability code sees plain DOF pairs in the
+paper's axes (DESIGN.md section 1). For axis-aligned obstacles R has entries 0 and +-1 and the
+rotation is exact. Initial gaps ``g0 = (p - x) . n`` from the geometry (p the obstacle's point).
+"""
+from __future__ import annotations
+
+import logging
+import pathlib
+from dataclasses import dataclass, field
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from app.loading.program import ProgramPhase, run_program
+from app.stages import Stages
+from app.system.base import ContactNode, System
+from app.systems.gmsh_schema import GmshBody
+
+log = logging.getLogger(__name__)
+
+UNITS = {"mm-N-MPa-tonne-s": {"length": "mm", "force": "N", "stress": "MPa", "stiffness": "N/mm", "mass": "tonne",
+                               "density": "tonne/mm^3", "time": "s", "lambda2": "1/s^2", "mu": "1"},
+         "m-N-Pa-kg-s": {"length": "m", "force": "N", "stress": "Pa", "stiffness": "N/m", "mass": "kg",
+                         "density": "kg/m^3", "time": "s", "lambda2": "1/s^2", "mu": "1"}}
+
+
+class BodyError(Exception):
+    """A problem of the body found while building it (one line; the CLI exits with status 2)."""
+
+
+@dataclass
+class BodyOperators:
+    """Reduced, obstacle-rotated operators of the body and its load parameters."""
+    K: PETSc.Mat
+    R: PETSc.Mat
+    kept: PETSc.IS
+    loads: list[PETSc.Vec]                    # one reduced, rotated right-hand side per parameter
+    params: dict[tuple, int]                  # (kind, curve, component) -> index
+    contact_dofs: np.ndarray                  # (n, 2) reduced DOFs (u_T, u_N) of the contact nodes
+    contact_xy: np.ndarray                    # (n, 2) coordinates
+    mass_form: object = None
+    mass_kind: str = "consistent"
+    _M: PETSc.Mat | None = field(default=None, repr=False)
+
+    def mass(self) -> PETSc.Mat:
+        """Reduced, rotated mass matrix (assembled on first use; the caller owns the copy it gets)."""
+        import dolfinx.fem.petsc
+        M_full = dolfinx.fem.petsc.assemble_matrix(self.mass_form)
+        M_full.assemble()
+        if self.mass_kind == "lumped":
+            d = M_full.getRowSum()
+            M_full.zeroEntries()
+            M_full.setDiagonal(d)
+            d.destroy()
+        M = M_full.createSubMatrix(self.kept, self.kept)
+        M_full.destroy()
+        Mr = M.PtAP(self.R)
+        M.destroy()
+        return Mr
+
+    def destroy(self) -> None:
+        for obj in (self.K, self.R, self.kept, *self.loads):
+            obj.destroy()
+
+
+def _lame(E: float, nu: float, plane: str) -> tuple[float, float]:
+    from app.system.elasticity import lame_parameters
+    return lame_parameters(E, nu, plane)
+
+
+def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperators:
+    """Mesh, assemble, reduce and rotate (MPI collective)."""
+    import dolfinx.fem
+    import dolfinx.fem.petsc
+    import ufl
+
+    from app.systems.gmsh_mesh import read_mesh
+    with stages("mesh (gmsh)"):
+        mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm)
+    fdim = 1
+    tag_of_curve = {nm: t for (d, nm), t in names.items() if d == 1}
+    tag_of_surface = {nm: t for (d, nm), t in names.items() if d == 2}
+
+    def facets(curve: str) -> np.ndarray:
+        return facet_tags.indices[facet_tags.values == tag_of_curve[curve]]
+
+    V = dolfinx.fem.VectorFunctionSpace(mesh, ("CG", cfg.degree))
+    bs = V.dofmap.index_map_bs
+    im = V.dofmap.index_map
+    n_owned = im.size_local * bs
+    owned_start = im.local_range[0] * bs
+
+    # Materials per physical surface (DG0)
+    Q = dolfinx.fem.FunctionSpace(mesh, ("DG", 0))
+    mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
+    for name, tag in tag_of_surface.items():
+        cells = cell_tags.indices[cell_tags.values == tag]
+        mat = cfg.material_of(name)
+        mu_v, lam_v = _lame(mat.E, mat.nu, cfg.plane)
+        mu_f.x.array[cells] = mu_v
+        lam_f.x.array[cells] = lam_v
+        rho_f.x.array[cells] = mat.density
+    for f in (mu_f, lam_f, rho_f):
+        f.x.scatter_forward()
+    t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.thickness))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+
+    def eps(w):
+        return ufl.sym(ufl.grad(w))
+
+    def sigma(w):
+        return 2.0 * mu_f * eps(w) + lam_f * ufl.tr(eps(w)) * ufl.Identity(2)
+
+    with stages("assemble stiffness"):
+        stiff = t * ufl.inner(sigma(u), eps(v)) * ufl.dx
+        if cfg.foundation is not None:       # weak elastic foundation (a floating body)
+            stiff = stiff + dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.foundation)) * t * ufl.inner(u, v) * ufl.dx
+        a = dolfinx.fem.form(stiff)
+        m = dolfinx.fem.form(rho_f * t * ufl.inner(u, v) * ufl.dx)
+        K_full = dolfinx.fem.petsc.assemble_matrix(a)
+        K_full.assemble()
+
+    # Prescribed DOFs (local unrolled indices incl. ghosts), per curve and component
+    dof_x = V.tabulate_dof_coordinates()[:, :2]
+    presc: dict[str, dict[int, np.ndarray]] = {}
+    is_d = np.zeros(n_owned, dtype=bool)
+    owner = {}
+    for name, comps in cfg.prescribed.items():
+        blocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(name))
+        presc[name] = {}
+        for c in (0, 1):
+            if "xy"[c] in comps:
+                loc = (blocks * bs + c).astype(np.int32)
+                presc[name][c] = loc
+                own = loc[loc < n_owned]
+                clash = [d for d in own if d in owner]
+                if comm.allreduce(len(clash), op=MPI.SUM):       # MPI collective
+                    raise BodyError(f"system.prescribed: the curves '{name}' and '{owner.get(clash[0], '?') if clash else '?'}' "
+                                    "share nodes: prescribe one motion per node (merge them into one physical curve)")
+                owner.update({int(d): name for d in own})
+                is_d[own] = True
+    kept_local = np.flatnonzero(~is_d).astype(np.int32)
+    offset = comm.exscan(kept_local.size) or 0                     # MPI collective
+    reduced = np.full(n_owned, -1, dtype=np.int64)
+    reduced[kept_local] = offset + np.arange(kept_local.size)
+    kept = PETSc.IS().createGeneral((owned_start + kept_local).astype(PETSc.IntType), comm=comm)
+    K = K_full.createSubMatrix(kept, kept)
+
+    # Load parameters
+    params: dict[tuple, int] = {}
+    raw: list[np.ndarray] = []               # reduced (unrotated) right-hand sides, local part
+    u_D, Ku_D = K_full.createVecs()
+    for name, comp_dofs in presc.items():
+        modes = [("tx", {0: 1.0}), ("ty", {1: 1.0})]
+        if len(comp_dofs) == 2:
+            modes.append(("rz", None))
+        for kind, vals in modes:
+            if vals is not None and next(iter(vals)) not in comp_dofs:
+                continue
+            u_D.zeroEntries()
+            arr = u_D.getArray()
+            for c, loc in comp_dofs.items():
+                own = loc[loc < n_owned]
+                if vals is None:      # rotation about the origin: u = (-y, x)
+                    arr[own] = -dof_x[own // bs, 1] if c == 0 else dof_x[own // bs, 0]
+                else:
+                    arr[own] = vals.get(c, 0.0)
+            del arr
+            K_full.mult(u_D, Ku_D)
+            params[("motion", name, kind)] = len(raw)
+            raw.append(-Ku_D.getArray(readonly=True)[kept_local].copy())
+    u_D.destroy()
+    Ku_D.destroy()
+    loaded = sorted({nm for ph in cfg.program for kind in ("traction", "force") for nm in getattr(ph, kind)})
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
+
+    def assemble(expr) -> np.ndarray:
+        b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr))
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        out = b.getArray(readonly=True)[kept_local].copy()
+        b.destroy()
+        return out
+
+    for name in loaded:
+        tag = tag_of_curve[name]
+        one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
+        length = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ds(tag))), op=MPI.SUM)
+        for c, kind in ((0, "x"), (1, "y")):
+            e = ufl.as_vector([1.0, 0.0]) if c == 0 else ufl.as_vector([0.0, 1.0])
+            base = assemble(ufl.inner(e, v) * ds(tag))
+            params[("traction", name, kind)] = len(raw)
+            raw.append(cfg.thickness * base)
+            params[("force", name, kind)] = len(raw)
+            raw.append(base / length)
+    if any(ph.gravity is not None for ph in cfg.program):
+        for c, kind in ((0, "x"), (1, "y")):
+            e = ufl.as_vector([1.0, 0.0]) if c == 0 else ufl.as_vector([0.0, 1.0])
+            params[("gravity", "", kind)] = len(raw)
+            raw.append(assemble(rho_f * t * ufl.inner(e, v) * ufl.dx))
+    K_full.destroy()
+
+    # Contact nodes: owned, not prescribed, on the contact curve; gathered and sorted along t
+    tvec, nvec = cfg.obstacle.frame()
+    cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
+    cblocks = cblocks[cblocks < im.size_local]
+    keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
+    cblocks = cblocks[keep]
+    local = (dof_x[cblocks], reduced[cblocks * bs], reduced[cblocks * bs + 1])
+    gathered = comm.allgather(local)                                # MPI collective
+    xy = np.concatenate([g[0] for g in gathered]).reshape(-1, 2)
+    dx_ = np.concatenate([g[1] for g in gathered])
+    dy_ = np.concatenate([g[2] for g in gathered])
+    if len(dx_) == 0:
+        raise BodyError(f"system.contact = '{cfg.contact}': no free node on it (all its nodes are prescribed)")
+    s = (xy - np.array(cfg.obstacle.point)) @ tvec
+    order = np.lexsort((xy[:, 1], xy[:, 0], s))
+    xy, dx_, dy_ = xy[order], dx_[order], dy_[order]
+
+    # Rotation R: u_old = R u_new, identity except [[t_x, n_x], [t_y, n_y]] at contact nodes
+    R = PETSc.Mat().createAIJ(K.getSizes(), nnz=(2, 0), comm=comm)
+    R.setUp()
+    r0, r1 = R.getOwnershipRange()
+    contact_rows = {}
+    for ix, iy in zip(dx_, dy_):
+        if r0 <= ix < r1:
+            contact_rows[int(ix)] = int(iy)
+    for i in range(r0, r1):
+        if i in contact_rows:
+            iy = contact_rows[i]
+            R.setValues([i, iy], [i, iy], [[tvec[0], nvec[0]], [tvec[1], nvec[1]]])
+    cy = set(contact_rows.values())
+    for i in range(r0, r1):
+        if i not in contact_rows and i not in cy:
+            R.setValue(i, i, 1.0)
+    R.assemble()
+    Kr = K.PtAP(R)
+    K.destroy()
+    loads = []
+    for vals in raw:
+        f = Kr.createVecLeft()
+        f.setArray(vals)
+        g = Kr.createVecLeft()
+        R.multTranspose(f, g)
+        f.destroy()
+        loads.append(g)
+    return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
+                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy,
+                         mass_form=m, mass_kind=cfg.mass)
+
+
+def _contact_columns(flex, loads: list[PETSc.Vec], K: PETSc.Mat) -> np.ndarray:
+    """U0: paper-axis contact displacements of every unit load parameter (one solve each, collective)."""
+    comm = K.getComm().tompi4py()
+    x = K.createVecRight()
+    r0, r1 = x.getOwnershipRange()
+    mine = (flex.dofs >= r0) & (flex.dofs < r1)
+    cols = []
+    try:
+        for b in loads:
+            flex.ksp.solve(b, x)
+            local = np.zeros(len(flex.dofs))
+            local[mine] = x.getArray(readonly=True)[flex.dofs[mine] - r0]
+            cols.append(flex.signs * comm.allreduce(local, op=MPI.SUM))   # MPI collective
+    finally:
+        x.destroy()
+    return np.column_stack(cols) if cols else np.zeros((len(flex.dofs), 0))
+
+
+def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s") -> System:
+    """System of the body, with the contact flexibility and the unit-load contact responses (collective)."""
+    from app.loading.flexibility import contact_flexibility
+    ops = body_operators(cfg, comm, stages)
+    n = len(ops.contact_dofs)
+    tvec, nvec = cfg.obstacle.frame()
+    s = (ops.contact_xy - np.array(cfg.obstacle.point)) @ tvec
+    nodes = [ContactNode(id=i, x=float(s[i]), dof_T=int(ops.contact_dofs[i, 0]), dof_N=int(ops.contact_dofs[i, 1]))
+             for i in range(n)]
+    dofs = ops.contact_dofs.ravel()
+    signs = np.ones(2 * n)
+    zero = ops.K.createVecLeft()
+    zero.zeroEntries()
+    with stages("factorise K, contact flexibility"):
+        try:
+            flex = contact_flexibility(ops.K, zero, zero, dofs, signs)          # MPI collective
+        except PETSc.Error:
+            raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
+                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)") from None
+        # A (nearly) singular K gives a huge or indefinite flexibility: W k is O(1 ... 1e4) for a held
+        # body (k the largest diagonal entry of K), O(1/eps) for a floating one.
+        diag = ops.K.getDiagonal()
+        kmax = diag.norm(PETSc.NormType.NORM_INFINITY)                            # MPI collective
+        diag.destroy()
+        if (not np.all(np.isfinite(flex.W)) or np.linalg.eigvalsh(flex.W).min() <= 0
+                or np.abs(flex.W).max() * kmax > 1e10):
+            raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
+                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)")
+        U0 = _contact_columns(flex, ops.loads, ops.K)
+    size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
+    gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
+    gaps[np.abs(gaps) <= 1e-10 * size] = 0.0
+    if np.any(gaps < 0):
+        i = int(np.argmin(gaps))
+        raise BodyError(f"system.obstacle: the contact node at ({ops.contact_xy[i, 0]:.6g}, {ops.contact_xy[i, 1]:.6g}) "
+                        f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
+    mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
+    u = UNITS[units]
+    system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
+                    build_contact_schur=lambda: flex.schur,
+                    description=(f"gmsh body {pathlib.Path(cfg.file).name}, P{cfg.degree}, plane {cfg.plane}, "
+                                 f"thickness {cfg.thickness} {u['length']}, {mats}, obstacle through "
+                                 f"{tuple(cfg.obstacle.point)} with outward normal {tuple(np.round(nvec, 12))}, "
+                                 f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
+    system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
+                    "params": ops.params, "contact_xy": ops.contact_xy}
+    return system
+
+
+def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
+    P = len(params)
+    out = []
+    for i, ph in enumerate(cfg.program):
+        da = np.zeros(P)
+        for name, mo in ph.displacement.items():
+            th = np.radians(mo.rotation_deg)
+            tx = mo.translation[0] + th * mo.about[1]
+            ty = mo.translation[1] - th * mo.about[0]
+            for kind, val in (("tx", tx), ("ty", ty), ("rz", th)):
+                if ("motion", name, kind) in params:
+                    da[params[("motion", name, kind)]] += val
+        for kind in ("traction", "force"):
+            for name, vec in getattr(ph, kind).items():
+                da[params[(kind, name, "x")]] += vec[0]
+                da[params[(kind, name, "y")]] += vec[1]
+        if ph.gravity is not None:
+            da[params[("gravity", "", "x")]] += ph.gravity[0]
+            da[params[("gravity", "", "y")]] += ph.gravity[1]
+        names = {v: k for k, v in params.items()}
+
+        def describe(a: np.ndarray, names=names) -> dict:
+            return {"parameters": {".".join(x for x in names[j] if x): float(a[j]) for j in range(len(a)) if a[j] != 0}}
+
+        out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da,
+                                normal_force=ph.until.normal_force if ph.until else None,
+                                stop_at_gross_sliding=ph.stop_at_gross_sliding, describe=describe))
+    return out
+
+
+def path(scene, comm: MPI.Comm, stages: Stages, progress):
+    """``(system, states, path_info)`` of a gmsh scene (MPI collective)."""
+    from app.loading.program import ProgramError
+    cfg: GmshBody = scene.system
+    try:
+        system = build(cfg, comm, stages, scene.units)
+    except BodyError as err:
+        from app.loading.block_path import UnreachableLoad
+        raise UnreachableLoad(str(err)) from None
+    flex = system.extra["flexibility"]
+    with stages("quasi-static loading"):
+        try:
+            states, info = run_program(_phases(cfg, system.extra["params"]), system.extra["U0"], system.extra["gaps"],
+                                       flex.schur, scene.mu, scene.settings.classify_rtol, progress)
+        except ProgramError as err:
+            system.destroy()
+            from app.loading.block_path import UnreachableLoad
+            raise UnreachableLoad(str(err)) from None
+    info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
+    return system, states, info

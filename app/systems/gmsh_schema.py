@@ -1,0 +1,223 @@
+"""Scene schema of ``system.type: gmsh``: a 2D elastic body from a Gmsh file, a straight rigid
+obstacle, and a loading program.
+
+    system:
+      type: gmsh
+      file: block.geo              # .geo (meshed in 2D by gmsh) or .msh, relative to the scene file
+      contact: AB                  # physical curve that may touch the obstacle
+      prescribed: {CD: xy}         # physical curves whose displacement components the program prescribes
+      material: {E: 5.0, nu: 0.48, density: 1.2e-9}   # or materials: {<physical surface>: {...}}
+      degree: 1                    # P1 or P2
+      plane: stress                # or strain
+      thickness: 9.6
+      obstacle: {point: [0, 0], normal: [0, -1]}      # a straight line; normal: the body's outward normal
+      program:                     # phases; each starts from the end of the previous one
+        - {steps: 10, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 55}}
+        - {steps: 310, displacement: {CD: {translation: [-6.2, 0]}}}
+
+A body that no prescribed curve holds (e.g. resting on an inclined plane under gravity) has rigid
+motions that only the obstacle stops; the contact solver needs a non-singular K, so such a body
+needs ``foundation: k``: an elastic foundation ``k t int u.v dx`` on the whole body. Choose k
+small against E / L^2 (e.g. 1e-6 of it): it carries a fraction of the load of order k L^2 / E
+while the body sticks, and lets a body slide (by excess force / k) when friction cannot hold it.
+
+Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase loads them
+(``traction`` per unit length, or ``force``: a total force spread uniformly over the curve).
+``gravity`` adds the body force density x acceleration. ``until: {normal_force: F}`` scales the
+phase's increments so that the normal resultant on the contact curve is F at its end (exact in one
+rescaling when the phase starts from the unloaded, touching state: the incremental problems are
+then positively homogeneous; otherwise bracketing and regula falsi). Not modelled: curved obstacles, two
+deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
+``contact`` curve.
+"""
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal, Optional
+
+import numpy as np
+from pydantic import Field, ValidationInfo, field_validator, model_validator
+
+from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, resolve_file
+
+Vec2 = tuple[Finite, Finite]
+
+
+class Material(StrictModel):
+    """Isotropic linear elastic material (E [stress], nu, density [mass/length^3])."""
+    E: PosFloat
+    nu: Annotated[float, Field(gt=-1.0, lt=0.5, allow_inf_nan=False)]
+    density: PosFloat = 1.2e-9
+
+
+class Obstacle(StrictModel):
+    """A rigid straight line through ``point``; ``normal`` is the body's outward normal at contact
+    (pointing into the obstacle; need not be a unit vector), or ``angle_deg``: the line's slope,
+    i.e. the normal (0, -1) rotated counter-clockwise by that angle (exact for any angle)."""
+    point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length]")
+    normal: Vec2 = Field((0.0, -1.0), description="the body's outward normal at contact (into the obstacle)")
+    angle_deg: Optional[Finite] = Field(None, description="or: the line's slope, the normal (0, -1) rotated by it [deg]")
+
+    @model_validator(mode="after")
+    def _one_way(self) -> "Obstacle":
+        if self.angle_deg is not None and "normal" in self.model_fields_set:
+            raise SystemPathError("angle_deg", self.angle_deg, "give either normal or angle_deg, not both")
+        return self
+
+    @field_validator("normal")
+    @classmethod
+    def _nonzero(cls, v: Vec2) -> Vec2:
+        if math.hypot(*v) == 0:
+            raise ValueError("the normal must be a non-zero vector [nx, ny]")
+        return v
+
+    def frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit tangent t and outward normal n, with t = (-n_y, n_x) (for n = -y, t = +x)."""
+        if self.angle_deg is not None:
+            a = math.radians(self.angle_deg)
+            n = np.array([math.sin(a), -math.cos(a)])
+        else:
+            n = np.array(self.normal, dtype=float)
+            n /= np.linalg.norm(n)
+        return np.array([-n[1], n[0]]), n
+
+
+class Motion(StrictModel):
+    """Increment of a prescribed curve's displacement during a phase: a rigid translation and an
+    optional (linearised) rotation ``rotation_deg`` about ``about``."""
+    translation: Vec2 = Field((0.0, 0.0), description="rigid translation increment [length]")
+    rotation_deg: Finite = Field(0.0, description="rotation increment, linearised, counter-clockwise [deg]")
+    about: Vec2 = Field((0.0, 0.0), description="centre of the rotation [length]")
+
+
+class Until(StrictModel):
+    """Force control of a displacement phase: scale it to reach this normal resultant on the contact curve."""
+    normal_force: PosFloat = Field(description="normal resultant on the contact curve at the phase's end [force]")
+
+
+class Phase(StrictModel):
+    """One phase of the loading program, applied in ``steps`` equal increments."""
+    name: str = Field("", description="a label of the phase (results.json load.name)")
+    steps: Annotated[int, Field(ge=1, le=100000)] = Field(1, description="equal increments of the phase")
+    displacement: dict[str, Motion] = Field({}, description="motion increments of prescribed curves")
+    traction: dict[str, Vec2] = Field({}, description="uniform traction increments on curves [stress]")
+    force: dict[str, Vec2] = Field({}, description="total force increments, spread uniformly over curves [force]")
+    gravity: Optional[Vec2] = Field(None, description="acceleration increment of the body force [length/time^2]")
+    until: Optional[Until] = Field(None, description="force control: scale the phase's motion to reach it")
+    stop_at_gross_sliding: bool = Field(True, description="end the path when every node in contact slips")
+
+
+class GmshBody(StrictModel):
+    """A 2D body meshed by Gmsh (physical groups name its curves and surfaces)."""
+    type: Literal["gmsh"]
+    file: str = Field(description="Gmsh .geo or .msh file, relative to the scene file")
+    contact: str = Field(description="physical curve that may touch the obstacle")
+    prescribed: dict[str, Literal["x", "y", "xy"]] = Field(
+        {}, description="physical curves whose displacement components the program prescribes")
+    material: Optional[Material] = Field(None, description="one material for the whole body")
+    materials: dict[str, Material] = Field({}, description="or: a material per physical surface")
+    degree: Literal[1, 2] = 1
+    plane: Literal["stress", "strain"] = "stress"
+    thickness: PosFloat = 1.0
+    mass: Literal["consistent", "lumped"] = "consistent"
+    obstacle: Obstacle = Field(Obstacle(), description="the rigid straight line")
+    foundation: Optional[PosFloat] = Field(None, description="weak elastic foundation for a body nothing holds "
+                                           "[stress/length]")
+    program: Annotated[list[Phase], Field(min_length=1)] = Field(description="the loading program: phases")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _tags_as_names(cls, data: Any) -> Any:
+        """Unnamed physical groups are named by their tag: accept ``contact: 3`` for ``'3'``."""
+        if not isinstance(data, dict):
+            return data
+
+        def names(d: Any) -> Any:
+            return {(str(k) if isinstance(k, int) and not isinstance(k, bool) else k): v
+                    for k, v in d.items()} if isinstance(d, dict) else d
+        data = dict(data)
+        if isinstance(data.get("contact"), int) and not isinstance(data.get("contact"), bool):
+            data["contact"] = str(data["contact"])
+        for key in ("prescribed", "materials"):
+            data[key] = names(data[key]) if key in data else data.get(key, {})
+        if isinstance(data.get("program"), list):
+            data["program"] = [dict(ph, **{k: names(ph[k]) for k in ("displacement", "traction", "force") if k in ph})
+                               if isinstance(ph, dict) else ph for ph in data["program"]]
+        return data
+
+    @field_validator("file", mode="before")
+    @classmethod
+    def _file(cls, v: Any, info: ValidationInfo) -> Any:
+        return str(resolve_file("", v, info))
+
+    @model_validator(mode="after")
+    def _groups(self) -> "GmshBody":
+        import pathlib
+
+        from app.systems.gmsh_mesh import model_info
+        shown = pathlib.Path(self.file).name
+        try:
+            info = model_info(pathlib.Path(self.file), shown)
+        except SystemPathError as err:
+            raise SystemPathError("file", shown, err.msg) from None
+        curves, surfaces = info.curves, info.surfaces
+
+        def curve(key: str, name: str) -> None:
+            if name not in curves:
+                allowed = ", ".join(sorted(curves)) or "none: the file defines no physical curve"
+                raise SystemPathError(key, name, f"no physical curve '{name}' in {shown}; physical curves: {allowed}")
+            if curves[name][1] == 0:
+                raise SystemPathError(key, name, f"the physical curve '{name}' has no mesh elements")
+
+        curve("contact", self.contact)
+        for name in self.prescribed:
+            curve(f"prescribed.{name}", name)
+            if name == self.contact:
+                raise SystemPathError(f"prescribed.{name}", self.prescribed[name],
+                                      "the contact curve cannot also be prescribed")
+        if (self.material is None) == (not self.materials):
+            raise SystemPathError("material", None, "give either 'material' (one material for the whole body) or "
+                                  f"'materials' (one per physical surface: {', '.join(sorted(surfaces))})")
+        if self.materials:
+            for name in self.materials:
+                if name not in surfaces:
+                    raise SystemPathError(f"materials.{name}", None, f"no physical surface '{name}' in {shown}; "
+                                          f"physical surfaces: {', '.join(sorted(surfaces))}")
+            missing = sorted(set(surfaces) - set(self.materials))
+            if missing:
+                raise SystemPathError("materials", sorted(self.materials), f"no material for the physical surface "
+                                      f"'{missing[0]}': give one for each of {', '.join(sorted(surfaces))}")
+        for i, ph in enumerate(self.program):
+            for name, m in ph.displacement.items():
+                key = f"program.{i}.displacement.{name}"
+                if name not in self.prescribed:
+                    raise SystemPathError(key, None, f"'{name}' is not a prescribed curve: list it under "
+                                          f"prescribed (with its components x, y or xy)")
+                comp = self.prescribed[name]
+                if comp != "xy" and (m.rotation_deg != 0 or m.translation[1 if comp == "x" else 0] != 0):
+                    raise SystemPathError(key, m.model_dump(), f"only the {comp} component of '{name}' is prescribed: "
+                                          "rotations and the other translation component need xy")
+            for kind in ("traction", "force"):
+                for name in getattr(ph, kind):
+                    curve(f"program.{i}.{kind}.{name}", name)
+                    if name in self.prescribed:
+                        raise SystemPathError(f"program.{i}.{kind}.{name}", None,
+                                              f"'{name}' is prescribed (displacement control): load another curve")
+            if ph.until is not None and not ph.displacement:
+                raise SystemPathError(f"program.{i}.until", ph.until.model_dump(), "needs a displacement in the "
+                                      "same phase (it scales the phase's prescribed motion)")
+        return self
+
+    def material_of(self, surface: str) -> Material:
+        return self.material if self.material is not None else self.materials[surface]
+
+    @classmethod
+    def check_scene(cls, scene: Any) -> None:
+        """Scene-level checks: no block loading; pictures of meshes are not drawn for this type yet."""
+        if scene.loading is not None:
+            raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a gmsh system: give "
+                                  "system.program (the phases of the loading)")
+        for key in ("paraview", "screenshots"):
+            if getattr(scene.outputs, key):
+                raise SystemPathError(f"outputs.{key}", True, "not available yet for a gmsh system (the field "
+                                      "writer assumes the built-in block): use plots and report")

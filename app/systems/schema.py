@@ -1,0 +1,58 @@
+"""Shared pieces of the system schemas registered in :mod:`app.systems`.
+
+Kept free of PETSc and DOLFINx so that validating a scene stays cheap. File paths in a scene are
+relative to the scene file: :func:`app.config.load_scene` passes the scene's folder as the
+validation context ``{"base_dir": ...}``; without it (a scene given as a dict) paths are taken
+relative to the current directory.
+"""
+from __future__ import annotations
+
+import pathlib
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo
+
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class StrictModel(BaseModel):
+    """Frozen pydantic model that forbids unknown keys (as every scene section)."""
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class SystemPathError(ValueError):
+    """A model-level check that blames one key (``path`` relative to the model validated).
+
+    :func:`app.config._format_error` turns it into ``KEY = VALUE: message``.
+    """
+
+    def __init__(self, path: str, value: Any, msg: str):
+        super().__init__(msg)
+        self.path, self.value, self.msg = path, value, msg
+
+
+def base_dir(info: ValidationInfo | None) -> pathlib.Path:
+    """Folder that relative file paths of the scene are resolved against."""
+    ctx = getattr(info, "context", None) or {}
+    return pathlib.Path(ctx.get("base_dir") or ".")
+
+
+def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.Path:
+    """Absolute path of an existing, readable file named in the scene (relative to the scene file)."""
+    if not isinstance(value, str) or not value.strip():
+        raise SystemPathError(key, value, "allowed: a file path (relative to the scene file)")
+    try:
+        path = pathlib.Path(value).expanduser()
+        if not path.is_absolute():
+            path = base_dir(info) / path
+        path = path.resolve()
+        exists, is_file = path.exists(), path.is_file()
+    except (OSError, ValueError, RuntimeError) as err:     # e.g. a NUL byte, a name too long, a loop
+        raise SystemPathError(key, value, f"not a usable file path ({err})") from None
+    if not exists:
+        raise SystemPathError(key, value, f"no such file ({path})")
+    if not is_file:
+        raise SystemPathError(key, value, f"not a file ({path})")
+    return path

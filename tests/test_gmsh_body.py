@@ -1,0 +1,310 @@
+"""``system.type: gmsh`` with a loading program and a straight obstacle (app/systems/gmsh_*.py,
+app/loading/program.py).
+
+- The paper's block as a Gmsh file plus the program "press CD to 55 N, then drag it left" equals
+  the built-in block: identical classifications at every state and MCEIP-mu to 1e-8, on the
+  paper's mesh (crossed 20 x 10, as .msh) and on the shipped .geo (one diagonal per cell, the
+  built-in pattern "right").
+- Inclined obstacles: the same block, mesh, obstacle and motions rotated by any angle give the
+  same states and mu (per-node frames); an initial gap is closed by a rigid motion first.
+- One-line errors for a missing file, a missing or empty physical group, 3D, mixed and inverted
+  meshes, and a body the program leaves floating.
+"""
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+from conftest import ROOT, run_cli, run_scene
+
+GEO = ROOT / "app" / "scenes" / "gmsh" / "block.geo"
+
+
+def write_block_msh(path: pathlib.Path, nx: int, ny: int, pattern: str, angle_deg: float = 0.0,
+                    shift=(0.0, 0.0)) -> str:
+    """The built-in block mesh (app/scene/block_mesh.py) as a .msh, rotated about A and shifted."""
+    import gmsh
+
+    from app.scene.block_mesh import _add_structured_model
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        gmsh.model.add("b")
+        _add_structured_model(gmsh, 80.0, 40.0, nx, ny, pattern)
+        c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+        tags, x, _ = gmsh.model.mesh.getNodes()
+        for t, p in zip(tags, x.reshape(-1, 3)):
+            gmsh.model.mesh.setNode(int(t), [c * p[0] - s * p[1] + shift[0], s * p[0] + c * p[1] + shift[1], 0.0], [])
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return str(path)
+
+
+def gmsh_scene(file, mu=1.1, angle_deg=0.0, point=(0.0, 0.0), analyses=("mceip_mu",), press=(0.0, -1.0), **extra):
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    rot = lambda v: [c * v[0] - s * v[1], s * v[0] + c * v[1]]   # noqa: E731
+    system = {"type": "gmsh", "file": str(file), "contact": "AB", "prescribed": {"CD": "xy"},
+              "material": {"E": 5.0, "nu": 0.48, "density": 1.2e-9}, "thickness": 9.6,
+              "obstacle": {"point": list(point), "normal": rot([0.0, -1.0])},
+              "program": [{"name": "press", "steps": 10, "displacement": {"CD": {"translation": rot(press)}},
+                           "until": {"normal_force": 55.0}},
+                          {"name": "drag", "steps": 500, "displacement": {"CD": {"translation": rot([-10.0, 0.0])}}}]}
+    system.update(extra)
+    return {"name": "g", "system": system, "mu": mu, "analyses": list(analyses)}
+
+
+def block_scene(nx, ny, pattern, analyses=("mceip_mu",)):
+    return {"name": "b", "system": {"type": "block", "nx": nx, "ny": ny, "pattern": pattern}, "mu": 1.1,
+            "analyses": list(analyses)}
+
+
+def _mu_values(state):
+    return sorted(s["value"] for s in state["analyses"]["mceip_mu"]["solutions"])
+
+
+def assert_same_path(ref, got, first=0, rtol=1e-8):
+    """Identical classifications and slip signs, reactions to 1e-8 of the state's scale, MCEIP-mu to rtol."""
+    a_states, b_states = ref["states"][first:], got["states"][first:]
+    assert len(a_states) == len(b_states)
+    for a, b in zip(a_states, b_states):
+        assert [n["status"] for n in a["nodes"]] == [n["status"] for n in b["nodes"]], a["index"]
+        assert [n["sign"] for n in a["nodes"]] == [n["sign"] for n in b["nodes"]], a["index"]
+        scale = max(abs(n["r_N"]) for n in a["nodes"])
+        for na, nb in zip(a["nodes"], b["nodes"]):
+            assert nb["r_N"] == pytest.approx(na["r_N"], abs=1e-8 * scale)
+            assert nb["r_T"] == pytest.approx(na["r_T"], abs=1e-8 * scale)
+        assert _mu_values(b) == pytest.approx(_mu_values(a), rel=rtol)
+
+
+@pytest.fixture(scope="module")
+def paper_block():
+    return run_scene(block_scene(20, 10, "crossed"))
+
+
+def test_paper_mesh_program_equals_built_in_block(tmp_path, paper_block):
+    got = run_scene(gmsh_scene(write_block_msh(tmp_path / "paper.msh", 20, 10, "crossed")))
+    assert_same_path(paper_block, got)
+    assert got["distinct_classifications"] == paper_block["distinct_classifications"]
+    assert got["path"]["phases"][0]["homogeneous"] is True
+    assert got["states"][9]["load"]["normal_resultant"] == pytest.approx(55.0, rel=1e-10)
+    assert _mu_values(got["states"][-1]) == pytest.approx([1.7048], abs=5e-5)
+    assert "gross sliding" in got["path"]["end"]
+
+
+def test_shipped_geo_equals_built_in_right_pattern():
+    ref = run_scene(block_scene(20, 10, "right"))
+    got = run_scene(gmsh_scene(GEO))
+    assert_same_path(ref, got)
+
+
+@pytest.mark.parametrize("angle", [30.0, -17.0, 90.0])
+def test_inclined_obstacle_is_the_rotated_problem(tmp_path, angle):
+    """Rotating the body, the obstacle line (through a shifted point) and the motions is a change of
+    frame: classifications and mu are unchanged (per-node T/N frames in the stability code)."""
+    ref = run_scene(block_scene(10, 5, "crossed"))
+    shift = (3.0, -2.0)
+    f = write_block_msh(tmp_path / "rot.msh", 10, 5, "crossed", angle, shift)
+    got = run_scene(gmsh_scene(f, angle_deg=angle, point=shift))
+    assert_same_path(ref, got)
+
+
+@pytest.mark.parametrize("gap", [0.3, 3.0])
+def test_initial_gap_closed_by_a_rigid_motion(tmp_path, gap):
+    """The block lifted above the obstacle (less and more than the bonded estimate of the press,
+    0.5 mm): nodes are free with u_N = -(gap - CD's motion) until the gap closes; the
+    force-controlled press then reaches 55 N (bracketing and regula falsi, not homogeneous)."""
+    f = write_block_msh(tmp_path / "lifted.msh", 10, 5, "crossed", 0.0, (0.0, gap))
+    res = run_scene(gmsh_scene(f))
+    info = res["path"]
+    assert info["initial_gaps"] == pytest.approx([gap] * 11, abs=1e-12)
+    assert info["phases"][0]["homogeneous"] is False
+    depth = -res["states"][0]["load"]["parameters"]["motion.CD.ty"]     # CD's motion after step 1
+    press = res["states"][:10]
+    assert press[-1]["load"]["normal_resultant"] == pytest.approx(55.0, rel=1e-10)
+    for st in press:
+        d = -st["load"]["parameters"]["motion.CD.ty"]
+        if d < gap:
+            assert all(n["status"] == "free" and n["r_N"] == 0.0 for n in st["nodes"])
+            assert [n["u_N"] for n in st["nodes"]] == pytest.approx([-(gap - d)] * 11, abs=1e-9 * gap)
+    assert depth > 0 and any(-st["load"]["parameters"]["motion.CD.ty"] < gap for st in press)
+
+
+def test_gmsh_scene_same_numbers_on_two_ranks(tmp_path):
+    import yaml
+    f = write_block_msh(tmp_path / "b.msh", 10, 5, "crossed", 25.0)
+    s = gmsh_scene("b.msh", angle_deg=25.0, analyses=["necessary", "mceip_mu"])
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    out = {}
+    for ranks in (1, 2):
+        p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / f"o{ranks}"), "-q", ranks=ranks)
+        assert p.returncode == 0, p.stderr
+        out[ranks] = json.loads((tmp_path / f"o{ranks}" / "results.json").read_text())
+    assert f
+    a, b = out[1], out[2]
+    assert_same_path(a, b)
+    for x, y in zip(a["states"], b["states"]):
+        assert y["analyses"]["necessary"]["min_eig_K_sym"] == pytest.approx(
+            x["analyses"]["necessary"]["min_eig_K_sym"], rel=1e-8)
+
+
+GOOD = """
+Point(1) = {0, 0, 0, 5}; Point(2) = {40, 0, 0, 5}; Point(3) = {40, 20, 0, 5}; Point(4) = {0, 20, 0, 5};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1};
+Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};
+Physical Curve("bottom") = {1}; Physical Curve("top") = {3}; Physical Surface("body") = {1};
+"""
+
+
+def _err_scene(file, **system):
+    s = {"name": "e", "mu": 0.5, "analyses": ["mceip_mu"],
+         "system": {"type": "gmsh", "file": file, "contact": "bottom", "prescribed": {"top": "xy"},
+                    "material": {"E": 1.0, "nu": 0.3},
+                    "program": [{"steps": 2, "displacement": {"top": {"translation": [0, -0.1]}}}]}}
+    s["system"].update(system)
+    return s
+
+
+@pytest.mark.parametrize("geo,system,needle", [
+    (None, {"file": "nope.geo"}, "system.file = 'nope.geo': no such file"),
+    (GOOD, {"contact": "bottm"}, "system.contact = 'bottm': no physical curve 'bottm' in m.geo; physical curves: bottom, top"),
+    (GOOD.replace('Physical Curve("top") = {3};', 'Physical Curve("top") = {3}; Physical Curve("empty") = {};'),
+     {"contact": "empty"}, "physical curve 'empty'"),
+    (GOOD + "Extrude {0, 0, 5} { Surface{1}; }\nPhysical Volume(9) = {1};\n", {}, "a 3D model"),
+    (GOOD + "Recombine Surface {1};\n", {}, "element types"),
+    (GOOD.replace('Physical Surface("body") = {1};', ""), {}, "no physical surface"),
+    (GOOD, {"materials": {"body": {"E": 1, "nu": 0.3}}}, "give either 'material'"),
+    (GOOD, {"material": None, "materials": {"bod": {"E": 1, "nu": 0.3}}}, "no physical surface 'bod'"),
+    (GOOD, {"prescribed": {}}, "'top' is not a prescribed curve"),
+    (GOOD, {"prescribed": {"top": "x"}}, "only the x component of 'top' is prescribed"),
+    (GOOD, {"contact": "top", "prescribed": {"top": "xy"}}, "the contact curve cannot also be prescribed"),
+    (GOOD, {"program": [{"steps": 2, "force": {"top": [0, -1]}}], "prescribed": {}},
+     "the stiffness is singular"),
+    (GOOD, {"obstacle": {"point": [0, 1], "normal": [0, -1]}}, "inside the obstacle"),
+])
+def test_user_mistakes_are_one_line_errors(tmp_path, geo, system, needle):
+    import yaml
+    if geo is not None:
+        (tmp_path / "m.geo").write_text(geo)
+    s = _err_scene(system.pop("file", "m.geo"), **system)
+    if s["system"].get("material") is None:
+        s["system"].pop("material", None)
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q", cwd="/")
+    assert p.returncode == 2, (p.stdout, p.stderr)
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:"), p.stderr
+    assert needle in lines[0], lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+INVERTED_MSH = """$MeshFormat
+2.2 0 8
+$EndMeshFormat
+$PhysicalNames
+3
+1 1 "AB"
+1 2 "CD"
+2 3 "block"
+$EndPhysicalNames
+$Nodes
+6
+1 0 0 0
+2 4 0 0
+3 8 0 0
+4 0 4 0
+5 4 4 0
+6 8 4 0
+$EndNodes
+$Elements
+8
+1 1 2 1 1 1 2
+2 1 2 1 1 2 3
+3 1 2 2 2 4 5
+4 1 2 2 2 5 6
+5 2 2 3 1 1 5 2
+6 2 2 3 1 1 5 4
+7 2 2 3 1 2 3 6
+8 2 2 3 1 2 6 5
+$EndElements
+"""
+
+
+def test_inverted_elements_are_an_error(tmp_path):
+    """Element 5 is clockwise, the other three counter-clockwise."""
+    import yaml
+    (tmp_path / "inv.msh").write_text(INVERTED_MSH)
+    s = _err_scene("inv.msh", contact="AB", prescribed={"CD": "xy"},
+                   program=[{"steps": 1, "displacement": {"CD": {"translation": [0, -0.1]}}}])
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    p = run_cli("validate", str(tmp_path / "s.yaml"))
+    assert p.returncode == 2 and "inverted elements: 1 of 4 triangles" in p.stderr, p.stderr
+    (tmp_path / "inv.msh").write_text(INVERTED_MSH.replace("5 2 2 3 1 1 5 2", "5 2 2 3 1 1 2 5"))
+    p = run_cli("validate", str(tmp_path / "s.yaml"))
+    assert p.returncode == 0, p.stderr
+
+
+def test_force_and_traction_loads(tmp_path):
+    """Pressed by CD's motion, then pushed sideways by a load on the lateral sides (80 mm of curve):
+    a total force F and the traction F / (80 mm x thickness) give the same states; the push changes
+    the tangential reactions; pure force control in the normal direction leaves the body floating
+    (a one-line error naming the remedy)."""
+    f = write_block_msh(tmp_path / "b.msh", 10, 5, "crossed")
+    base = gmsh_scene(f, mu=0.6)
+    press = base["system"]["program"][0]
+    base["system"]["program"] = [press, {"steps": 5, "force": {"lateral": [-20.0, 0.0]}}]
+    res_f = run_scene(base)
+    base["system"]["program"] = [press, {"steps": 5, "traction": {"lateral": [-20.0 / (80.0 * 9.6), 0.0]}}]
+    res_t = run_scene(base)
+    assert len(res_f["states"]) == 15
+    assert_same_path(res_f, res_t)
+    t = [s["load"]["tangential_resultant"] for s in res_f["states"][9:]]
+    assert all(abs(b - a) > 1e-3 for a, b in zip(t, t[1:]))
+    base["system"]["prescribed"] = {"lateral": "x"}
+    base["system"]["program"] = [{"steps": 4, "force": {"CD": [0.0, -55.0]}}]
+    import yaml
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(base))
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "o"), "-q")
+    assert p.returncode == 2 and "the stiffness is singular" in p.stderr and len(p.stderr.splitlines()) == 1, p.stderr
+
+
+def test_rotation_about_a_point_mirrors(tmp_path):
+    """CD pressed, then rotated by +theta or -theta about its centre (40, 40): the crossed mesh is
+    mirror-symmetric about x = 40, so the normal reactions are mirror images, and the tilt loads
+    one side (the side CD's rotation moves down)."""
+    f = write_block_msh(tmp_path / "b.msh", 10, 5, "crossed")
+    out = {}
+    for th in (2.0, -2.0):
+        s = gmsh_scene(f, mu=0.0)
+        s["system"]["program"] = [s["system"]["program"][0],
+                                  {"steps": 3, "stop_at_gross_sliding": False,
+                                   "displacement": {"CD": {"rotation_deg": th, "about": [40.0, 40.0]}}}]
+        s["system"]["program"][0]["stop_at_gross_sliding"] = False
+        s["analyses"] = []
+        out[th] = run_scene(s)["states"][-1]["nodes"]
+    a = np.array([n["r_N"] for n in out[2.0]])
+    b = np.array([n["r_N"] for n in out[-2.0]])
+    assert a == pytest.approx(b[::-1], abs=1e-8 * np.abs(a).max())
+    assert a[0] < a[-1] and -a[:5].sum() > -a[-5:].sum()    # +theta (counter-clockwise) presses A's side (r_N < 0)
+
+
+def test_p2_plane_strain_equals_built_in_block(tmp_path):
+    """P2 and plane strain through the .geo (10 x 5 cells) equal the built-in block with the same options."""
+    (tmp_path / "b.geo").write_text(GEO.read_text().replace("nx = 20; ny = 10;", "nx = 10; ny = 5;"))
+    ref = run_scene({"name": "b", "system": {"type": "block", "nx": 10, "ny": 5, "pattern": "right", "degree": 2,
+                                             "plane": "strain"}, "mu": 1.1, "analyses": ["mceip_mu"]})
+    got = run_scene(gmsh_scene(tmp_path / "b.geo", degree=2, plane="strain"))
+    assert_same_path(ref, got)
+
+
+def test_unnamed_physical_groups_are_named_by_their_tags(tmp_path):
+    geo = GOOD.replace('Physical Curve("bottom") = {1}; Physical Curve("top") = {3}; Physical Surface("body") = {1};',
+                       "Physical Curve(11) = {1}; Physical Curve(12) = {3}; Physical Surface(5) = {1};")
+    (tmp_path / "t.geo").write_text(geo)
+    res = run_scene({"name": "t", "mu": 0.5, "analyses": [],
+                     "system": {"type": "gmsh", "file": str(tmp_path / "t.geo"), "contact": 11, "prescribed": {12: "xy"},
+                                "materials": {5: {"E": 1.0, "nu": 0.3}},
+                                "program": [{"steps": 2, "displacement": {12: {"translation": [0, -0.1]}}}]}})
+    assert len(res["states"]) == 2 and res["states"][-1]["load"]["normal_resultant"] > 0

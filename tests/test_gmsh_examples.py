@@ -1,0 +1,144 @@
+"""The shipped Gmsh examples (app/scenes/gmsh/): Hertz contact of a half-disk, an L-shaped body
+dragged sideways, the paper's block from a .geo (its numbers: tests/test_gmsh_body.py)."""
+import json
+import math
+
+import numpy as np
+import pytest
+from conftest import ROOT, run_cli
+
+EX = ROOT / "app" / "scenes" / "gmsh"
+F, R, E, NU = 10.0, 20.0, 1000.0, 0.3          # the half-disk scene's data (plane strain, unit thickness)
+
+
+def hertz():
+    """Half-width and peak pressure of a cylinder on a rigid plane, line load F per unit thickness."""
+    Es = E / (1 - NU ** 2)
+    a = math.sqrt(4 * F * R / (math.pi * Es))
+    return a, 2 * F / (math.pi * a)
+
+
+def _half_disk(tmp_path, h):
+    (tmp_path / "half_disk.geo").write_text((EX / "half_disk.geo").read_text().replace("h = 0.04;", f"h = {h};"))
+    scene = (EX / "half_disk.yaml").read_text().replace("outputs: {plots: true, report: true}", "")
+    (tmp_path / "s.yaml").write_text(scene)
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    return json.loads((tmp_path / "out" / "results.json").read_text())
+
+
+def _measure(res):
+    """Contact half-width (halfway between the outermost nodes in contact and their free neighbours)
+    and peak pressure (nodal reaction / tributary length / thickness) of the final state."""
+    st = res["states"][-1]
+    x = np.array([n["x"] for n in st["nodes"]])
+    rN = np.array([n["r_N"] for n in st["nodes"]])
+    c = np.flatnonzero(rN < 0)
+    i0, i1 = c.min(), c.max()
+    a = 0.5 * ((x[i1] + x[i1 + 1]) / 2 - (x[i0] + x[i0 - 1]) / 2)
+    trib = 0.5 * (x[2:] - x[:-2])
+    p = -rN[1:-1] / trib
+    return a, p.max(), x, res["path"]["initial_gaps"]
+
+
+def test_half_disk_against_hertz_with_refinement():
+    import pathlib
+    import tempfile
+    a_ex, p_ex = hertz()
+    errs = []
+    for h in (0.08, 0.04, 0.02):
+        with tempfile.TemporaryDirectory() as d:
+            res = _half_disk(pathlib.Path(d), h)
+        assert res["states"][-1]["load"]["normal_resultant"] == pytest.approx(F, rel=1e-10)
+        assert res["path"]["phases"][0]["homogeneous"] is False          # initial gaps: regula falsi
+        a, p0, x, gaps = _measure(res)
+        # initial gaps from the geometry: the arc's height above the plane
+        assert np.array(gaps) == pytest.approx(R - np.sqrt(R ** 2 - x ** 2), abs=1e-9 * R)
+        assert all(n["status"] in ("slip", "free") for n in res["states"][-1]["nodes"])   # frictionless
+        errs.append((abs(a / a_ex - 1), abs(p0 / p_ex - 1)))
+        assert abs(a / a_ex - 1) <= 0.75 * h / a_ex + 0.005        # edge resolution: half a cell
+        assert abs(p0 / p_ex - 1) <= 0.02
+    assert errs[0][0] > errs[1][0] > errs[2][0]                     # half-width converges
+    assert errs[1][0] < 0.04 and errs[2][0] < 0.02                  # shipped mesh (h = 0.04): a few percent
+
+
+def test_l_shape_example_runs_with_outputs(tmp_path):
+    p = run_cli("run", str(EX / "l_shape.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert res["path"]["end"] == "all phases applied"
+    assert res["states"][9]["load"]["normal_resultant"] == pytest.approx(30.0, rel=1e-10)
+    for st in res["states"]:
+        assert st["contact_solve"]["violation"] < 1e-9
+    first = res["states"][0]["classification"]
+    assert first["free"] > 0            # pressing the arm lifts the far end of the foot
+    final = res["states"][-1]
+    assert final["classification"]["slip"] > 0
+    assert any(s["analyses"]["mceip_mu"]["solutions"] for s in res["states"] if "mceip_mu" in s["analyses"])
+    for name in ("status_map", "reactions", "mceip_mu", "necessary"):
+        assert (tmp_path / "out" / "plots" / f"{name}.png").stat().st_size > 1000
+    assert "gmsh body l_shape.geo" in (tmp_path / "out" / "report.md").read_text()
+
+
+@pytest.mark.parametrize("scene", ["block.yaml", "half_disk.yaml", "l_shape.yaml", "incline.yaml"])
+def test_shipped_scenes_validate_from_any_folder(scene):
+    p = run_cli("validate", str(EX / scene), cwd="/")
+    assert p.returncode == 0, p.stderr
+
+
+@pytest.mark.parametrize("alpha,mu,step", [(25.0, 0.505, 51), (25.0, 0.305, 31), (-40.0, 0.705, 71)])
+def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step):
+    """Gravity tilted by tan(theta) = 0.01 per step against the incline's normal: the path ends by
+    gross sliding (every node in contact slips) at the first step with tan(theta) > mu, and not
+    before; the incline (mesh and obstacle) is at any angle."""
+    import yaml
+    geo = (EX / "incline.geo").read_text().replace("alpha = 25 * Pi / 180", f"alpha = {alpha} * Pi / 180")
+    (tmp_path / "incline.geo").write_text(geo)
+    s = yaml.safe_load((EX / "incline.yaml").read_text())
+    a, g = math.radians(alpha), 9810.0
+    t, n = (math.cos(a), math.sin(a)), (math.sin(a), -math.cos(a))
+    s["system"]["obstacle"]["angle_deg"] = alpha
+    s["system"]["program"][0]["gravity"] = [g * n[0], g * n[1]]
+    s["system"]["program"][1]["gravity"] = [-g * t[0], -g * t[1]]
+    s["mu"] = mu
+    s["analyses"] = []
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert res["path"]["end"].startswith(f"gross sliding in phase 1 ('tilt gravity downhill') at step {step}:")
+    weight = 1.2e-9 * g * 40 * 20 * 10
+    for st in res["states"]:
+        k = st["load"]["step"] if st["load"]["phase"] == 1 else 0
+        tangential = abs(sum(x["r_T"] for x in st["nodes"]))
+        normal = -sum(x["r_N"] for x in st["nodes"])
+        # the obstacle carries the weight; the foundation (1e-2 E / L^2) takes a fraction below 1 %
+        # (0.3 % of the tangential load once most nodes slip): far below the 2 % load step
+        assert normal == pytest.approx(weight, rel=2e-3)
+        if k < step:
+            assert tangential == pytest.approx(0.01 * k * weight, rel=1e-2, abs=1e-3 * weight)
+            assert any(x["status"] == "stick" for x in st["nodes"])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("scene", ["half_disk.yaml", "incline.yaml"])
+def test_examples_same_numbers_on_two_ranks(tmp_path, scene):
+    """Initial gaps (half-disk), the regula falsi force control, an inclined obstacle with gravity and a
+    foundation (incline): the same states and MCEIP-mu on 1 and 2 ranks."""
+    out = {}
+    for ranks in (1, 2):
+        p = run_cli("run", str(EX / scene), "-o", str(tmp_path / f"o{ranks}"), "-q", ranks=ranks)
+        assert p.returncode == 0, p.stderr
+        out[ranks] = json.loads((tmp_path / f"o{ranks}" / "results.json").read_text())
+    a, b = out[1], out[2]
+    assert b["mpi_ranks"] == 2 and a["path"]["end"] == b["path"]["end"]
+    assert len(a["states"]) == len(b["states"])
+    for x, y in zip(a["states"], b["states"]):
+        assert [n["status"] for n in x["nodes"]] == [n["status"] for n in y["nodes"]]
+        scale = max(abs(n["r_N"]) for n in x["nodes"]) or 1.0
+        for p_, q_ in zip(x["nodes"], y["nodes"]):
+            assert q_["r_N"] == pytest.approx(p_["r_N"], abs=1e-9 * scale)
+            assert q_["r_T"] == pytest.approx(p_["r_T"], abs=1e-9 * scale)
+        va = sorted(s["value"] for s in x["analyses"].get("mceip_mu", {}).get("solutions", []))
+        vb = sorted(s["value"] for s in y["analyses"].get("mceip_mu", {}).get("solutions", []))
+        assert vb == pytest.approx(va, rel=1e-8)
