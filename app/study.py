@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 from mpi4py import MPI
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from app.analyses.classify import classify
 from app.analyses.runner import analyse_state
@@ -19,6 +19,16 @@ from app.loading.state import EquilibriumState
 from app.progress import Progress
 from app.stages import Stages
 from app.system.particles import two_particle_system
+
+
+_BLAS: list = []
+
+
+def _blas() -> ThreadpoolController:
+    """The process's BLAS thread pools (inspected once: threadpoolctl scans the loaded libraries)."""
+    if not _BLAS:
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0]
 
 
 def _two_particle_path(scene: Scene, comm: MPI.Comm, stages: Stages):
@@ -77,7 +87,7 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
         else:
             # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
             # 3-6x faster than OpenBLAS's default on these sizes (issue 14)
-            with threadpool_limits(limits=1, user_api="blas"):
+            with _blas().limit(limits=1, user_api="blas"):
                 analyses = analyse_state(system, cls, scene)
             for name, a in analyses.items():
                 if a.get("failed"):

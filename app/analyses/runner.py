@@ -6,10 +6,13 @@ problem is solved, the contact Schur complement only for the condensed MCEIP-mu.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from petsc4py import PETSc
 
 from app.analyses import eigen
+from app.analyses import lambda2_bounds as l2b
 from app.analyses.classify import ZERO, Classification
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
@@ -177,9 +180,17 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
 
 
 def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
+    """MCEIP-lambda^2 (12)-(14) at ``scene.lambda2_mu`` with what is proven (app/analyses/lambda2_bounds.py):
+    no solution when (19) fails; otherwise no solution above an inertia-proven bound ``T``, and
+    ``[0, T]`` searched by SNES VI (found, not proven). Every result has ``certified`` and a
+    ``certificate``; solutions above the free-block spectrum or whose pattern does not solve its
+    restricted eigenproblem are labelled ill-conditioned."""
     mu = scene.lambda2_mu
+    t_start = time.perf_counter()
     if s == 0:
         d = _no_slip()
+        d["certified"] = True
+        d["certificate"] = l2b.certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0)
     else:
         K0, K1 = p.K()
         M0, M1 = p.M()
@@ -193,25 +204,70 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict 
                     "complete": True, "necessary_condition": nec,
                     "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
                             "which proves that (12)-(14) has no solution"}}
+                d["certified"] = True
+                d["certificate"] = l2b.certificate(
+                    "sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19)",
+                    (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
+                    {"min_eig_K_sym": nec["min_eig_K_sym"], "min_eig_M_sym": nec["min_eig_M_sym"]}, gap=0.0)
             else:
-                Ks, Ms = combine(K0, K1, mu), combine(M0, M1, mu)
-                tau = diag_scale(Ks) / diag_scale(Ms)
-                # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
-                # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD.
-                upper = np.inf
-                if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
-                    upper = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
-                rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
-                                   t_upper=upper)
-                d = rep.as_dict()
-                if _keep_modes(scene):
-                    _attach_vectors(d, rep)
-                d["search"]["necessary_condition"] = nec
-                d["search"]["lambda2_upper_bound"] = upper
-                Ks.destroy()
-                Ms.destroy()
+                d = _lambda2_search(p, scene, K0, K1, M0, M1, nec, mu, t_start)
     d["mu"] = mu
     return d
+
+
+def _lambda2_search(p: _Pencils, scene: Scene, K0, K1, M0, M1, nec: dict, mu: float, t_start: float) -> dict:
+    Ks, Ms = combine(K0, K1, mu), combine(M0, M1, mu)
+    try:
+        tau = diag_scale(Ks) / diag_scale(Ms)
+        # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
+        # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD; an LDL^T inertia
+        # count of sym K* + T sym M* proves a smaller bound T (lambda2_bounds.py).
+        upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
+        if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
+            rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+            upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh)
+            bound = {"method": "sym K* + T sym M* PD by an LDL^T inertia count, bisected from the "
+                               "Rayleigh-quotient bound -min eig sym K* / min eig sym M*",
+                     "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
+        rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
+                           t_upper=upper)
+        d = rep.as_dict()
+        if _keep_modes(scene):
+            _attach_vectors(d, rep)
+        d["search"]["necessary_condition"] = nec
+        d["search"]["lambda2_upper_bound"] = upper
+        d["search"]["upper_bound"] = bound
+        omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if d["solutions"] else None
+        for sol in d["solutions"]:
+            sol["certified"] = False
+            why = []
+            if omega2 is not None and sol["value"] > omega2:
+                why.append(f"lambda^2 above the free-block spectrum (max omega^2 = {omega2:.6g}): the mode "
+                           "decays by orders of magnitude between nodes, unresolvable in double precision")
+            if not sol.get("pattern_verified", True):
+                why.append("the pattern does not solve its restricted eigenproblem (25)-(26) to the tolerance")
+            sol["ill_conditioned"] = bool(why)
+            if why:
+                sol["conditioning"] = "; ".join(why)
+        if omega2 is not None:
+            d["search"]["free_block_max_omega2"] = omega2
+        clean = [x for x in d["solutions"] if not x["ill_conditioned"]]
+        if len(clean) < len(d["solutions"]):
+            d["result"] = (f"{len(clean)} clean solution(s) and {len(d['solutions']) - len(clean)} "
+                           "ill-conditioned one(s) found (not proven)")
+        hi = upper if np.isfinite(upper) else np.inf
+        d["certified"] = False
+        d["certificate"] = l2b.certificate(
+            bound["method"] if np.isfinite(upper) else "none",
+            (hi, np.inf) if np.isfinite(hi) else (0.0, 0.0),
+            ("proven: no solution with lambda^2 in the interval; " if np.isfinite(hi) else "") +
+            f"not proven: [0, {hi:.6g}] searched by SNES VI (solutions found there are not proven complete)",
+            time.perf_counter() - t_start,
+            {"proven_empty": [hi, np.inf] if np.isfinite(hi) else None, "searched_not_proven": [0.0, hi]})
+        return d
+    finally:
+        Ks.destroy()
+        Ms.destroy()
 
 
 def _enumerate(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
