@@ -7,6 +7,7 @@ problem is solved, the contact Schur complement only for the condensed MCEIP-mu.
 from __future__ import annotations
 
 import time
+import weakref
 
 import numpy as np
 from petsc4py import PETSc
@@ -82,6 +83,21 @@ class _Pencils:
             self._space.destroy()
 
 
+_WARM: dict[int, tuple[weakref.ref, dict]] = {}
+
+
+def _hints(system: System, mu: float) -> dict:
+    """Eigenvalues of the previous classification along the path (per system and mu): shifts
+    for the next one's eigen solves (they only speed them up; every answer is verified)."""
+    for key in [k for k, (ref, _) in _WARM.items() if ref() is None]:
+        del _WARM[key]
+    ref, hints = _WARM.get(id(system), (None, None))
+    if ref is None or ref() is not system:
+        hints = {}
+        _WARM[id(system)] = (weakref.ref(system), hints)
+    return hints.setdefault(float(mu), {})
+
+
 class AnalysisFailure(Exception):
     """A solver failed on one analysis of one state (reported, and the study goes on)."""
 
@@ -90,7 +106,7 @@ def _necessary(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
     with system.stages("necessary condition (19)"):
-        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig)
+        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, _hints(system, scene.mu))
 
 
 def _sufficient(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
@@ -196,7 +212,7 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict 
         M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
             if nec is None:
-                nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig)
+                nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig, _hints(system, mu))
             if not nec["satisfied"]:
                 # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
                 # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
