@@ -13,7 +13,7 @@ from mpi4py import MPI
 from threadpoolctl import ThreadpoolController
 
 from app.analyses.classify import classify
-from app.analyses.runner import analyse_state
+from app.analyses.runner import analyse_condensed_distributed, analyse_state
 from app.config import Block, Scene, TwoParticles
 from app.loading.state import EquilibriumState
 from app.progress import Progress
@@ -69,6 +69,7 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
         raise TypeError(type(scene.system))
 
     cache: dict = {}
+    deferred: list = []     # (classification, its analyses, state index): condensed MCEIP-mu, distributed below
     out_states = []
     failures = [path_info["failure"]] if path_info.get("failure") else []
     bar = progress.bar(len(states), "analyses")
@@ -88,10 +89,12 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
             # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
             # 3-6x faster than OpenBLAS's default on these sizes (issue 14)
             with _blas().limit(limits=1, user_api="blas"):
-                analyses = analyse_state(system, cls, scene)
+                analyses = analyse_state(system, cls, scene, defer_condensed=True)
             for name, a in analyses.items():
                 if a.get("failed"):
                     failures.append({"state": state.index, "analysis": name, "reason": a["reason"]})
+            if analyses.get("mceip_mu", {}).get("deferred"):
+                deferred.append((cls, analyses, state.index))
             cache[cls.key] = (state.index, analyses)
             entry["analyses_shared_with"] = None
         entry["analyses"] = analyses
@@ -99,6 +102,10 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
         out_states.append(entry)
         bar.update(1)
     bar.close()
+    if deferred:   # the condensed MCEIP-mu of every classification, one rank each under MPI
+        with _blas().limit(limits=1, user_api="blas"):
+            failed = analyse_condensed_distributed(system, scene, [(c, a) for c, a, _ in deferred], comm)
+        failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, cache) if inspect is not None else None
     outputs_record = None
     from app.outputs.fields import wants_fields

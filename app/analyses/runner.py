@@ -23,6 +23,7 @@ from app.config import Scene
 from app.system.base import System
 
 FULL_DENSE_LIMIT = 3000
+ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")   # in the order they run
 
 
 def _seq_aij(A: np.ndarray) -> PETSc.Mat:
@@ -123,11 +124,13 @@ def _sufficient(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
     return out
 
 
-def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
+def analyse_state(system: System, cls: Classification, scene: Scene, defer_condensed: bool = False) -> dict:
     """Run the scene's analyses on one classification; returns the ``analyses`` dict of results.json.
 
     An analysis whose solver fails (PETSc/SLEPc error, no convergence, unsupported state) is
     reported as ``{"failed": true, "reason": ...}`` and the other analyses still run.
+    ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data) as
+    ``{"deferred": true}`` for :func:`analyse_condensed_distributed` (MPI: one rank per classification).
     """
     if ZERO in cls.status:
         return _analyse_with_zero_nodes(system, cls, scene)
@@ -137,8 +140,11 @@ def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
     runs = {"necessary": _necessary, "sufficient": _sufficient, "mceip_mu": _mceip_mu,
             "mceip_lambda2": _mceip_lambda2, "enumerate": _enumerate}
     try:
-        for name in ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"):
+        for name in ANALYSES:
             if name not in scene.analyses:
+                continue
+            if name == "mceip_mu" and defer_condensed and s > 0 and scene.settings.mceip_mu_method == "condensed":
+                out[name] = {"deferred": True}    # dense work: analyse_condensed_distributed() fills it
                 continue
             try:
                 if name == "mceip_lambda2":
@@ -152,6 +158,36 @@ def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
     finally:
         p.destroy()
     return out
+
+
+def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple[Classification, dict]],
+                                  comm) -> list[dict]:
+    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict): job ``k``
+    runs on rank ``k % size`` alone (dense s x s work on COMM_SELF objects), and the results are
+    gathered on every rank (``allgather``), so the output is the same on any number of ranks.
+    Fills each analyses dict in place (key order as in :func:`analyse_state`); returns the failures."""
+    system.contact_schur()        # collective the first time: built on every rank before the split
+    mine: dict[int, dict] = {}
+    for k, (cls, _) in enumerate(jobs):
+        if k % comm.size != comm.rank:
+            continue
+        p = _Pencils(system, cls)
+        try:
+            mine[k] = _mceip_mu(system, p, scene, len(cls.slip))
+        except (UnsupportedState, AnalysisFailure, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+            mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
+        finally:
+            p.destroy()
+    failures = []
+    for part in comm.allgather(mine):                                    # MPI collective
+        for k, d in part.items():
+            out = jobs[k][1]
+            out["mceip_mu"] = d
+            for name in [n for n in ANALYSES if n in out]:               # canonical key order
+                out[name] = out.pop(name)
+            if d.get("failed"):
+                failures.append((k, d["reason"]))
+    return failures
 
 
 def _keep_modes(scene: Scene) -> bool:
