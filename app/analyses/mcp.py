@@ -302,8 +302,11 @@ class BorderedMcp:
     def _free_blocks(self):
         """``A0_ff``, ``A1_ff`` (free rows and columns), built once for the lifts."""
         if self._ff is None:
-            self._ff = (self.A0.createSubMatrix(self.is_f, self.is_f),
-                        self.A1.createSubMatrix(self.is_f, self.is_f))
+            from app.analyses.lambda2_bounds import axpy_structure
+            A0ff = self.A0.createSubMatrix(self.is_f, self.is_f)
+            A1ff = self.A1.createSubMatrix(self.is_f, self.is_f)
+            self._ff = (A0ff, A1ff)
+            self._ff_structure = axpy_structure(A0ff, A1ff)
         return self._ff
 
     def _lift_solver(self, t: float) -> PETSc.KSP:
@@ -314,7 +317,7 @@ class BorderedMcp:
             return hit[0]
         A0ff, A1ff = self._free_blocks()
         Aff = A0ff.copy()
-        Aff.axpy(t, A1ff, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        Aff.axpy(t, A1ff, structure=self._ff_structure)
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOperators(Aff)
         ksp.setType("preonly")

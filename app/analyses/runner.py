@@ -277,7 +277,10 @@ def _lambda2_search(p: _Pencils, scene: Scene, K0, K1, M0, M1, nec: dict, mu: fl
         upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
         if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
             rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
-            upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh)
+            hints = _hints(p.system, mu)
+            prev = hints.get("lambda2_bound")
+            upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh, guess=None if prev is None else 1.05 * prev)
+            hints["lambda2_bound"] = upper       # warm start for the next classification
             bound = {"method": "sym K* + T sym M* PD by an LDL^T inertia count, bisected from the "
                                "Rayleigh-quotient bound -min eig sym K* / min eig sym M*",
                      "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
