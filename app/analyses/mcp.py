@@ -214,7 +214,7 @@ class BorderedMcp:
         self.history.append(fnorm)
         if not np.isfinite(fnorm):
             return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
-        if fnorm < self._atol and its > 0:
+        if fnorm < self._atol:                       # (SNESSetForceIteration is never set here)
             return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
         if snes.getFunctionEvaluations() >= self._max_funcs:
             return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_COUNT
