@@ -423,6 +423,9 @@ def _analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) 
             with system.stages("MCEIP-lambda2 (12)-(14)"):
                 out["mceip_lambda2"] = search(Ks, Ms, sp, "lambda2", tau)
             out["mceip_lambda2"]["mu"] = mu_l
+            out["mceip_lambda2"].update(certified=False, certificate=l2b.certificate(
+                "none (zero-reaction nodes: dense SNES VI search only)", (0.0, 0.0),
+                "not proven: searched by SNES VI", 0.0))
     if "enumerate" in scene.analyses:
         problems = {}
         with system.stages("enumeration (24)-(26)"):
