@@ -231,8 +231,7 @@ class BorderedMcp:
         return PETSc.SNES.ConvergedReason.ITERATING
 
     def _solver(self, method: str, settings: McpSettings) -> PETSc.SNES:
-        """The SNES of ``method``, created on first use and kept for every later run (its LU
-        keeps the symbolic factorisation: the Jacobian's pattern never changes)."""
+        """A SNES of ``method`` for one run (destroyed by :meth:`solve`)."""
         snes = self._snes.get(method)
         if snes is not None:
             return snes
@@ -292,7 +291,10 @@ class BorderedMcp:
             reason, its = snes.getConvergedReason(), snes.getIterationNumber()
         except PETSc.Error:          # e.g. a zero pivot in a dense reduced Jacobian: a failed run
             reason, its = -3, snes.getIterationNumber()
-            snes.destroy()           # its state after an error is not trusted: a fresh one next time
+        finally:
+            # One SNES per run: reusing it across runs crashed (memory corruption) after a run
+            # that ended in a PETSc error on small dense problems, so it is not kept.
+            snes.destroy()
             del self._snes[method]
         z = X.getArray(readonly=True).copy()
         if not self.one_rank:
