@@ -128,6 +128,8 @@ class McpSettings(_Strict):
     pattern_starts: bool = True
     pattern_eig_limit: Annotated[int, Field(ge=0)] = 300
     rsls_linesearch: Literal["bt", "basic", "l2", "cp"] = "bt"
+    # a SNES VI run whose residual has not halved in this many iterations is stopped as failed (0: off)
+    stagnation_its: Annotated[int, Field(ge=0, le=10000)] = 10
 
 
 class EigSettings(_Strict):

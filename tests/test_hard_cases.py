@@ -96,9 +96,12 @@ def test_solver_failure_is_reported_and_the_study_goes_on(scene_file, tmp_path):
     assert "INCOMPLETE" in p.stdout
     res = json.loads((tmp_path / "out" / "results.json").read_text())
     assert res["failures"] and all(f["analysis"] == "necessary" for f in res["failures"])
-    last = res["states"][-1]["analyses"]
-    assert last["necessary"]["failed"] and "did not converge" in last["necessary"]["reason"]
-    assert last["mceip_mu"]["solutions"]          # the other analyses still ran
+    # (shift-and-invert converges in one iteration on some states: look at a state that failed)
+    failed = [s["analyses"] for s in res["states"] if s["analyses"]["necessary"].get("failed")]
+    assert failed and all("did not converge" in a["necessary"]["reason"] for a in failed)
+    # the other analyses still ran
+    assert all("solutions" in a["mceip_mu"] and not a["mceip_mu"].get("failed") for a in failed)
+    assert res["states"][-1]["analyses"]["mceip_mu"]["solutions"]
 
 
 def _start(out, *extra):

@@ -28,6 +28,7 @@ from app.analyses.pencils import dense, diag_scale
 from app.config import McpSettings
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
+MAX_LIFT_FACTORS = 16   # factorisations of A_ff(t) kept per problem (lifts at a t already seen reuse them)
 
 
 @dataclass
@@ -43,12 +44,15 @@ class McpSolution:
     found_by: list[str] = field(default_factory=list)
     iterations: int = 0
     x: np.ndarray | None = None  # full kept-space vector (replicated), for mode shapes
+    pattern_residual: float = 0.0   # residual of the pattern's restricted eigenproblem (25)-(26) / scale
+    pattern_verified: bool = True   # the pattern solves its restricted eigenproblem to the tolerance
 
     def as_dict(self) -> dict:
         return {"value": float(self.value), "x_Ts": [float(v) for v in self.x_c], "pattern": self.pattern,
                 "residual": self.residual, "complementarity": self.complementarity,
                 "min_x_Ts": self.min_x, "min_y_Ts": self.min_y, "iterations": self.iterations,
-                "found_by": self.found_by[:8], "found_count": len(self.found_by)}
+                "found_by": self.found_by[:8], "found_count": len(self.found_by),
+                "pattern_residual": self.pattern_residual, "pattern_verified": self.pattern_verified}
 
 
 @dataclass
@@ -62,6 +66,7 @@ class SearchReport:
     by_method: dict = field(default_factory=dict)
     intervals: list[str] = field(default_factory=list)
     starts: list[str] = field(default_factory=list)
+    skipped_identical: int = 0
 
     def as_dict(self) -> dict:
         result = (f"{len(self.solutions)} distinct solution(s) found" if self.solutions else
@@ -73,6 +78,7 @@ class SearchReport:
                 "search": {"attempts": self.attempts, "converged": self.converged,
                            "accepted": self.accepted, "by_method": self.by_method,
                            "intervals": self.intervals, "starts": self.starts,
+                           "identical_runs_skipped": self.skipped_identical,
                            "complete": False,
                            "note": "MCP search: distinct solutions found from the listed starts and "
                                    "intervals; completeness is proven only by enumeration"}}
@@ -115,6 +121,8 @@ class BorderedMcp:
         free_local = np.setdiff1d(np.arange(self.r0, self.r1), self.comp)
         self.has_free = self.comm.allreduce(len(free_local)) > 0           # MPI collective
         self.is_f = PETSc.IS().createGeneral(free_local.astype(PETSc.IntType), comm=self.comm)
+        self.free_mask = np.ones(self.n, dtype=bool)
+        self.free_mask[self.comp] = False
         for m in (B, C0, C1):
             m.destroy()
         # Bordered pattern: one extra column (index n) per row, one extra row on the last rank.
@@ -140,13 +148,31 @@ class BorderedMcp:
         self.v = A0.createVecRight()
         self.y0 = A0.createVecLeft()
         self.y1 = A0.createVecLeft()
+        # Positions of the A-values and of the border column in the bordered CSR values (no
+        # np.insert per Jacobian) and, for the dense Jacobian, their (row, column) pairs.
+        border = self.ins + np.arange(len(self.ins))
+        self.nvals = len(J) + len(self.ins)
+        self.pos_border = border
+        self.pos_main = np.setdiff1d(np.arange(self.nvals), border)
+        if self.dense:
+            self.dense_rows = np.repeat(np.arange(len(self.Ib) - 1), np.diff(self.Ib))
+        self.one_rank = self.comm.size == 1
+        # Work objects kept for every run (vectors, bounds, one SNES per method; see solve()).
+        self.X = self.J.createVecRight()
+        self.xl, self.xu = self.X.duplicate(), self.X.duplicate()
+        self._snes: dict[str, PETSc.SNES] = {}
+        self._lifts: dict[float, tuple] = {}      # t -> (KSP, A_ff(t)): one factorisation per t
+        self._ff = None                           # (A0_ff, A1_ff, A0_fc-free rows) built on first lift
+        self.history: list[float] = []
+        self.stagnation = 0                        # iterations without progress that stop a run (0: off)
 
     # -- evaluation --------------------------------------------------------------------------
     def _split(self, X: PETSc.Vec) -> float:
         xa = X.getArray(readonly=True)
         self.v.setArray(xa[:self.nloc])
         zeta = float(xa[-1]) if self.is_last else 0.0
-        zeta = self.comm.bcast(zeta, root=self.last)                # MPI collective
+        if not self.one_rank:
+            zeta = self.comm.bcast(zeta, root=self.last)            # MPI collective
         self.A0.mult(self.v, self.y0)
         self.A1.mult(self.v, self.y1)
         return self.tbar + self.sigma * zeta
@@ -154,22 +180,85 @@ class BorderedMcp:
     def residual(self, snes, X: PETSc.Vec, F: PETSc.Vec) -> None:
         t = self._split(X)
         xa = X.getArray(readonly=True)
-        csum = self.comm.allreduce(float(np.sum(xa[self.comp_local])))  # MPI collective
-        fx = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
-        F.setArray(np.concatenate([fx, [csum - self.c]]) if self.is_last else fx)
+        csum = float(np.sum(xa[self.comp_local]))
+        if not self.one_rank:
+            csum = self.comm.allreduce(csum)                         # MPI collective
+        fa = F.getArray()
+        fa[:self.nloc] = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
+        if self.is_last:
+            fa[-1] = csum - self.c
 
     def jacobian(self, snes, X: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         t = self._split(X)
-        vals = np.insert(self.V0 + t * self.V1, self.ins, self.sigma * self.y1.getArray(readonly=True))
+        vals = np.empty(self.nvals + (len(self.comp) + 1 if self.is_last else 0))
+        vals[self.pos_main] = self.V0 + t * self.V1
+        vals[self.pos_border] = self.sigma * self.y1.getArray(readonly=True)
         if self.is_last:
-            vals = np.concatenate([vals, np.ones(len(self.comp)), [0.0]])
-        P.zeroEntries()
+            vals[self.nvals:-1] = 1.0
+            vals[-1] = 0.0
         if self.dense:
-            rows = np.repeat(np.arange(len(self.Ib) - 1), np.diff(self.Ib))
-            P.getDenseArray()[rows, self.Jb] = vals
+            P.zeroEntries()
+            P.getDenseArray()[self.dense_rows, self.Jb] = vals
         else:
             P.setValuesCSR(self.Ib, self.Jb, vals)
         P.assemble()
+
+    def _converged(self, snes, its: int, norms: tuple, settings: McpSettings) -> int:
+        """PETSc's SNESConvergedDefault (same tests, same order) plus an optional stagnation stop:
+        a run whose residual norm has not halved in ``self.stagnation`` iterations is stopped
+        (reported as DIVERGED_MAX_IT: a failed run, exactly what it would have become)."""
+        xnorm, snorm, fnorm = norms
+        if its == 0:
+            self.history = []
+            self._ttol = fnorm * settings.rtol
+        self.history.append(fnorm)
+        if not np.isfinite(fnorm):
+            return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
+        if fnorm < self._atol:                       # (SNESSetForceIteration is never set here)
+            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+        if snes.getFunctionEvaluations() >= self._max_funcs:
+            return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_COUNT
+        if its:
+            if fnorm <= self._ttol:
+                return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE
+            if snorm < settings.stol * xnorm:
+                return PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE
+            if fnorm > 1e4 * self.history[0]:
+                return PETSc.SNES.ConvergedReason.DIVERGED_DTOL
+            k = self.stagnation
+            if k and its >= k and min(self.history[-k:]) > 0.5 * min(self.history[:-k]):
+                return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+        return PETSc.SNES.ConvergedReason.ITERATING
+
+    def _solver(self, method: str, settings: McpSettings) -> PETSc.SNES:
+        """A SNES of ``method`` for one run (destroyed by :meth:`solve`)."""
+        snes = self._snes.get(method)
+        if snes is not None:
+            return snes
+        snes = PETSc.SNES().create(self.comm)
+        snes.setType(method)
+        if method == RSLS and settings.rsls_linesearch != "bt":
+            # petsc4py 3.18 has no SNESLineSearch object: set it through a private options prefix
+            snes.setOptionsPrefix("mcp_rsls_")
+            PETSc.Options().setValue("mcp_rsls_snes_linesearch_type", settings.rsls_linesearch)
+            snes.setFromOptions()
+        snes.setFunction(self.residual, self.F)
+        snes.setJacobian(self.jacobian, self.J)
+        snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=settings.stol, max_it=settings.max_it)
+        snes.setMaxFunctionEvaluations(100 * settings.max_it)
+        self._atol, self._max_funcs = 1e-13, 100 * settings.max_it
+        snes.setConvergenceTest(self._converged, args=(settings,))
+        ksp = snes.getKSP()
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        if self.comm.size > 1:
+            pc.setFactorSolverType("mumps")
+        else:
+            pc.setFactorShift(PETSc.Mat.FactorShiftType.NONZERO, 1e-14)
+            pc.setFactorOrdering("qmd")  # minimum degree: 3x less fill than nd with the dense border
+        self._snes[method] = snes
+        return snes
 
     # -- one SNES VI run ---------------------------------------------------------------------
     def solve(self, method: str, x0_c: np.ndarray, zeta0: float, tbar: float, sigma: float,
@@ -180,8 +269,7 @@ class BorderedMcp:
         The start is ``x_c = x0_c`` scaled to ``e^T x_c = c`` and ``x_f = 0``, or ``x_full``.
         """
         self.tbar, self.sigma = tbar, sigma
-        X = self.J.createVecRight()
-        xl, xu = X.duplicate(), X.duplicate()
+        X, xl, xu = self.X, self.xl, self.xu
         lo = np.full(X.getLocalSize(), PETSc.NINFINITY)
         hi = np.full(X.getLocalSize(), PETSc.INFINITY)
         lo[self.comp_local] = 0.0
@@ -196,65 +284,80 @@ class BorderedMcp:
         xl.setArray(lo)
         xu.setArray(hi)
         X.setArray(x)
-        snes = PETSc.SNES().create(self.comm)
-        snes.setType(method)
-        if method == RSLS and settings.rsls_linesearch != "bt":
-            # petsc4py 3.18 has no SNESLineSearch object: set it through a private options prefix
-            snes.setOptionsPrefix("mcp_rsls_")
-            PETSc.Options().setValue("mcp_rsls_snes_linesearch_type", settings.rsls_linesearch)
-            snes.setFromOptions()
-        snes.setFunction(self.residual, self.F)
-        snes.setJacobian(self.jacobian, self.J)
+        snes = self._solver(method, settings)
         snes.setVariableBounds(xl, xu)
-        snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=settings.stol, max_it=settings.max_it)
-        snes.setMaxFunctionEvaluations(100 * settings.max_it)
-        ksp = snes.getKSP()
-        ksp.setType("preonly")
-        pc = ksp.getPC()
-        pc.setType("lu")
-        if self.comm.size > 1:
-            pc.setFactorSolverType("mumps")
-        else:
-            pc.setFactorShift(PETSc.Mat.FactorShiftType.NONZERO, 1e-14)
-            pc.setFactorOrdering("qmd")  # minimum degree: 3x less fill than nd with the dense border
         try:
             snes.solve(None, X)
             reason, its = snes.getConvergedReason(), snes.getIterationNumber()
         except PETSc.Error:          # e.g. a zero pivot in a dense reduced Jacobian: a failed run
             reason, its = -3, snes.getIterationNumber()
-        z = np.concatenate(self.comm.allgather(X.getArray(readonly=True).copy()))  # MPI collective
-        snes.destroy()
-        for v in (X, xl, xu):
-            v.destroy()
+        finally:
+            # One SNES per run: reusing it across runs crashed (memory corruption) after a run
+            # that ended in a PETSc error on small dense problems, so it is not kept.
+            snes.destroy()
+            del self._snes[method]
+        z = X.getArray(readonly=True).copy()
+        if not self.one_rank:
+            z = np.concatenate(self.comm.allgather(z))                 # MPI collective
         return z[:self.n], tbar + sigma * float(z[self.n]), reason, its
 
-    def lift(self, x0_c: np.ndarray, t: float) -> np.ndarray:
-        """Full start vector with the given ``x_c`` and ``x_f`` solving the free rows at ``t``:
-        ``A_ff(t) x_f = -A_fc(t) x_c`` (one sparse LU), so starts are as good as condensed ones."""
-        x = np.zeros(self.n)
-        x[self.comp] = x0_c
-        if not self.has_free:
-            return x
-        At = PETSc.Mat().createAIJ(self.A0.getSizes(), csr=(self.I, self.Jc, self.V0 + t * self.V1), comm=self.comm)
-        Aff = At.createSubMatrix(self.is_f, self.is_f)
-        self.v.setArray(x[self.r0:self.r1])
-        At.mult(self.v, self.y0)
-        rhs = Aff.createVecLeft()
-        rhs.setArray(-self.y0.getArray(readonly=True)[self.is_f.getIndices() - self.r0])
-        xf = rhs.duplicate()
+    def _free_blocks(self):
+        """``A0_ff``, ``A1_ff`` (free rows and columns), built once for the lifts."""
+        if self._ff is None:
+            from app.analyses.lambda2_bounds import axpy_structure
+            A0ff = self.A0.createSubMatrix(self.is_f, self.is_f)
+            A1ff = self.A1.createSubMatrix(self.is_f, self.is_f)
+            self._ff = (A0ff, A1ff)
+            self._ff_structure = axpy_structure(A0ff, A1ff)
+        return self._ff
+
+    def _lift_solver(self, t: float) -> PETSc.KSP:
+        """LU of ``A_ff(t) = A0_ff + t A1_ff``, factorised once per ``t`` and kept (at most
+        ``MAX_LIFT_FACTORS`` of them, oldest dropped first)."""
+        hit = self._lifts.get(t)
+        if hit is not None:
+            return hit[0]
+        A0ff, A1ff = self._free_blocks()
+        Aff = A0ff.copy()
+        Aff.axpy(t, A1ff, structure=self._ff_structure)
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOperators(Aff)
         ksp.setType("preonly")
         ksp.getPC().setType("lu")
         if self.comm.size > 1:
             ksp.getPC().setFactorSolverType("mumps")
-        ksp.solve(rhs, xf)
-        local = np.zeros(self.nloc)
-        local[self.is_f.getIndices() - self.r0] = xf.getArray(readonly=True)
-        full = np.concatenate(self.comm.allgather(local))                 # MPI collective
-        x[~np.isin(np.arange(self.n), self.comp)] = full[~np.isin(np.arange(self.n), self.comp)]
-        for obj in (At, Aff, rhs, xf, ksp):
-            obj.destroy()
+        ksp.setUp()
+        if len(self._lifts) >= MAX_LIFT_FACTORS:
+            old = next(iter(self._lifts))
+            for obj in self._lifts.pop(old):
+                obj.destroy()
+        self._lifts[t] = (ksp, Aff)
+        return ksp
+
+    def lift(self, x0_c: np.ndarray, t: float) -> np.ndarray:
+        """Full start vector with the given ``x_c`` and ``x_f`` solving the free rows at ``t``:
+        ``A_ff(t) x_f = -A_fc(t) x_c`` (one sparse LU per distinct ``t``, reused), so starts are
+        as good as condensed ones."""
+        x = np.zeros(self.n)
+        x[self.comp] = x0_c
+        if not self.has_free:
+            return x
+        ksp = self._lift_solver(t)
+        self.v.setArray(x[self.r0:self.r1])
+        self.A0.mult(self.v, self.y0)
+        self.A1.mult(self.v, self.y1)
+        fidx = self.is_f.getIndices() - self.r0
+        rhs, xf = ksp.getOperators()[0].createVecs()
+        try:
+            rhs.setArray(-(self.y0.getArray(readonly=True)[fidx] + t * self.y1.getArray(readonly=True)[fidx]))
+            ksp.solve(rhs, xf)
+            local = np.zeros(self.nloc)
+            local[fidx] = xf.getArray(readonly=True)
+        finally:
+            rhs.destroy()
+            xf.destroy()
+        full = local if self.one_rank else np.concatenate(self.comm.allgather(local))  # MPI collective
+        x[self.free_mask] = full[self.free_mask]
         return x
 
     def consistent_t(self, x0_c: np.ndarray, t_guess: float = 1.0, lifts: int = 2) -> tuple[float | None, np.ndarray]:
@@ -271,16 +374,40 @@ class BorderedMcp:
             rows = self.comp[mine] - self.r0
             a0 = self.y0.getArray(readonly=True)[rows]
             a1 = self.y1.getArray(readonly=True)[rows]
-            num = self.comm.allreduce(float(a0 @ a1))                     # MPI collective
-            den = self.comm.allreduce(float(a1 @ a1))                     # MPI collective
+            num, den = float(a0 @ a1), float(a1 @ a1)
+            if not self.one_rank:
+                num = self.comm.allreduce(num)                            # MPI collective
+                den = self.comm.allreduce(den)                            # MPI collective
             t_new = -num / den if den > 0 else -1.0
             if t_new <= 0:
                 return None, x
             t = t_new
         return t, self.lift(x0_c, t)
 
+    def _apply(self, x: np.ndarray, t: float) -> np.ndarray:
+        """``y = (A0 + t A1) x``, replicated."""
+        self.v.setArray(x[self.r0:self.r1])
+        self.A0.mult(self.v, self.y0)
+        self.A1.mult(self.v, self.y1)
+        y = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
+        return y if self.one_rank else np.concatenate(self.comm.allgather(y))   # MPI collective
+
+    def _measure(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float, float, float, float]:
+        y = self._apply(x, t)
+        xc, yc = x[self.comp], y[self.comp]
+        return (y, float(np.max(np.abs(y[self.free_mask]), initial=0.0)),
+                float(np.max(np.abs(xc * yc), initial=0.0)), float(np.min(xc)), float(np.min(yc)))
+
     def check(self, x: np.ndarray, t: float, tol: float) -> McpSolution | None:
-        """Check a candidate against (12)-(14)/(21)-(23) in the scaled problem; None if not a solution."""
+        """Check a candidate against (12)-(14)/(21)-(23) in the scaled problem; None if not a solution.
+
+        The pattern is part of the answer: ``slip`` where ``x_c > 0``, ``stick`` where ``x_c = 0``
+        (entries below zero within the tolerance are set to 0), and it must solve its own
+        restricted eigenproblem (25)-(26): ``|y| <= tol`` on the free and slip rows, ``y >= -tol``
+        on the stick rows. A candidate whose tiny positive entries (at most ``sqrt(tol)`` of the
+        largest) are really stick is reported with them set to 0 when that vector passes the same
+        test; otherwise it is kept and flagged ``pattern_verified = False`` (ill-conditioned).
+        """
         x = x.copy()
         for ia, ib in self.pairs:     # v_T = a - b: remove the spurious common part min(a, b)
             m = min(x[ia], x[ib])
@@ -292,27 +419,48 @@ class BorderedMcp:
         if not np.isfinite(t) or t < -tol or total <= 0 or not np.all(np.isfinite(x)):
             return None
         x = x / total
-        r0, r1 = self.r0, self.r1
-        self.v.setArray(x[r0:r1])
-        self.A0.mult(self.v, self.y0)
-        self.A1.mult(self.v, self.y1)
-        y = np.concatenate(self.comm.allgather(                         # MPI collective
-            self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)))
-        free = np.ones(self.n, dtype=bool)
-        free[self.comp] = False
-        xc, yc = x[self.comp], y[self.comp]
-        res = float(np.max(np.abs(y[free]), initial=0.0))
-        compl = float(np.max(np.abs(xc * yc), initial=0.0))
-        min_x, min_y = float(np.min(xc)), float(np.min(yc))
+        y, res, compl, min_x, min_y = self._measure(x, t)
         if res > tol or compl > tol or min_x < -tol or min_y < -tol:
             return None
-        pattern = ["slip" if v > np.sqrt(tol) * np.max(xc) else "stick" for v in xc]
+
+        def restricted(xv: np.ndarray, yv: np.ndarray) -> float:
+            on = xv[self.comp] > 0
+            return float(max(np.max(np.abs(yv[self.free_mask]), initial=0.0),
+                             np.max(np.abs(yv[self.comp][on]), initial=0.0),
+                             np.max(-yv[self.comp][~on], initial=0.0)))
+
+        xr = x.copy()
+        xr[self.comp] = np.maximum(x[self.comp], 0.0)
+        yr = self._apply(xr, t)
+        pres = restricted(xr, yr)
+        verified = pres <= tol
+        if not verified:
+            xs = xr.copy()
+            small = xs[self.comp] <= np.sqrt(tol) * np.max(xs[self.comp])
+            xs[self.comp[small]] = 0.0
+            xs /= float(np.sum(xs[self.comp]))
+            ys, r2, c2, mx2, my2 = self._measure(xs, t)
+            p2 = restricted(xs, ys)
+            if p2 <= tol and r2 <= tol and c2 <= tol and my2 >= -tol:
+                xr, pres, verified = xs, p2, True
+                res, compl, min_x, min_y = r2, c2, mx2, my2
+        xc = xr[self.comp]
+        pattern = ["slip" if v > 0 else "stick" for v in xc]
         return McpSolution(value=max(t, 0.0), x_c=xc.copy(), pattern=pattern, residual=res,
-                           complementarity=compl, min_x=min_x, min_y=min_y, x=x)
+                           complementarity=compl, min_x=min_x, min_y=min_y, x=xr,
+                           pattern_residual=pres, pattern_verified=bool(verified))
 
     def destroy(self) -> None:
-        for obj in (self.J, self.F, self.v, self.y0, self.y1, self.is_f):
+        for snes in self._snes.values():
+            snes.destroy()
+        for pair in self._lifts.values():
+            for obj in pair:
+                obj.destroy()
+        for obj in (self._ff or ()):
             obj.destroy()
+        for obj in (self.J, self.F, self.v, self.y0, self.y1, self.is_f, self.X, self.xl, self.xu):
+            obj.destroy()
+        self._snes, self._lifts, self._ff = {}, {}, None
 
 
 def _same(a: McpSolution, b: McpSolution, tol: float) -> bool:
@@ -369,11 +517,13 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     S0.scale(1.0 / alpha)
     S1.scale(tau / alpha)
     op = BorderedMcp(S0, S1, comp, pairs=pairs)
+    op.stagnation = settings.stagnation_its
     s = len(comp)
     # positions of split pairs within x_c (a pattern with both a and b active is degenerate)
     cpos = {int(c): k for k, c in enumerate(comp)}
     cpairs = [(cpos[a], cpos[b]) for a, b in (pairs or [])]
     report = SearchReport(problem=problem, solutions=[])
+    done: set = set()
     tol = settings.accept_tol
     top = t_upper / tau if np.isfinite(t_upper) else PETSc.INFINITY
     dense_ops = None
@@ -387,6 +537,15 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
             zeta_max = top - tbar if sigma > 0 else tbar
         t0 = min(t0, 0.5 * (tbar + top)) if np.isfinite(top) else t0
         zeta0 = min(max((t0 - tbar) * sigma, 0.0), zeta_max)
+        # A run is a deterministic function of its start, bounds and method: an identical run
+        # (e.g. several configured t0 clipped to the same value by t_upper) is not repeated.
+        key = (method, zeta0, tbar, sigma, zeta_max,
+               (x0 / max(np.sum(x0), 1e-300)).tobytes() + np.float64(t0).tobytes() if x_start is None
+               else x_start.tobytes())
+        if key in done:
+            report.skipped_identical += 1
+            return None
+        done.add(key)
         if x_start is None:
             x_start = op.lift(x0 / max(np.sum(x0), 1e-300), t0)
         x, t, reason, its = op.solve(method, x0, zeta0, tbar, sigma, zeta_max, settings,
@@ -455,8 +614,11 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
         if dense_ops is not None:
             if "pattern eigenvector starts" not in report.starts:
                 report.starts.append("pattern eigenvector starts")
-            for sol in list(report.solutions):
-                base = tuple(p == "slip" for p in sol.pattern)
+            # Nothing found yet: expand around the all-slip pattern instead (phases 2-3 must
+            # run even when the first starts found nothing).
+            bases = ([tuple(p == "slip" for p in sol.pattern) for sol in report.solutions]
+                     or [tuple(True for _ in range(s))])
+            for base in bases:
                 on = [i for i in range(s) if base[i]]
                 off = [i for i in range(s) if not base[i]]
                 # the pattern itself, one node flipped, and one slip node swapped with a stick node
@@ -479,7 +641,7 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
             lo = lo * (1 + 1e-6)
             hi = hi * (1 - 1e-6) if np.isfinite(hi) else hi
             key = (round(lo, 12), round(hi, 12))
-            if not values or hi <= lo or key in searched:
+            if hi <= lo or key in searched:
                 continue
             searched.add(key)
             report.intervals.append(f"[{lo * tau:.10g}, {hi * tau:.10g}]" if np.isfinite(hi)

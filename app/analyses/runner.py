@@ -6,10 +6,14 @@ problem is solved, the contact Schur complement only for the condensed MCEIP-mu.
 """
 from __future__ import annotations
 
+import time
+import weakref
+
 import numpy as np
 from petsc4py import PETSc
 
 from app.analyses import eigen
+from app.analyses import lambda2_bounds as l2b
 from app.analyses.classify import ZERO, Classification
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
@@ -27,6 +31,7 @@ from app.config import Scene
 from app.system.base import System
 
 FULL_DENSE_LIMIT = 3000
+ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")   # in the order they run
 
 
 def _seq_aij(A: np.ndarray) -> PETSc.Mat:
@@ -87,11 +92,30 @@ class _Pencils:
             self._space.destroy()
 
 
+_WARM: dict[int, tuple[weakref.ref, dict]] = {}
+
+
+def _hints(system: System, mu: float) -> dict:
+    """Eigenvalues of the previous classification along the path (per system and mu): shifts
+    for the next one's eigen solves (they only speed them up; every answer is verified)."""
+    for key in [k for k, (ref, _) in _WARM.items() if ref() is None]:
+        del _WARM[key]
+    ref, hints = _WARM.get(id(system), (None, None))
+    if ref is None or ref() is not system:
+        hints = {}
+        _WARM[id(system)] = (weakref.ref(system), hints)
+    return hints.setdefault(float(mu), {})
+
+
+class AnalysisFailure(Exception):
+    """A solver failed on one analysis of one state (reported, and the study goes on)."""
+
+
 def _necessary(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
     with system.stages("necessary condition (19)"):
-        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig)
+        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, _hints(system, scene.mu))
 
 
 def _sufficient(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
@@ -108,11 +132,13 @@ def _sufficient(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
     return out
 
 
-def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
+def analyse_state(system: System, cls: Classification, scene: Scene, defer_condensed: bool = False) -> dict:
     """Run the scene's analyses on one classification; returns the ``analyses`` dict of results.json.
 
     An analysis whose solver fails (PETSc/SLEPc error, no convergence, unsupported state) is
     reported as ``{"failed": true, "reason": ...}`` and the other analyses still run.
+    ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data) as
+    ``{"deferred": true}`` for :func:`analyse_condensed_distributed` (MPI: one rank per classification).
     """
     if ZERO in cls.status:
         return _analyse_with_zero_nodes(system, cls, scene)
@@ -122,8 +148,11 @@ def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
     runs = {"necessary": _necessary, "sufficient": _sufficient, "mceip_mu": _mceip_mu,
             "mceip_lambda2": _mceip_lambda2, "enumerate": _enumerate}
     try:
-        for name in ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"):
+        for name in ANALYSES:
             if name not in scene.analyses:
+                continue
+            if name == "mceip_mu" and defer_condensed and s > 0 and scene.settings.mceip_mu_method == "condensed":
+                out[name] = {"deferred": True}    # dense work: analyse_condensed_distributed() fills it
                 continue
             try:
                 if name == "mceip_lambda2":
@@ -137,6 +166,36 @@ def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
     finally:
         p.destroy()
     return out
+
+
+def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple[Classification, dict]],
+                                  comm) -> list[dict]:
+    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict): job ``k``
+    runs on rank ``k % size`` alone (dense s x s work on COMM_SELF objects), and the results are
+    gathered on every rank (``allgather``), so the output is the same on any number of ranks.
+    Fills each analyses dict in place (key order as in :func:`analyse_state`); returns the failures."""
+    system.contact_schur()        # collective the first time: built on every rank before the split
+    mine: dict[int, dict] = {}
+    for k, (cls, _) in enumerate(jobs):
+        if k % comm.size != comm.rank:
+            continue
+        p = _Pencils(system, cls)
+        try:
+            mine[k] = _mceip_mu(system, p, scene, len(cls.slip))
+        except (UnsupportedState, AnalysisFailure, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+            mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
+        finally:
+            p.destroy()
+    failures = []
+    for part in comm.allgather(mine):                                    # MPI collective
+        for k, d in part.items():
+            out = jobs[k][1]
+            out["mceip_mu"] = d
+            for name in [n for n in ANALYSES if n in out]:               # canonical key order
+                out[name] = out.pop(name)
+            if d.get("failed"):
+                failures.append((k, d["reason"]))
+    return failures
 
 
 def _keep_modes(scene: Scene) -> bool:
@@ -181,15 +240,23 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
 
 
 def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
+    """MCEIP-lambda^2 (12)-(14) at ``scene.lambda2_mu`` with what is proven (app/analyses/lambda2_bounds.py):
+    no solution when (19) fails; otherwise no solution above an inertia-proven bound ``T``, and
+    ``[0, T]`` searched by SNES VI (found, not proven). Every result has ``certified`` and a
+    ``certificate``; solutions above the free-block spectrum or whose pattern does not solve its
+    restricted eigenproblem are labelled ill-conditioned."""
     mu = scene.lambda2_mu
+    t_start = time.perf_counter()
     if s == 0:
         d = _no_slip()
+        d["certified"] = True
+        d["certificate"] = l2b.certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0)
     else:
         K0, K1 = p.K()
         M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
             if nec is None:
-                nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig)
+                nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig, _hints(system, mu))
             if not nec["satisfied"]:
                 # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
                 # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
@@ -197,25 +264,73 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict 
                     "complete": True, "necessary_condition": nec,
                     "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
                             "which proves that (12)-(14) has no solution"}}
+                d["certified"] = True
+                d["certificate"] = l2b.certificate(
+                    "sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19)",
+                    (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
+                    {"min_eig_K_sym": nec["min_eig_K_sym"], "min_eig_M_sym": nec["min_eig_M_sym"]}, gap=0.0)
             else:
-                Ks, Ms = combine(K0, K1, mu), combine(M0, M1, mu)
-                tau = diag_scale(Ks) / diag_scale(Ms)
-                # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
-                # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD.
-                upper = np.inf
-                if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
-                    upper = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
-                rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
-                                   t_upper=upper)
-                d = rep.as_dict()
-                if _keep_modes(scene):
-                    _attach_vectors(d, rep)
-                d["search"]["necessary_condition"] = nec
-                d["search"]["lambda2_upper_bound"] = upper
-                Ks.destroy()
-                Ms.destroy()
+                d = _lambda2_search(p, scene, K0, K1, M0, M1, nec, mu, t_start)
     d["mu"] = mu
     return d
+
+
+def _lambda2_search(p: _Pencils, scene: Scene, K0, K1, M0, M1, nec: dict, mu: float, t_start: float) -> dict:
+    Ks, Ms = combine(K0, K1, mu), combine(M0, M1, mu)
+    try:
+        tau = diag_scale(Ks) / diag_scale(Ms)
+        # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
+        # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD; an LDL^T inertia
+        # count of sym K* + T sym M* proves a smaller bound T (lambda2_bounds.py).
+        upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
+        if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
+            rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+            hints = _hints(p.system, mu)
+            prev = hints.get("lambda2_bound")
+            upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh, guess=None if prev is None else 1.05 * prev)
+            hints["lambda2_bound"] = upper       # warm start for the next classification
+            bound = {"method": "sym K* + T sym M* PD by an LDL^T inertia count, bisected from the "
+                               "Rayleigh-quotient bound -min eig sym K* / min eig sym M*",
+                     "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
+        rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
+                           t_upper=upper)
+        d = rep.as_dict()
+        if _keep_modes(scene):
+            _attach_vectors(d, rep)
+        d["search"]["necessary_condition"] = nec
+        d["search"]["lambda2_upper_bound"] = upper
+        d["search"]["upper_bound"] = bound
+        omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if d["solutions"] else None
+        for sol in d["solutions"]:
+            sol["certified"] = False
+            why = []
+            if omega2 is not None and sol["value"] > omega2:
+                why.append(f"lambda^2 above the free-block spectrum (max omega^2 = {omega2:.6g}): the mode "
+                           "decays by orders of magnitude between nodes, unresolvable in double precision")
+            if not sol.get("pattern_verified", True):
+                why.append("the pattern does not solve its restricted eigenproblem (25)-(26) to the tolerance")
+            sol["ill_conditioned"] = bool(why)
+            if why:
+                sol["conditioning"] = "; ".join(why)
+        if omega2 is not None:
+            d["search"]["free_block_max_omega2"] = omega2
+        clean = [x for x in d["solutions"] if not x["ill_conditioned"]]
+        if len(clean) < len(d["solutions"]):
+            d["result"] = (f"{len(clean)} clean solution(s) and {len(d['solutions']) - len(clean)} "
+                           "ill-conditioned one(s) found (not proven)")
+        hi = upper if np.isfinite(upper) else np.inf
+        d["certified"] = False
+        d["certificate"] = l2b.certificate(
+            bound["method"] if np.isfinite(upper) else "none",
+            (hi, np.inf) if np.isfinite(hi) else (0.0, 0.0),
+            ("proven: no solution with lambda^2 in the interval; " if np.isfinite(hi) else "") +
+            f"not proven: [0, {hi:.6g}] searched by SNES VI (solutions found there are not proven complete)",
+            time.perf_counter() - t_start,
+            {"proven_empty": [hi, np.inf] if np.isfinite(hi) else None, "searched_not_proven": [0.0, hi]})
+        return d
+    finally:
+        Ks.destroy()
+        Ms.destroy()
 
 
 def _enumerate(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
@@ -316,6 +431,9 @@ def _analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) 
             with system.stages("MCEIP-lambda2 (12)-(14)"):
                 out["mceip_lambda2"] = search(Ks, Ms, sp, "lambda2", tau)
             out["mceip_lambda2"]["mu"] = mu_l
+            out["mceip_lambda2"].update(certified=False, certificate=l2b.certificate(
+                "none (zero-reaction nodes: dense SNES VI search only)", (0.0, 0.0),
+                "not proven: searched by SNES VI", 0.0))
     if "enumerate" in scene.analyses:
         problems = {}
         with system.stages("enumeration (24)-(26)"):

@@ -1,0 +1,158 @@
+"""What can be proven cheaply about MCEIP-lambda^2 (12)-(14) on the full-size pencil, and the
+``certificate`` block of its results.
+
+Sign argument (the paper's (19), generalised): at a solution ``x^T y = x_Ts^T y_Ts = 0``, so
+``x^T (K* + t M*) x = 0`` with ``t = lambda^2``. Hence no solution has a ``t`` at which the
+symmetric part ``sym K* + t sym M*`` is positive definite:
+
+- ``t = 0`` (PD ``sym K*``) with ``sym M*`` PSD: no solution at all, the necessary condition (19);
+- when ``sym M*`` is PD, ``sym K* + T sym M*`` PD at one ``T`` makes it PD for every ``t >= T``
+  (adding ``(t - T) sym M*``), so every solution has ``t < T``. ``T`` is proven by an LDL^T
+  inertia count (no negative and no zero pivot, with a relative safety shift) and tightened by
+  bisection from the Rayleigh-quotient bound ``-min eig sym K* / min eig sym M*``.
+
+Nothing here proves the absence of solutions inside ``[0, T]`` (``sym K*(mu) + t sym M*`` is
+indefinite there and its Schur complement onto the slip nodes is not copositive on the paper's
+states): that interval is searched by SNES VI and reported "not proven".
+
+Values above the free-block spectrum (the largest ``omega^2`` of ``K_ff x = omega^2 M_ff x``)
+have free-DOF modes ``x_f = -(K_ff + t M_ff)^-1 A_fc x_c`` that are mass-dominated and decay
+node to node by orders of magnitude: double precision cannot resolve their patterns, and such
+solutions are labelled ill-conditioned instead of clean patterns.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+from slepc4py import SLEPc
+
+from app.analyses.pencils import diag_scale
+
+PROVEN = "proven"
+
+
+def certificate(method: str, interval: tuple[float, float], status: str, seconds: float,
+                detail: dict | None = None, gap: float | None = None) -> dict:
+    """The ``certificate`` block (same fields as MCEIP-mu's: method, interval, status, gap, seconds, detail).
+
+    ``interval``: the range of lambda^2 the status speaks about; ``status`` is ``"proven"`` only
+    when every solution in it is listed (none, here)."""
+    return {"method": method, "interval": [float(interval[0]), float(interval[1])], "status": status,
+            "gap": gap, "seconds": round(float(seconds), 4), "detail": detail or {}}
+
+
+def _sym(A: PETSc.Mat) -> PETSc.Mat:
+    S = A.copy()
+    S.transpose()
+    S.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    S.scale(0.5)
+    return S
+
+
+def inertia_negative_or_zero(C: PETSc.Mat) -> int:
+    """Number of negative plus zero pivots of an LDL^T (Cholesky without pivoting) factorisation
+    of the symmetric ``C``; a failed factorisation counts as 1 (nothing proven)."""
+    ksp = PETSc.KSP().create(C.getComm())
+    try:
+        ksp.setOperators(C)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("cholesky")
+        if C.getComm().getSize() > 1:
+            pc.setFactorSolverType("mumps")
+            pc.setFactorSetUpSolverType()
+            F = pc.getFactorMatrix()
+            F.setMumpsIcntl(13, 1)   # no ScaLAPACK root: MUMPS reports the inertia
+            F.setMumpsIcntl(24, 1)   # null pivot detection
+        ksp.setUp()
+        neg, zero, _ = pc.getFactorMatrix().getInertia()
+        return int(neg) + int(zero)
+    except PETSc.Error:
+        return 1
+    finally:
+        ksp.destroy()
+
+
+def _same_pattern(A: PETSc.Mat, B: PETSc.Mat) -> bool:
+    """Same sparsity pattern on this rank (then ``axpy`` can skip the pattern merge)."""
+    ia, ja, _ = A.getValuesCSR()
+    ib, jb, _ = B.getValuesCSR()
+    return len(ia) == len(ib) and len(ja) == len(jb) and bool(np.all(ia == ib) and np.all(ja == jb))
+
+
+def axpy_structure(A: PETSc.Mat, B: PETSc.Mat) -> int:
+    """The cheapest ``Mat.Structure`` valid for ``A.axpy(a, B)`` (decided on every rank alike)."""
+    same = A.getComm().tompi4py().allreduce(_same_pattern(A, B), op=MPI.LAND)   # MPI collective
+    return PETSc.Mat.Structure.SAME_NONZERO_PATTERN if same else PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
+
+
+def proven_upper_bound(Ks: PETSc.Mat, Ms: PETSc.Mat, start: float, steps: int = 6,
+                       guess: float | None = None) -> tuple[float, dict]:
+    """Small ``T`` proven by an inertia count to make ``sym K* + T sym M*`` PD (caller: ``sym M*``
+    PD, ``start`` a valid bound): bisection of ``steps`` steps on ``[0, start]``, or on
+    ``[0, guess]`` when ``guess`` (e.g. 1.05 x the previous classification's bound) is proven
+    first. Returns ``(T, detail)``; ``T = start`` when no smaller one is proven."""
+    t0 = time.perf_counter()
+    SK, SM = _sym(Ks), _sym(Ms)
+    structure = axpy_structure(SK, SM)
+    shift = 1e-10 * diag_scale(SK)      # relative safety margin for rounding in the factorisation
+    counts = 0
+
+    def pd(T: float) -> bool:
+        nonlocal counts
+        C = SK.copy()
+        try:
+            C.axpy(T, SM, structure=structure)
+            C.shift(-shift)
+            counts += 1
+            return inertia_negative_or_zero(C) == 0
+        finally:
+            C.destroy()
+
+    try:
+        lo, hi = 0.0, float(start)
+        if not np.isfinite(hi) or not pd(hi):
+            return float(start), {"inertia_counts": counts, "seconds": time.perf_counter() - t0}
+        if guess is not None and 0 < guess < hi and pd(guess):
+            hi = guess
+            steps = min(steps, 3)
+        for _ in range(steps):
+            mid = 0.5 * (lo + hi)
+            if pd(mid):
+                hi = mid
+            else:
+                lo = mid
+        return hi, {"inertia_counts": counts, "bracket": [lo, hi], "seconds": time.perf_counter() - t0}
+    finally:
+        SK.destroy()
+        SM.destroy()
+
+
+def free_block_max_omega2(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, tol: float = 1e-8) -> float | None:
+    """Largest ``omega^2`` of the free block ``K_ff x = omega^2 M_ff x`` (``K*`` and ``M*`` have
+    the free rows of ``K`` and ``M``: their ``f`` rows do not depend on mu). None if SLEPc fails."""
+    r0, r1 = Ks.getOwnershipRange()
+    free = np.setdiff1d(np.arange(r0, r1), comp).astype(PETSc.IntType)
+    isf = PETSc.IS().createGeneral(free, comm=Ks.getComm())
+    Kf, Mf = Ks.createSubMatrix(isf, isf), Ms.createSubMatrix(isf, isf)
+    eps = SLEPc.EPS().create(Ks.getComm())
+    try:
+        if Kf.getSize()[0] == 0:
+            return None
+        eps.setOperators(Kf, Mf)
+        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+        eps.setDimensions(nev=1)
+        eps.setTolerances(tol=tol, max_it=2000)
+        eps.solve()
+        if eps.getConverged() < 1:
+            return None
+        return float(eps.getEigenvalue(0).real)
+    except PETSc.Error:
+        return None
+    finally:
+        for obj in (eps, Kf, Mf, isf):
+            obj.destroy()
