@@ -10,12 +10,12 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.analyses import eigen
-from app.analyses.classify import ZERO, Classification
+from app.analyses.classify import ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import (UnsupportedState, combine, condensed_mu_pencil, dense, diag_scale,
                                    reduced_pencil, reduced_space, split_pencils)
-from app.config import Scene
+from app.config import ANALYSES, Scene
 from app.system.base import System
 
 FULL_DENSE_LIMIT = 3000
@@ -110,6 +110,9 @@ def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
     An analysis whose solver fails (PETSc/SLEPc error, no convergence, unsupported state) is
     reported as ``{"failed": true, "reason": ...}`` and the other analyses still run.
     """
+    na = frictionless_reason(cls, scene.mu)   # mu = 0: K* = K0 is SPD, nothing to compute
+    if na is not None:
+        return {name: {"not_applicable": True, "reason": na} for name in ANALYSES if name in scene.analyses}
     if ZERO in cls.status:
         return _analyse_with_zero_nodes(system, cls, scene)
     p = _Pencils(system, cls)
