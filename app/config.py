@@ -57,24 +57,36 @@ def _show(value: Any) -> str:
 def _is_numeric_annotation(tp: Any) -> bool:
     """The annotation takes numbers (int/float) and no booleans (``mu: yes`` must not become 1.0)."""
     import typing
-    found = {"num": False, "bool": False}
+    return _number_kind(tp) is not None
+
+
+def _number_kind(tp: Any) -> str | None:
+    """'an integer' or 'a number' if the annotation takes numbers and no booleans, else None."""
+    import typing
+    found = {"int": False, "float": False, "bool": False}
 
     def walk(t: Any) -> None:
         if t is bool:
             found["bool"] = True
-        elif t in (int, float):
-            found["num"] = True
+        elif t is int:
+            found["int"] = True
+        elif t is float:
+            found["float"] = True
         elif typing.get_origin(t) is Literal:
             for a in typing.get_args(t):
                 if isinstance(a, bool):
                     found["bool"] = True
-                elif isinstance(a, (int, float)):
-                    found["num"] = True
+                elif isinstance(a, int):
+                    found["int"] = True
+                elif isinstance(a, float):
+                    found["float"] = True
         else:
             for a in typing.get_args(t):
                 walk(a)
     walk(tp)
-    return found["num"] and not found["bool"]
+    if found["bool"] or not (found["int"] or found["float"]):
+        return None
+    return "a number" if found["float"] else "an integer"
 
 
 class _Strict(BaseModel):
@@ -87,10 +99,12 @@ class _Strict(BaseModel):
         if isinstance(data, dict):
             for name, v in data.items():
                 field = cls.model_fields.get(name) if isinstance(name, str) else None
-                if field is None or not _is_numeric_annotation(field.annotation):
+                kind = _number_kind(field.annotation) if field is not None else None
+                if kind is None:
                     continue
                 if isinstance(v, bool) or (isinstance(v, (list, tuple)) and any(isinstance(x, bool) for x in v)):
-                    raise _PathError(name, v, "a boolean (true/false/yes/no/on/off) is not a number: give a number")
+                    raise _PathError(name, v, f"a boolean (true/false/yes/no/on/off) is not a number: "
+                                              f"allowed: {kind}" + (" (or a list of them)" if isinstance(v, (list, tuple)) else ""))
         return data
 
 
@@ -421,7 +435,7 @@ class Scene(_Strict):
     mu: NonNegFloat
     units: Literal["mm-N-MPa-tonne-s", "m-N-Pa-kg-s"] = Field(
         "mm-N-MPa-tonne-s", description="the consistent unit system the scene's numbers are in (labels only)")
-    analyses: Annotated[list[Analysis], Field(max_length=len(ANALYSES))] = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2"]
+    analyses: list[Analysis] = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2"]
     mceip_lambda2_mu: Optional[NonNegFloat] = None
     loading: Optional[Loading] = None
     settings: Settings = Settings()
