@@ -196,7 +196,7 @@ def _main(args) -> int:
     problem = None
     if comm.rank == 0:
         try:
-            problem = folder.check() or preflight.check_disk(scene, estimate, folder.staging)
+            problem = folder.check() or preflight.check_disk(scene, estimate, folder.staging, folder.final)
         except OSError as err:                                # e.g. a path too long for the filesystem
             problem = f"cannot use the output folder {folder.final}: {err.strerror or err}"
         if problem:

@@ -66,15 +66,15 @@ def _number_kind(tp: Any) -> str | None:
     found = {"int": False, "float": False, "bool": False}
 
     def walk(t: Any) -> None:
-        if t is bool:
-            found["bool"] = True
+        if t is bool or t is str or (isinstance(t, type) and issubclass(t, BaseModel)):
+            found["bool"] = True           # mixed with non-numbers: the field's own validator decides
         elif t is int:
             found["int"] = True
         elif t is float:
             found["float"] = True
         elif typing.get_origin(t) is Literal:
             for a in typing.get_args(t):
-                if isinstance(a, bool):
+                if isinstance(a, (bool, str)):
                     found["bool"] = True
                 elif isinstance(a, int):
                     found["int"] = True

@@ -132,8 +132,9 @@ def output_bytes(scene: Scene, est: Estimate) -> int:
     return int(size)
 
 
-def check_disk(scene: Scene, est: Estimate, folder) -> str | None:
-    """A one-line problem if the file system holding ``folder`` has clearly too little free space."""
+def check_disk(scene: Scene, est: Estimate, folder, shown=None) -> str | None:
+    """A one-line problem if the file system holding ``folder`` has clearly too little free space
+    (``shown``: the folder named in the message, default ``folder``)."""
     import pathlib
     need = output_bytes(scene, est) + 16 * 2**20
     path = pathlib.Path(folder)
@@ -145,6 +146,6 @@ def check_disk(scene: Scene, est: Estimate, folder) -> str | None:
         return None
     free = st.f_bavail * st.f_frsize
     if free < need:
-        return (f"not enough free space for the results in {path}: about {need / 2**20:.0f} MiB needed, "
+        return (f"not enough free space for the results in {shown or path}: about {need / 2**20:.0f} MiB needed, "
                 f"{free / 2**20:.0f} MiB free")
     return None
