@@ -114,10 +114,17 @@ def check(scene: Scene, source: str = "scene") -> Estimate:
             worst = est
     cap, how = memory_limit(scene)
     if worst.memory_bytes > cap:
-        key = "system.nx" if worst.states <= 10 * worst.contact_nodes else "loading.tangential_step"
-        raise SceneError(f"{source}: memory estimate {worst.memory_bytes / 2**30:.3g} GiB ({worst.states} states, "
-                         f"{worst.dofs} DOFs, {worst.contact_nodes} contact nodes) exceeds {how}: "
-                         f"reduce {key} or raise settings.limits.max_memory_gb")
+        if worst.states > 10 * worst.contact_nodes:
+            key, val = "loading.tangential_step", scene.loading.tangential_step
+        elif scene.refinement is not None:
+            key, val = "refinement.levels", max(scene.refinement.levels)
+        elif scene.system.pattern == "unstructured":
+            key, val = "system.mesh_size", scene.system.mesh_size
+        else:
+            key, val = "system.nx", scene.system.nx
+        raise SceneError(f"{source}: {key} = {val}: memory estimate {worst.memory_bytes / 2**30:.3g} GiB "
+                         f"({worst.states} states, {worst.dofs} DOFs, {worst.contact_nodes} contact nodes) exceeds "
+                         f"{how}; use a coarser mesh or fewer states, or raise settings.limits.max_memory_gb")
     return worst
 
 

@@ -176,6 +176,9 @@ class ResultsFolder:
             return (f"the output folder {final} holds other files (not results written by this app): "
                     f"nothing was changed; choose a new or empty folder with -o"
                     + (" (--overwrite only replaces results this app wrote)" if self.overwrite else ""))
+        if state == "ours" and marker_kind(final) != self.kind:
+            return (f"the output folder {final} holds a {marker_kind(final)} folder of this app, not the results "
+                    f"of a single study: nothing was changed; choose another folder with -o")
         if state == "ours" and not self.overwrite:
             return (f"the output folder {final} already holds results of this app; "
                     f"use --overwrite to replace them, or choose another folder with -o")

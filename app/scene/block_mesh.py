@@ -63,14 +63,14 @@ def user_cache_dir() -> pathlib.Path:
     return root / APP_NAME / "meshes"
 
 
-def mesh_cache_path(name: str, install_dir: pathlib.Path = DEFAULT_CACHE_DIR) -> pathlib.Path:
+def mesh_cache_path(name: str, install_dir: pathlib.Path | None = None) -> pathlib.Path:
     """Where the mesh file ``name`` is read from or written to.
 
     A file already in the install folder (``meshes/``) is used; a new mesh is written there if
     that folder is writable, else to the user's cache folder (:func:`user_cache_dir`), so a user
     without write access to the installation can still run any mesh.
     """
-    install_dir = pathlib.Path(install_dir)
+    install_dir = pathlib.Path(DEFAULT_CACHE_DIR if install_dir is None else install_dir)
     if (install_dir / name).is_file() or _usable_dir(install_dir):
         return install_dir / name
     return user_cache_dir() / name
