@@ -256,6 +256,7 @@ def test_full_tmpfs_during_the_run(tmp_path):
     mnt = tmp_path / "mnt"
     if not _tmpfs(mnt, "64m"):
         pytest.skip("cannot mount a tmpfs here")
+    proc = None
     try:
         scene = tmp_path / "s.yaml"
         scene.write_text(BLOCK.replace("MU", "1.1") + "outputs: {paraview: true, plots: true, report: true}\n")
@@ -265,18 +266,23 @@ def test_full_tmpfs_during_the_run(tmp_path):
         t0 = time.time()
         while not list(mnt.glob(".out.partial-*/paraview")) and proc.poll() is None and time.time() - t0 < 120:
             time.sleep(0.005)
-        with open(mnt / "fill", "wb") as f:
-            try:
-                while True:
-                    f.write(b"\0" * 65536)
-            except OSError as err:
-                assert err.errno == errno.ENOSPC
+        fd = os.open(mnt / "fill", os.O_WRONLY | os.O_CREAT)
+        try:
+            while True:
+                os.write(fd, b"\0" * 65536)
+        except OSError as err:
+            assert err.errno == errno.ENOSPC
+        finally:
+            os.close(fd)
         stdout, stderr = proc.communicate(timeout=300)
         (mnt / "fill").unlink()
         assert proc.returncode == 4, (stdout, stderr)
         assert len(stderr.splitlines()) == 1 and "no space left" in stderr and "Traceback" not in stderr
         assert sorted(os.listdir(mnt)) == []
     finally:
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.wait()
         subprocess.run(["umount", str(mnt)], capture_output=True)
 
 
