@@ -119,10 +119,8 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.command == "render":
         from app.outputs.render import render_main
-        return render_main(args)
-    if args.command == "run":
-        return _guarded(_main, args)
-    return _main(args)
+        return _guarded(render_main, args)
+    return _guarded(_main, args)
 
 
 def _guarded(fn, args) -> int:

@@ -60,6 +60,12 @@ def check_block_path(states: Sequence[EquilibriumState], length: float, height: 
         normal.append(abs(gy) / height)
         shear.append(abs(gx - float(np.mean(st.u_T))) / height if len(st.u_T) else 0.0)
         pen.append(max(float(np.max(st.u_N, initial=0.0)), 0.0) / size)
+    nonfinite = [st.index for st in states
+                 if not all(np.all(np.isfinite(a)) for a in (st.u_T, st.u_N, st.r_T, st.r_N))]
+    if nonfinite:
+        out.append(f"non-finite displacements or reactions (overflow of double precision) at {len(nonfinite)} "
+                   f"state(s), first state {nonfinite[0]}: the scene's sizes, E or loads are out of range "
+                   f"(check the units)")
     g = lambda i: states[i].load  # noqa: E731
     checks = [
         ("nominal normal strain (CD pressed in / height)", normal, STRAIN_LIMIT,

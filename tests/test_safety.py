@@ -616,3 +616,30 @@ def test_sane_paths_have_no_strain_warning():
                                  u_N=np.array([0.0, 0.6, 0.0]), r_T=np.zeros(3), r_N=-np.ones(3))]
     w = check_block_path(bad, 80.0, 40.0)
     assert len(w) == 1 and "penetration" in w[0] and "state 5" in w[0] and "1.5 %" in w[0]
+
+
+def test_mount_point_target_is_refused_before_the_work(tmp_path):
+    mnt = tmp_path / "mnt"
+    if not _tmpfs(mnt, "8m"):
+        pytest.skip("cannot mount a tmpfs here")
+    try:
+        scene = tmp_path / "s.yaml"
+        scene.write_text(TP)
+        line = _one_error_line(run_cli("run", str(scene), "-o", str(mnt), "-q", "--overwrite"))
+        assert "mount point" in line and os.listdir(mnt) == []
+        _no_litter(tmp_path)
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True)
+
+
+def test_someone_elses_empty_folder_in_a_sticky_folder_is_refused(tmp_path, monkeypatch):
+    """As on /tmp: the rename over another user's folder would fail at the end, so it is refused first."""
+    import app.outputs.folder as folder_mod
+    parent = tmp_path / "shared"
+    parent.mkdir()
+    os.chmod(parent, 0o1777)
+    (parent / "out").mkdir()                             # owned by root, we pretend to be uid 4242
+    monkeypatch.setattr(folder_mod.os, "geteuid", lambda: 4242)
+    problem = folder_mod.ResultsFolder(parent / "out", overwrite=True).check()
+    assert problem and "belongs to another user" in problem
+    assert sorted(os.listdir(parent)) == ["out"]
