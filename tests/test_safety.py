@@ -113,11 +113,17 @@ def test_overwrite_replaces_only_the_apps_own_folder(tmp_path):
     assert run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite").returncode == 0
     assert json.loads((out / "results.json").read_text())["scene"] == "tp"
     _no_litter(tmp_path)
+    assert json.loads((out / ".contact-divergence.json").read_text())["entries"] == ["results.json", "steps.csv"]
     # a user file added to the app's folder makes it "other": never replaced again
     (out / "notes.txt").write_text("mine")
-    (out / ".contact-divergence.json").unlink()
+    before = _snapshot(out)
     line = _one_error_line(run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite"))
-    assert "holds other files" in line and (out / "notes.txt").read_text() == "mine"
+    assert "holds other files (notes.txt besides this app's results)" in line
+    assert _snapshot(out) == before
+    (out / "notes.txt").unlink()
+    (out / ".contact-divergence.json").unlink()           # without the marker: not ours either
+    line = _one_error_line(run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite"))
+    assert "holds other files" in line and (out / "results.json").exists()
 
 
 def test_bad_output_paths_give_one_line(tmp_path):

@@ -27,29 +27,54 @@ import time
 APP = "contact-divergence"
 FORMAT_VERSION = 1
 MARKER = ".contact-divergence.json"
+# Top-level names the app writes into a results folder (``render`` may add some after the run).
+APP_ENTRIES = frozenset({"results.json", "steps.csv", "report.md", "plots", "screenshots", "paraview", "fields",
+                         "levels", "refinement.csv", "refinement.json", "refinement.md", "refinement.png",
+                         "refinement.svg"})
 
 
 class CommitError(Exception):
     """The final rename failed; ``str(err)`` is one line saying where the results were kept."""
 
 
-def write_marker(folder: pathlib.Path, kind: str) -> None:
-    """Mark ``folder`` as written by this app (``kind``: 'results' or 'sweep')."""
+def write_marker(folder: pathlib.Path, kind: str, entries: list[str] | None = None) -> None:
+    """Mark ``folder`` as written by this app (``kind``: 'results' or 'sweep'; ``entries``: the
+    top-level names the app wrote there, recorded at the commit of a results folder)."""
     from app import __version__
     data = {"app": APP, "kind": kind, "format": FORMAT_VERSION, "version": __version__}
+    if entries is not None:
+        data["entries"] = sorted(entries)
     from app.outputs.results import _atomic_write
     _atomic_write(folder / MARKER, json.dumps(data) + "\n")
 
 
-def marker_kind(folder: pathlib.Path) -> str | None:
-    """The kind recorded by the app's marker in ``folder``, or None (no marker, or not ours)."""
+def _marker(folder: pathlib.Path) -> dict | None:
     try:
         data = json.loads((folder / MARKER).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
     if isinstance(data, dict) and data.get("app") == APP and isinstance(data.get("kind"), str):
-        return data["kind"]
+        return data
     return None
+
+
+def marker_kind(folder: pathlib.Path) -> str | None:
+    """The kind recorded by the app's marker in ``folder``, or None (no marker, or not ours)."""
+    data = _marker(folder)
+    return None if data is None else data["kind"]
+
+
+def foreign_entries(folder: pathlib.Path) -> list[str]:
+    """Top-level names in a marked folder that the app did not record writing there."""
+    data = _marker(folder) or {}
+    known = data.get("entries")
+    if not isinstance(known, list):
+        return []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return []
+    return sorted(n for n in names if n != MARKER and n not in known and n not in APP_ENTRIES)
 
 
 def folder_state(folder: pathlib.Path) -> str:
@@ -63,7 +88,9 @@ def folder_state(folder: pathlib.Path) -> str:
             return "empty"
     except OSError:
         return "other"
-    return "ours" if marker_kind(folder) is not None else "other"
+    if marker_kind(folder) is None or foreign_entries(folder):
+        return "other"
+    return "ours"
 
 
 def _is_cwd_or_ancestor(path: pathlib.Path) -> bool:
@@ -173,7 +200,10 @@ class ResultsFolder:
         if state == "not-a-folder":
             return f"cannot create the output folder {final}: a file of that name exists"
         if state == "other":
-            return (f"the output folder {final} holds other files (not results written by this app): "
+            extra = foreign_entries(final)
+            shown = f" ({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''} besides this app's results)" \
+                if extra else " (not results written by this app)"
+            return (f"the output folder {final} holds other files{shown}: "
                     f"nothing was changed; choose a new or empty folder with -o"
                     + (" (--overwrite only replaces results this app wrote)" if self.overwrite else ""))
         if state == "ours" and marker_kind(final) != self.kind:
@@ -225,6 +255,8 @@ class ResultsFolder:
         files, or a rename fails, the staged results stay where they are (:class:`CommitError`)."""
         state = folder_state(self.final)
         try:
+            entries = [n for n in os.listdir(self.staging) if n != MARKER]
+            write_marker(self.staging, self.kind, entries)      # what the app wrote: only that is replaced later
             if state == "other" or state == "not-a-folder":
                 raise CommitError(f"the output folder {self.final} now holds other files")
             if state == "ours":
