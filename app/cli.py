@@ -9,10 +9,9 @@ Under ``mpirun`` every rank computes, only rank 0 prints and writes.
 from __future__ import annotations
 
 import argparse
-import logging
-import signal
 import os
 import pathlib
+import signal
 import sys
 
 DESCRIPTION = """\
@@ -45,7 +44,7 @@ exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see resu
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION, epilog=EPILOG,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    from app import __version__
+    from app.version import __version__
     p.add_argument("--version", action="version", version=f"contact-divergence {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     run = sub.add_parser("run", help="run a loading study and write its results",
@@ -127,6 +126,7 @@ def _guarded(fn, args) -> int:
     """Under mpirun an exception on one rank would leave the others waiting forever:
     print it and abort the whole job instead."""
     from mpi4py import MPI
+
     from app.outputs.folder import CommitError
     try:
         return fn(args)
@@ -172,7 +172,7 @@ def _main(args) -> int:
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
-        from app.sweep import main as sweep_main       # a batch of cases (app/sweep.py)
+        from app.sweep import main as sweep_main  # a batch of cases (app/sweep.py)
         return sweep_main(scene, args, comm)
     from app import preflight
     try:
@@ -219,10 +219,10 @@ def _terminate(signum, frame):
 
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
 
+    from app.loading.block_path import UnreachableLoad
     from app.outputs.results import write_results
     from app.progress import Progress
     from app.study import run_study
-    from app.loading.block_path import UnreachableLoad
     if scene.refinement is not None:                          # a mesh-refinement study (app/refinement.py)
         from app.refinement import main as refinement_main
         return refinement_main(scene, args, comm, folder, outdir)
@@ -231,7 +231,7 @@ def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
     except UnreachableLoad as err:   # raised identically on every rank
         return _fail(f"{args.scene or 'default scene'}: loading: {err}")
     if comm.rank == 0:
-        from app.outputs.pictures import draw_after_run       # plots, screenshots, report (if asked)
+        from app.outputs.pictures import draw_after_run  # plots, screenshots, report (if asked)
         results = draw_after_run(results, outdir, Progress(enabled=not args.quiet, comm=comm))
         write_results(results, outdir)
     comm.Barrier()                                            # MPI collective: every rank has written

@@ -56,7 +56,6 @@ def _show(value: Any) -> str:
 
 def _is_numeric_annotation(tp: Any) -> bool:
     """The annotation takes numbers (int/float) and no booleans (``mu: yes`` must not become 1.0)."""
-    import typing
     return _number_kind(tp) is not None
 
 

@@ -49,6 +49,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from app.config import Scene, SceneError, _format_error
+from app.study_result import StateResult
 
 TAG_REQUEST, TAG_REPLY = 7101, 7102
 DISPATCHER_ENV = "CONTACT_DIVERGENCE_SWEEP_DISPATCHER"   # "dedicated": force a non-working rank 0 (tests)
@@ -181,9 +182,8 @@ PLOTTED = ["final_mceip_mu_min", "first_mceip_mu_value", "first_mceip_mu_u_x_mm"
 
 
 def _min_mu(state: dict) -> float | None:
-    sols = state.get("analyses", {}).get("mceip_mu", {}).get("solutions") or []
-    vals = [s["value"] for s in sols if isinstance(s.get("value"), (int, float))]
-    return min(vals) if vals else None
+    m = StateResult.from_dict(state).min_mu()
+    return None if m is None else float(m)
 
 
 def case_row(results: dict, case: Case, ran: str = "this run") -> dict:
@@ -267,7 +267,7 @@ def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
 
 def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     """Run ``case`` on ``gcomm``; the group's rank 0 writes it and returns its table row."""
-    from app.outputs.results import _atomic_write, write_results
+    from app.outputs.results import atomic_write, write_results
     from app.progress import Progress
     from app.study import run_study
     error = None
@@ -292,11 +292,11 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     if gcomm.rank != 0:
         return None
     if error is not None:
-        _atomic_write(folder / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
+        atomic_write(folder / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
         return error_row(case, error)
     results["sweep_case"] = {"sweep": case.scene.name, "name": case.name, "index": case.index,
                              "values": case.values, "scene_hash": case.scene_hash}
-    from app.outputs.pictures import draw_after_run    # plots, screenshots, report, if the scene asks
+    from app.outputs.pictures import draw_after_run  # plots, screenshots, report, if the scene asks
     results = draw_after_run(results, folder, Progress(enabled=False))
     write_results(results, folder)
     (folder / "error.json").unlink(missing_ok=True)
@@ -358,7 +358,7 @@ def _columns(cases: list[Case]) -> list[str]:
 def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: dict[int, dict],
                  info: dict) -> None:
     """sweep.csv and sweep.json (atomically): one row per case, finished or not."""
-    from app.outputs.results import _atomic_write, _clean
+    from app.outputs.results import atomic_write, json_clean
     cols = _columns(cases)
     table = []
     for c in cases:
@@ -371,7 +371,7 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
     w.writeheader()
     for r in table:
         w.writerow({k: "" if v is None else (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
-    _atomic_write(outdir / "sweep.csv", buf.getvalue())
+    atomic_write(outdir / "sweep.csv", buf.getvalue())
     missing = [r["case"] for r in table if r["status"] == "not run"]
     doc = {"scene": scene.name, "sweep": scene.sweep.model_dump(mode="json"), "n_cases": len(cases),
            "complete": not missing, "missing": missing, **info,
@@ -379,7 +379,7 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
                        "index": "case number in sweep order (from 0)",
                        **{k: "swept key" for k in cases[0].values}, **dict(QUANTITIES)},
            "cases": table}
-    _atomic_write(outdir / "sweep.json", json.dumps(_clean(doc), indent=1))
+    atomic_write(outdir / "sweep.json", json.dumps(json_clean(doc), indent=1))
 
 
 def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[int, dict]) -> list[pathlib.Path]:
@@ -487,10 +487,10 @@ def run_cases(cases: list[Case], todo: list[int], comm, ranks_per_case: int, out
         return "serial (one rank)"
     # PETSc and SLEPc initialise collectively on the world communicator when first imported: do it
     # here on every rank, not inside the first case (a rank may never run one).
-    from petsc4py import PETSc          # noqa: F401
-    from slepc4py import SLEPc          # noqa: F401
+    from petsc4py import PETSc  # noqa: F401
+    from slepc4py import SLEPc  # noqa: F401
     if any(c.scene.system.type == "block" for c in cases):
-        import app.loading.block_path   # noqa: F401 - DOLFINx
+        import app.loading.block_path  # noqa: F401 - DOLFINx
     threaded = (MPI.Query_thread() >= MPI.THREAD_MULTIPLE
                 and os.environ.get(DISPATCHER_ENV, "") != "dedicated")
     first = 0 if threaded else 1
@@ -608,7 +608,7 @@ def summary_table(cases: list[Case], rows: dict[int, dict]) -> str:
 
 def main(scene: Scene, args, comm) -> int:
     """``python -m app validate|run`` for a sweep scene."""
-    from app.cli import _fail
+    from app.errors import fail as _fail
     source = args.scene or "default scene"
     rpc = getattr(args, "ranks_per_case", None)
     if scene.sweep is None:

@@ -31,9 +31,10 @@ def main() -> None:
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
 
+    import yaml
+
     from app.config import default_scene_path
     from app.refinement import run_level
-    import yaml
     data = yaml.safe_load(default_scene_path().read_text())
     data.update(name="bench", analyses=[], mceip_lambda2_mu=2.0,
                 refinement={"levels": [args.nx, 2 * args.nx],

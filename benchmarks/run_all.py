@@ -55,9 +55,9 @@ def say(*a) -> None:
 def machine() -> dict:
     import dolfinx
     import gmsh
+    import mpi4py
     import scipy
     import slepc4py
-    import mpi4py
     cpu = platform.processor() or ""
     try:
         for line in open("/proc/cpuinfo"):

@@ -4,9 +4,9 @@ import copy
 import numpy as np
 import pytest
 import yaml
+from conftest import run_scene
 
 from app.config import default_scene_path
-from conftest import run_scene
 
 DEFAULT = yaml.safe_load(default_scene_path().read_text())
 
@@ -99,6 +99,7 @@ def _direct_reactions(clamp_tangential: bool, gx: float, gy: float):
     """Independent reference: the block with AB held by Dirichlet conditions (rollers, or
     clamped), solved directly (dense) from the DOLFINx stiffness; reactions in paper axes."""
     from mpi4py import MPI
+
     from app.analyses.pencils import dense, gather_vec
     from app.config import parse_scene
     from app.loading.block_path import build_block_system
@@ -179,6 +180,7 @@ def test_equilibrium_of_resultants_with_the_reactions(paper):
     import dolfinx.fem.petsc
     import ufl
     from mpi4py import MPI
+
     from app.config import parse_scene
     from app.loading.block_path import build_block_system
     from app.stages import Stages

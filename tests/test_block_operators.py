@@ -10,10 +10,9 @@ import subprocess
 import sys
 import textwrap
 
+import dolfinx.fem
 import numpy as np
 import pytest
-
-import dolfinx.fem
 import ufl
 from mpi4py import MPI
 from petsc4py import PETSc

@@ -18,10 +18,9 @@ from dataclasses import dataclass
 
 import pytest
 import yaml
+from conftest import ROOT, run_cli
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
-from conftest import ROOT, run_cli
 
 VALID = """\
 name: two-particles

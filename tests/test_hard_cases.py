@@ -8,10 +8,10 @@ import time
 
 import numpy as np
 import pytest
+from conftest import ROOT, run_cli, run_scene
 
 from app.analyses.classify import classify
 from app.loading.state import EquilibriumState
-from conftest import ROOT, run_cli, run_scene
 
 SMALL = {"name": "hard", "mu": 1.1, "system": {"type": "block", "nx": 10, "ny": 5},
          "analyses": ["mceip_mu"]}
@@ -181,11 +181,12 @@ def test_missing_cached_mesh_file_is_regenerated():
 
 def test_empty_contact_set_is_a_clear_error(monkeypatch):
     """A mesh without contact nodes on AB stops with a clear error, not a crash later on."""
+    from mpi4py import MPI
+
     import app.system.elasticity as elasticity
     from app.config import parse_scene
     from app.loading.block_path import UnreachableLoad
     from app.study import run_study
-    from mpi4py import MPI
     original = elasticity.block_operators
 
     def no_contact(*args, **kwargs):

@@ -1,7 +1,6 @@
 """Invariance: the same study in mm/N/MPa and in m/N/Pa, and with E scaled by 1e6, gives the same
 classifications and mu values (1e-8 relative) and lambda^2 scaled exactly."""
 import pytest
-
 from conftest import run_scene
 
 MM = {"name": "inv", "mu": 1.1, "mceip_lambda2_mu": 2.0,

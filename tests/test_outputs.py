@@ -18,7 +18,6 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 import yaml
-
 from conftest import PY, ROOT, run_cli
 
 SCENE = {

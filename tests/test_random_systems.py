@@ -3,7 +3,8 @@ enumerated (exact, complete) solution set; SLEPc's sufficient condition matches 
 import numpy as np
 import pytest
 import scipy.linalg
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from mpi4py import MPI
 
 from app.analyses.classify import classify

@@ -14,12 +14,10 @@ import os
 import pathlib
 import stat
 import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
-
 from conftest import PY, ROOT, run_cli
 
 TP = """\
@@ -395,6 +393,7 @@ def test_strict_input(tmp_path, text, needles):
 
 def test_merge_keys_are_not_duplicates():
     import yaml
+
     from app.config import _UniqueKeyLoader
     data = yaml.load("a: &b {k: 1, m: 2}\nc: {<<: *b, k: 3}\n", Loader=_UniqueKeyLoader)
     assert data["c"] == {"k": 3, "m": 2}
@@ -448,6 +447,7 @@ def test_mesh_cache_falls_back_to_the_user_cache(tmp_path, monkeypatch):
     """The install folder cannot be written (here: it would be under a regular file, which even
     root cannot create): new meshes go to $XDG_CACHE_HOME/contact-divergence/meshes."""
     from mpi4py import MPI
+
     import app.scene.block_mesh as bm
     blocker = tmp_path / "install"
     blocker.write_text("a file, not a folder")

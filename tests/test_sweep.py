@@ -12,9 +12,8 @@ import time
 
 import pytest
 import yaml
-from mpi4py import MPI
-
 from conftest import PY, ROOT, run_cli
+from mpi4py import MPI
 
 # 6 cases of the block on a small mesh, MCEIP-mu only: about 1 s each
 SWEEP = """\

@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import run_scene
 
 K, M, PHI = 1000.0, 2.0, 35.0

@@ -10,8 +10,8 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.config import EigSettings
 from app.analyses.pencils import combine, diag_scale, gather_vec
+from app.config import EigSettings
 
 
 def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> tuple[SLEPc.EPS, str]:

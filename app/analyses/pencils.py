@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.analyses.classify import FREE, SLIP, STICK, ZERO, Classification

@@ -13,8 +13,16 @@ from app.analyses import eigen
 from app.analyses.classify import ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
-from app.analyses.pencils import (UnsupportedState, combine, condensed_mu_pencil, dense, diag_scale,
-                                   reduced_pencil, reduced_space, split_pencils)
+from app.analyses.pencils import (
+    UnsupportedState,
+    combine,
+    condensed_mu_pencil,
+    dense,
+    diag_scale,
+    reduced_pencil,
+    reduced_space,
+    split_pencils,
+)
 from app.config import ANALYSES, Scene
 from app.system.base import System
 
@@ -79,10 +87,6 @@ class _Pencils:
             self._space.destroy()
 
 
-class AnalysisFailure(Exception):
-    """A solver failed on one analysis of one state (reported, and the study goes on)."""
-
-
 def _necessary(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
@@ -130,7 +134,7 @@ def analyse_state(system: System, cls: Classification, scene: Scene) -> dict:
                     out[name] = _mceip_lambda2(system, p, scene, s, nec if nec and "failed" not in nec else None)
                 else:
                     out[name] = runs[name](system, p, scene, s)
-            except (UnsupportedState, AnalysisFailure, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+            except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
                 reason = f"{type(err).__name__}: {err}".splitlines()[0]
                 out[name] = {"failed": True, "reason": reason}
     finally:

@@ -139,7 +139,7 @@ def block_path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress)
                 break
         bar.close()
         solver.destroy()
-    from app.sanity import check_block_path        # small-strain validity (warnings, never an error)
+    from app.sanity import check_block_path  # small-strain validity (warnings, never an error)
     for w in check_block_path(states, cfg.length, cfg.height, UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)

@@ -102,7 +102,6 @@ def _flexibility_block_solves(ksp: PETSc.KSP, K: PETSc.Mat, dofs: np.ndarray,
 def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
                         dofs: np.ndarray, signs: np.ndarray) -> ContactFlexibility:
     """Factor ``K`` and compute W and the unit-load contact displacements (MPI collective)."""
-    comm = K.getComm().tompi4py()
     dofs = np.asarray(dofs, dtype=np.int64)
     signs = np.asarray(signs, dtype=float)
     ksp = _lu(K)

@@ -118,6 +118,7 @@ def _von_mises_expression(u, E: float, nu: float, plane: str):
     """UFL von Mises stress of the 2D displacement ``u`` (plane stress: s_zz = 0; plane strain:
     s_zz = lambda tr(eps))."""
     import ufl
+
     from app.system.elasticity import lame_parameters
     mu, lmbda = lame_parameters(E, nu, plane)
     eps = ufl.sym(ufl.grad(u))
@@ -221,8 +222,8 @@ class _XdmfSeries:
     """meshio's XDMF time-series writer with the .h5 next to the .xdmf (meshio puts it in the cwd)."""
 
     def __init__(self, path: pathlib.Path):
-        import meshio
         import h5py
+        import meshio
 
         class Writer(meshio.xdmf.TimeSeriesWriter):
             def __enter__(self):

@@ -40,12 +40,12 @@ class CommitError(Exception):
 def write_marker(folder: pathlib.Path, kind: str, entries: list[str] | None = None) -> None:
     """Mark ``folder`` as written by this app (``kind``: 'results' or 'sweep'; ``entries``: the
     top-level names the app wrote there, recorded at the commit of a results folder)."""
-    from app import __version__
+    from app.version import __version__
     data = {"app": APP, "kind": kind, "format": FORMAT_VERSION, "version": __version__}
     if entries is not None:
         data["entries"] = sorted(entries)
-    from app.outputs.results import _atomic_write
-    _atomic_write(folder / MARKER, json.dumps(data) + "\n")
+    from app.outputs.results import atomic_write
+    atomic_write(folder / MARKER, json.dumps(data) + "\n")
 
 
 def _marker(folder: pathlib.Path) -> dict | None:

@@ -99,10 +99,6 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     return drawn
 
 
-def load_results(outdir: pathlib.Path) -> dict:
-    return json.loads((outdir / "results.json").read_text(encoding="utf-8"))
-
-
 def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """After a run (rank 0): the results as JSON data, with the pictures drawn if the scene asks.
 
@@ -111,7 +107,7 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """
     if not wants_pictures(results):
         return results
-    from app.outputs.results import _clean
-    data = json.loads(json.dumps(_clean(results)))
+    from app.outputs.results import json_clean
+    data = json.loads(json.dumps(json_clean(results)))
     draw_outputs(data, outdir, progress)
     return data

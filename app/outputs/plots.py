@@ -16,6 +16,8 @@ import pathlib
 
 import numpy as np
 
+from app.study_result import StateResult
+
 STATUS_ORDER = ("free", "zero", "stick", "slip")
 STATUS_COLOURS = {"free": "#d9d9d9", "zero": "#9467bd", "stick": "#1f77b4", "slip": "#d62728"}
 
@@ -167,8 +169,7 @@ def mceip_mu(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     fig, ax = plt.subplots(figsize=(10, 4.5))
     allx, ally = [], []
     for k, s in enumerate(states):
-        sols = ((s.get("analyses") or {}).get("mceip_mu") or {}).get("solutions") or []
-        vals = [_num(v["value"]) for v in sols]
+        vals = [float(v) for v in StateResult.from_dict(s).mu_values()]
         if vals:
             best[k] = min(vals)
             allx += [s["index"]] * len(vals)

@@ -13,6 +13,7 @@ import sys
 
 def render_main(args) -> int:
     from mpi4py import MPI
+
     from app.logs import setup_logging
     setup_logging(args.log_level, MPI.COMM_WORLD.rank)
     if MPI.COMM_WORLD.rank != 0:          # nothing parallel to do: rank 0 draws

@@ -9,9 +9,8 @@ import pathlib
 import yaml
 
 from app.outputs.select import describe
+from app.study_result import StudyResult
 
-PROBLEM_NAMES = {"sufficient": "sufficient condition (17)-(18), lambda^2", "mceip_mu": "MCEIP-mu, mu",
-                 "mceip_lambda2": "MCEIP-lambda^2, lambda^2"}
 PLOT_CAPTIONS = {
     "status_map": "Contact status of every node of AB (rows, A at the bottom) against the load step: "
                   "slip spreading along the contact side.",
@@ -139,11 +138,11 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
     path = results.get("path") or {}
     L += [f"- {len(states)} equilibrium state(s), {results.get('distinct_classifications', '')} distinct "
           f"classification(s); the path ended: {path.get('end', '')}."]
-    first_mu = next((s for s in states if ((s.get("analyses") or {}).get("mceip_mu") or {}).get("solutions")), None)
+    first_mu = StudyResult.from_dict(results).first_instability()
     if first_mu is not None:
-        c = first_mu["classification"]
-        vals = ", ".join(_fmt(v["value"]) for v in first_mu["analyses"]["mceip_mu"]["solutions"])
-        L.append(f"- MCEIP-mu first has a solution at state {first_mu['index']} ({c['stick']} stick / "
+        c = first_mu.classification
+        vals = ", ".join(_fmt(float(v)) for v in first_mu.mu_values())
+        L.append(f"- MCEIP-mu first has a solution at state {first_mu.index} ({c['stick']} stick / "
                  f"{c['slip']} slip / {c['free']} free): mu = {vals}.")
     last = states[-1]
     a = last.get("analyses") or {}

@@ -8,7 +8,7 @@ import os
 import pathlib
 import tempfile
 
-import numpy as np
+from app.study_result import FORMAT_VERSION, StateResult, json_clean
 
 
 def _umask() -> int:
@@ -30,8 +30,9 @@ def file_mode() -> int:
     return 0o666 & ~_umask()
 
 
-def _atomic_write(path: pathlib.Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename (readers never see half a file).
+def atomic_write(path: pathlib.Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename, so
+    that ``path`` is either absent, the old file, or complete (never half-written).
 
     The file gets the usual mode (0666 minus the umask), not mkstemp's 0600. A full disk raises
     OSError(ENOSPC) and leaves no temporary file behind."""
@@ -48,18 +49,6 @@ def _atomic_write(path: pathlib.Path, text: str) -> None:
         raise
 
 
-def _clean(obj):
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items() if not str(k).startswith("_")}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None if np.isnan(obj) else ("inf" if obj > 0 else "-inf")
-    return obj
-
-
 STEP_COLUMNS = ["index", "phase", "u_x_CD_mm", "u_y_CD_mm", "normal_resultant_N", "tangential_resultant_N",
                 "n_free", "n_zero", "n_stick", "n_slip", "necessary_min_eig_K_sym", "necessary_satisfied",
                 "sufficient_max_lambda2_per_s2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",
@@ -72,8 +61,9 @@ def step_rows(results: dict) -> list[dict]:
     for st in results["states"]:
         a = st.get("analyses", {})
         load = st.get("load", {})
-        mu_sols = [s["value"] for s in a.get("mceip_mu", {}).get("solutions", [])]
-        l2_sols = [s["value"] for s in a.get("mceip_lambda2", {}).get("solutions", [])]
+        res = StateResult.from_dict(st)
+        mu_sols = [] if res.mceip_mu is None else [float(v) for v in res.mceip_mu.values]
+        l2_sols = [] if res.mceip_lambda2 is None else [float(v) for v in res.mceip_lambda2.values]
         suff = a.get("sufficient", {}).get("lambda2", [])
         nec = a.get("necessary", {})
         c = st["classification"]
@@ -87,7 +77,7 @@ def step_rows(results: dict) -> list[dict]:
             "necessary_satisfied": nec.get("satisfied", ""),
             "sufficient_max_lambda2_per_s2": max(suff) if suff else "",
             "mceip_mu_min": min(mu_sols) if mu_sols else "",
-            "mceip_mu_count": len(mu_sols) if "mceip_mu" in a and "solutions" in a["mceip_mu"] else "",
+            "mceip_mu_count": len(mu_sols) if "solutions" in (a.get("mceip_mu") or {}) else "",
             "mceip_lambda2_max": max(l2_sols) if l2_sols else "",
             "shared_with": "" if st.get("analyses_shared_with") is None else st["analyses_shared_with"],
             "analysis_seconds": st.get("analysis_seconds", ""),
@@ -102,6 +92,7 @@ def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS)
     w.writeheader()
     w.writerows(step_rows(results))
-    _atomic_write(outdir / "steps.csv", buf.getvalue())
-    _atomic_write(outdir / "results.json", json.dumps(_clean(results), indent=1))
+    atomic_write(outdir / "steps.csv", buf.getvalue())
+    doc = {"format_version": FORMAT_VERSION, **json_clean(results)}
+    atomic_write(outdir / "results.json", json.dumps(doc, indent=1))
     return [outdir / "steps.csv", outdir / "results.json"]

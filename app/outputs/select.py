@@ -5,6 +5,8 @@ The same function runs inside the study (to know which fields to compute) and in
 """
 from __future__ import annotations
 
+from app.study_result import StudyResult
+
 MODE_PROBLEMS = (("sufficient", "sufficient"), ("mceip_mu", "mceip_mu"), ("mceip_lambda2", "mceip_lambda2"))
 
 
@@ -41,8 +43,8 @@ def select_states(states: list[dict], selectors) -> tuple[list[int], list[str]]:
         elif sel == "final":
             found = [states[-1]["index"]] if states else []
         elif sel == "first_mceip_mu":
-            found = [s["index"] for s in states
-                     if (s.get("analyses") or {}).get("mceip_mu", {}).get("solutions")][:1]
+            first = StudyResult.from_dict({"states": states}).first_instability()
+            found = [] if first is None else [first.index]
         elif sel == "all_distinct":
             found = [s["index"] for s in states if s.get("analyses_shared_with") is None]
         elif isinstance(sel, dict):

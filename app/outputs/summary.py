@@ -3,16 +3,18 @@ from __future__ import annotations
 
 import pathlib
 
+from app.study_result import StudyResult
+
 
 def summary(results: dict, outdir: pathlib.Path) -> str:
     states = results["states"]
     lines = [f"scene '{results['scene']}': {results['system']}",
              f"  {len(states)} equilibrium state(s), {results['distinct_classifications']} distinct "
              f"classification(s); path: {results['path'].get('end', '')}"]
-    first_mu = next((s for s in states if s["analyses"].get("mceip_mu", {}).get("solutions")), None)
+    first_mu = StudyResult.from_dict(results).first_instability()
     if first_mu is not None:
-        c = first_mu["classification"]
-        lines.append(f"  MCEIP-mu first has a solution at state {first_mu['index']} "
+        c = first_mu.classification
+        lines.append(f"  MCEIP-mu first has a solution at state {first_mu.index} "
                      f"({c['stick']} stick / {c['slip']} slip / {c['free']} free)")
     last = states[-1]
     c = last["classification"]
@@ -30,7 +32,7 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
                      f" (min eig sym K* = {a['necessary']['min_eig_K_sym']:.6g})")
     if "sufficient" in a:
         lam = a["sufficient"]["lambda2"]
-        lines.append(f"    sufficient condition (17)-(18): " + (f"satisfied, lambda^2 = {max(lam):.6g} 1/s^2" if lam else "not satisfied"))
+        lines.append("    sufficient condition (17)-(18): " + (f"satisfied, lambda^2 = {max(lam):.6g} 1/s^2" if lam else "not satisfied"))
     for key, name in (("mceip_mu", "MCEIP-mu"), ("mceip_lambda2", "MCEIP-lambda^2")):
         if key in a:
             sols = a[key]["solutions"]
@@ -43,7 +45,6 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
     if results["failures"]:
         lines.append(f"  INCOMPLETE: {len(results['failures'])} state(s) failed: "
                      + "; ".join(f"state {f['state']} {f.get('analysis', '')}: {f['reason']}" for f in results["failures"][:3]))
-    total = sum(s["seconds"] for s in results["stages"])
     lines.append(f"  wall time {results['wall_seconds']:.2f} s; stages: "
                  + ", ".join(f"{s['name']} {s['seconds']:.2f} s" for s in results["stages"]))
     lines.append(f"  results: {outdir / 'results.json'}, {outdir / 'steps.csv'}")

@@ -25,11 +25,10 @@ import pathlib
 import tempfile
 import uuid
 
-import numpy as np
-import numpy.typing as npt
-
 import dolfinx.io.gmshio
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
 from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 

@@ -16,12 +16,11 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 
-import numpy as np
-import numpy.typing as npt
-
 import dolfinx.fem
 import dolfinx.fem.petsc
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
 import ufl
 from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI

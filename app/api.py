@@ -1,0 +1,68 @@
+"""The public Python API: load a scene, run its study, read typed results.
+
+Example (the paper's block; about 10 s on one core)::
+
+    import app
+    scene = app.load_scene("app/scenes/villechaise_block.yaml")
+    r = app.run_study(scene)
+    print(r.final.min_mu())           # 1.7048: MCEIP-mu (21)-(23) at the final state
+    r.first_instability().counts()    # '7 stick / 11 slip / 3 free'
+
+:func:`run_study` computes and returns; it writes nothing (no results folder, no pictures, no
+ParaView files: the scene's ``outputs`` section is for the command line, ``python -m app run``).
+Save a result with ``json.dump(r.to_json(), f)``: that is the CLI's ``results.json``.
+Under ``mpirun`` every rank calls :func:`run_study` (it is collective on ``comm``) and gets the
+same result.
+"""
+from __future__ import annotations
+
+import pathlib
+from typing import Any, Mapping
+
+from mpi4py import MPI
+
+from app.config import Scene, SceneError, parse_scene
+from app.config import load_scene as _load_scene_file
+from app.study_result import (
+    CriticalMu,
+    MceipResult,
+    MceipSolution,
+    NecessaryResult,
+    Node,
+    StateResult,
+    StudyResult,
+    SufficientResult,
+)
+
+__all__ = ["CriticalMu", "MceipResult", "MceipSolution", "NecessaryResult", "Node", "Scene", "SceneError",
+           "StateResult", "StudyResult", "SufficientResult", "load_scene", "run_study"]
+
+
+def load_scene(scene: str | pathlib.Path | Mapping[str, Any]) -> Scene:
+    """A validated scene from a YAML file path or from a dictionary with the same keys.
+
+    Raises :class:`SceneError` whose message is one line naming the key, the value and what is
+    allowed (the keys are listed in ``docs/scene-keys.md``).
+    """
+    if isinstance(scene, Mapping):
+        return parse_scene(dict(scene), source="scene")
+    return _load_scene_file(scene)
+
+
+def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
+    """Run the scene's loading study and analyses (collective on ``comm``); writes nothing.
+
+    Scene -> system (two particles, or the FE block: Gmsh + DOLFINx) -> loading path ->
+    classification of every equilibrium state -> the scene's analyses once per distinct
+    classification (app/study.py). Raises ``app.loading.block_path.UnreachableLoad`` when the
+    prescribed path cannot reach the requested normal force. A scene with a ``sweep`` or
+    ``refinement`` section is a batch of studies: run it with ``python -m app run``.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"run_study needs a Scene (from app.load_scene), not {type(scene).__name__}")
+    for key in ("sweep", "refinement"):
+        if getattr(scene, key, None) is not None:
+            raise SceneError(f"scene '{scene.name}': has a '{key}' section: it is a batch of studies, "
+                             f"run it with: python -m app run SCENE")
+    from app.study import run_study as _run_study  # PETSc, and DOLFINx for a block, only when running
+    return StudyResult.from_dict(_run_study(scene, comm, outdir=None))

@@ -1,0 +1,170 @@
+"""The public API (app/api.py, app/study_result.py) and the stability of results.json.
+
+results.json must keep its content: only ``format_version`` is new in format 1. Two checks:
+
+* the two-particle scene of the README: the CLI's results.json equals, key by key and value by
+  value, the one written by the code before the API existed (main at ab195b8, kept in
+  tests/data/results_two_particles_v0.json without its timings);
+* the paper's block (the shipped default scene): the CLI's results.json has exactly the key
+  paths of the one written before the API (tests/data/results_keys_villechaise_block.txt, made
+  with scripts/results_keys.py), and the API's ``to_json()`` equals the CLI's results.json
+  except for timings and the record of the files the CLI drew.
+
+Keys that later analyses add to format 1 are listed in ``ADDED_KEYS``: adding an optional key is
+compatible, removing or changing one is not (then raise FORMAT_VERSION in app/study_result.py).
+"""
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+
+import pytest
+import yaml
+from conftest import ROOT, run_cli
+
+import app
+from app.study_result import FORMAT_VERSION, CriticalMu, StudyResult
+
+DATA = pathlib.Path(__file__).parent / "data"
+#: keys that vary from run to run (wall times) or describe what the CLI drew, not what it computed
+VOLATILE = {"stages", "wall_seconds", "analysis_seconds", "versions"}
+#: keys added to format 1 since v0 (a reader of format 1 ignores keys it does not know)
+ADDED_KEYS = {"format_version", "certified", "certificate"}
+
+TWO_PARTICLES = """\
+name: two-particles
+system: {type: two_particles, k: 1000.0, m: 2.0, phi_deg: 35.0, signs: [1, -1]}
+mu: 2.5
+analyses: [necessary, sufficient, mceip_lambda2, mceip_mu, enumerate]
+"""
+
+
+def _differences(old, new, path: str = "", skip=frozenset()) -> list[str]:
+    """Where two JSON documents differ (floats to 1e-9 relative: other BLAS builds)."""
+    out: list[str] = []
+    if isinstance(old, dict) and isinstance(new, dict):
+        for k in sorted(set(old) | set(new)):
+            if k in skip:
+                continue
+            if k not in new:
+                out.append(f"{path}.{k}: missing in the new results")
+            elif k not in old:
+                if k not in ADDED_KEYS:
+                    out.append(f"{path}.{k}: new key (not in ADDED_KEYS)")
+            else:
+                out += _differences(old[k], new[k], f"{path}.{k}", skip)
+    elif isinstance(old, list) and isinstance(new, list):
+        if len(old) != len(new):
+            return [f"{path}: {len(old)} items before, {len(new)} now"]
+        for i, (a, b) in enumerate(zip(old, new)):
+            out += _differences(a, b, f"{path}[{i}]", skip)
+    elif isinstance(old, float) and isinstance(new, (int, float)) and not isinstance(new, bool):
+        if not math.isclose(old, new, rel_tol=1e-9, abs_tol=1e-12 * max(1.0, abs(old))):
+            out.append(f"{path}: {old!r} before, {new!r} now")
+    elif old != new:
+        out.append(f"{path}: {old!r} before, {new!r} now")
+    return out
+
+
+def test_two_particles_results_json_unchanged(scene_file, tmp_path):
+    scene = scene_file(TWO_PARTICLES)
+    proc = run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q")
+    assert proc.returncode == 0, proc.stderr
+    new = json.loads((tmp_path / "out" / "results.json").read_text())
+    old = json.loads((DATA / "results_two_particles_v0.json").read_text())
+    assert new["format_version"] == FORMAT_VERSION == 1
+    # scene_config echoes the validated scene with every default: it grows with the schema
+    # (docs/scene-keys.md); the scene itself is compared through the analyses it produced.
+    diffs = _differences(old, new, skip=VOLATILE | {"scene_config"})
+    assert not diffs, "\n".join(diffs[:20])
+    assert set(old["scene_config"]) <= set(new["scene_config"])
+    # the differences function does see a change
+    changed = json.loads(json.dumps(new))
+    changed["states"][0]["analyses"]["mceip_mu"]["solutions"][0]["value"] *= 1 + 1e-6
+    assert _differences(old, changed, skip=VOLATILE | {"scene_config"})
+
+
+def test_two_particles_api_typed_fields():
+    """S1 = +1, S2 = -1 (Table 1's case with several modes): MCEIP-mu has slip-stick, stick-slip
+    and slip-slip solutions, all three proven by the enumeration; the typed fields hold what
+    results.json holds."""
+    r = app.run_study(app.load_scene(yaml.safe_load(TWO_PARTICLES)))
+    st = r.final
+    assert len(r) == 1 and st.index == 0 and r.state(0) is st and r.first_instability() is st
+    mu = st.mceip_mu
+    assert [s.pattern for s in mu.solutions] == [("slip", "stick"), ("stick", "slip"), ("slip", "slip")]
+    assert st.enumerate.search == {} and st.enumerate.raw["complete"] is True
+    assert len(st.enumerate.values) == 3 and max(abs(st.enumerate.values - mu.values)) < 1e-9 * mu.max()
+    assert str(st.min_mu()) == f"{mu.values[0]:.4f}" and st.min_mu() == mu.values[0]
+    raw = st.raw["analyses"]["mceip_mu"]["solutions"]
+    for sol, d in zip(mu.solutions, raw):
+        assert sol.value == d["value"] and sol.x_Ts.dtype == float and list(sol.x_Ts) == d["x_Ts"]
+        assert abs(sol.x_Ts.sum() - 1) < 1e-9 and not sol.x_Ts.flags.writeable
+        assert sol.pattern == tuple(d["pattern"]) and sol.evidence["residual"] == d["residual"]
+        assert sol.certified is None and sol.certificate is None
+    assert st.mceip_lambda2.mu == 2.5 and st.mceip_lambda2.min() is None
+    assert st.sufficient.satisfied is False and st.max_lambda2() is None and st.necessary.satisfied
+    with pytest.raises(KeyError):
+        r.state(5)
+
+
+def test_critical_mu_prints_four_decimals_and_keeps_the_value():
+    m = CriticalMu(1.7048043295803184)
+    assert str(m) == "1.7048" and f"{m}" == "1.7048" and f"{m:.10g}" == "1.70480433"
+    assert float(m) == 1.7048043295803184 and repr(m) == "1.7048043295803184"
+    assert json.dumps({"mu": m}) == '{"mu": 1.7048043295803184}'
+    assert str(CriticalMu(60.80579)) == "60.8058"
+
+
+def test_solution_carries_keys_added_by_other_analyses():
+    d = {"value": 2.0, "x_Ts": [0.25, 0.75], "pattern": ["slip", "slip"], "residual": 1e-15,
+         "certified": True, "certificate": {"method": "branch-and-bound", "interval": [0, 10]}, "new": 1}
+    results = {"scene": "s", "mu": 1.0, "states": [{"index": 0, "classification": {"slip": 2},
+                                                     "analyses": {"mceip_mu": {"solutions": [d]}}}]}
+    r = StudyResult.from_dict(results)
+    sol = r.final.mceip_mu.solutions[0]
+    assert sol.certified is True and sol.certificate["method"] == "branch-and-bound" and sol.all_slip
+    assert r.to_json()["states"][0]["analyses"]["mceip_mu"]["solutions"][0] == d
+    assert r.to_json()["format_version"] == FORMAT_VERSION
+    assert StudyResult.from_dict(r.to_json()).to_json() == r.to_json()
+
+
+def test_load_scene_errors_are_one_line():
+    with pytest.raises(app.SceneError, match=r"^scene: .*mu") as err:
+        app.load_scene({"name": "x", "system": {"type": "block"}, "mu": -1})
+    assert "\n" not in str(err.value)
+    with pytest.raises(app.SceneError, match="sweep"):
+        app.run_study(app.load_scene(ROOT / "app/scenes/sweep_mu.yaml"))
+
+
+@pytest.mark.slow
+def test_block_results_json_keys_unchanged_and_api_matches_cli(tmp_path):
+    """The shipped default scene through the CLI (with its pictures) and through the API."""
+    scene = ROOT / "app/scenes/villechaise_block.yaml"
+    proc = run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q")
+    assert proc.returncode == 0, proc.stderr
+    cli = json.loads((tmp_path / "out" / "results.json").read_text())
+    import sys
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        from results_keys import key_paths
+    finally:
+        sys.path.pop(0)
+    old_keys = set((DATA / "results_keys_villechaise_block.txt").read_text().split())
+    new_keys = key_paths(cli)
+    assert old_keys - new_keys == set(), "keys missing from results.json"
+    assert {k.rsplit(".", 1)[-1] for k in new_keys - old_keys} <= ADDED_KEYS
+    assert cli["format_version"] == FORMAT_VERSION
+
+    r = app.run_study(app.load_scene(scene))
+    assert str(r.final.min_mu()) == "1.7048"
+    api = r.to_json()
+    # the CLI also drew pictures and wrote ParaView files; the API computes only
+    assert cli["outputs"]["files"] and api["outputs"]["files"] == []
+    diffs = _differences(cli, api, skip=VOLATILE | {"outputs"})
+    assert not diffs, "\n".join(diffs[:20])
+    # a saved results.json reads back to the same typed result
+    back = StudyResult.load(tmp_path / "out")
+    assert back.final.min_mu() == r.final.min_mu() and len(back) == len(r) == 320
+    assert back.first_instability().index == r.first_instability().index
