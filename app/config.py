@@ -164,10 +164,13 @@ class Loading(_Strict):
 
 class Limits(_Strict):
     """Resource limits checked before any work starts (app/preflight.py); raise them deliberately."""
-    max_states: Annotated[int, Field(ge=1, le=10**9)] = 100_000
-    max_dofs: Annotated[int, Field(ge=1, le=10**9)] = 2_000_000
-    max_contact_nodes: Annotated[int, Field(ge=1, le=10**7)] = 20_000
-    max_memory_gb: Optional[Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]] = None   # None: 80 % of RAM
+    max_states: Annotated[int, Field(ge=1, le=10**9)] = Field(
+        100_000, description="most load states (normal_steps + tangential_max / tangential_step)")
+    max_dofs: Annotated[int, Field(ge=1, le=10**9)] = Field(2_000_000, description="most DOFs of the block mesh")
+    max_contact_nodes: Annotated[int, Field(ge=1, le=10**7)] = Field(
+        20_000, description="most contact nodes on AB")
+    max_memory_gb: Optional[Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]] = Field(
+        None, description="largest memory estimate accepted [GiB]; null: 80 % of the machine's RAM")
 
 
 class McpSettings(_Strict):
@@ -199,7 +202,7 @@ class Settings(_Strict):
     enumerate_max_slip: Annotated[int, Field(ge=1, le=24)] = 14
     enumerate_problems: Annotated[list[Literal["mu", "lambda2"]], Field(max_length=2)] = ["mu", "lambda2"]
     mceip_mu_method: Literal["condensed", "full"] = "condensed"
-    limits: Limits = Limits()
+    limits: Limits = Field(Limits(), description="resource limits checked before any work (README, Safety)")
 
 
 _SWEEP_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
