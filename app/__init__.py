@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from app.version import __version__  # noqa: F401 - ``app.__version__``, printed by ``python -m app --version``
+
 __all__ = ["CriticalMu", "MceipResult", "MceipSolution", "NecessaryResult", "Node", "Scene", "SceneError",
            "StateResult", "StudyResult", "SufficientResult", "load_scene", "run_study"]
 

@@ -1,7 +1,9 @@
 """Command line: ``python -m app run|validate`` (also the ``contact-divergence`` console script).
 
-Exit status: 0 success, 2 a user mistake (bad scene file, unwritable output folder),
-3 the study ran but some states failed (listed in results.json "failures").
+Exit status: 0 success, 2 a user mistake (bad scene file, unwritable output folder, a folder
+holding other files, a scene over the resource limits), 3 the study ran but some states failed
+(listed in results.json "failures"), 4 the results could not be written (disk full, out of
+memory, final rename failed; staged results are kept and their place printed).
 Under ``mpirun`` every rank computes, only rank 0 prints and writes.
 """
 from __future__ import annotations
@@ -34,13 +36,16 @@ examples:
   python -m app validate scene.yaml         # check a scene file without running it
   mpirun -n 4 python -m app run sweep.yaml --ranks-per-case 2   # a scene with a 'sweep' section:
                                             # its cases farmed out to groups of 2 ranks
-exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json)
+exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json),
+  4 the results could not be written (disk full, out of memory, final rename failed: see the error line)
 """
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION, epilog=EPILOG,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    from app.version import __version__
+    p.add_argument("--version", action="version", version=f"contact-divergence {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     run = sub.add_parser("run", help="run a loading study and write its results",
                          description="Run a loading study: every equilibrium state is classified "
@@ -52,7 +57,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("scene", nargs="?", help="scene YAML file (default: the embedded paper study)")
     run.add_argument("-o", "--output", help="results folder (default: output/<scene name>)")
     run.add_argument("--overwrite", action="store_true",
-                     help="replace the results already in the output folder (atomically, at the end of the run)")
+                     help="replace the results this app wrote earlier in the output folder (atomically, at the "
+                          "end of the run); a folder holding other files is never replaced")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no summary")
     run.add_argument("--ranks-per-case", type=int, default=None, metavar="K",
                      help="sweep scenes (a 'sweep' section): MPI ranks per case; the ranks form groups of K "
@@ -81,6 +87,30 @@ def _fail(msg: str, code: int = 2) -> int:
     return code
 
 
+EXIT_WRITE = 4
+
+
+def _no_space(err: BaseException) -> bool:
+    """A full disk or quota, however the library reports it (OSError errno, h5py/HDF5 or meshio text)."""
+    import errno
+    if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
+        return True
+    text = str(err).lower()
+    return isinstance(err, (OSError, RuntimeError)) and ("no space left" in text or "disk quota" in text)
+
+
+def _write_error(err: BaseException) -> str | None:
+    """The one-line message for a resource failure while running/writing, or None if it is not one."""
+    if isinstance(err, MemoryError):
+        return ("out of memory (MemoryError): the study does not fit in this machine's memory; use a coarser "
+                "mesh (system.nx) or fewer states (loading.tangential_step), or lower settings.limits.max_memory_gb "
+                "so the pre-flight refuses such scenes")
+    if _no_space(err):
+        where = getattr(err, "filename", None)
+        return f"no space left on the device{f' (writing {where})' if where else ''}: the results were not written"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
         # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
@@ -88,18 +118,34 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.command == "render":
         from app.outputs.render import render_main
-        return render_main(args)
-    if args.command == "run":
-        return _guarded(_main, args)
-    return _main(args)
+        return _guarded(render_main, args)
+    return _guarded(_main, args)
 
 
 def _guarded(fn, args) -> int:
     """Under mpirun an exception on one rank would leave the others waiting forever:
     print it and abort the whole job instead."""
     from mpi4py import MPI
+
+    from app.outputs.folder import CommitError
     try:
         return fn(args)
+    except CommitError as err:
+        return _fail(str(err), EXIT_WRITE)
+    except (MemoryError, OSError, RuntimeError) as err:
+        msg = _write_error(err)
+        if msg is None:
+            if MPI.COMM_WORLD.size == 1:
+                raise
+            import traceback
+            traceback.print_exc()
+            print(f"error: rank {MPI.COMM_WORLD.rank} failed; aborting all ranks", file=sys.stderr, flush=True)
+            MPI.COMM_WORLD.Abort(1)
+            return 1
+        print(f"error: {msg}", file=sys.stderr, flush=True)      # every rank that hit it: one line each
+        if MPI.COMM_WORLD.size > 1:
+            MPI.COMM_WORLD.Abort(EXIT_WRITE)
+        return EXIT_WRITE
     except KeyboardInterrupt:
         if MPI.COMM_WORLD.size > 1:
             MPI.COMM_WORLD.Abort(130)
@@ -128,30 +174,43 @@ def _main(args) -> int:
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
         from app.sweep import main as sweep_main  # a batch of cases (app/sweep.py)
         return sweep_main(scene, args, comm)
+    from app import preflight
+    try:
+        estimate = preflight.check(scene, args.scene or "default scene")   # arithmetic only: milliseconds
+    except SceneError as err:
+        return _fail(str(err))
     if args.command == "validate":
         if comm.rank == 0:
             print(f"{args.scene}: ok: scene '{scene.name}', system {scene.system.type}, mu = {scene.mu}, "
-                  f"analyses: {', '.join(scene.analyses)}")
+                  f"analyses: {', '.join(scene.analyses)}; {estimate.describe()[len('pre-flight: '):]}")
         return 0
 
     from app.logs import setup_logging
     setup_logging(args.log_level, comm.rank)           # app logs at --log-level; rank 0 only below WARNING
+    import logging
+    logging.getLogger("app.preflight").info(estimate.describe())
     from app.outputs.folder import ResultsFolder
     folder = ResultsFolder(pathlib.Path(args.output or pathlib.Path("output") / scene.name), args.overwrite)
-    problem = folder.check() if comm.rank == 0 else None
+    problem = None
+    if comm.rank == 0:
+        try:
+            problem = folder.check() or preflight.check_disk(scene, estimate, folder.staging, folder.final)
+        except OSError as err:                                # e.g. a path too long for the filesystem
+            problem = f"cannot use the output folder {folder.final}: {err.strerror or err}"
+        if problem:
+            folder.abort()
     problem = comm.bcast(problem, root=0)                     # MPI collective
     if problem:
         return _fail(problem)
-    if comm.rank == 0:
-        folder.open()
-    # Everything is written into the staging folder and moved into place at the very end.
+    # Everything is written into the staging folder (created and probed by check()) and moved into
+    # place at the very end; the lock on the folder is held until then.
     outdir = folder.staging
     signal.signal(signal.SIGTERM, _terminate)
     try:
         return _run(args, scene, comm, folder, outdir)
     finally:
-        if comm.rank == 0 and folder.staging.exists():
-            folder.abort()                                    # interrupted or failed: drop the partial files
+        if comm.rank == 0:
+            folder.abort()              # interrupted or failed: drop the partial files (kept if the commit failed)
 
 
 def _terminate(signum, frame):

@@ -58,8 +58,57 @@ def _show(value: Any) -> str:
     return text if len(text) <= 160 else text[:150] + "...(cut)"
 
 
+def _is_numeric_annotation(tp: Any) -> bool:
+    """The annotation takes numbers (int/float) and no booleans (``mu: yes`` must not become 1.0)."""
+    return _number_kind(tp) is not None
+
+
+def _number_kind(tp: Any) -> str | None:
+    """'an integer' or 'a number' if the annotation takes numbers and no booleans, else None."""
+    import typing
+    found = {"int": False, "float": False, "bool": False}
+
+    def walk(t: Any) -> None:
+        if t is bool or t is str or (isinstance(t, type) and issubclass(t, BaseModel)):
+            found["bool"] = True           # mixed with non-numbers: the field's own validator decides
+        elif t is int:
+            found["int"] = True
+        elif t is float:
+            found["float"] = True
+        elif typing.get_origin(t) is Literal:
+            for a in typing.get_args(t):
+                if isinstance(a, (bool, str)):
+                    found["bool"] = True
+                elif isinstance(a, int):
+                    found["int"] = True
+                elif isinstance(a, float):
+                    found["float"] = True
+        else:
+            for a in typing.get_args(t):
+                walk(a)
+    walk(tp)
+    if found["bool"] or not (found["int"] or found["float"]):
+        return None
+    return "a number" if found["float"] else "an integer"
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_booleans_for_numbers(cls, data: Any) -> Any:
+        """Booleans are not numbers: YAML's ``yes``/``true`` would silently become 1."""
+        if isinstance(data, dict):
+            for name, v in data.items():
+                field = cls.model_fields.get(name) if isinstance(name, str) else None
+                kind = _number_kind(field.annotation) if field is not None else None
+                if kind is None:
+                    continue
+                if isinstance(v, bool) or (isinstance(v, (list, tuple)) and any(isinstance(x, bool) for x in v)):
+                    raise _PathError(name, v, f"a boolean (true/false/yes/no/on/off) is not a number: "
+                                              f"allowed: {kind}" + (" (or a list of them)" if isinstance(v, (list, tuple)) else ""))
+        return data
 
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
@@ -117,16 +166,28 @@ class Loading(_Strict):
     tangential_max: PosFloat = 10.0
 
 
+class Limits(_Strict):
+    """Resource limits checked before any work starts (app/preflight.py); raise them deliberately."""
+    max_states: Annotated[int, Field(ge=1, le=10**9)] = Field(
+        100_000, description="most load states (normal_steps + tangential_max / tangential_step)")
+    max_dofs: Annotated[int, Field(ge=1, le=10**9)] = Field(2_000_000, description="most DOFs of the block mesh")
+    max_contact_nodes: Annotated[int, Field(ge=1, le=10**7)] = Field(
+        20_000, description="most contact nodes on AB")
+    max_memory_gb: Optional[Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]] = Field(
+        None, description="largest memory estimate accepted [GiB]; null: 80 % of the machine's RAM")
+
+
 class McpSettings(_Strict):
     """Search settings for the MCPs of Propositions 1-2 (PETSc SNES VI)."""
     rtol: Annotated[float, Field(gt=0, lt=1)] = 1e-12
     max_it: Annotated[int, Field(ge=1, le=10000)] = 50
     stol: Annotated[float, Field(ge=0, lt=1)] = 1e-10
     accept_tol: Annotated[float, Field(gt=0, lt=1)] = 1e-8
-    starts: Annotated[list[PosFloat], Field(min_length=1)] = [0.5, 2.0, 10.0, 100.0]
+    starts: Annotated[list[Annotated[float, Field(gt=0, le=1e12, allow_inf_nan=False)]],
+                      Field(min_length=1, max_length=100)] = [0.5, 2.0, 10.0, 100.0]
     shift_rounds: Annotated[int, Field(ge=0, le=100)] = 6
     pattern_starts: bool = True
-    pattern_eig_limit: Annotated[int, Field(ge=0)] = 300
+    pattern_eig_limit: Annotated[int, Field(ge=0, le=100_000)] = 300
     rsls_linesearch: Literal["bt", "basic", "l2", "cp"] = "bt"
     # a SNES VI run whose residual has not halved in this many iterations is stopped as failed (0: off)
     stagnation_its: Annotated[int, Field(ge=0, le=10000)] = 10
@@ -134,10 +195,10 @@ class McpSettings(_Strict):
 
 class EigSettings(_Strict):
     """SLEPc settings for the necessary and sufficient conditions."""
-    dense_limit: Annotated[int, Field(ge=1)] = 500
-    nev: Annotated[int, Field(ge=1)] = 30
+    dense_limit: Annotated[int, Field(ge=1, le=10_000)] = 500
+    nev: Annotated[int, Field(ge=1, le=1000)] = 30
     tol: Annotated[float, Field(gt=0, lt=1)] = 1e-10
-    max_it: Annotated[int, Field(ge=1)] = 1000
+    max_it: Annotated[int, Field(ge=1, le=1_000_000)] = 1000
 
 
 class Settings(_Strict):
@@ -145,8 +206,9 @@ class Settings(_Strict):
     mcp: McpSettings = McpSettings()
     eig: EigSettings = EigSettings()
     enumerate_max_slip: Annotated[int, Field(ge=1, le=24)] = 14
-    enumerate_problems: list[Literal["mu", "lambda2"]] = ["mu", "lambda2"]
+    enumerate_problems: Annotated[list[Literal["mu", "lambda2"]], Field(max_length=2)] = ["mu", "lambda2"]
     mceip_mu_method: Literal["condensed", "full"] = "condensed"
+    limits: Limits = Field(Limits(), description="resource limits checked before any work (README, Safety)")
 
 
 _SWEEP_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
@@ -317,6 +379,8 @@ class Outputs(_Strict):
     def _states(cls, v: Any) -> Any:
         if not isinstance(v, (list, tuple)) or not v:
             raise ValueError(f"allowed: a non-empty list of states; each is {_STATE_ALLOWED[9:]}")
+        if len(v) > 1000:
+            raise ValueError(f"{len(v)} states: at most 1000 may be pictured")
         for i, s in enumerate(v):
             if isinstance(s, bool) or not (isinstance(s, (int, dict)) or s in STATE_WORDS):
                 raise _PathError(str(i), s, _STATE_ALLOWED)
@@ -352,9 +416,9 @@ def _annotation_types(tp: Any) -> list:
 class Refinement(_Strict):
     """A mesh-refinement study of a block scene (app/refinement.py): the scene at every mesh level
     (nx cells along AB, ny = nx * height / length), every degree and every plane model."""
-    levels: Annotated[list[Annotated[int, Field(ge=1, le=4096)]], Field(min_length=2)]
-    degrees: Annotated[list[Literal[1, 2]], Field(min_length=1)] = [1]
-    planes: Annotated[list[Literal["stress", "strain"]], Field(min_length=1)] = ["stress"]
+    levels: Annotated[list[Annotated[int, Field(ge=1, le=4096)]], Field(min_length=2, max_length=50)]
+    degrees: Annotated[list[Literal[1, 2]], Field(min_length=1, max_length=2)] = [1]
+    planes: Annotated[list[Literal["stress", "strain"]], Field(min_length=1, max_length=2)] = ["stress"]
     mu_fixed: Optional[NonNegFloat] = None     # mu of the sufficient condition at the final state
     resultant_at: PosFloat = 1.0               # |CD u_x| [mm] of the state whose resultants are compared
     first_solution: Literal["scan", "none"] = "scan"    # none: skip the search for the first solution
@@ -368,9 +432,13 @@ class Refinement(_Strict):
         return sorted(v) if v and isinstance(v[0], int) else v
 
 
+NAME_MAX = 100          # characters: the output folder, its staging and lock names stay under 255 bytes
+SCENE_FILE_MAX = 1 << 20   # bytes: larger scene files are refused unread
+
+
 class Scene(_Strict):
     """A loading study: system, friction coefficient, loading and the analyses wanted."""
-    name: Annotated[str, Field(min_length=1)]
+    name: Annotated[str, Field(min_length=1, max_length=NAME_MAX)]
     system: Annotated[Union[(TwoParticles, Block) + registered_schemas()], Field(discriminator="type")]
     mu: NonNegFloat
     units: Literal["mm-N-MPa-tonne-s", "m-N-Pa-kg-s"] = Field(
@@ -500,22 +568,74 @@ def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path |
         raise SceneError(f"{source}: the scene is nested too deeply") from None
 
 
-def load_scene(path: str | pathlib.Path) -> Scene:
-    """Read and validate a scene file. Raises :class:`SceneError` with a one-line message."""
-    path = pathlib.Path(path)
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, refusing a key given twice in one mapping (YAML says keys are unique;
+    PyYAML would silently keep the last value)."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen: dict = {}
+            for key_node, _ in node.value:
+                if not isinstance(key_node, yaml.ScalarNode) or key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                try:
+                    key = self.construct_object(key_node, deep=False)
+                    hash(key)
+                except Exception:          # noqa: BLE001 - reported by the normal construction below
+                    continue
+                if key in seen:
+                    raise SceneError(f"duplicate key {_show(key)}: given at line {seen[key] + 1} and again "
+                                     f"at line {key_node.start_mark.line + 1} (each key once per mapping)")
+                seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:map", _UniqueKeyLoader.construct_yaml_map)
+
+
+def _read_scene_text(path: pathlib.Path) -> str:
+    """The text of a regular scene file of at most SCENE_FILE_MAX bytes (others refused unread)."""
+    import os
+    import stat
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file") from None
     except IsADirectoryError:
         raise SceneError(f"{path}: is a folder, not a scene file") from None
-    except UnicodeDecodeError as err:
-        raise SceneError(f"{path}: not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset {err.start}): "
-                         f"a scene file must be UTF-8 encoded YAML") from None
     except OSError as err:
         raise SceneError(f"{path}: cannot read the scene file ({err.strerror or err})") from None
     try:
-        data = yaml.safe_load(text)
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise SceneError(f"{path}: is a folder, not a scene file")
+        if not stat.S_ISREG(st.st_mode):
+            raise SceneError(f"{path}: not a regular file (a device, FIFO or socket): a scene must be a YAML file")
+        if st.st_size > SCENE_FILE_MAX:
+            raise SceneError(f"{path}: {st.st_size} bytes: a scene file may have at most {SCENE_FILE_MAX} bytes")
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            data = f.read(SCENE_FILE_MAX + 1)
+    except OSError as err:
+        raise SceneError(f"{path}: cannot read the scene file ({err.strerror or err})") from None
+    finally:
+        os.close(fd)
+    if len(data) > SCENE_FILE_MAX:
+        raise SceneError(f"{path}: a scene file may have at most {SCENE_FILE_MAX} bytes")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise SceneError(f"{path}: not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset {err.start}): "
+                         f"a scene file must be UTF-8 encoded YAML") from None
+
+
+def load_scene(path: str | pathlib.Path) -> Scene:
+    """Read and validate a scene file. Raises :class:`SceneError` with a one-line message."""
+    path = pathlib.Path(path)
+    text = _read_scene_text(path)
+    try:
+        data = yaml.load(text, Loader=_UniqueKeyLoader)   # noqa: S506 - a SafeLoader subclass
+    except SceneError as err:
+        raise SceneError(f"{path}: {err}") from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""

@@ -227,7 +227,7 @@ class StateResult:
     def from_dict(cls, d: Mapping[str, Any]) -> "StateResult":
         """Build from one entry of results.json ``states``."""
         a = d.get("analyses") or {}
-        ok = {k: v for k, v in a.items() if not v.get("failed")}
+        ok = {k: v for k, v in a.items() if not v.get("failed") and not v.get("not_applicable")}
         nec = ok.get("necessary")
         suf = ok.get("sufficient")
         enum = ok.get("enumerate")

@@ -619,6 +619,12 @@ def main(scene: Scene, args, comm) -> int:
         cases = expand(scene, source)
     except SceneError as err:
         return _fail(str(err))
+    from app import preflight
+    try:
+        for c in cases:                     # arithmetic only: refuses an over-limit case before any work
+            preflight.check(c.scene, f"{source}: case {c.name}")
+    except SceneError as err:
+        return _fail(str(err))
     if args.command == "validate":
         if comm.rank == 0:
             shown = ", ".join(c.name for c in cases[:4]) + (", ..." if len(cases) > 4 else "")
@@ -632,21 +638,56 @@ def main(scene: Scene, args, comm) -> int:
     import logging
     logging.basicConfig(level=getattr(logging, args.log_level), format="%(levelname)s: %(message)s")
     outdir = pathlib.Path(args.output or pathlib.Path("output") / scene.name)
-    problem = _check_writable(outdir) if comm.rank == 0 else None
+    from app.outputs.folder import FolderLock
+    lock = FolderLock(outdir)
+    problem = None
+    if comm.rank == 0:
+        try:
+            problem = _check_writable(outdir) or lock.acquire() or _check_writable(outdir, mark=True)
+        except OSError as err:                     # e.g. a path too long for the file system
+            problem = f"cannot use the output folder {outdir}: {err.strerror or err}"
+        if problem:
+            lock.release()
     problem = comm.bcast(problem, root=0)
     if problem:
         return _fail(problem)
-    return run_sweep(scene, cases, comm, outdir, rpc, quiet=args.quiet,
-                     rerun=bool(getattr(args, "overwrite", False)))
-
-
-def _check_writable(outdir: pathlib.Path) -> str | None:
-    if outdir.exists() and not outdir.is_dir():
-        return f"the output path {outdir} exists and is not a folder"
     try:
-        (outdir / "cases").mkdir(parents=True, exist_ok=True)
+        return run_sweep(scene, cases, comm, outdir, rpc, quiet=args.quiet,
+                         rerun=bool(getattr(args, "overwrite", False)))
+    finally:
+        if comm.rank == 0:
+            lock.release()
+
+
+def _check_writable(outdir: pathlib.Path, mark: bool = False) -> str | None:
+    """A sweep writes (and resumes) in place: only into a new or empty folder, or one this app
+    marked as a sweep folder; anything else is refused untouched. ``mark``: create the folder,
+    its ``cases/`` and the marker (rank 0, lock held)."""
+    from app.outputs.folder import folder_state, marker_kind, write_marker
+    state = folder_state(outdir)
+    if state == "not-a-folder":
+        return f"the output path {outdir} exists and is not a folder"
+    if state == "other":
+        return (f"the output folder {outdir} holds other files (not a sweep folder written by this app): "
+                f"nothing was changed; choose a new or empty folder with -o")
+    if state == "ours" and marker_kind(outdir) != "sweep":
+        return (f"the output folder {outdir} holds the results of a single study, not a sweep: "
+                f"choose another folder with -o")
+    if not mark:
+        try:
+            outdir.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            return f"cannot create the output folder {outdir}: {err.strerror or err}"
+        return None
+    cases = outdir / "cases"
+    if cases.exists() and (cases.is_symlink() or not cases.is_dir()):
+        return f"the output folder {outdir}: {cases} is not a folder"
+    try:
+        cases.mkdir(parents=True, exist_ok=True)
+        if state != "ours":
+            write_marker(outdir, "sweep")
     except OSError as err:
         return f"cannot create the output folder {outdir}: {err.strerror or err}"
-    if not os.access(outdir, os.W_OK) or not os.access(outdir / "cases", os.W_OK):
+    if not os.access(outdir, os.W_OK) or not os.access(cases, os.W_OK):
         return f"the output folder {outdir} is not writable"
     return None

@@ -30,7 +30,8 @@ DATA = pathlib.Path(__file__).parent / "data"
 #: keys that vary from run to run (wall times) or describe what the CLI drew, not what it computed
 VOLATILE = {"stages", "wall_seconds", "analysis_seconds", "versions"}
 #: keys added to format 1 since v0 (a reader of format 1 ignores keys it does not know)
-ADDED_KEYS = {"format_version", "certified", "certificate"}
+ADDED_KEYS = {"format_version", "certified", "certificate",
+              "limits", "max_states", "max_dofs", "max_contact_nodes", "max_memory_gb"}   # scene_config.settings.limits
 
 TWO_PARTICLES = """\
 name: two-particles

@@ -50,9 +50,15 @@ class Classification:
 def classify(state: EquilibriumState, mu: float, rtol: float = 1e-8) -> Classification:
     """Classify the contact nodes of ``state`` for friction coefficient ``mu``.
 
-    ``rtol`` is relative: a normal reaction is zero when ``|r_N| <= rtol * max|r|``, a gap is
-    closed when ``|u_N| <= rtol * max|u|``, and a node is on the cone when
-    ``|r_T| >= (1 - rtol) * mu * |r_N|``.
+    ``rtol`` is relative to the state's scales ``r_scale = max|r|`` and ``u_scale = max|u|``:
+
+    - a normal reaction is zero when ``|r_N| <= rtol * r_scale`` (free if the gap is open,
+      ``u_N < -rtol * u_scale``, else zero);
+    - a node is on the cone (slip) when ``| |r_T| - mu |r_N| | <= rtol * (mu |r_N| + r_scale)``
+      or beyond it: the same band from both sides of ``|r_T| = mu |r_N|``;
+    - a tangential reaction ``|r_T| <= rtol * r_scale`` is round-off and has no sign: 0 is
+      recorded, never the sign of the round-off. With ``mu = 0`` every loaded node is on the
+      (degenerate) cone with sign 0: a frictionless state has no slip direction.
     """
     r_scale = max(float(np.max(np.abs(np.concatenate([state.r_N, state.r_T])), initial=0.0)), 1e-300)
     u_scale = max(float(np.max(np.abs(np.concatenate([state.u_N, state.u_T])), initial=0.0)), 1e-300)
@@ -61,11 +67,26 @@ def classify(state: EquilibriumState, mu: float, rtol: float = 1e-8) -> Classifi
         if -rN <= rtol * r_scale:
             status.append(FREE if uN < -rtol * u_scale else ZERO)
             signs.append(0)
-        elif abs(rT) >= (1.0 - rtol) * mu * (-rN):
-            # On the cone. With mu = 0 (r_T = 0) the sign is ambiguous; +1 is recorded.
+        elif abs(rT) >= mu * (-rN) - rtol * (mu * (-rN) + r_scale):
             status.append(SLIP)
-            signs.append(-1 if rT < 0 else 1)
+            signs.append(0 if abs(rT) <= rtol * r_scale else (-1 if rT < 0 else 1))
         else:
             status.append(STICK)
             signs.append(0)
     return Classification(tuple(status), tuple(signs))
+
+
+def frictionless_reason(cls: Classification, mu: float) -> str | None:
+    """Why the stability analyses do not apply to ``cls``, or None when they do.
+
+    With ``mu = 0`` there is no friction cone to slip on and ``K* = K0`` is SPD (DESIGN.md
+    section 2): no divergence. A slip node whose tangential reaction is round-off has no slip
+    direction ``S``, so its pencil is undefined.
+    """
+    if mu == 0:
+        return "not applicable: frictionless (K* = K0 is SPD, no divergence)"
+    undefined = [i for i, (st, sg) in enumerate(zip(cls.status, cls.signs)) if st == SLIP and sg == 0]
+    if undefined:
+        return (f"not applicable: the tangential reaction of slip node(s) {undefined[:10]} is below the "
+                f"classification tolerance (no slip direction S)")
+    return None

@@ -14,7 +14,7 @@ from petsc4py import PETSc
 
 from app.analyses import eigen
 from app.analyses import lambda2_bounds as l2b
-from app.analyses.classify import ZERO, Classification
+from app.analyses.classify import ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import (
@@ -140,6 +140,9 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
     ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data) as
     ``{"deferred": true}`` for :func:`analyse_condensed_distributed` (MPI: one rank per classification).
     """
+    na = frictionless_reason(cls, scene.mu)   # mu = 0: K* = K0 is SPD, nothing to compute
+    if na is not None:
+        return {name: {"not_applicable": True, "reason": na} for name in ANALYSES if name in scene.analyses}
     if ZERO in cls.status:
         return _analyse_with_zero_nodes(system, cls, scene)
     p = _Pencils(system, cls)

@@ -139,6 +139,10 @@ def block_path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress)
                 break
         bar.close()
         solver.destroy()
+    from app.sanity import check_block_path  # small-strain validity (warnings, never an error)
+    for w in check_block_path(states, cfg.length, cfg.height, UNITS[scene.units]["length"]):
+        log.warning("%s", w)
+        stages.warnings.append(w)
     info = {"end": end, "normal_displacement_mm": depth, "normal_force_N": float(-np.sum(states[ld.normal_steps - 1].r_N)),
             "normal_steps": ld.normal_steps, "tangential_step_mm": ld.tangential_step, "failure": failure}
     return system, states, info

@@ -62,6 +62,8 @@ def _solutions(a: dict | None, key: str = "solutions") -> str:
         return ""
     if a.get("failed"):
         return "failed"
+    if a.get("not_applicable"):
+        return "n/a"
     sols = a.get(key) or []
     if not sols:
         return "none"
@@ -102,11 +104,11 @@ def summary_table(results: dict) -> list[str]:
         row = [rng, uxs, f"{c['stick']} / {c['slip']} / {c['free']}" + (f" / {c['zero']} zero" if c.get("zero") else "")]
         if "necessary" in asked:
             nec = a.get("necessary") or {}
-            row.append("failed" if nec.get("failed") else
+            row.append("failed" if nec.get("failed") else "n/a" if nec.get("not_applicable") else
                        f"{_fmt(nec.get('min_eig_K_sym'), '.4g')}" + (" (holds)" if nec.get("satisfied") else ""))
         if "sufficient" in asked:
             suf = a.get("sufficient") or {}
-            row.append("failed" if suf.get("failed") else
+            row.append("failed" if suf.get("failed") else "n/a" if suf.get("not_applicable") else
                        (", ".join(_fmt(v) for v in suf.get("lambda2", [])) or "none"))
         if "mceip_mu" in asked:
             row.append(_solutions(a.get("mceip_mu")))
@@ -146,6 +148,9 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
     a = last.get("analyses") or {}
     if "mceip_mu" in a:
         L.append(f"- final state {last['index']}: MCEIP-mu {_solutions(a['mceip_mu'])}.")
+    na = next((v["reason"] for v in a.values() if isinstance(v, dict) and v.get("not_applicable")), None)
+    if na:
+        L.append(f"- stability analyses at the final state: {na}.")
     if results.get("failures"):
         L.append(f"- **incomplete**: {len(results['failures'])} failure(s): " + "; ".join(
             f"state {f.get('state')}: {f.get('reason')}" for f in results["failures"][:5]))

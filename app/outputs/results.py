@@ -11,13 +11,38 @@ import tempfile
 from app.study_result import FORMAT_VERSION, StateResult, json_clean
 
 
+def _umask() -> int:
+    """The process umask (read without changing it where /proc allows, else set and restored)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def file_mode() -> int:
+    """The mode a plain ``open(path, "w")`` gives: 0666 minus the umask (as the plots and report get)."""
+    return 0o666 & ~_umask()
+
+
 def atomic_write(path: pathlib.Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file in the same folder and a rename, so
-    that ``path`` is either absent, the old file, or complete (never half-written)."""
+    that ``path`` is either absent, the old file, or complete (never half-written).
+
+    The file gets the usual mode (0666 minus the umask), not mkstemp's 0600. A full disk raises
+    OSError(ENOSPC) and leaves no temporary file behind."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, file_mode())
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         pathlib.Path(tmp).unlink(missing_ok=True)
@@ -52,7 +77,7 @@ def step_rows(results: dict) -> list[dict]:
             "necessary_satisfied": nec.get("satisfied", ""),
             "sufficient_max_lambda2_per_s2": max(suff) if suff else "",
             "mceip_mu_min": min(mu_sols) if mu_sols else "",
-            "mceip_mu_count": len(mu_sols) if "mceip_mu" in a else "",
+            "mceip_mu_count": len(mu_sols) if "solutions" in (a.get("mceip_mu") or {}) else "",
             "mceip_lambda2_max": max(l2_sols) if l2_sols else "",
             "shared_with": "" if st.get("analyses_shared_with") is None else st["analyses_shared_with"],
             "analysis_seconds": st.get("analysis_seconds", ""),

@@ -20,10 +20,13 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
     c = last["classification"]
     lines.append(f"  final state {last['index']}: {c['stick']} stick / {c['slip']} slip / {c['free']} free"
                  + (f" / {c['zero']} zero" if c["zero"] else ""))
-    a = {k: v for k, v in last["analyses"].items() if not v.get("failed")}
+    a = {k: v for k, v in last["analyses"].items() if not v.get("failed") and not v.get("not_applicable")}
     for k, v in last["analyses"].items():
         if v.get("failed"):
             lines.append(f"    {k}: FAILED ({v['reason']})")
+    na = sorted({v["reason"] for v in last["analyses"].values() if v.get("not_applicable")})
+    for reason in na:
+        lines.append(f"    stability analyses: {reason}")
     if "necessary" in a:
         lines.append(f"    necessary condition (19): {'satisfied' if a['necessary']['satisfied'] else 'not satisfied'}"
                      f" (min eig sym K* = {a['necessary']['min_eig_K_sym']:.6g})")

@@ -22,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import os
 import pathlib
+import tempfile
 import uuid
 
 import dolfinx.io.gmshio
@@ -38,6 +39,41 @@ AB, CD, LATERAL = 1, 2, 3
 CELLS = 1
 PATTERNS = ("crossed", "right", "left", "alternate", "unstructured")
 DEFAULT_CACHE_DIR = pathlib.Path(__file__).resolve().parents[2] / "meshes"
+
+APP_NAME = "contact-divergence"
+
+
+def _usable_dir(folder: pathlib.Path) -> bool:
+    """``folder`` exists (or can be created) and a file can be created in it."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=".probe-", suffix=".tmp")
+        os.close(fd)
+        os.unlink(probe)
+        return True
+    except OSError:
+        return False
+
+
+def user_cache_dir() -> pathlib.Path:
+    """``$XDG_CACHE_HOME/contact-divergence/meshes``, else ``~/.cache/contact-divergence/meshes``."""
+    base = os.environ.get("XDG_CACHE_HOME")
+    root = pathlib.Path(base) if base and os.path.isabs(base) else pathlib.Path.home() / ".cache"
+    return root / APP_NAME / "meshes"
+
+
+def mesh_cache_path(name: str, install_dir: pathlib.Path | None = None) -> pathlib.Path:
+    """Where the mesh file ``name`` is read from or written to.
+
+    A file already in the install folder (``meshes/``) is used; a new mesh is written there if
+    that folder is writable, else to the user's cache folder (:func:`user_cache_dir`), so a user
+    without write access to the installation can still run any mesh.
+    """
+    install_dir = pathlib.Path(DEFAULT_CACHE_DIR if install_dir is None else install_dir)
+    if (install_dir / name).is_file() or _usable_dir(install_dir):
+        return install_dir / name
+    return user_cache_dir() / name
+
 
 # Bump when the generated meshes change, so that stale cache files are not reused.
 _GENERATOR_VERSION = 1
@@ -234,7 +270,7 @@ def _ensure_msh_file(gmsh, path: pathlib.Path, length: float, height: float, nx:
 
 def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, pattern: str,
                mesh_size: float | None = None,
-               cache_dir: pathlib.Path = DEFAULT_CACHE_DIR) -> tuple[dolfinx.mesh.Mesh, MeshTags_int32]:
+               cache_dir: pathlib.Path | None = None) -> tuple[dolfinx.mesh.Mesh, MeshTags_int32]:
     """Distributed triangular mesh of the block with tagged facets (collective).
 
     The mesh is generated on rank 0 of ``comm`` as a gmsh model, cached in
@@ -250,7 +286,8 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
         pattern: One of :data:`PATTERNS`.
         mesh_size: Target element size (required for "unstructured",
             ignored otherwise).
-        cache_dir: Directory of the cached ``.msh`` files.
+        cache_dir: Directory of the cached ``.msh`` files (None: the install folder's
+            ``meshes/`` if writable, else the user's cache folder, :func:`mesh_cache_path`).
 
     Returns:
         ``(mesh, facet_tags)`` with facet tags :data:`AB`, :data:`CD` and
@@ -271,7 +308,8 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
     import gmsh
 
     root = 0
-    path = pathlib.Path(cache_dir) / mesh_file_name(length, height, nx, ny, pattern, mesh_size)
+    name = mesh_file_name(length, height, nx, ny, pattern, mesh_size)
+    path = pathlib.Path(cache_dir) / name if cache_dir is not None else None
 
     # Rank 0 generates or reads the file into a fresh gmsh model; errors are
     # broadcast so that no rank is left waiting in model_to_mesh.
@@ -284,6 +322,8 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
                 gmsh.initialize()
                 initialized_here = True
             gmsh.option.setNumber("General.Terminal", 0)
+            if path is None:
+                path = mesh_cache_path(name)
             _ensure_msh_file(gmsh, path, length, height, nx, ny, pattern, mesh_size)
             model_name = f"block_{uuid.uuid4().hex[:8]}"
             gmsh.model.add(model_name)
@@ -301,7 +341,7 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
     finally:
         if comm.rank == root:
             _cleanup_gmsh(gmsh, model_name, initialized_here)
-    mesh.name = path.stem
+    mesh.name = pathlib.Path(name).stem
     facet_tags.name = "facet_tags"
     return mesh, facet_tags
 

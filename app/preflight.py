@@ -1,0 +1,158 @@
+"""Resource pre-flight: estimate a study's size before anything heavy runs, refuse what is too big.
+
+The estimates are arithmetic on the scene (no mesh, no PETSc), so a scene asking for ten
+billion load states or a 4096 x 4096 mesh is refused within milliseconds, with one line naming
+the key to change. The limits are the scene's ``settings.limits`` (README, "Resource limits").
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+from dataclasses import dataclass
+
+from app.config import Block, Scene, SceneError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Sizes of one study (upper bounds for the number of states: gross sliding may end it early)."""
+    states: int
+    dofs: int
+    contact_nodes: int
+    memory_bytes: int
+
+    def describe(self) -> str:
+        return (f"pre-flight: at most {self.states} load states, {self.dofs} DOFs, {self.contact_nodes} contact "
+                f"nodes, memory estimate {self.memory_bytes / 2**30:.2g} GiB")
+
+
+def _block_sizes(cfg: Block) -> tuple[int, int]:
+    """(DOFs, contact nodes) of the block mesh (exact for structured meshes, an estimate otherwise)."""
+    if cfg.pattern == "unstructured":
+        h = float(cfg.mesh_size)
+        nx = max(1, math.ceil(cfg.length / h))
+        ny = max(1, math.ceil(cfg.height / h))
+        vertices = int(1.2 * (nx + 1) * (ny + 1))
+        cells = 2 * nx * ny
+    else:
+        nx, ny = cfg.nx, cfg.ny
+        vertices = (nx + 1) * (ny + 1) + (nx * ny if cfg.pattern == "crossed" else 0)
+        cells = nx * ny * (4 if cfg.pattern == "crossed" else 2)
+    nodes = vertices if cfg.degree == 1 else vertices + (vertices + cells - 1)   # + edge midpoints (Euler)
+    contact = cfg.degree * nx + 1
+    return 2 * nodes, contact
+
+
+def estimate(scene: Scene, nx: int | None = None) -> Estimate:
+    """Sizes and a rough memory estimate of ``scene`` (``nx``: override of ``system.nx``, ny scaled)."""
+    cfg = scene.system
+    if not isinstance(cfg, Block):
+        return Estimate(states=1, dofs=4, contact_nodes=2, memory_bytes=200 * 2**20)
+    if nx is not None:
+        cfg = cfg.model_copy(update={"nx": nx, "ny": max(1, round(nx * cfg.height / cfg.length))})
+    ld = scene.loading
+    steps = ld.tangential_max / ld.tangential_step
+    states = ld.normal_steps + (int(steps + 1e-9) if steps < 1e18 else 10**18)
+    dofs, contact = _block_sizes(cfg)
+    # Sparse K (about 18 entries per row in 2D P1, 40 in P2) and its LU factors (2D nested dissection:
+    # fill about 30 n log2 n entries), 12 bytes per entry; the contact flexibility (2c)^2 dense,
+    # a few copies; the dense reduced pencils up to eig.dense_limit; about 1.5 kB per node and state
+    # in the results; 300 MB for Python, PETSc, DOLFINx.
+    per_row = 18 if cfg.degree == 1 else 40
+    sparse = 12 * dofs * (per_row + 30 * math.log2(max(dofs, 2)))
+    dense_w = 4 * 8 * (2 * contact) ** 2
+    dense_pencils = 6 * 8 * min(dofs, scene.settings.eig.dense_limit) ** 2
+    results = 1500 * contact * states
+    memory = int(300 * 2**20 + sparse + dense_w + dense_pencils + results)
+    return Estimate(states=states, dofs=dofs, contact_nodes=contact, memory_bytes=memory)
+
+
+def _physical_memory() -> int | None:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def memory_limit(scene: Scene) -> tuple[float, str]:
+    """(bytes, how it was set): ``settings.limits.max_memory_gb``, else 80 % of the machine's RAM."""
+    lim = scene.settings.limits
+    if lim.max_memory_gb is not None:
+        return lim.max_memory_gb * 2**30, f"settings.limits.max_memory_gb = {lim.max_memory_gb}"
+    ram = _physical_memory()
+    if ram is None:
+        return math.inf, "no limit (RAM unknown)"
+    return 0.8 * ram, f"80 % of this machine's RAM ({ram / 2**30:.1f} GiB; set settings.limits.max_memory_gb)"
+
+
+def check(scene: Scene, source: str = "scene") -> Estimate:
+    """Estimate ``scene`` and raise :class:`SceneError` (one line naming the key) above a limit."""
+    lim = scene.settings.limits
+    levels = scene.refinement.levels if scene.refinement is not None else [None]
+    worst = None
+    for nx in levels:
+        est = estimate(scene, nx)
+        where = "refinement.levels" if nx is not None else None
+        if est.states > lim.max_states:
+            ld = scene.loading
+            raise SceneError(f"{source}: loading.tangential_step = {ld.tangential_step}: {est.states} load states "
+                             f"(normal_steps + tangential_max / tangential_step) exceed "
+                             f"settings.limits.max_states = {lim.max_states}; use a larger step or raise the limit")
+        if est.dofs > lim.max_dofs:
+            key = where or ("system.mesh_size" if scene.system.pattern == "unstructured" else "system.nx")
+            val = nx if nx is not None else (scene.system.mesh_size if key == "system.mesh_size" else scene.system.nx)
+            raise SceneError(f"{source}: {key} = {val}: about {est.dofs} DOFs exceed settings.limits.max_dofs = "
+                             f"{lim.max_dofs}; use a coarser mesh or raise the limit")
+        if est.contact_nodes > lim.max_contact_nodes:
+            key = where or "system.nx"
+            raise SceneError(f"{source}: {key} = {nx or scene.system.nx}: {est.contact_nodes} contact nodes exceed "
+                             f"settings.limits.max_contact_nodes = {lim.max_contact_nodes}")
+        if worst is None or est.memory_bytes > worst.memory_bytes:
+            worst = est
+    cap, how = memory_limit(scene)
+    if worst.memory_bytes > cap:
+        if worst.states > 10 * worst.contact_nodes:
+            key, val = "loading.tangential_step", scene.loading.tangential_step
+        elif scene.refinement is not None:
+            key, val = "refinement.levels", max(scene.refinement.levels)
+        elif scene.system.pattern == "unstructured":
+            key, val = "system.mesh_size", scene.system.mesh_size
+        else:
+            key, val = "system.nx", scene.system.nx
+        raise SceneError(f"{source}: {key} = {val}: memory estimate {worst.memory_bytes / 2**30:.3g} GiB "
+                         f"({worst.states} states, {worst.dofs} DOFs, {worst.contact_nodes} contact nodes) exceeds "
+                         f"{how}; use a coarser mesh or fewer states, or raise settings.limits.max_memory_gb")
+    return worst
+
+
+def output_bytes(scene: Scene, est: Estimate) -> int:
+    """A rough upper estimate of what the run writes (results.json, steps.csv, fields, pictures)."""
+    size = 4096 + est.states * (2000 + 300 * est.contact_nodes)
+    outputs = scene.outputs
+    if outputs.fields:
+        size += est.states * est.dofs * 8 * 4
+    if outputs.plots or outputs.report or outputs.screenshots is not None:
+        size += 20 * 2**20
+    return int(size)
+
+
+def check_disk(scene: Scene, est: Estimate, folder, shown=None) -> str | None:
+    """A one-line problem if the file system holding ``folder`` has clearly too little free space
+    (``shown``: the folder named in the message, default ``folder``)."""
+    import pathlib
+    need = output_bytes(scene, est) + 16 * 2**20
+    path = pathlib.Path(folder)
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    try:
+        st = os.statvfs(path)
+    except OSError:
+        return None
+    free = st.f_bavail * st.f_frsize
+    if free < need:
+        return (f"not enough free space for the results in {shown or path}: about {need / 2**20:.0f} MiB needed, "
+                f"{free / 2**20:.0f} MiB free")
+    return None
