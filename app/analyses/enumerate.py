@@ -49,12 +49,14 @@ class PatternSolution:
     min_x: float                # min x_P / max x_P  (> 0)
     min_y: float                # min y_stick / scale (>= -RESOLVE_TOL); +inf if no stick node
     ill_conditioned: bool       # a margin below RESOLVE_TOL: double precision cannot resolve it
+    complementarity: float = 0.0  # max |x_i y_i| / scale over the complementarity unknowns
 
     def as_dict(self, comp: np.ndarray) -> dict:
         xc = self.x[comp]
         return {"value": float(self.value), "x_Ts": [float(v) for v in xc],
                 "pattern": ["slip" if b else "stick" for b in self.support],
-                "residual": float(self.residual), "min_x_Ts": float(self.min_x),
+                "residual": float(self.residual), "complementarity": float(self.complementarity),
+                "min_x_Ts": float(self.min_x),
                 "min_y_Ts": float(self.min_y) if np.isfinite(self.min_y) else None,
                 "ill_conditioned": bool(self.ill_conditioned)}
 
@@ -170,7 +172,8 @@ def enumerate_patterns(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, t_min: 
                     continue
                 resid = float(np.linalg.norm(y[R[b]]) / max(np.linalg.norm(x[R[b]]), 1e-300))
                 out.append(PatternSolution(value=tc, x=x, support=sup, residual=resid, min_x=float(mx[c]),
-                                           min_y=my, ill_conditioned=bool(mx[c] < RESOLVE_TOL or my < RESOLVE_TOL)))
+                                           min_y=my, ill_conditioned=bool(mx[c] < RESOLVE_TOL or my < RESOLVE_TOL),
+                                           complementarity=float(np.max(np.abs(x[comp] * y[comp])))))
     return sorted(out, key=lambda d: (d.value, tuple(~d.support)))
 
 
