@@ -248,3 +248,88 @@ def certify_mu(A0: np.ndarray, A1: np.ndarray, cap: float, seconds: float = 30.0
     return Certificate("branch-and-bound (SCIP) with no-good cuts", (lb, cap),
                        f"not proven within {seconds:g} s", False, sols, done_to,
                        None, el, detail)
+
+
+# --- the MCEIP-mu result of one state: search + certificate ----------------------------------------
+
+def mu_cap(scene_mu: float, settings) -> float:
+    """The cap below which every critical mu is proven: ``settings.mu_cap`` if set, else
+    ``settings.mu_cap_factor`` times the scene's mu (times 1 when the scene's mu is 0)."""
+    if settings.mu_cap is not None:
+        return float(settings.mu_cap)
+    return float(settings.mu_cap_factor) * (scene_mu if scene_mu > 0 else 1.0)
+
+
+def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
+                        pairs: list[tuple[int, int]] | None = None) -> dict:
+    """MCEIP-mu (21)-(23) on the condensed pencil: candidates from the dense semismooth Newton
+    search (:mod:`app.analyses.dense_mcp`), then the certificate for ``[0, cap]``.
+
+    The ``solutions`` are the exact pairs (25)-(26): every one in ``[0, cap]`` (each with
+    ``certified: true`` when the proof finished) and those the search found above the cap
+    (``certified: false``). The state-level ``certified`` flag says whether the onset and every
+    value up to the cap are proven; ``certificate`` says how."""
+    from app.analyses import dense_mcp
+
+    s = A0.shape[0]
+    comp = np.arange(s)
+    rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,))
+    by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
+    cert = None
+    if settings.certify:
+        cert = certify_mu(A0, A1, cap, seconds=settings.certify_seconds,
+                          enumerate_max=settings.certify_enumerate_max, pairs=pairs,
+                          candidates=[c.exact for c in rep.candidates])
+    proven = bool(cert is not None and cert.proven)
+    sols: list[dict] = []
+    seen: set = set()
+    for p in (cert.solutions if cert is not None else []):
+        key = (round(p.value, 9), tuple(p.support))
+        seen.add(key)
+        d = p.as_dict(comp)
+        c = by_key.get(key)
+        d.update({"iterations": c.iterations if c else 0,
+                  "found_by": (c.found_by[:8] if c else []) + ([] if c else [f"certificate: {cert.method}"]),
+                  "found_count": len(c.found_by) if c else 0, "certified": proven})
+        sols.append(d)
+    for key, c in by_key.items():
+        if key in seen or (proven and c.exact.value <= cap):
+            continue
+        d = c.as_dict(comp)
+        d["certified"] = False
+        sols.append(d)
+    sols.sort(key=lambda d: (d["value"], d["pattern"]))
+    below = [d for d in sols if d["value"] <= cap]
+    above = len(sols) - len(below)
+    if cert is None:
+        result = (f"{len(sols)} distinct solution(s) found" if sols else "no solution found") + \
+                 " (not proven: certification switched off, settings.mcp.certify = false)"
+    elif proven:
+        if below:
+            o = below[0]
+            result = (f"proven: onset mu = {o['value']:.10g} (pattern "
+                      f"{''.join('S' if q == 'slip' else '-' for q in o['pattern'])}), {len(below)} critical value(s) "
+                      f"in [0, {cap:.6g}]")
+        else:
+            result = f"proven: no critical mu in [0, {cap:.6g}]"
+        if above:
+            result += f"; {above} more found above the cap (not proven complete)"
+    else:
+        result = (f"{cert.status}: {len(sols)} solution(s) found" if sols else f"{cert.status}: no solution found") + \
+                 f"; proven only that none lies below {cert.lower_bound:.6g}"
+    d: dict = {"solutions": sols, "result": result, "certified": proven,
+               "certificate": (cert.as_dict() if cert is not None else
+                               {"method": "none", "interval": [0.0, 0.0], "status": "not attempted",
+                                "gap": None, "seconds": 0.0, "detail": {}}),
+               "search": {"method": "dense semismooth Newton (min-function), batched over starts",
+                          "attempts": rep.starts, "converged": rep.converged,
+                          "rejected_by_exact_check": rep.rejected, "seconds": round(rep.seconds, 4),
+                          "found": len(rep.candidates), "intervals": ["[0, inf)"],
+                          "complete": proven, "note": rep.note}}
+    if cert is not None:
+        d["certificate"]["cap"] = float(cap)
+        d["certificate"]["onset"] = below[0]["value"] if (proven and below) else None
+        ill = [x["value"] for x in below if x.get("ill_conditioned")]
+        if ill:
+            d["certificate"]["ill_conditioned"] = ill
+    return d

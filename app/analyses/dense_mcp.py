@@ -133,7 +133,7 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
 
 def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None = None,
            mu0s: tuple[float, ...] = (0.5, 2.0, 10.0, 100.0, 1000.0), max_it: int = 60,
-           t_max: float = np.inf) -> DenseSearchReport:
+           t_max: float = np.inf, neighbour_rounds: int = 0) -> DenseSearchReport:
     """Candidate solutions of the condensed MCEIP-mu (``A0``, ``A1``: s x s) from many starts."""
     t0 = time.perf_counter()
     pairs = list(pairs or [])
@@ -174,6 +174,32 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
         if c is None:
             c = found[k] = Candidate(exact=ex, newton_value=mu, newton_residual=float(nrm[b]), iterations=int(its[b]))
         c.found_by.append(f"semismooth Newton from {labels[b]} ({its[b]} it.)")
+    # Pattern neighbourhoods: the exact eigenpairs (25) of every support one flip away from a
+    # found one (batched), repeated while they give new solutions.
+    tried = set(cache)
+    frontier = [k for _, k in found]
+    for _ in range(neighbour_rounds):
+        nxt = []
+        for key in frontier:
+            base = np.array(key)
+            for j in range(s):
+                sup = base.copy()
+                sup[j] = not sup[j]
+                k2 = tuple(sup)
+                if k2 in tried or not sup.any() or any(sup[ia] and sup[ib] for ia, ib in pairs):
+                    continue
+                tried.add(k2)
+                nxt.append(k2)
+        if not nxt:
+            break
+        new = enumerate_patterns(A0, A1, np.arange(s), t_max=t_max, supports=np.array(nxt))
+        frontier = []
+        for ex in new:
+            k = (round(ex.value, 9), tuple(ex.support))
+            if k not in found:
+                found[k] = Candidate(exact=ex, newton_value=float("nan"), newton_residual=float("nan"), iterations=0,
+                                     found_by=["exact eigenpair (25) of a pattern one flip from a found one"])
+                frontier.append(k[1])
     cands = sorted(found.values(), key=lambda c: c.exact.value)
     return DenseSearchReport(candidates=cands, starts=len(Z0), converged=len(conv), rejected=rejected,
                              seconds=time.perf_counter() - t0)
