@@ -50,6 +50,7 @@ class PatternSolution:
     min_y: float                # min y_stick / scale (>= -RESOLVE_TOL); +inf if no stick node
     ill_conditioned: bool       # a margin below RESOLVE_TOL: double precision cannot resolve it
     complementarity: float = 0.0  # max |x_i y_i| / scale over the complementarity unknowns
+    min_y_all: float = 0.0        # min y_c / scale over all complementarity unknowns (evidence)
 
     def as_dict(self, comp: np.ndarray) -> dict:
         xc = self.x[comp]
@@ -57,7 +58,8 @@ class PatternSolution:
                 "pattern": ["slip" if b else "stick" for b in self.support],
                 "residual": float(self.residual), "complementarity": float(self.complementarity),
                 "min_x_Ts": float(self.min_x),
-                "min_y_Ts": float(self.min_y) if np.isfinite(self.min_y) else None,
+                "min_y_Ts": float(self.min_y_all),
+                "margin_y_stick": float(self.min_y) if np.isfinite(self.min_y) else None,
                 "ill_conditioned": bool(self.ill_conditioned)}
 
 
@@ -150,7 +152,9 @@ def enumerate_patterns(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, t_min: 
             At = B0[ii] + t[:, None, None] * B1[ii]
             _, sv, Vh = np.linalg.svd(At)
             v = Vh[:, -1, :]                                   # null vector of each candidate
-            res = sv[:, -1] / np.maximum(sv[:, 0], 1e-300)      # relative to ||A(t)[R, R]||
+            # smallest singular value relative to ||B0|| + |t| ||B1|| (the pencil's scale at t)
+            res = sv[:, -1] / np.maximum(np.linalg.norm(B0[ii], 2, axis=(1, 2))
+                                         + np.abs(t) * np.linalg.norm(B1[ii], 2, axis=(1, 2)), 1e-300)
             xp = v[:, nf:]
             sgn = np.where(xp.sum(axis=1) < 0, -1.0, 1.0)
             v = v * sgn[:, None]
@@ -173,7 +177,8 @@ def enumerate_patterns(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, t_min: 
                 resid = float(np.linalg.norm(y[R[b]]) / max(np.linalg.norm(x[R[b]]), 1e-300))
                 out.append(PatternSolution(value=tc, x=x, support=sup, residual=resid, min_x=float(mx[c]),
                                            min_y=my, ill_conditioned=bool(mx[c] < RESOLVE_TOL or my < RESOLVE_TOL),
-                                           complementarity=float(np.max(np.abs(x[comp] * y[comp])))))
+                                           complementarity=float(np.max(np.abs(x[comp] * y[comp]))),
+                                           min_y_all=float(np.min(y[comp]))))
     return sorted(out, key=lambda d: (d.value, tuple(~d.support)))
 
 
