@@ -128,7 +128,7 @@ class McpSettings(_Strict):
     # every critical mu up to the cap is proven; the cap is mu_cap, or mu_cap_factor x the scene's mu.
     certify: bool = True
     mu_cap: Optional[PosFloat] = None
-    mu_cap_factor: PosFloat = 100.0
+    mu_cap_factor: PosFloat = 10.0
     certify_seconds: PosFloat = 60.0            # per-state budget: an unfinished proof says so
     certify_enumerate_max: Annotated[int, Field(ge=0, le=20)] = 12   # enumeration up to here, SCIP above
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.enumerate import PatternSolution, enumerate_patterns, pencil_scale
+from app.analyses.enumerate import PatternSolution, enumerate_patterns, one_blas_thread, pencil_scale
 
 
 @dataclass
@@ -273,13 +273,14 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
 
     s = A0.shape[0]
     comp = np.arange(s)
-    rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,))
-    by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
-    cert = None
-    if settings.certify:
-        cert = certify_mu(A0, A1, cap, seconds=settings.certify_seconds,
-                          enumerate_max=settings.certify_enumerate_max, pairs=pairs,
-                          candidates=[c.exact for c in rep.candidates])
+    with one_blas_thread():
+        rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,))
+        by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
+        cert = None
+        if settings.certify:
+            cert = certify_mu(A0, A1, cap, seconds=settings.certify_seconds,
+                              enumerate_max=settings.certify_enumerate_max, pairs=pairs,
+                              candidates=[c.exact for c in rep.candidates])
     proven = bool(cert is not None and cert.proven)
     sols: list[dict] = []
     seen: set = set()

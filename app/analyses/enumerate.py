@@ -19,6 +19,7 @@ tolerances relative to the pencil's scale.
 """
 from __future__ import annotations
 
+import contextlib
 import itertools
 from dataclasses import dataclass
 
@@ -37,6 +38,16 @@ RESOLVE_TOL = 1e-9
 RESIDUAL_TOL = 1e-8
 #: Elements (m * n_R^2) per LAPACK batch (bounds memory at s = 20: about 40 MB per batch).
 BATCH_ELEMENTS = 2_000_000
+
+
+def one_blas_thread():
+    """Context: one BLAS thread around small batched dense work (OpenBLAS threads make stacks
+    of 20 x 20 solves 10-20x slower on this kind of machine); all threads again afterwards."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:              # pragma: no cover - threadpoolctl is a dependency
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 @dataclass
@@ -199,5 +210,6 @@ def enumerate_mceip(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, max_slip: 
                                f"(settings.enumerate_max_slip = {max_slip})")
     cpos = {int(c): k for k, c in enumerate(comp)}
     cpairs = [(cpos[a], cpos[b]) for a, b in (pairs or [])]
-    sols = enumerate_patterns(A0, A1, comp, t_max=t_max, pairs=cpairs)
+    with one_blas_thread():
+        sols = enumerate_patterns(A0, A1, comp, t_max=t_max, pairs=cpairs)
     return [d.as_dict(comp) for d in sols]
