@@ -236,3 +236,15 @@ def PETSc_ADD():
 def PETSc_REVERSE():
     from petsc4py import PETSc
     return PETSc.ScatterMode.REVERSE
+
+
+def test_paper_study_is_certified(paper):
+    """Every distinct classification of the paper study has a proven MCEIP-mu answer up to the
+    cap, and the proven onsets are the paper's figures."""
+    for s in paper["states"]:
+        m = s["analyses"]["mceip_mu"]
+        assert m["certified"] and m["certificate"]["status"] == "proven", (s["index"], m["certificate"])
+        for x in m["solutions"]:
+            assert x["certified"] == (x["value"] <= m["certificate"]["interval"][1])
+    final = paper["states"][-1]["analyses"]["mceip_mu"]
+    assert final["certificate"]["onset"] == pytest.approx(1.7048, abs=1e-4)

@@ -118,3 +118,23 @@ def test_scale_invariance():
     a = certify_mu(A0, A1, 30.0, enumerate_max=0)
     b = certify_mu(1e6 * A0, 1e6 * A1, 30.0, enumerate_max=0)
     assert a.proven and b.proven and _key(a.solutions) == _key(b.solutions)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("pattern", ["crossed", "right", "left", "alternate", "unstructured"])
+@pytest.mark.parametrize("nx", [10, 16])
+def test_block_states_certified_set_equals_enumeration(pattern, nx):
+    """Every distinct classification of a block path: the certificate (SCIP forced wherever the
+    lower bound does not already prove absence) gives enumeration's set below the cap."""
+    from benchmarks.problems import block_problems
+    probs = block_problems(nx=nx, pattern=pattern)
+    cap = 10 * 1.1
+    n = 0
+    for p in probs.pencils:
+        s = p.A0.shape[0]
+        ref = enumerate_patterns(p.A0, p.A1, np.arange(s), t_max=cap)
+        cert = certify_mu(p.A0, p.A1, cap, seconds=120, enumerate_max=0)
+        assert cert.proven, (p.label, cert.status)
+        assert _key(cert.solutions) == _key(ref), p.label
+        n += len(ref)
+    assert probs.pencils
