@@ -135,6 +135,7 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     model.setParam("limits/time", max(seconds, 0.1))
     model.setParam("numerics/feastol", 1e-9)
     model.setParam("parallel/maxnthreads", 1)
+    model.setParam("misc/catchctrlc", False)    # Ctrl-C stays the app's (interrupted runs clean up)
     v = [model.addVar(f"v{i}", lb=0.0, ub=1.0) for i in range(s)]
     w = [model.addVar(f"w{i}", lb=0.0, ub=1.0) for i in range(s)]
     z = [model.addVar(f"z{i}", vtype="B") for i in range(s)]
@@ -158,6 +159,8 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     model.setObjective(m, "minimize")
     model.optimize()
     status = model.getStatus()
+    if status == "userinterrupt":
+        raise KeyboardInterrupt
     nodes = model.getNNodes()
     gap = model.getGap() if status not in ("infeasible",) else 0.0
     if model.getNSols() > 0 and status in ("optimal", "timelimit", "gaplimit", "sollimit"):

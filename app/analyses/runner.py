@@ -166,6 +166,10 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
         A0, A1 = p.condensed_mu()
         with system.stages("MCEIP-mu (21)-(23)"):
             d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp)
+            if system.comm.size > 1:
+                # replicated dense work; a time budget could end differently on different ranks,
+                # so every rank reports rank 0's answer
+                d = system.comm.bcast(d, root=0)                               # MPI collective
         d["method"] = method
         return d
     K0, K1 = p.K()
@@ -321,6 +325,8 @@ def _analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) 
         with system.stages("MCEIP-mu (21)-(23)"):
             # the split pencil has no x_f: dense search + certificate as for the plain condensed pencil
             d = condensed_mu_result(cond.A0, cond.A1, mu_cap(scene.mu, settings.mcp), settings.mcp, pairs=cond.pairs)
+            if system.comm.size > 1:
+                d = system.comm.bcast(d, root=0)                               # MPI collective (see _mceip_mu)
             d["solutions"] = [_describe(x, cond.labels, cls) for x in d["solutions"]]
             d["x_c_labels"] = cond.labels
             d["zero_nodes_handled"] = "rate conditions (9): v_T = a - b, complementarity in (a, b, x_N)"
