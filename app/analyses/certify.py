@@ -45,7 +45,7 @@ from app.analyses.enumerate import PatternSolution, enumerate_patterns, one_blas
 class Certificate:
     """What was proven about the condensed MCEIP-mu of one state."""
     method: str                       # "copositivity", "enumeration", "branch-and-bound (SCIP)"
-    interval: tuple[float, float]     # [a, b]: every solution in it is listed (if proven)
+    interval: tuple[float, float]     # [a, b] proven: every solution in it is listed ([0, mu_lb] if unfinished)
     status: str                       # "proven", "not proven within N s", ...
     proven: bool
     solutions: list[PatternSolution]  # exact solutions in [0, cap] (complete if proven)
@@ -189,7 +189,7 @@ def certify_mu(A0: np.ndarray, A1: np.ndarray, cap: float, seconds: float = 30.0
     if s <= enumerate_max:
         sols = enumerate_patterns(A0, A1, comp, t_min=lb, t_max=cap, pairs=pairs)
         detail["supports"] = int(2 ** s - 1)
-        return Certificate("exhaustive enumeration (24)-(26), batched LAPACK", (lb, cap), "proven", True, sols,
+        return Certificate("exhaustive enumeration (24)-(26), batched LAPACK", (0.0, cap), "proven", True, sols,
                            lb, 0.0, time.perf_counter() - t0, detail)
 
     scale = pencil_scale(A0)
@@ -244,13 +244,13 @@ def certify_mu(A0: np.ndarray, A1: np.ndarray, cap: float, seconds: float = 30.0
                    "candidates_given": len(candidates or [])})
     el = time.perf_counter() - t0
     if status == "infeasible":
-        return Certificate("branch-and-bound (SCIP) with no-good cuts", (lb, cap), "proven", True, sols, lb, 0.0,
+        return Certificate("branch-and-bound (SCIP) with no-good cuts", (0.0, cap), "proven", True, sols, lb, 0.0,
                            el, detail)
     done_to = lb
     detail["scip_status"] = status
-    return Certificate("branch-and-bound (SCIP) with no-good cuts", (lb, cap),
+    return Certificate("branch-and-bound (SCIP) with no-good cuts", (0.0, lb),
                        f"not proven within {seconds:g} s", False, sols, done_to,
-                       None, el, detail)
+                       (cap - lb) / cap, el, detail)   # gap: share of [0, cap] left unproven
 
 
 # --- the MCEIP-mu result of one state: search + certificate ----------------------------------------
