@@ -140,12 +140,15 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     w = [model.addVar(f"w{i}", lb=0.0, ub=1.0) for i in range(s)]
     z = [model.addVar(f"z{i}", vtype="B") for i in range(s)]
     m = model.addVar("m", lb=m_lo, ub=1.0)
-    Y = np.max(np.abs(a0), axis=1) + np.max(np.abs(a1), axis=1)
+    # |y_i| <= max_j |(a0 + m a1)_ij| on the simplex, and |a0 + m a1| is convex in m: its largest
+    # value on [m_lo, 1] is at an end (a proven big-M, tighter than max|a0| + max|a1|)
+    Y = np.maximum(np.max(np.abs(a0 + m_lo * a1), axis=1), np.max(np.abs(a0 + a1), axis=1))
     model.addCons(pyscipopt.quicksum(v) == 1.0)
     model.addCons(pyscipopt.quicksum(w) == m)           # e^T w = m e^T v (valid, tightens)
     for i in range(s):
         model.addCons(w[i] == m * v[i])
         model.addCons(w[i] <= v[i])
+        model.addCons(w[i] >= m_lo * v[i])                  # McCormick with m >= m_lo
         y = pyscipopt.quicksum(float(a0[i, j]) * v[j] + float(a1[i, j]) * w[j] for j in range(s)
                                if a0[i, j] != 0 or a1[i, j] != 0)
         model.addCons(y >= 0)
