@@ -135,7 +135,9 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     model.setParam("limits/time", max(seconds, 0.1))
     model.setParam("numerics/feastol", 1e-9)
     model.setParam("parallel/maxnthreads", 1)
-    model.setParam("misc/catchctrlc", False)    # Ctrl-C stays the app's (interrupted runs clean up)
+    model.setParam("numerics/lpfeastolfactor", 0.1)   # LP tolerance 1e-10 (1e-12 needs GMP)
+    # SCIP catches Ctrl-C and stops with "userinterrupt", turned into KeyboardInterrupt below so
+    # that an interrupted run stops promptly and cleans up like any other
     v = [model.addVar(f"v{i}", lb=0.0, ub=1.0) for i in range(s)]
     w = [model.addVar(f"w{i}", lb=0.0, ub=1.0) for i in range(s)]
     z = [model.addVar(f"z{i}", vtype="B") for i in range(s)]
