@@ -22,7 +22,7 @@ block pressed and dragged on a rigid flat obstacle), the friction coefficient mu
 analyses wanted at every equilibrium state:
   necessary      eq. (19): smallest eigenvalues of the symmetric parts of K*(mu), M*(mu)
   sufficient     eqs. (17)-(18): real eigenpairs lambda^2 > 0 with x_Ts >= 0 (SLEPc)
-  mceip_mu       eqs. (21)-(23): critical friction coefficients and modes (SNES VI MCP search)
+  mceip_mu       eqs. (21)-(23): critical friction coefficients and modes (proven up to mu_cap)
   mceip_lambda2  eqs. (12)-(14): divergence rates lambda^2 and modes (SNES VI MCP search)
   enumerate      eqs. (24)-(26): exhaustive stick/slip enumeration (exact, small problems)
 Units: mm, N, MPa, tonne, s (so lambda^2 is in 1/s^2).

@@ -191,6 +191,13 @@ class McpSettings(_Strict):
     rsls_linesearch: Literal["bt", "basic", "l2", "cp"] = "bt"
     # a SNES VI run whose residual has not halved in this many iterations is stopped as failed (0: off)
     stagnation_its: Annotated[int, Field(ge=0, le=10000)] = 10
+    # Certificates for the condensed MCEIP-mu (app/analyses/certify.py, DESIGN.md section 7):
+    # every critical mu up to the cap is proven; the cap is mu_cap, or mu_cap_factor x the scene's mu.
+    certify: bool = True
+    mu_cap: Optional[PosFloat] = None
+    mu_cap_factor: PosFloat = 10.0
+    certify_seconds: PosFloat = 60.0            # per-state budget: an unfinished proof says so
+    certify_enumerate_max: Annotated[int, Field(ge=0, le=20)] = 12   # enumeration up to here, SCIP above
 
 
 class EigSettings(_Strict):

@@ -52,19 +52,21 @@ class BlockProblems:
 
 
 def block_scene(nx: int = 20, ny: int | None = None, pattern: str = "crossed", degree: int = 1,
-                analyses=("mceip_mu",), mu: float = 1.1, **loading) -> Scene:
+                analyses=("mceip_mu",), mu: float = 1.1, mesh_size: float | None = None, **loading) -> Scene:
     data = {"name": f"bench-{pattern}-{nx}", "mu": mu, "analyses": list(analyses),
             "system": {"type": "block", "nx": nx, "ny": ny or max(nx // 2, 1), "pattern": pattern, "degree": degree}}
+    if mesh_size is not None:
+        data["system"]["mesh_size"] = mesh_size
     if loading:
         data["loading"] = loading
     return parse_scene(data)
 
 
 def block_problems(nx: int = 20, pattern: str = "crossed", degree: int = 1, comm=MPI.COMM_WORLD,
-                   **loading) -> BlockProblems:
+                   mesh_size: float | None = None, **loading) -> BlockProblems:
     """Run the block's loading path and collect its MCEIP-mu pencils and contact increments."""
     from app.loading.block_path import block_path
-    scene = block_scene(nx, pattern=pattern, degree=degree, **loading)
+    scene = block_scene(nx, pattern=pattern, degree=degree, mesh_size=mesh_size, **loading)
     stages = Stages()
     system, states, _ = block_path(scene, comm, stages, Progress(enabled=False))
     flex = system.extra["flexibility"]

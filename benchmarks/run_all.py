@@ -10,6 +10,8 @@ output/bench/latest.json and output/bench/latest.md:
   condensed   MCEIP-mu on the condensed slip-node pencil against the full-size MCP (same state,
               same search settings, same solutions?)
   enumeration the MCP search against exhaustive enumeration at s = 8..16 slip nodes
+  certify     proven MCEIP-mu (onset and every mu <= cap) at s = 8..120 against exhaustive
+              enumeration where it runs, with the search's recall (benchmarks/certify_bench.py)
   siconos     the app's contact increments and MCEIP-mu MCP runs against Siconos numerics
               (fc2d solvers, NCP Newton solvers) on the same problems (skipped with the reason
               when python3-siconos is not installed)
@@ -47,7 +49,7 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
 PY = sys.executable
-SECTIONS = ("speed", "scaling", "condensed", "enumeration", "siconos", "tolerances", "mpi", "targets")
+SECTIONS = ("speed", "scaling", "condensed", "enumeration", "certify", "siconos", "tolerances", "mpi", "targets")
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1", PYTHONPATH=str(ROOT))
 
@@ -652,6 +654,10 @@ def main() -> None:
         results["condensed"] = section_condensed(cond)
     if "enumeration" in only:
         results["enumeration"] = section_enumeration(s_values)
+    if "certify" in only:
+        from benchmarks.certify_bench import section_certify
+        results["certify"] = section_certify([8, 12] if args.quick else [8, 12, 16, 20, 30, 60, 120],
+                                             enum_max=12 if args.quick else 16)
     if "siconos" in only:
         results["siconos"] = section_siconos(sic)
     if "tolerances" in only:
@@ -703,6 +709,11 @@ def summary(res: dict) -> str:
         lines.append(f"MCP search vs enumeration, s = {rows[0]['s']}..{rows[-1]['s']}: found "
                      f"{res['enumeration']['found']} of {res['enumeration']['enumerated']}, time ratio enum/search "
                      + ", ".join(f"s={r['s']} {r['ratio']:.1f}" for r in rows if r["problem"] == "random"))
+    if "certify" in res:
+        rows = res["certify"]["rows"]
+        lines.append("certified MCEIP-mu: " + ", ".join(
+            f"s={r['s']} {r['kind']} {r['t_certify']:.2f} s ({r['status']})" for r in rows)
+            + f"; largest s within a minute: {res['certify']['largest_s_within_60s']}")
     if "siconos" in res:
         s = res["siconos"]
         if "skipped" in s:

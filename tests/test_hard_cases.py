@@ -49,7 +49,9 @@ def test_no_solution_is_reported_with_its_evidence():
                      "system": {"type": "two_particles", "k": 1000.0, "m": 2.0, "phi_deg": 35.0, "signs": [-1, 1]}})
     a = res["states"][0]["analyses"]
     assert a["mceip_mu"]["solutions"] == []
-    assert a["mceip_mu"]["result"].startswith("no solution found in [0, inf)")
+    # S1 = -1, S2 = +1 has no MCEIP-mu solution at all (paper Table 1): proven up to the cap
+    assert a["mceip_mu"]["result"].startswith("proven: no critical mu in [0, 40]")
+    assert a["mceip_mu"]["certified"] and a["mceip_mu"]["certificate"]["status"] == "proven"
     assert a["mceip_mu"]["search"]["attempts"] > 0 and a["mceip_mu"]["search"]["intervals"]
     assert res["failures"] == []
 

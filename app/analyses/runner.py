@@ -14,6 +14,7 @@ from petsc4py import PETSc
 
 from app.analyses import eigen
 from app.analyses import lambda2_bounds as l2b
+from app.analyses.certify import condensed_mu_result, mu_cap
 from app.analyses.classify import ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
@@ -184,7 +185,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
             continue
         p = _Pencils(system, cls)
         try:
-            mine[k] = _mceip_mu(system, p, scene, len(cls.slip))
+            mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False)
         except (UnsupportedState, AnalysisFailure, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
             mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
         finally:
@@ -220,23 +221,40 @@ def _no_slip() -> dict:
                                           "complete": True}}
 
 
-def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
+def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int, replicated: bool = True) -> dict:
+    """MCEIP-mu (21)-(23) of one classification: the condensed s x s pencil with its certificate
+    (:mod:`app.analyses.certify`), or the full-size SNES VI search (found, not proven).
+
+    ``replicated``: every rank computes the same dense problem and rank 0's answer is broadcast
+    (a time budget could end differently on different ranks). ``False`` when only this rank runs
+    it (:func:`analyse_condensed_distributed` gathers the answers itself).
+    """
     if s == 0:
-        return _no_slip()
+        return {**_no_slip(), "certified": True,
+                "certificate": {"method": "no slip nodes (x_Ts is empty)", "interval": [0.0, float("inf")],
+                                "status": "proven", "gap": 0.0, "seconds": 0.0, "detail": {}}}
     method = scene.settings.mceip_mu_method
     if method == "condensed":
+        # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
         A0, A1 = p.condensed_mu()
         with system.stages("MCEIP-mu (21)-(23)"):
-            M0, M1 = _seq_aij(A0), _seq_aij(A1)
-            rep = search_mceip(M0, M1, np.arange(s), "mu", scene.settings.mcp)
-            M0.destroy()
-            M1.destroy()
-    else:
-        K0, K1 = p.K()
-        with system.stages("MCEIP-mu (21)-(23)"):
-            rep = search_mceip(K0, K1, p.space.comp, "mu", scene.settings.mcp)
+            d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp)
+            if replicated and system.comm.size > 1:
+                # replicated dense work; a time budget could end differently on different ranks,
+                # so every rank reports rank 0's answer
+                d = system.comm.bcast(d, root=0)                               # MPI collective
+        d["method"] = method
+        return d
+    K0, K1 = p.K()
+    with system.stages("MCEIP-mu (21)-(23)"):
+        rep = search_mceip(K0, K1, p.space.comp, "mu", scene.settings.mcp)
     d = rep.as_dict()
     d["method"] = method
+    d["certified"] = False
+    d["certificate"] = {"method": "none", "interval": [0.0, 0.0], "status": "not attempted (full-size SNES VI search)",
+                        "gap": None, "seconds": 0.0, "detail": {}}
+    for sol in d["solutions"]:
+        sol["certified"] = False
     if method == "full" and _keep_modes(scene):
         _attach_vectors(d, rep)
     return d
@@ -358,11 +376,22 @@ def _enumerate(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
                     Ms = dense(M0) + mu * dense(M1)
                     sols = enumerate_mceip(Ks, Ms, p.space.comp, settings.enumerate_max_slip)
                 problems[problem] = {"problem": problem, "solutions": sols, "complete": True,
+                                     **_enumeration_certificate(sols),
                                      **({"mu": scene.lambda2_mu} if problem == "lambda2" else {})}
             except TooManySlipNodes as err:
-                problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err)}
+                problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err),
+                                     "certified": False}
     first = problems[settings.enumerate_problems[0]]
     return {**first, "problems": problems}
+
+
+def _enumeration_certificate(sols: list[dict]) -> dict:
+    """``certified``/``certificate`` of a finished exhaustive enumeration: every support was solved."""
+    for x in sols:
+        x["certified"] = True
+    return {"certified": True, "certificate": {"method": "exhaustive enumeration (24)-(26), batched LAPACK",
+                                               "interval": [0.0, float("inf")], "status": "proven", "gap": 0.0,
+                                               "seconds": None, "detail": {"solutions": len(sols)}}}
 
 
 # --- states with zero-reaction nodes (paper's set Z, general rate conditions (9)) --------------
@@ -377,7 +406,7 @@ def _describe(sol: dict, labels: list[str], cls: Classification) -> dict:
     out = dict(sol)
     out["x_c"] = {k: float(v) for k, v in by.items()}
     out["x_Ts"] = [float(by[f"T{i}"]) for i in slip]
-    out["pattern"] = ["slip" if by[f"T{i}"] > 1e-8 * big else "stick" for i in slip]
+    out["pattern"] = ["slip" if by[f"T{i}"] > 0 else "stick" for i in slip]   # slip where x_Ts > 0
     out["zero_nodes"] = []
     for i in zero:
         a, b, xn = by[f"a{i}"], by[f"b{i}"], by[f"N{i}"]
@@ -423,7 +452,14 @@ def _analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) 
 
     if "mceip_mu" in scene.analyses:
         with system.stages("MCEIP-mu (21)-(23)"):
-            out["mceip_mu"] = search(cond.A0, cond.A1, cond, "mu")
+            # the split pencil has no x_f: dense search + certificate as for the plain condensed pencil
+            d = condensed_mu_result(cond.A0, cond.A1, mu_cap(scene.mu, settings.mcp), settings.mcp, pairs=cond.pairs)
+            if system.comm.size > 1:
+                d = system.comm.bcast(d, root=0)                               # MPI collective (see _mceip_mu)
+            d["solutions"] = [_describe(x, cond.labels, cls) for x in d["solutions"]]
+            d["x_c_labels"] = cond.labels
+            d["zero_nodes_handled"] = "rate conditions (9): v_T = a - b, complementarity in (a, b, x_N)"
+            out["mceip_mu"] = d
             out["mceip_mu"]["method"] = "condensed"
     if "mceip_lambda2" in scene.analyses:
         if isinstance(full, Exception):
@@ -450,6 +486,7 @@ def _analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) 
                         A0, A1, sp = full
                     sols = enumerate_mceip(A0, A1, sp.comp, settings.enumerate_max_slip, pairs=sp.pairs)
                     problems[problem] = {"problem": problem, "complete": True,
+                                         **_enumeration_certificate(sols),
                                          "solutions": [_describe(x, sp.labels, cls) for x in sols],
                                          **({"mu": mu_l} if problem == "lambda2" else {})}
                 except TooManySlipNodes as err:

@@ -65,9 +65,10 @@ def _solutions(a: dict | None, key: str = "solutions") -> str:
     if a.get("not_applicable"):
         return "n/a"
     sols = a.get(key) or []
+    word = "proven" if a.get("certified") else "found (not proven)"
     if not sols:
-        return "none"
-    return ", ".join(f"{_fmt(s['value'])} ({''.join('S' if p == 'slip' else '-' for p in s.get('pattern', []))})"
+        return f"none ({word})"
+    return f"{word}: " + ", ".join(f"{_fmt(s['value'])} ({''.join('S' if p == 'slip' else '-' for p in s.get('pattern', []))})"
                      for s in sols)
 
 

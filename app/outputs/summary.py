@@ -6,6 +6,15 @@ import pathlib
 from app.study_result import StudyResult
 
 
+def proof_word(analysis: dict) -> str:
+    """``proven`` when the analysis carries ``certified: true`` (app/analyses/certify.py), else
+    ``found (not proven)``; the certificate's interval is named when there is one."""
+    if analysis.get("certified"):
+        iv = (analysis.get("certificate") or {}).get("interval")
+        return f"proven on [{iv[0]:.6g}, {iv[1]:.6g}]" if iv and iv[1] > iv[0] else "proven"
+    return "found (not proven)"
+
+
 def summary(results: dict, outdir: pathlib.Path) -> str:
     states = results["states"]
     lines = [f"scene '{results['scene']}': {results['system']}",
@@ -39,7 +48,7 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
             vals = ", ".join(f"{s['value']:.6g} ({''.join('S' if p == 'slip' else '-' for p in s['pattern'])})"
                              for s in sols) or "none found"
             extra = f" at mu = {a[key]['mu']}" if key == "mceip_lambda2" else ""
-            lines.append(f"    {name}{extra}: {vals}")
+            lines.append(f"    {name}{extra}: {vals} [{proof_word(a[key])}]")
     for w in results.get("warnings", []):
         lines.append(f"  WARNING: {w}")
     if results["failures"]:

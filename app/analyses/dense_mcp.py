@@ -1,0 +1,205 @@
+"""Dense candidate search for the condensed MCEIP-mu (Propositions 1-2, DESIGN.md section 3).
+
+The condensed problem lives on the ``s`` complementarity unknowns only (no free DOFs):
+
+    y = (A0 + mu A1) x,   0 <= x ⊥ y >= 0,   0 <= mu ⊥ e^T x - c >= 0.
+
+With the min-function ``phi(a, b) = min(a, b)`` this is the square nonsmooth system
+``Phi(x, mu) = (min(x, y), min(mu, e^T x - c)) = 0``, solved here by a semismooth Newton method
+(generalised Jacobian row ``e_i`` where ``x_i <= y_i``, the pencil's row ``[A(mu)_i, (A1 x)_i]``
+otherwise) with a monotone backtracking line search on ``|Phi|^2 / 2``, run for many starts at
+once: the iterates are a ``(B, s + 1)`` array and every Newton step is one batched LAPACK solve.
+No PETSc objects, no MPI: the condensed pencil is small and replicated.
+
+A converged run gives a candidate. It is never reported as is: its support (``x > 0``) is
+re-solved exactly (eq. (25), :func:`app.analyses.enumerate.enumerate_patterns`) and the
+eigenpair of that support nearest the Newton value that passes the sign checks (26) is reported,
+with the Newton evidence (iterations, residual, start) attached. This is a heuristic search:
+completeness is the job of app/analyses/certify.py.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.analyses.enumerate import PatternSolution, enumerate_patterns, pencil_scale
+
+
+@dataclass
+class Candidate:
+    """One exact solution found by the search, with the evidence of the run(s) that found it."""
+    exact: PatternSolution
+    newton_value: float
+    newton_residual: float      # |Phi| at the end of the run (scaled pencil)
+    iterations: int
+    found_by: list[str] = field(default_factory=list)
+
+    def as_dict(self, comp: np.ndarray) -> dict:
+        d = self.exact.as_dict(comp)
+        d.update({"iterations": int(self.iterations), "newton_residual": float(self.newton_residual),
+                  "found_by": self.found_by[:8], "found_count": len(self.found_by)})
+        return d
+
+
+@dataclass
+class DenseSearchReport:
+    candidates: list[Candidate]
+    starts: int
+    converged: int
+    rejected: int               # converged runs whose support did not give an exact solution
+    seconds: float
+    note: str = ("semismooth Newton (min-function) on the bordered MCP of Propositions 1-2, batched over "
+                 "starts; every reported pair is the exact eigenpair (25) of the run's support, checked by (26); "
+                 "a search, not a proof")
+
+
+def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]]) -> tuple[np.ndarray, list[str]]:
+    xs, labels = [np.ones(s)], ["uniform x"]
+    for i in range(s):
+        xs.append(np.eye(s)[i])
+        labels.append(f"x on unknown {i}")
+    if s > 2:
+        for i in range(s):
+            xs.append(1.0 - np.eye(s)[i])
+            labels.append(f"x zero on unknown {i}")
+    X = np.array(xs)
+    for a, b in pairs:          # start with one half of each split tangential rate only
+        X[:, b] = np.where(X[:, a] > 0, 0.0, X[:, b])
+    X = X / np.maximum(X.sum(axis=1, keepdims=True), 1e-300)
+    Z = np.concatenate([np.hstack([X, np.full((len(X), 1), m)]) for m in mu0s])
+    lab = [f"{l}, mu0={m:.6g}" for m in mu0s for l in labels]
+    return Z, lab
+
+
+def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int = 60,
+                      tol: float = 1e-13) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched semismooth Newton on ``min(x, A(mu) x) = 0, min(mu, e^T x - 1) = 0`` from the rows
+    of ``Z = (x, mu)``. Returns final iterates, ``|Phi|`` and iteration counts."""
+    B, n1 = Z.shape
+    s = n1 - 1
+    Z = Z.copy()
+    its = np.zeros(B, dtype=int)
+
+    def phi(Z):
+        x, mu = Z[:, :s], Z[:, s]
+        y = x @ a0.T + mu[:, None] * (x @ a1.T)
+        g = x.sum(axis=1) - 1.0
+        return np.hstack([np.minimum(x, y), np.minimum(mu, g)[:, None]]), y, g
+
+    F, y, g = phi(Z)
+    nrm = np.linalg.norm(F, axis=1)
+    active = np.isfinite(nrm) & (nrm > tol)
+    eye = np.eye(n1)
+    for it in range(max_it):
+        idx = np.flatnonzero(active)
+        if not len(idx):
+            break
+        x, mu = Z[idx, :s], Z[idx, s]
+        J = np.zeros((len(idx), n1, n1))
+        Am = a0[None] + mu[:, None, None] * a1[None]
+        rowy = np.concatenate([Am, (x @ a1.T)[:, :, None]], axis=2)    # d y / d (x, mu)
+        use_x = x <= y[idx]
+        J[:, :s, :] = np.where(use_x[:, :, None], eye[None, :s, :], rowy)
+        use_mu = mu <= g[idx]
+        J[:, s, :] = np.where(use_mu[:, None], eye[s][None], np.concatenate([np.ones((len(idx), s)), np.zeros((len(idx), 1))], axis=1))
+        try:
+            d = np.linalg.solve(J, -F[idx][:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            d = np.stack([np.linalg.lstsq(Jk, -Fk, rcond=None)[0] for Jk, Fk in zip(J, F[idx])])
+        step = np.ones(len(idx))
+        base = nrm[idx]
+        newZ = Z[idx] + d
+        done = np.zeros(len(idx), dtype=bool)
+        for _ in range(12):                      # monotone backtracking on |Phi|
+            Fn, _, _ = phi(newZ)
+            nn = np.linalg.norm(Fn, axis=1)
+            ok = np.isfinite(nn) & (nn <= (1 - 1e-4 * step) * base)
+            done |= ok
+            if done.all():
+                break
+            step = np.where(done, step, 0.5 * step)
+            newZ = np.where(done[:, None], newZ, Z[idx] + step[:, None] * d)
+        moved = done
+        Z[idx[moved]] = newZ[moved]
+        its[idx] += 1
+        F, y, g = phi(Z)
+        nrm = np.linalg.norm(F, axis=1)
+        active[idx[~moved]] = False              # stagnation: stop early
+        active &= np.isfinite(nrm) & (nrm > tol)
+    return Z, nrm, its
+
+
+def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None = None,
+           mu0s: tuple[float, ...] = (0.5, 2.0, 10.0, 100.0, 1000.0), max_it: int = 60,
+           t_max: float = np.inf, neighbour_rounds: int = 0) -> DenseSearchReport:
+    """Candidate solutions of the condensed MCEIP-mu (``A0``, ``A1``: s x s) from many starts."""
+    t0 = time.perf_counter()
+    pairs = list(pairs or [])
+    s = A0.shape[0]
+    scale = pencil_scale(A0)
+    a0, a1 = A0 / scale, A1 / scale
+    Z0, labels = _starts(s, list(mu0s), pairs)
+    Z, nrm, its = semismooth_newton(a0, a1, Z0, max_it=max_it)
+    conv = np.flatnonzero(np.isfinite(nrm) & (nrm <= 1e-9) & (Z[:, s] >= 0))
+    found: dict[tuple, Candidate] = {}
+    rejected = 0
+    cache: dict[tuple, list[PatternSolution]] = {}
+    for b in conv:
+        x = Z[b, :s].copy()
+        for ia, ib in pairs:
+            m = min(x[ia], x[ib])
+            if m > 0:
+                x[ia] -= m
+                x[ib] -= m
+        sup = x > 0
+        if not sup.any() or any(sup[ia] and sup[ib] for ia, ib in pairs):
+            rejected += 1
+            continue
+        key = tuple(sup)
+        if key not in cache:
+            cache[key] = enumerate_patterns(A0, A1, np.arange(s), t_max=t_max, supports=sup[None])
+        sols = cache[key]
+        if not sols:
+            rejected += 1
+            continue
+        mu = float(Z[b, s])
+        ex = min(sols, key=lambda p: abs(p.value - mu))
+        if abs(ex.value - mu) > 1e-6 * max(1.0, mu):
+            rejected += 1
+            continue
+        k = (round(ex.value, 9), key)
+        c = found.get(k)
+        if c is None:
+            c = found[k] = Candidate(exact=ex, newton_value=mu, newton_residual=float(nrm[b]), iterations=int(its[b]))
+        c.found_by.append(f"semismooth Newton from {labels[b]} ({its[b]} it.)")
+    # Pattern neighbourhoods: the exact eigenpairs (25) of every support one flip away from a
+    # found one (batched), repeated while they give new solutions.
+    tried = set(cache)
+    frontier = [k for _, k in found]
+    for _ in range(neighbour_rounds):
+        nxt = []
+        for key in frontier:
+            base = np.array(key)
+            for j in range(s):
+                sup = base.copy()
+                sup[j] = not sup[j]
+                k2 = tuple(sup)
+                if k2 in tried or not sup.any() or any(sup[ia] and sup[ib] for ia, ib in pairs):
+                    continue
+                tried.add(k2)
+                nxt.append(k2)
+        if not nxt:
+            break
+        new = enumerate_patterns(A0, A1, np.arange(s), t_max=t_max, supports=np.array(nxt))
+        frontier = []
+        for ex in new:
+            k = (round(ex.value, 9), tuple(ex.support))
+            if k not in found:
+                found[k] = Candidate(exact=ex, newton_value=float("nan"), newton_residual=float("nan"), iterations=0,
+                                     found_by=["exact eigenpair (25) of a pattern one flip from a found one"])
+                frontier.append(k[1])
+    cands = sorted(found.values(), key=lambda c: c.exact.value)
+    return DenseSearchReport(candidates=cands, starts=len(Z0), converged=len(conv), rejected=rejected,
+                             seconds=time.perf_counter() - t0)
