@@ -124,7 +124,7 @@ def _support_solutions(A0, A1, sup: np.ndarray, a: float, b: float) -> list[Patt
 
 
 def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarray],
-                pairs: list[tuple[int, int]], seconds: float):
+                pairs: list[tuple[int, int]], seconds: float, tight_lp: bool = True):
     """One SCIP solve: the smallest ``m`` in ``[m_lo, 1]`` with a support not cut.
     Returns (status, m, v, z, nodes, gap)."""
     import pyscipopt
@@ -135,7 +135,8 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     model.setParam("limits/time", max(seconds, 0.1))
     model.setParam("numerics/feastol", 1e-9)
     model.setParam("parallel/maxnthreads", 1)
-    model.setParam("numerics/lpfeastolfactor", 0.1)   # LP tolerance 1e-10 (1e-12 needs GMP)
+    if tight_lp:
+        model.setParam("numerics/lpfeastolfactor", 0.1)   # LP tolerance 1e-10 (1e-12 needs GMP)
     # SCIP catches Ctrl-C and stops with "userinterrupt", turned into KeyboardInterrupt below so
     # that an interrupted run stops promptly and cleans up like any other
     v = [model.addVar(f"v{i}", lb=0.0, ub=1.0) for i in range(s)]
@@ -162,7 +163,14 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
         model.addCons(pyscipopt.quicksum(1 - z[i] for i in np.flatnonzero(c)) +
                       pyscipopt.quicksum(z[i] for i in np.flatnonzero(~c)) >= 1)
     model.setObjective(m, "minimize")
-    model.optimize()
+    try:
+        model.optimize()
+    except Exception as err:                 # pyscipopt raises a bare Exception on SCIP errors
+        if "LP" not in str(err) or not tight_lp:
+            return f"SCIP error: {err}", None, None, None, 0, None
+        # SoPlex can fail on a tightened LP tolerance; the same model with SCIP's default LP
+        # tolerance decides the same question (the answer is checked exactly either way)
+        return _scip_round(a0, a1, m_lo, cuts, pairs, seconds, tight_lp=False)
     status = model.getStatus()
     if status == "userinterrupt":
         raise KeyboardInterrupt
