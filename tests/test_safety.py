@@ -327,6 +327,26 @@ def test_preflight_refuses_ten_billion_states_within_a_second(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_small_address_space_cap_is_refused_before_the_work(tmp_path):
+    """Under ``ulimit -v`` below what DOLFINx/PETSc/MPI map, the mesh creation was seen spinning
+    for minutes; the pre-flight refuses it with one line instead (and nothing is written)."""
+    import resource
+    scene = tmp_path / "s.yaml"
+    scene.write_text(BLOCK.replace("MU", "1.1"))
+    cap = 800_000 * 1024
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    t0 = time.perf_counter()
+    p = subprocess.run([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out")], capture_output=True,
+                       text=True, timeout=120, env=env, cwd=ROOT, preexec_fn=limit)
+    assert time.perf_counter() - t0 < 60
+    line = _one_error_line(p)
+    assert "address-space limit (ulimit -v)" in line and "0.76 GiB" in line
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize("edit, needles", [
     ("system: {type: block, nx: 4096, ny: 4096}", ("system.nx = 4096", "settings.limits.max_dofs")),
     ("system: {type: block, nx: 3000, ny: 1}", ("system.nx = 3000", "memory estimate")),

@@ -130,6 +130,11 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     import pyscipopt
 
     s = a0.shape[0]
+    # SCIP's feasibility tolerances can declare the problem infeasible when a solution lies within
+    # ~1e-8 of an end of the interval (seen with a solution 1e-8 above the copositivity bound), so
+    # the interval given to SCIP is widened by 1e-6 at both ends: an infeasibility proof on the
+    # wider interval proves the narrower one, and every point it returns is checked exactly.
+    lo, hi = m_lo * (1 - 1e-6), 1.0 + 1e-6
     model = pyscipopt.Model()
     model.hideOutput()
     model.setParam("limits/time", max(seconds, 0.1))
@@ -140,18 +145,18 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     # SCIP catches Ctrl-C and stops with "userinterrupt", turned into KeyboardInterrupt below so
     # that an interrupted run stops promptly and cleans up like any other
     v = [model.addVar(f"v{i}", lb=0.0, ub=1.0) for i in range(s)]
-    w = [model.addVar(f"w{i}", lb=0.0, ub=1.0) for i in range(s)]
+    w = [model.addVar(f"w{i}", lb=0.0, ub=hi) for i in range(s)]
     z = [model.addVar(f"z{i}", vtype="B") for i in range(s)]
-    m = model.addVar("m", lb=m_lo, ub=1.0)
+    m = model.addVar("m", lb=lo, ub=hi)
     # |y_i| <= max_j |(a0 + m a1)_ij| on the simplex, and |a0 + m a1| is convex in m: its largest
     # value on [m_lo, 1] is at an end (a proven big-M, tighter than max|a0| + max|a1|)
-    Y = np.maximum(np.max(np.abs(a0 + m_lo * a1), axis=1), np.max(np.abs(a0 + a1), axis=1))
+    Y = np.maximum(np.max(np.abs(a0 + lo * a1), axis=1), np.max(np.abs(a0 + hi * a1), axis=1))
     model.addCons(pyscipopt.quicksum(v) == 1.0)
     model.addCons(pyscipopt.quicksum(w) == m)           # e^T w = m e^T v (valid, tightens)
     for i in range(s):
         model.addCons(w[i] == m * v[i])
-        model.addCons(w[i] <= v[i])
-        model.addCons(w[i] >= m_lo * v[i])                  # McCormick with m >= m_lo
+        model.addCons(w[i] <= hi * v[i])
+        model.addCons(w[i] >= lo * v[i])                  # McCormick with m >= m_lo
         y = pyscipopt.quicksum(float(a0[i, j]) * v[j] + float(a1[i, j]) * w[j] for j in range(s)
                                if a0[i, j] != 0 or a1[i, j] != 0)
         model.addCons(y >= 0)
