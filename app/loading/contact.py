@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
+from app.linalg import configure_direct
+
 
 @dataclass
 class IncrementResult:
@@ -106,8 +108,7 @@ class FrictionalContact:
         snes.setJacobian(self._jacobian, self.J)
         snes.setVariableBounds(lo, hi)
         snes.setTolerances(rtol=1e-14, atol=atol, stol=1e-16, max_it=100)
-        snes.getKSP().setType("preonly")
-        snes.getKSP().getPC().setType("lu")
+        configure_direct(snes.getKSP(), mumps=False)
         snes.solve(None, X)
         z, reason, its = X.getArray().copy(), snes.getConvergedReason(), snes.getIterationNumber()
         snes.destroy()

@@ -15,6 +15,8 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from app.linalg import lu_solver
+
 
 @dataclass
 class ContactFlexibility:
@@ -50,17 +52,6 @@ class ContactFlexibility:
 
     def destroy(self) -> None:
         self.ksp.destroy()
-
-
-def _lu(K: PETSc.Mat) -> PETSc.KSP:
-    ksp = PETSc.KSP().create(K.getComm())
-    ksp.setOperators(K)
-    ksp.setType("preonly")
-    pc = ksp.getPC()
-    pc.setType("lu")
-    pc.setFactorSolverType("mumps")
-    ksp.setUp()
-    return ksp
 
 
 def _flexibility_block_solves(ksp: PETSc.KSP, K: PETSc.Mat, dofs: np.ndarray,
@@ -104,7 +95,7 @@ def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
     """Factor ``K`` and compute W and the unit-load contact displacements (MPI collective)."""
     dofs = np.asarray(dofs, dtype=np.int64)
     signs = np.asarray(signs, dtype=float)
-    ksp = _lu(K)
+    ksp = lu_solver(K)
     x, b = K.createVecRight(), K.createVecLeft()
     # Gather the contact entries of a distributed vector onto every rank.
     seq = PETSc.Vec().createSeq(len(dofs), comm=PETSc.COMM_SELF)
