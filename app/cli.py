@@ -219,7 +219,7 @@ def _terminate(signum, frame):
 
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
 
-    from app.loading.block_path import UnreachableLoad
+    from app.errors import UnreachableLoad
     from app.outputs.results import write_results
     from app.progress import Progress
     from app.study import run_study

@@ -14,3 +14,9 @@ def fail(msg: str, code: int = 2) -> int:
     if MPI.COMM_WORLD.rank == 0:
         print(f"error: {msg}", file=sys.stderr)
     return code
+
+
+class UnreachableLoad(Exception):
+    """The prescribed loading path cannot be followed (e.g. the requested normal force cannot be
+    reached): a property of the scene, raised identically on every rank; the driver reports it as
+    one ``error:`` line (exit 2 from a single study, an error row in a sweep)."""

@@ -466,7 +466,7 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
 
 def main(scene: Scene, args, comm: MPI.Comm, folder, outdir: pathlib.Path) -> int:
     """``python -m app run`` of a scene with a ``refinement`` section (called by app/cli.py)."""
-    from app.loading.block_path import UnreachableLoad
+    from app.errors import UnreachableLoad
     quiet = getattr(args, "quiet", False)
     try:
         summary = run_refinement(scene, comm, Progress(enabled=False, comm=comm), outdir,

@@ -48,7 +48,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from app.config import Scene, SceneError, _format_error
+from app.config import Scene, SceneError, format_error
 from app.study_result import StateResult
 
 TAG_REQUEST, TAG_REPLY = 7101, 7102
@@ -134,7 +134,7 @@ def expand(scene: Scene, source: str = "scene") -> list[Case]:
         try:
             case_scene = Scene.model_validate(data)
         except ValidationError as err:
-            raise SceneError(f"{source}: sweep case '{name}': {_format_error(err)}") from None
+            raise SceneError(f"{source}: sweep case '{name}': {format_error(err)}") from None
         except RecursionError:
             raise SceneError(f"{source}: sweep case '{name}': the scene is nested too deeply") from None
         cases.append(Case(i, name, values, case_scene, scene_hash(case_scene)))
@@ -200,9 +200,9 @@ def case_row(results: dict, case: Case, ran: str = "this run") -> dict:
     row["wall_seconds"] = results.get("wall_seconds")
     row["ranks"] = results.get("mpi_ranks")
     row["ran"] = ran
-    sysc = case.scene.system
-    if sysc.type == "block":
-        row["L_over_H"] = float(f"{sysc.length / sysc.height:.12g}")
+    columns = getattr(case.scene.system, "table_columns", None)   # e.g. the block's L/H (app/systems/)
+    if columns is not None:
+        row.update(columns())
     if not states:
         return row
     last = states[-1]
@@ -275,10 +275,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     if gcomm.rank == 0:
         folder.mkdir(parents=True, exist_ok=True)
     try:
-        if case.scene.system.type == "block":
-            from app.loading.block_path import UnreachableLoad
-        else:
-            UnreachableLoad = ()          # noqa: N806 - nothing to catch
+        from app.errors import UnreachableLoad
         try:
             # outdir: where the scene's field outputs (if any) go, as for a single study
             results = run_study(case.scene, gcomm, Progress(enabled=False), outdir=folder)
@@ -489,8 +486,10 @@ def run_cases(cases: list[Case], todo: list[int], comm, ranks_per_case: int, out
     # here on every rank, not inside the first case (a rank may never run one).
     from petsc4py import PETSc  # noqa: F401
     from slepc4py import SLEPc  # noqa: F401
-    if any(c.scene.system.type == "block" for c in cases):
-        import app.loading.block_path  # noqa: F401 - DOLFINx
+
+    from app.systems import get as system_type
+    for name in sorted({c.scene.system.type for c in cases}):
+        system_type(name).preload()      # e.g. DOLFINx for the block
     threaded = (MPI.Query_thread() >= MPI.THREAD_MULTIPLE
                 and os.environ.get(DISPATCHER_ENV, "") != "dedicated")
     first = 0 if threaded else 1

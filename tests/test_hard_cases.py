@@ -190,7 +190,7 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
 
     import app.system.elasticity as elasticity
     from app.config import parse_scene
-    from app.loading.block_path import UnreachableLoad
+    from app.errors import UnreachableLoad
     from app.study import run_study
     original = elasticity.block_operators
 

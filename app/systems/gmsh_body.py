@@ -28,6 +28,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from app.errors import UnreachableLoad
 from app.loading.program import ProgramPhase, run_program
 from app.stages import Stages
 from app.system.base import ContactNode, System
@@ -369,7 +370,6 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     try:
         system = build(cfg, comm, stages, scene.units)
     except BodyError as err:
-        from app.loading.block_path import UnreachableLoad
         raise UnreachableLoad(str(err)) from None
     flex = system.extra["flexibility"]
     with stages("quasi-static loading"):
@@ -378,7 +378,6 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
                                        flex.schur, scene.mu, scene.settings.classify_rtol, progress)
         except ProgramError as err:
             system.destroy()
-            from app.loading.block_path import UnreachableLoad
             raise UnreachableLoad(str(err)) from None
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     return system, states, info
