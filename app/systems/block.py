@@ -38,8 +38,8 @@ UNITS = {"mm-N-MPa-tonne-s": {"length": "mm", "force": "N", "stress": "MPa", "st
 
 def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s"):
     """Mesh (Gmsh), operators (DOLFINx), factorisation and contact flexibility."""
-    from app.scene.block_mesh import block_mesh
     from app.system.elasticity import block_operators
+    from app.systems.block_mesh import block_mesh
     with stages("mesh (gmsh)"):
         mesh, facets = block_mesh(comm, cfg.length, cfg.height, cfg.nx, cfg.ny, cfg.pattern, cfg.mesh_size)
     with stages("assemble stiffness"):
