@@ -153,3 +153,14 @@ def test_nothing_outside_the_registry_tests_the_system_type():
     """Type-specific behaviour is asked of the registry (app/systems/), never branched on."""
     found = system_type_checks()
     assert not found, "system type tested outside app/systems/: " + ", ".join(found)
+
+
+def test_no_private_names_imported_across_modules():
+    """``from app.x import _name`` ties a module to another's internals: shared helpers are public."""
+    found = []
+    for path in sorted((ROOT / "app").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("app"):
+                found += [f"{path.relative_to(ROOT)}:{node.lineno} {node.module}.{a.name}" for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]
+    assert not found, "private names imported: " + ", ".join(found)
