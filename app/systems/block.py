@@ -84,13 +84,22 @@ def _state(index: int, phase: str, gx: float, gy: float, inc, extra: dict) -> Eq
 
 
 def path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress):
-    """Run the loading; returns (system, states, path_info)."""
+    """Build the block and run its loading; returns (system, states, path_info). The caller owns
+    the system (``system.destroy()``); it is destroyed here if the loading fails."""
+    system, ops, flex = build_block_system(scene.system, comm, stages, scene.units)
+    try:
+        states, info = _loading(scene, flex, len(system.nodes), stages, progress)
+    except BaseException:
+        system.destroy()
+        raise
+    return system, states, info
+
+
+def _loading(scene: Scene, flex, n: int, stages: Stages, progress: Progress):
+    """Press CD down, then drag it (the body of :func:`path`); returns (states, path_info)."""
     cfg: Block = scene.system
     ld = scene.loading
-    system, ops, flex = build_block_system(cfg, comm, stages, scene.units)
-    n = len(system.nodes)
-    with stages("quasi-static loading"):
-        solver = FrictionalContact(flex.schur, scene.mu)
+    with stages("quasi-static loading"), FrictionalContact(flex.schur, scene.mu) as solver:
 
         def press(depth: float, keep: bool):
             uT, g = np.zeros(n), np.zeros(n)
@@ -144,14 +153,13 @@ def path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress):
                        f"(tangential resultant = mu x normal resultant)")
                 break
         bar.close()
-        solver.destroy()
     from app.sanity import check_block_path  # small-strain validity (warnings, never an error)
     for w in check_block_path(states, cfg.length, cfg.height, UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)
     info = {"end": end, "normal_displacement_mm": depth, "normal_force_N": float(-np.sum(states[ld.normal_steps - 1].r_N)),
             "normal_steps": ld.normal_steps, "tangential_step_mm": ld.tangential_step, "failure": failure}
-    return system, states, info
+    return states, info
 
 
 block_path = path     # the name used before the registry (benchmarks/)

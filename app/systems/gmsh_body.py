@@ -64,17 +64,20 @@ class BodyOperators:
         """Reduced, rotated mass matrix (assembled on first use; the caller owns the copy it gets)."""
         import dolfinx.fem.petsc
         M_full = dolfinx.fem.petsc.assemble_matrix(self.mass_form)
-        M_full.assemble()
-        if self.mass_kind == "lumped":
-            d = M_full.getRowSum()
-            M_full.zeroEntries()
-            M_full.setDiagonal(d)
-            d.destroy()
-        M = M_full.createSubMatrix(self.kept, self.kept)
-        M_full.destroy()
-        Mr = M.PtAP(self.R)
-        M.destroy()
-        return Mr
+        try:
+            M_full.assemble()
+            if self.mass_kind == "lumped":
+                d = M_full.getRowSum()
+                M_full.zeroEntries()
+                M_full.setDiagonal(d)
+                d.destroy()
+            M = M_full.createSubMatrix(self.kept, self.kept)
+        finally:
+            M_full.destroy()
+        try:
+            return M.PtAP(self.R)
+        finally:
+            M.destroy()
 
     def destroy(self) -> None:
         for obj in (self.K, self.R, self.kept, *self.loads):
@@ -194,10 +197,11 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
 
     def assemble(expr) -> np.ndarray:
         b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        out = b.getArray(readonly=True)[kept_local].copy()
-        b.destroy()
-        return out
+        try:
+            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            return b.getArray(readonly=True)[kept_local].copy()
+        finally:
+            b.destroy()
 
     for name in loaded:
         tag = tag_of_curve[name]
