@@ -215,7 +215,7 @@ def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
     from app import driver
     from app.errors import UnreachableLoad
     from app.progress import Progress
-    if scene.refinement is not None:                          # a mesh-refinement study (app/refinement/)
+    if scene.refinement is not None:                          # a mesh-refinement study (app/refinement.py)
         from app.refinement import main as refinement_main
         return refinement_main(scene, args, comm, folder, outdir)
     try:
