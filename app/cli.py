@@ -14,6 +14,9 @@ import pathlib
 import signal
 import sys
 
+from app.errors import EXIT_WRITE
+from app.errors import fail as _fail
+
 DESCRIPTION = """\
 Divergence instabilities of elastic bodies in frictional contact.
 
@@ -78,16 +81,6 @@ def _parser() -> argparse.ArgumentParser:
                                      "input); then run it with: python -m app run SCENE")
     val.add_argument("scene", help="scene YAML file")
     return p
-
-
-def _fail(msg: str, code: int = 2) -> int:
-    from mpi4py import MPI
-    if MPI.COMM_WORLD.rank == 0:
-        print(f"error: {msg}", file=sys.stderr)
-    return code
-
-
-EXIT_WRITE = 4
 
 
 def _no_space(err: BaseException) -> bool:
@@ -218,26 +211,19 @@ def _terminate(signum, frame):
 
 
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
-
-    from app.loading.block_path import UnreachableLoad
-    from app.outputs.results import write_results
+    """Run the scene into the staging folder ``outdir`` and commit ``folder`` (app/driver.py)."""
+    from app import driver
+    from app.errors import UnreachableLoad
     from app.progress import Progress
-    from app.study import run_study
     if scene.refinement is not None:                          # a mesh-refinement study (app/refinement.py)
         from app.refinement import main as refinement_main
         return refinement_main(scene, args, comm, folder, outdir)
     try:
-        results = run_study(scene, comm, Progress(enabled=not args.quiet, comm=comm), outdir=outdir)
+        results = driver.run_and_write(scene, comm, outdir, Progress(enabled=not args.quiet, comm=comm))
     except UnreachableLoad as err:   # raised identically on every rank
-        return _fail(f"{args.scene or 'default scene'}: loading: {err}")
-    if comm.rank == 0:
-        from app.outputs.pictures import draw_after_run  # plots, screenshots, report (if asked)
-        results = draw_after_run(results, outdir, Progress(enabled=not args.quiet, comm=comm))
-        write_results(results, outdir)
-    comm.Barrier()                                            # MPI collective: every rank has written
-    if comm.rank == 0:
-        final = folder.commit()
-        if not args.quiet:
-            from app.outputs.summary import summary
-            print(summary(results, final))
-    return 3 if results["failures"] else 0
+        return _fail(driver.loading_error(args.scene or "default scene", err))
+    final = driver.commit(folder, comm)
+    if comm.rank == 0 and not args.quiet:
+        from app.outputs.summary import summary
+        print(summary(results, final))
+    return driver.exit_status(results["failures"])

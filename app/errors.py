@@ -1,16 +1,26 @@
-"""The command line's user-facing failure: one ``error:`` line on rank 0 and an exit status.
+"""User-facing failures shared by the modules behind ``python -m app`` (app/cli.py, app/driver.py,
+app/sweep.py, app/refinement.py): one ``error:`` line on rank 0 and an exit status, so that none of
+them imports the CLI module.
 
-Shared by the modules behind ``python -m app`` (app/sweep.py; app/cli.py has the same helper
-until the one-driver refactor of issue 12), so that none of them imports the CLI module.
+Exit status: 0 ok, 2 a user mistake, 3 the study ran but some states failed, 4 the results could
+not be written.
 """
 from __future__ import annotations
 
 import sys
 
+EXIT_OK, EXIT_USER, EXIT_INCOMPLETE, EXIT_WRITE = 0, 2, 3, 4
 
-def fail(msg: str, code: int = 2) -> int:
+
+def fail(msg: str, code: int = EXIT_USER) -> int:
     """Print ``error: msg`` on rank 0 of COMM_WORLD and return the exit status ``code``."""
     from mpi4py import MPI
     if MPI.COMM_WORLD.rank == 0:
         print(f"error: {msg}", file=sys.stderr)
     return code
+
+
+class UnreachableLoad(Exception):
+    """The prescribed loading path cannot be followed (e.g. the requested normal force cannot be
+    reached): a property of the scene, raised identically on every rank; the driver reports it as
+    one ``error:`` line (exit 2 from a single study, an error row in a sweep)."""

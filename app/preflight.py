@@ -12,7 +12,7 @@ import os
 import resource
 from dataclasses import dataclass
 
-from app.config import Block, Scene, SceneError
+from app.config import Scene, SceneError
 
 log = logging.getLogger(__name__)
 
@@ -30,34 +30,17 @@ class Estimate:
                 f"nodes, memory estimate {self.memory_bytes / 2**30:.2g} GiB")
 
 
-def _block_sizes(cfg: Block) -> tuple[int, int]:
-    """(DOFs, contact nodes) of the block mesh (exact for structured meshes, an estimate otherwise)."""
-    if cfg.pattern == "unstructured":
-        h = float(cfg.mesh_size)
-        nx = max(1, math.ceil(cfg.length / h))
-        ny = max(1, math.ceil(cfg.height / h))
-        vertices = int(1.2 * (nx + 1) * (ny + 1))
-        cells = 2 * nx * ny
-    else:
-        nx, ny = cfg.nx, cfg.ny
-        vertices = (nx + 1) * (ny + 1) + (nx * ny if cfg.pattern == "crossed" else 0)
-        cells = nx * ny * (4 if cfg.pattern == "crossed" else 2)
-    nodes = vertices if cfg.degree == 1 else vertices + (vertices + cells - 1)   # + edge midpoints (Euler)
-    contact = cfg.degree * nx + 1
-    return 2 * nodes, contact
-
-
 def estimate(scene: Scene, nx: int | None = None) -> Estimate:
     """Sizes and a rough memory estimate of ``scene`` (``nx``: override of ``system.nx``, ny scaled)."""
     cfg = scene.system
-    if not isinstance(cfg, Block):
+    if not hasattr(cfg, "mesh_sizes"):     # a system type without a mesh estimate (app/systems/)
         return Estimate(states=1, dofs=4, contact_nodes=2, memory_bytes=200 * 2**20)
     if nx is not None:
-        cfg = cfg.model_copy(update={"nx": nx, "ny": max(1, round(nx * cfg.height / cfg.length))})
+        cfg = cfg.refined(nx)
     ld = scene.loading
     steps = ld.tangential_max / ld.tangential_step
     states = ld.normal_steps + (int(steps + 1e-9) if steps < 1e18 else 10**18)
-    dofs, contact = _block_sizes(cfg)
+    dofs, contact = cfg.mesh_sizes()
     # Sparse K (about 18 entries per row in 2D P1, 40 in P2) and its LU factors (2D nested dissection:
     # fill about 30 n log2 n entries), 12 bytes per entry; the contact flexibility (2c)^2 dense,
     # a few copies; the dense reduced pencils up to eig.dense_limit; about 1.5 kB per node and state

@@ -8,17 +8,15 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from mpi4py import MPI
 from threadpoolctl import ThreadpoolController
 
 from app.analyses.classify import classify
 from app.analyses.runner import analyse_condensed_distributed, analyse_state
-from app.config import Block, Scene, TwoParticles
-from app.loading.state import EquilibriumState
+from app.config import Scene
 from app.progress import Progress
 from app.stages import Stages
-from app.system.particles import two_particle_system
+from app.systems import get as system_type
 
 _BLAS: list = []
 
@@ -28,22 +26,6 @@ def _blas() -> ThreadpoolController:
     if not _BLAS:
         _BLAS.append(ThreadpoolController())
     return _BLAS[0]
-
-
-def _two_particle_path(scene: Scene, comm: MPI.Comm, stages: Stages):
-    """The paper's two-particle state: both particles in impending slip with signs S1, S2.
-
-    The scene fixes only the signs; the static reactions are taken with unit normal reaction
-    (r_N = -1 N), so r_T = S mu. The pencils do not depend on the reaction values.
-    """
-    cfg: TwoParticles = scene.system
-    with stages("build system"):
-        system = two_particle_system(cfg, comm, stages)
-    S = np.array(cfg.signs, dtype=float)
-    mu_state = max(scene.mu, 1e-300)
-    state = EquilibriumState(index=0, load={}, u_T=np.zeros(2), u_N=np.zeros(2),
-                             r_T=S * mu_state, r_N=-np.ones(2))
-    return system, [state], {"end": "single equilibrium state"}
 
 
 def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
@@ -59,14 +41,8 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     t_start = time.perf_counter()
     stages = Stages()
     progress = progress or Progress(enabled=False)
-    if isinstance(scene.system, TwoParticles):
-        system, states, path_info = _two_particle_path(scene, comm, stages)
-    elif isinstance(scene.system, Block):
-        from app.loading.block_path import block_path  # DOLFINx only when a block is asked for
-        system, states, path_info = block_path(scene, comm, stages, progress)
-    else:                       # a registered system type (app/systems/)
-        from app.systems import get as system_type
-        system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
+    # the system type's own module (app/systems/) builds the system and runs its loading path
+    system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
 
     cache: dict = {}
     deferred: list = []     # (classification, its analyses, state index): condensed MCEIP-mu, distributed below

@@ -102,8 +102,8 @@ def _direct_reactions(clamp_tangential: bool, gx: float, gy: float):
 
     from app.analyses.pencils import dense, gather_vec
     from app.config import parse_scene
-    from app.loading.block_path import build_block_system
     from app.stages import Stages
+    from app.systems.block import build_block_system
     cfg = parse_scene(scene()).system
     system, ops, flex = build_block_system(cfg, MPI.COMM_WORLD, Stages())
     K = dense(ops.K)
@@ -189,9 +189,9 @@ def test_equilibrium_of_resultants_with_the_reactions(paper):
     from mpi4py import MPI
 
     from app.config import parse_scene
-    from app.loading.block_path import build_block_system
     from app.stages import Stages
     from app.system.elasticity import lame_parameters
+    from app.systems.block import build_block_system
     cfg = parse_scene(scene()).system
     system, ops, flex = build_block_system(cfg, MPI.COMM_WORLD, Stages())
     V = ops.V

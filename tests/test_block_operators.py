@@ -1,4 +1,4 @@
-"""Tests of the block mesh (app.scene.block_mesh) and the reduced elasticity operators
+"""Tests of the block mesh (app.systems.block_mesh) and the reduced elasticity operators
 (app.system.elasticity)."""
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.scene.block_mesh import AB, CD, LATERAL, block_mesh, structured_triangulation
 from app.system.elasticity import block_operators, lame_parameters
+from app.systems.block_mesh import AB, CD, LATERAL, block_mesh, structured_triangulation
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 LENGTH, HEIGHT = 80.0, 40.0
@@ -272,7 +272,7 @@ _PARALLEL_SCRIPT = textwrap.dedent("""
     import pathlib, sys
     import numpy as np
     from mpi4py import MPI
-    from app.scene.block_mesh import block_mesh
+    from app.systems.block_mesh import block_mesh
     from app.system.elasticity import block_operators
 
     comm = MPI.COMM_WORLD

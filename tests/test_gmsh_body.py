@@ -23,10 +23,10 @@ GEO = ROOT / "app" / "scenes" / "gmsh" / "block.geo"
 
 def write_block_msh(path: pathlib.Path, nx: int, ny: int, pattern: str, angle_deg: float = 0.0,
                     shift=(0.0, 0.0)) -> str:
-    """The built-in block mesh (app/scene/block_mesh.py) as a .msh, rotated about A and shifted."""
+    """The built-in block mesh (app/systems/block_mesh.py) as a .msh, rotated about A and shifted."""
     import gmsh
 
-    from app.scene.block_mesh import _add_structured_model
+    from app.systems.block_mesh import _add_structured_model
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     try:

@@ -173,7 +173,7 @@ def test_killed_rank_leaves_no_results_folder(tmp_path):
 
 def test_missing_cached_mesh_file_is_regenerated():
     """Meshes are generated, never read from user files: a deleted cache file is rebuilt."""
-    from app.scene.block_mesh import DEFAULT_CACHE_DIR, mesh_file_name
+    from app.systems.block_mesh import DEFAULT_CACHE_DIR, mesh_file_name
     scene = _with(nx=6, ny=3)
     first = run_scene(scene)
     path = DEFAULT_CACHE_DIR / mesh_file_name(80.0, 40.0, 6, 3, "crossed", None)
@@ -190,7 +190,7 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
 
     import app.system.elasticity as elasticity
     from app.config import parse_scene
-    from app.loading.block_path import UnreachableLoad
+    from app.errors import UnreachableLoad
     from app.study import run_study
     original = elasticity.block_operators
 

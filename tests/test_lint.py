@@ -103,3 +103,64 @@ def test_no_import_cycles_in_app():
     assert "app.study" in graph and "app.config" in graph["app.study"]
     found = cycles(graph)
     assert not found, "import cycles: " + "; ".join(" <-> ".join(c) for c in found)
+
+
+def system_type_checks() -> list[str]:
+    """Places in app/ outside app/systems/ that branch on the system type: comparisons with a
+    ``.type`` attribute or a registered type name, ``isinstance``/``issubclass`` against a system
+    schema, dictionaries keyed by type names."""
+    from app.systems import SYSTEM_TYPES
+    names = set(SYSTEM_TYPES)
+    schemas = {t.schema.__name__ for t in SYSTEM_TYPES.values()}
+    found = []
+    for path in sorted((ROOT / "app").rglob("*.py")):
+        rel = path.relative_to(ROOT)
+        if rel.parts[:2] == ("app", "systems"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            hit = False
+            if isinstance(node, ast.Compare):
+                for side in [node.left, *node.comparators]:
+                    if isinstance(side, ast.Attribute) and side.attr == "type":
+                        hit = True
+                    if isinstance(side, ast.Constant) and side.value in names:
+                        hit = True
+                    if (isinstance(side, ast.Call) and isinstance(side.func, ast.Attribute) and side.func.attr == "get"
+                            and side.args and isinstance(side.args[0], ast.Constant) and side.args[0].value == "type"):
+                        hit = True
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("isinstance",
+                                                                                                    "issubclass"):
+                hit = any(isinstance(n, ast.Name) and n.id in schemas for a in node.args[1:] for n in ast.walk(a))
+            elif isinstance(node, ast.Dict):
+                hit = any(isinstance(k, ast.Constant) and k.value in names for k in node.keys)
+            if hit:
+                found.append(f"{rel}:{node.lineno}")
+    return found
+
+
+def test_system_type_checks_are_found(tmp_path, monkeypatch):
+    """The detector sees the patterns it is meant to forbid (checked on a copy of app/)."""
+    import shutil as sh
+    fake = tmp_path / "app"
+    sh.copytree(ROOT / "app" / "systems", fake / "systems")
+    (fake / "x.py").write_text("def f(scene, cfg):\n    if scene.system.type == 'gmsh':\n        pass\n"
+                               "    if isinstance(cfg, Block):\n        pass\n    return {'block': 1}\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert system_type_checks() == ["app/x.py:2", "app/x.py:4", "app/x.py:6"]
+
+
+def test_nothing_outside_the_registry_tests_the_system_type():
+    """Type-specific behaviour is asked of the registry (app/systems/), never branched on."""
+    found = system_type_checks()
+    assert not found, "system type tested outside app/systems/: " + ", ".join(found)
+
+
+def test_no_private_names_imported_across_modules():
+    """``from app.x import _name`` ties a module to another's internals: shared helpers are public."""
+    found = []
+    for path in sorted((ROOT / "app").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("app"):
+                found += [f"{path.relative_to(ROOT)}:{node.lineno} {node.module}.{a.name}" for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]
+    assert not found, "private names imported: " + ", ".join(found)

@@ -28,7 +28,7 @@ def _write_mtx(path, A):
 
 def particle_scene(tmp_path, signs, mu, analyses=("mceip_lambda2", "mceip_mu", "enumerate", "sufficient", "necessary"),
                    fmt="mtx"):
-    from app.system.particles import particle_matrices
+    from app.systems.particles import particle_matrices
     Kd, Md = particle_matrices(KP, MP, PHI)
     if fmt == "mtx":
         k, m = _write_mtx(tmp_path / "K.mtx", Kd), _write_mtx(tmp_path / "M.mtx", Md)
@@ -138,8 +138,8 @@ def block_as_matrices(tmp_path_factory):
     phases are the reduced loads of CD's prescribed motion (K u = gx f_x + gy f_y + B^T r)."""
     from app.analyses.pencils import dense, gather_vec
     from app.config import parse_scene
-    from app.loading.block_path import build_block_system
     from app.stages import Stages
+    from app.systems.block import build_block_system
     d = tmp_path_factory.mktemp("blockm")
     base = {"name": "b", "system": BLOCK, "mu": 1.1, "analyses": ["mceip_mu"]}
     ref = run_scene(base)

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
+from app.linalg import configure_direct
+
 
 @dataclass
 class IncrementResult:
@@ -101,19 +103,19 @@ class FrictionalContact:
         hi.set(PETSc.INFINITY)
         F = X.duplicate()
         snes = PETSc.SNES().create(PETSc.COMM_SELF)
-        snes.setType(method)
-        snes.setFunction(self._residual, F)
-        snes.setJacobian(self._jacobian, self.J)
-        snes.setVariableBounds(lo, hi)
-        snes.setTolerances(rtol=1e-14, atol=atol, stol=1e-16, max_it=100)
-        snes.getKSP().setType("preonly")
-        snes.getKSP().getPC().setType("lu")
-        snes.solve(None, X)
-        z, reason, its = X.getArray().copy(), snes.getConvergedReason(), snes.getIterationNumber()
-        snes.destroy()
-        for v in (X, lo, hi, F):
-            v.destroy()
-        return z, reason, its
+        try:
+            snes.setType(method)
+            snes.setFunction(self._residual, F)
+            snes.setJacobian(self._jacobian, self.J)
+            snes.setVariableBounds(lo, hi)
+            snes.setTolerances(rtol=1e-14, atol=atol, stol=1e-16, max_it=100)
+            configure_direct(snes.getKSP(), mumps=False)
+            snes.solve(None, X)
+            return X.getArray().copy(), snes.getConvergedReason(), snes.getIterationNumber()
+        finally:
+            snes.destroy()
+            for v in (X, lo, hi, F):
+                v.destroy()
 
     def violation(self, z: np.ndarray, scale: float) -> float:
         """Largest violation of g >= 0, p >= 0, g p = 0, |r_T| <= mu p and of the slip rule."""
@@ -155,4 +157,11 @@ class FrictionalContact:
                                slip_increment=z[n:], iterations=its, method=method, violation=viol)
 
     def destroy(self) -> None:
+        """Free the PETSc Jacobian this solver created."""
         self.J.destroy()
+
+    def __enter__(self) -> "FrictionalContact":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.destroy()

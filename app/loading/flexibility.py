@@ -15,6 +15,8 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from app.linalg import lu_solver
+
 
 @dataclass
 class ContactFlexibility:
@@ -44,23 +46,24 @@ class ContactFlexibility:
         rhs.setValues(self.dofs[mine].astype(PETSc.IntType), (self.signs * r)[mine], addv=PETSc.InsertMode.ADD_VALUES)
         rhs.assemble()
         u = rhs.duplicate()
-        self.ksp.solve(rhs, u)
-        rhs.destroy()
+        try:
+            self.ksp.solve(rhs, u)
+        except BaseException:
+            u.destroy()
+            raise
+        finally:
+            rhs.destroy()
         return u
 
     def destroy(self) -> None:
+        """Free the factorisation of K this object owns."""
         self.ksp.destroy()
 
+    def __enter__(self) -> "ContactFlexibility":
+        return self
 
-def _lu(K: PETSc.Mat) -> PETSc.KSP:
-    ksp = PETSc.KSP().create(K.getComm())
-    ksp.setOperators(K)
-    ksp.setType("preonly")
-    pc = ksp.getPC()
-    pc.setType("lu")
-    pc.setFactorSolverType("mumps")
-    ksp.setUp()
-    return ksp
+    def __exit__(self, *exc) -> None:
+        self.destroy()
 
 
 def _flexibility_block_solves(ksp: PETSc.KSP, K: PETSc.Mat, dofs: np.ndarray,
@@ -86,10 +89,12 @@ def _flexibility_block_solves(ksp: PETSc.KSP, K: PETSc.Mat, dofs: np.ndarray,
             rhs[dofs[hit] - r0, hit - c0] = signs[hit]
             B.assemble()
             X = B.duplicate()
-            F.matSolve(B, X)
-            W[np.ix_(mine, cols)] = signs[mine, None] * X.getDenseArray()[dofs[mine] - r0, :]
-            B.destroy()
-            X.destroy()
+            try:
+                F.matSolve(B, X)
+                W[np.ix_(mine, cols)] = signs[mine, None] * X.getDenseArray()[dofs[mine] - r0, :]
+            finally:
+                B.destroy()
+                X.destroy()
     except PETSc.Error:
         ok = False
     else:
@@ -104,7 +109,17 @@ def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
     """Factor ``K`` and compute W and the unit-load contact displacements (MPI collective)."""
     dofs = np.asarray(dofs, dtype=np.int64)
     signs = np.asarray(signs, dtype=float)
-    ksp = _lu(K)
+    ksp = lu_solver(K)
+    try:
+        return _flexibility(ksp, K, load_x, load_y, dofs, signs)
+    except BaseException:
+        ksp.destroy()
+        raise
+
+
+def _flexibility(ksp: PETSc.KSP, K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
+                 dofs: np.ndarray, signs: np.ndarray) -> ContactFlexibility:
+    """W and the unit-load contact displacements from the factorised ``ksp`` (MPI collective)."""
     x, b = K.createVecRight(), K.createVecLeft()
     # Gather the contact entries of a distributed vector onto every rank.
     seq = PETSc.Vec().createSeq(len(dofs), comm=PETSc.COMM_SELF)
@@ -115,23 +130,25 @@ def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
         scatter.scatter(v, seq, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
         return signs * seq.getArray(readonly=True).copy()
 
-    n2 = len(dofs)
-    W = _flexibility_block_solves(ksp, K, dofs, signs)
-    if W is None:                     # no factor matrix with MatMatSolve: one solve per column
-        W = np.zeros((n2, n2))
-        r0, r1 = b.getOwnershipRange()
-        for j, dof in enumerate(dofs):
-            b.zeroEntries()
-            if r0 <= dof < r1:
-                b.setValue(int(dof), signs[j])
-            b.assemble()
-            ksp.solve(b, x)
-            W[:, j] = contact_values(x)
-    ksp.solve(load_x, x)
-    u0x = contact_values(x)
-    ksp.solve(load_y, x)
-    u0y = contact_values(x)
-    for obj in (x, b, seq, is_from, scatter):
-        obj.destroy()
+    try:
+        n2 = len(dofs)
+        W = _flexibility_block_solves(ksp, K, dofs, signs)
+        if W is None:                     # no factor matrix with MatMatSolve: one solve per column
+            W = np.zeros((n2, n2))
+            r0, r1 = b.getOwnershipRange()
+            for j, dof in enumerate(dofs):
+                b.zeroEntries()
+                if r0 <= dof < r1:
+                    b.setValue(int(dof), signs[j])
+                b.assemble()
+                ksp.solve(b, x)
+                W[:, j] = contact_values(x)
+        ksp.solve(load_x, x)
+        u0x = contact_values(x)
+        ksp.solve(load_y, x)
+        u0y = contact_values(x)
+    finally:
+        for obj in (x, b, seq, is_from, scatter):
+            obj.destroy()
     W = 0.5 * (W + W.T)
     return ContactFlexibility(W=W, u0x=u0x, u0y=u0y, ksp=ksp, dofs=dofs, signs=signs, loads=(load_x, load_y))

@@ -42,9 +42,9 @@ STATUS_CODE = {"free": 0, "zero": 1, "stick": 2, "slip": 3}
 
 
 def wants_fields(scene) -> bool:
-    from app.config import Block
+    """The scene asks for fields (ParaView files, screenshots) and its system type draws them."""
     outputs = getattr(scene, "outputs", None)
-    return isinstance(scene.system, Block) and outputs is not None and outputs.fields
+    return getattr(scene.system, "has_fields", False) and outputs is not None and outputs.fields
 
 
 class MeshGather:

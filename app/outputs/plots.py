@@ -68,17 +68,24 @@ def _title(results: dict, what: str) -> str:
     return f"{results.get('scene', '')}: {what}"
 
 
-def _is_block(results: dict) -> bool:
-    return ((results.get("scene_config") or {}).get("system") or {}).get("type", "block") == "block"
+def _system_type(results: dict):
+    """The registered system type of a results dictionary (app/systems/), None if unknown."""
+    from app.systems import SYSTEM_TYPES
+    return SYSTEM_TYPES.get(((results.get("scene_config") or {}).get("system") or {}).get("type", "block"))
+
+
+def _contact_line(results: dict) -> str | None:
+    """Name of the contact side (the block's AB), None when the system type has none."""
+    kind = _system_type(results)
+    return kind.contact_line if kind is not None else None
 
 
 def _position_label(results: dict) -> str | None:
     """Axis label of the contact nodes' ``x`` when it is a position (block: along AB; gmsh body:
     along the obstacle's tangent), None when nodes are only numbered (particles, matrices)."""
-    kind = ((results.get("scene_config") or {}).get("system") or {}).get("type", "block")
+    kind = _system_type(results)
     length = results.get("units", {}).get("length", "mm")
-    return {"block": f"position along AB, x [{length}] (A at x = 0)",
-            "gmsh": f"position along the obstacle, s [{length}]"}.get(kind)
+    return kind.position_axis.format(length=length) if kind is not None and kind.position_axis else None
 
 
 def _few_states(ax, idx: np.ndarray) -> None:
@@ -113,7 +120,8 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     if n <= 12 or not _position_label(results):
         ax.set_yticks(xs)
         ax.set_yticklabels([f"{x:g}" for x in xs] if _position_label(results) else [f"node {i}" for i in range(n)])
-    ax.set_ylabel(f"contact node position x [{length}] (A at the bottom)" if _is_block(results)
+    line = _contact_line(results)
+    ax.set_ylabel(f"contact node position x [{length}] ({line[0]} at the bottom)" if line
                   else _position_label(results) or "contact node")
     _few_states(ax, idx)
     _mark_phases(ax, states)
@@ -165,7 +173,8 @@ def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[
     a2.plot([], [], "s", mfc="none", mec=STATUS_COLOURS["slip"], label="slip nodes (on the Coulomb limit)")
     a2.plot([], [], "--", color="0.4", lw=0.8, label="Coulomb limits +-mu |r_N|")
     a2.legend(fontsize=8, loc="best")
-    where = "along AB" if _is_block(results) else "at the contact nodes"
+    line = _contact_line(results)
+    where = f"along {line}" if line else "at the contact nodes"
     a1.set_title(_title(results, f"reactions {where} (mu = {results.get('mu')})"))
     return _save(fig, outdir / "reactions")
 

@@ -67,6 +67,12 @@ class System:
                 self._Sc = self.build_contact_schur()
         return self._Sc
 
+    def __enter__(self) -> "System":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.destroy()
+
     def destroy(self) -> None:
         flex = self.extra.get("flexibility")
         if flex is not None:

@@ -26,7 +26,7 @@ from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.scene.block_mesh import AB, CD
+from app.systems.block_mesh import AB, CD
 
 __all__ = ["BlockOperators", "block_operators", "lame_parameters"]
 
@@ -206,7 +206,7 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     """Assemble the reduced elasticity operators of the block (collective).
 
     Args:
-        mesh: Mesh of the block (see :func:`app.scene.block_mesh.block_mesh`).
+        mesh: Mesh of the block (see :func:`app.systems.block_mesh.block_mesh`).
         facet_tags: Facet tags with AB and CD.
         E: Young's modulus in MPa.
         nu: Poisson's ratio.

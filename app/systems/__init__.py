@@ -5,28 +5,39 @@ holding ``build(cfg, comm, stages) -> System`` and ``path(scene, comm, stages, p
 (system, states, path_info)`` (the loading path: the equilibrium states the analyses examine).
 Modules are imported on first use, so validating a scene never loads PETSc or DOLFINx.
 
-Data flow: scene -> ``SYSTEM_TYPES[type].schema`` -> ``build`` -> ``path`` -> per-state analyses.
-The original types ``two_particles`` and ``block`` are still dispatched by :mod:`app.study`
-(a later refactor moves them here); new types register below and :mod:`app.study` asks this
-registry for every type it does not know.
+Data flow: scene -> ``SYSTEM_TYPES[type].schema`` -> ``build`` -> ``path`` -> per-state analyses
+-> outputs. Nothing outside this package tests the system type: where the rest of the app needs
+type-specific behaviour it asks for a capability, either of the registered :class:`SystemType`
+(``contact_line``, ``position_axis``, ``preload``; usable on a results.json alone) or of the
+validated schema object (``has_fields``, ``refinable``, ``check_scene``, ``mesh_sizes``,
+``refined``, ``table_columns``; absent means "not supported").
 """
 from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Optional
 
+from app.systems.block_schema import Block
 from app.systems.gmsh_schema import GmshBody
 from app.systems.matrices_schema import Matrices
+from app.systems.particles_schema import TwoParticles
 
 
 @dataclass(frozen=True)
 class SystemType:
-    """One system type: its scene schema and the module with ``build`` and ``path``."""
+    """One system type: its scene schema and the module with ``build`` and ``path``.
+
+    ``contact_line``: name of the contact side in the pictures (``"AB"``), None if it has none;
+    ``position_axis``: axis label of the contact nodes' ``x`` (``{length}``: the length unit),
+    None when the nodes are only numbered.
+    """
     name: str
     schema: type
     module: str
     summary: str
+    contact_line: Optional[str] = None
+    position_axis: Optional[str] = None
 
     def _impl(self):
         return importlib.import_module(self.module)
@@ -34,6 +45,11 @@ class SystemType:
     def build(self, cfg: Any, comm, stages):
         """The :class:`app.system.base.System` of ``cfg`` (MPI collective)."""
         return self._impl().build(cfg, comm, stages)
+
+    def preload(self) -> None:
+        """Import the implementation (PETSc, DOLFINx, ...) now; under MPI their initialisation is
+        collective, so a task farm does it on every rank before the first case."""
+        self._impl()
 
     def path(self, scene, comm, stages, progress):
         """``(system, states, path_info)``: the system and the equilibrium states of its loading."""
@@ -60,7 +76,13 @@ def schemas() -> tuple[type, ...]:
     return tuple(t.schema for t in SYSTEM_TYPES.values())
 
 
+register(SystemType("two_particles", TwoParticles, "app.systems.particles",
+                    "the paper's two-particle system (section 5, Fig. 1): one state in impending slip"))
+register(SystemType("block", Block, "app.systems.block",
+                    "the elastic block of Villechaise and Zeghloul: Gmsh + DOLFINx, press CD then drag it",
+                    contact_line="AB", position_axis="position along AB, x [{length}] (A at x = 0)"))
 register(SystemType("matrices", Matrices, "app.systems.matrices",
                     "K (and M) from Matrix Market or PETSc binary files, contact DOF pairs"))
 register(SystemType("gmsh", GmshBody, "app.systems.gmsh_body",
-                    "a 2D body from a Gmsh .geo/.msh file, a straight obstacle, a loading program"))
+                    "a 2D body from a Gmsh .geo/.msh file, a straight obstacle, a loading program",
+                    position_axis="position along the obstacle, s [{length}]"))

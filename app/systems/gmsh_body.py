@@ -28,6 +28,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from app.errors import UnreachableLoad
 from app.loading.program import ProgramPhase, run_program
 from app.stages import Stages
 from app.system.base import ContactNode, System
@@ -63,17 +64,20 @@ class BodyOperators:
         """Reduced, rotated mass matrix (assembled on first use; the caller owns the copy it gets)."""
         import dolfinx.fem.petsc
         M_full = dolfinx.fem.petsc.assemble_matrix(self.mass_form)
-        M_full.assemble()
-        if self.mass_kind == "lumped":
-            d = M_full.getRowSum()
-            M_full.zeroEntries()
-            M_full.setDiagonal(d)
-            d.destroy()
-        M = M_full.createSubMatrix(self.kept, self.kept)
-        M_full.destroy()
-        Mr = M.PtAP(self.R)
-        M.destroy()
-        return Mr
+        try:
+            M_full.assemble()
+            if self.mass_kind == "lumped":
+                d = M_full.getRowSum()
+                M_full.zeroEntries()
+                M_full.setDiagonal(d)
+                d.destroy()
+            M = M_full.createSubMatrix(self.kept, self.kept)
+        finally:
+            M_full.destroy()
+        try:
+            return M.PtAP(self.R)
+        finally:
+            M.destroy()
 
     def destroy(self) -> None:
         for obj in (self.K, self.R, self.kept, *self.loads):
@@ -193,10 +197,11 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
 
     def assemble(expr) -> np.ndarray:
         b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        out = b.getArray(readonly=True)[kept_local].copy()
-        b.destroy()
-        return out
+        try:
+            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            return b.getArray(readonly=True)[kept_local].copy()
+        finally:
+            b.destroy()
 
     for name in loaded:
         tag = tag_of_curve[name]
@@ -369,7 +374,6 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     try:
         system = build(cfg, comm, stages, scene.units)
     except BodyError as err:
-        from app.loading.block_path import UnreachableLoad
         raise UnreachableLoad(str(err)) from None
     flex = system.extra["flexibility"]
     with stages("quasi-static loading"):
@@ -378,7 +382,6 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
                                        flex.schur, scene.mu, scene.settings.classify_rtol, progress)
         except ProgramError as err:
             system.destroy()
-            from app.loading.block_path import UnreachableLoad
             raise UnreachableLoad(str(err)) from None
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     return system, states, info

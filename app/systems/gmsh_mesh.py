@@ -37,9 +37,9 @@ def gmsh_initialize():
     """The gmsh module, initialised (quietly); returns (gmsh, initialised_here)."""
     import gmsh
 
-    from app.scene.block_mesh import _gmsh_is_initialized
+    from app.systems.block_mesh import gmsh_is_initialized
     here = False
-    if not _gmsh_is_initialized(gmsh):
+    if not gmsh_is_initialized(gmsh):
         gmsh.initialize()
         here = True
     gmsh.option.setNumber("General.Terminal", 0)

@@ -8,9 +8,11 @@ relative to the current directory.
 from __future__ import annotations
 
 import pathlib
-from typing import Annotated, Any
+from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo
+
+from app.validation import PathError
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -22,15 +24,7 @@ class StrictModel(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
 
 
-class SystemPathError(ValueError):
-    """A model-level check that blames one key (``path`` relative to the model validated).
-
-    :func:`app.config._format_error` turns it into ``KEY = VALUE: message``.
-    """
-
-    def __init__(self, path: str, value: Any, msg: str):
-        super().__init__(msg)
-        self.path, self.value, self.msg = path, value, msg
+SystemPathError = PathError      # the name the system schemas use
 
 
 def base_dir(info: ValidationInfo | None) -> pathlib.Path:

@@ -153,7 +153,7 @@ def mesh_file_name(length: float, height: float, nx: int, ny: int, pattern: str,
     return f"block_{readable}_{length:g}x{height:g}_{digest}.msh"
 
 
-def _gmsh_is_initialized(gmsh) -> bool:
+def gmsh_is_initialized(gmsh) -> bool:
     """Whether the gmsh API is initialized (gmsh 4.8 has no ``gmsh.isInitialized``)."""
     try:
         # Options are only populated between initialize() and finalize();
@@ -318,7 +318,7 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
     model_name = None
     if comm.rank == root:
         try:
-            if not _gmsh_is_initialized(gmsh):
+            if not gmsh_is_initialized(gmsh):
                 gmsh.initialize()
                 initialized_here = True
             gmsh.option.setNumber("General.Terminal", 0)

@@ -1,4 +1,5 @@
-"""The two-particle system of the paper, section 5 and Fig. 1 (DESIGN.md section 4)."""
+"""``system.type: two_particles``: the two-particle system of the paper, section 5 and Fig. 1
+(DESIGN.md section 4), and its single equilibrium state."""
 from __future__ import annotations
 
 import math
@@ -6,10 +7,11 @@ import math
 import numpy as np
 from mpi4py import MPI
 
-from app.config import TwoParticles
+from app.loading.state import EquilibriumState
 from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.system.discrete import discrete_system
+from app.systems.particles_schema import TwoParticles
 
 UNITS = {"length": "mm", "force": "N", "stiffness": "N/mm", "mass": "tonne",
          "lambda2": "1/s^2", "mu": "1"}
@@ -25,9 +27,26 @@ def particle_matrices(k: float, m: float, phi_deg: float) -> tuple[np.ndarray, n
     return K, m * np.eye(4)
 
 
-def two_particle_system(cfg: TwoParticles, comm: MPI.Comm, stages: Stages) -> System:
+def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages) -> System:
     """System of the two-particle scene: both particles are contact nodes, no interior DOFs."""
     K, M = particle_matrices(cfg.k, cfg.m, cfg.phi_deg)
     nodes = [ContactNode(id=0, x=0.0, dof_T=0, dof_N=1), ContactNode(id=1, x=1.0, dof_T=2, dof_N=3)]
     return discrete_system(K, M, nodes, comm, stages, UNITS,
                            f"two particles, k={cfg.k} N/mm, m={cfg.m} tonne, phi={cfg.phi_deg} deg")
+
+
+def path(scene, comm: MPI.Comm, stages: Stages, progress=None):
+    """The paper's two-particle state: both particles in impending slip with signs S1, S2.
+
+    The scene fixes only the signs; the static reactions are taken with unit normal reaction
+    (r_N = -1 N), so r_T = S mu. The pencils do not depend on the reaction values.
+    Returns ``(system, [state], path_info)``.
+    """
+    cfg: TwoParticles = scene.system
+    with stages("build system"):
+        system = build(cfg, comm, stages)
+    S = np.array(cfg.signs, dtype=float)
+    mu_state = max(scene.mu, 1e-300)
+    state = EquilibriumState(index=0, load={}, u_T=np.zeros(2), u_N=np.zeros(2),
+                             r_T=S * mu_state, r_N=-np.ones(2))
+    return system, [state], {"end": "single equilibrium state"}

@@ -1,0 +1,50 @@
+"""Scene schema of ``system.type: two_particles``: the paper's two-particle system (section 5, Fig. 1).
+
+    system: {type: two_particles, k: 1.0, m: 1.0, phi_deg: 30, signs: [1, 1]}
+
+A single equilibrium state (both particles in impending slip with the signs given): no
+``loading`` section, and no mesh for ParaView files or screenshots.
+"""
+from __future__ import annotations
+
+from typing import Annotated, Any, ClassVar, Literal
+
+from pydantic import Field, field_validator
+
+from app.systems.schema import PosFloat
+from app.validation import PathError, Strict
+
+
+class TwoParticles(Strict):
+    """The two-particle system of the paper, section 5, Fig. 1 (DESIGN.md section 4)."""
+    has_fields: ClassVar[bool] = False      # no mesh: no ParaView files, no screenshots
+    refinable: ClassVar[bool] = False       # no mesh to refine
+    type: Literal["two_particles"]
+    k: PosFloat = Field(description="spring stiffness [N/mm]")
+    m: PosFloat = Field(description="particle mass [tonne]")
+    phi_deg: Annotated[float, Field(gt=0, lt=90, allow_inf_nan=False)] = Field(
+        description="angle of the inclined springs with the horizontal [deg]")
+    signs: tuple[Literal[-1, 1], Literal[-1, 1]] = Field(
+        description="S1, S2: signs of the static tangential reactions (both particles in impending slip)")
+
+    @field_validator("signs", mode="before")
+    @classmethod
+    def _signs_are_ints(cls, v: Any) -> Any:
+        if (not isinstance(v, (list, tuple)) or len(v) != 2
+                or any(isinstance(s, bool) or not isinstance(s, int) or s not in (-1, 1) for s in v)):
+            raise ValueError("allowed: a list of two signs [S1, S2], each the integer -1 or 1")
+        return v
+
+    @classmethod
+    def check_scene(cls, scene: Any) -> None:
+        """Scene-level checks (called by :class:`app.config.Scene`): a single state has no loading;
+        there is no mesh to draw."""
+        if scene.loading is not None:
+            raise PathError("loading", scene.loading.model_dump(),
+                            "not allowed for a two_particles system (a single equilibrium state): "
+                            "remove 'loading', or use a block system")
+        out = scene.outputs
+        for key in ("paraview", "screenshots"):
+            if getattr(out, key):
+                raise PathError(f"outputs.{key}", getattr(out, key) if key == "paraview" else True,
+                                "needs a mesh: not available for a two_particles system (use plots and report)")
