@@ -54,7 +54,7 @@ def main() -> None:
     factor_s = None
     if not args.no_factor:
         from app.loading.flexibility import _lu
-        from app.scene.block_mesh import block_mesh
+        from app.systems.block_mesh import block_mesh
         from app.system.elasticity import block_operators
         cfg = scene.system.model_copy(update={"nx": args.nx, "ny": row["ny"], "degree": args.degree,
                                                "plane": args.plane})
