@@ -34,7 +34,10 @@ def estimate(scene: Scene, nx: int | None = None) -> Estimate:
     """Sizes and a rough memory estimate of ``scene`` (``nx``: override of ``system.nx``, ny scaled)."""
     cfg = scene.system
     if not hasattr(cfg, "mesh_sizes"):     # a system type without a mesh estimate (app/systems/)
-        return Estimate(states=1, dofs=4, contact_nodes=2, memory_bytes=200 * 2**20)
+        # sizes known only once the mesh or the matrix files are read: checked by the type's build
+        # (settings.limits.max_dofs); the states of its loading phases are counted here
+        states = cfg.load_states()[0] if hasattr(cfg, "load_states") else 1
+        return Estimate(states=states, dofs=4, contact_nodes=2, memory_bytes=200 * 2**20 + 1500 * 2 * states)
     if nx is not None:
         cfg = cfg.refined(nx)
     ld = scene.loading
@@ -91,6 +94,10 @@ def check(scene: Scene, source: str = "scene") -> Estimate:
     for nx in levels:
         est = estimate(scene, nx)
         where = "refinement.levels" if nx is not None else None
+        if est.states > lim.max_states and hasattr(scene.system, "load_states"):
+            key = scene.system.load_states()[1]
+            raise SceneError(f"{source}: {key}: {est.states} load states exceed settings.limits.max_states = "
+                             f"{lim.max_states}; use fewer steps or raise the limit")
         if est.states > lim.max_states:
             ld = scene.loading
             raise SceneError(f"{source}: loading.tangential_step = {ld.tangential_step}: {est.states} load states "

@@ -142,3 +142,24 @@ def test_examples_same_numbers_on_two_ranks(tmp_path, scene):
         va = sorted(s["value"] for s in x["analyses"].get("mceip_mu", {}).get("solutions", []))
         vb = sorted(s["value"] for s in y["analyses"].get("mceip_mu", {}).get("solutions", []))
         assert vb == pytest.approx(va, rel=1e-8)
+
+
+def test_limits_of_a_gmsh_study(tmp_path):
+    """A loading program with too many steps is refused before any work (pre-flight, naming the
+    key); a mesh finer than settings.limits.max_dofs is refused once meshed, before any solve."""
+    text = (EX / "block.yaml").read_text()
+    (tmp_path / "block.geo").write_text((EX / "block.geo").read_text())
+    many = tmp_path / "many.yaml"
+    many.write_text(text.replace("steps: 500", "steps: 100000") + "settings: {limits: {max_states: 5000}}\n")
+    for cmd in ("validate", "run"):
+        p = run_cli(cmd, str(many), "-o", str(tmp_path / "o1")) if cmd == "run" else run_cli(cmd, str(many))
+        assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
+        assert "system.program[].steps" in p.stderr and "settings.limits.max_states = 5000" in p.stderr
+    assert not (tmp_path / "o1").exists()
+    fine = tmp_path / "fine.yaml"
+    fine.write_text(text + "settings: {limits: {max_dofs: 100}}\n")
+    p = run_cli("run", str(fine), "-o", str(tmp_path / "o2"))
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode != 0 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
+    assert "settings.limits.max_dofs = 100" in lines[0] and "DOFs" in lines[0]
+    assert not (tmp_path / "o2").exists()

@@ -375,6 +375,11 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
         system = build(cfg, comm, stages, scene.units)
     except BodyError as err:
         raise UnreachableLoad(str(err)) from None
+    n, limit = system.n_dofs, scene.settings.limits.max_dofs
+    if n > limit:          # the size of a Gmsh body is known only once it is meshed (app/preflight.py)
+        system.destroy()
+        raise UnreachableLoad(f"the mesh of system.file has {n} DOFs, above settings.limits.max_dofs = {limit}; "
+                              "use a coarser mesh or raise the limit")
     flex = system.extra["flexibility"]
     with stages("quasi-static loading"):
         try:

@@ -123,7 +123,12 @@ class GmshBody(StrictModel):
     obstacle: Obstacle = Field(Obstacle(), description="the rigid straight line")
     foundation: Optional[PosFloat] = Field(None, description="weak elastic foundation for a body nothing holds "
                                            "[stress/length]")
-    program: Annotated[list[Phase], Field(min_length=1)] = Field(description="the loading program: phases")
+    program: Annotated[list[Phase], Field(min_length=1, max_length=1000)] = Field(
+        description="the loading program: phases")
+
+    def load_states(self) -> tuple[int, str]:
+        """(equilibrium states of the program, the key that sets them) for the pre-flight (app/preflight.py)."""
+        return 1 + sum(ph.steps for ph in self.program), "system.program[].steps"
 
     @model_validator(mode="before")
     @classmethod

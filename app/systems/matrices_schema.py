@@ -171,8 +171,14 @@ class Matrices(StrictModel):
     gaps: Optional[list[NonNegFloat]] = Field(None, description="initial normal gaps (>= 0), one per contact node")
     positions: Optional[list[Finite]] = Field(None, description="a coordinate per contact node for plots (default 0, 1, ...)")
     state: Optional[StaticState] = Field(None, description="the reactions of one equilibrium state (analyses only)")
-    forces: Optional[Annotated[list[ForcePhase], Field(min_length=1)]] = Field(
+    forces: Optional[Annotated[list[ForcePhase], Field(min_length=1, max_length=1000)]] = Field(
         None, description="or: phases of applied forces (a loading path)")
+
+    def load_states(self) -> tuple[int, str]:
+        """(equilibrium states, the key that sets them) for the pre-flight (app/preflight.py)."""
+        if self.forces is None:
+            return 1, "system.state"
+        return 1 + sum(ph.steps for ph in self.forces), "system.forces[].steps"
     description: str = Field("", description="a text for results.json and the summary")
 
     @field_validator("K", "M", mode="before")
