@@ -53,9 +53,9 @@ def main() -> None:
 
     factor_s = None
     if not args.no_factor:
-        from app.loading.flexibility import _lu
-        from app.systems.block_mesh import block_mesh
+        from app.linalg import lu_solver
         from app.system.elasticity import block_operators
+        from app.systems.block_mesh import block_mesh
         cfg = scene.system.model_copy(update={"nx": args.nx, "ny": row["ny"], "degree": args.degree,
                                                "plane": args.plane})
         mesh, facets = block_mesh(comm, cfg.length, cfg.height, cfg.nx, cfg.ny, cfg.pattern, cfg.mesh_size)
@@ -63,7 +63,7 @@ def main() -> None:
                               degree=cfg.degree)
         comm.Barrier()
         t = time.perf_counter()
-        ksp = _lu(ops.K)
+        ksp = lu_solver(ops.K)
         comm.Barrier()
         factor_s = time.perf_counter() - t
         ksp.destroy()
