@@ -198,6 +198,9 @@ class McpSettings(_Strict):
     mu_cap_factor: PosFloat = 10.0
     certify_seconds: PosFloat = 60.0            # per-state budget: an unfinished proof says so
     certify_enumerate_max: Annotated[int, Field(ge=0, le=20)] = 12   # enumeration up to here, SCIP above
+    # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
+    # prove "no solution" up to this many DOFs (app/analyses/lambda2_exact.py); SNES VI search otherwise
+    lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500
 
 
 class EigSettings(_Strict):

@@ -62,9 +62,9 @@ class Certificate:
 
 # --- certified lower bound (sign argument) ------------------------------------------------------
 
-def _in_pd_plus_nn(S: np.ndarray) -> bool:
+def in_pd_plus_nn(S: np.ndarray, margin: float = 1e-10) -> bool:
     """Sufficient test of ``S`` in ``PD + NN``: some explicit split ``S = P + N``, ``N >= 0``
-    entrywise, with ``P`` positive definite (Cholesky succeeds with a relative margin)."""
+    entrywise, with ``P`` positive definite (Cholesky succeeds with the relative ``margin``)."""
     d = np.sqrt(np.maximum(np.abs(np.diag(S)), 1e-300))
     Sn = S / d[:, None] / d[None, :]
     off = Sn - np.diag(np.diag(Sn))
@@ -72,7 +72,7 @@ def _in_pd_plus_nn(S: np.ndarray) -> bool:
     for theta in (0.0, 1.0, 0.5):
         P = Sn - theta * pos
         try:
-            L = np.linalg.cholesky(P - 1e-10 * np.eye(len(S)))
+            L = np.linalg.cholesky(P - margin * np.eye(len(S)))
         except np.linalg.LinAlgError:
             continue
         if np.all(np.isfinite(L)):
@@ -92,7 +92,7 @@ def copositivity_bound(A0: np.ndarray, A1: np.ndarray, cap: float, pairs: list |
     scale = pencil_scale(A0)
     S0 = 0.5 * (A0 + A0.T) / scale
     S1 = 0.5 * (A1 + A1.T) / scale
-    if not _in_pd_plus_nn(S0):
+    if not in_pd_plus_nn(S0):
         return 0.0, "none (sym A0 not certified copositive)"
     # Plain PD bound: sym A(mu) = S0 + mu S1 is PD for mu < -1 / min eig(S0^{-1} S1).
     L = np.linalg.cholesky(S0)
@@ -103,11 +103,11 @@ def copositivity_bound(A0: np.ndarray, A1: np.ndarray, cap: float, pairs: list |
     if pd_safe >= cap:
         return cap, "sym A(mu) positive definite on [0, cap]"
     lo, hi = pd_safe, cap
-    if _in_pd_plus_nn(S0 + hi * S1):
+    if in_pd_plus_nn(S0 + hi * S1):
         return cap, "sym A(mu) in PD + NN at 0 and at cap (convexity)"
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        if _in_pd_plus_nn(S0 + mid * S1):
+        if in_pd_plus_nn(S0 + mid * S1):
             lo = mid
         else:
             hi = mid
@@ -258,6 +258,16 @@ def certify_mu(A0: np.ndarray, A1: np.ndarray, cap: float, seconds: float = 30.0
                        (cap - lb) / cap, el, detail)   # gap: share of [0, cap] left unproven
 
 
+def enumerate_all(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None = None) -> Certificate:
+    """Every solution with ``mu >= 0`` by exhaustive enumeration (small ``s``): proven complete."""
+    t0 = time.perf_counter()
+    s = A0.shape[0]
+    sols = enumerate_patterns(A0, A1, np.arange(s), t_min=0.0, t_max=np.inf, pairs=list(pairs or []))
+    return Certificate("exhaustive enumeration (24)-(26), batched LAPACK", (0.0, np.inf), "proven", True,
+                       sols, sols[0].value if sols else np.inf, 0.0, time.perf_counter() - t0,
+                       {"s": s, "supports": int(2 ** s - 1)})
+
+
 # --- the MCEIP-mu result of one state: search + certificate ----------------------------------------
 
 def mu_cap(scene_mu: float, settings) -> float:
@@ -282,10 +292,18 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     s = A0.shape[0]
     comp = np.arange(s)
     with one_blas_thread():
-        rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,))
-        by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
-        cert = None
-        if settings.certify:
+        if settings.certify and s <= settings.certify_enumerate_max and not pairs:
+            # small s: exhaustive enumeration of every support is cheaper than the search and
+            # proves the whole set, every critical mu >= 0 (not only those below the cap); with
+            # zero-reaction nodes (pairs) the search + certificate below the cap stays
+            rep, cert = dense_mcp.DenseSearchReport([], 0, 0, 0, 0.0, note=(
+                f"no search: s = {s} <= certify_enumerate_max, every support enumerated")), enumerate_all(A0, A1, pairs)
+            by_key = {}
+        else:
+            rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,))
+            by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
+            cert = None
+        if settings.certify and cert is None:
             cert = certify_mu(A0, A1, cap, seconds=settings.certify_seconds,
                               enumerate_max=settings.certify_enumerate_max, pairs=pairs,
                               candidates=[c.exact for c in rep.candidates])
@@ -322,7 +340,8 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
         else:
             result = f"proven: no critical mu in [0, {cap:.6g}]"
         if above:
-            result += f"; {above} more found above the cap (not proven complete)"
+            result += (f"; {above} more above the cap (also proven: the enumeration is complete)"
+                       if not np.isfinite(cert.interval[1]) else f"; {above} more found above the cap (not proven complete)")
     else:
         result = (f"{cert.status}: {len(sols)} solution(s) found" if sols else f"{cert.status}: no solution found") + \
                  f"; proven only that none lies below {cert.lower_bound:.6g}"
