@@ -126,7 +126,19 @@ def _support_solutions(A0, A1, sup: np.ndarray, a: float, b: float) -> list[Patt
 def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarray],
                 pairs: list[tuple[int, int]], seconds: float):
     """One SCIP solve: the smallest ``m`` in ``[m_lo, 1]`` with a support not cut.
-    Returns (status, m, v, z, nodes, gap)."""
+    Returns (status, m, v, z, nodes, gap). SCIP's "error in LP solver" (seen on random pencils
+    with the tighter LP tolerance) is retried once with SCIP's default LP tolerance."""
+    t0 = time.perf_counter()
+    try:
+        return _scip_solve(a0, a1, m_lo, cuts, pairs, seconds, 0.1)
+    except Exception as err:          # pyscipopt raises a bare Exception for SCIP errors
+        if "LP" not in str(err):
+            raise
+    return _scip_solve(a0, a1, m_lo, cuts, pairs, seconds - (time.perf_counter() - t0), 1.0)
+
+
+def _scip_solve(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarray],
+                pairs: list[tuple[int, int]], seconds: float, lp_factor: float):
     import pyscipopt
 
     s = a0.shape[0]
@@ -135,7 +147,7 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     model.setParam("limits/time", max(seconds, 0.1))
     model.setParam("numerics/feastol", 1e-9)
     model.setParam("parallel/maxnthreads", 1)
-    model.setParam("numerics/lpfeastolfactor", 0.1)   # LP tolerance 1e-10 (1e-12 needs GMP)
+    model.setParam("numerics/lpfeastolfactor", lp_factor)   # 0.1: LP tolerance 1e-10 (1e-12 needs GMP)
     # SCIP catches Ctrl-C and stops with "userinterrupt", turned into KeyboardInterrupt below so
     # that an interrupted run stops promptly and cleans up like any other
     v = [model.addVar(f"v{i}", lb=0.0, ub=1.0) for i in range(s)]

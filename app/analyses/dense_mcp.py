@@ -73,6 +73,15 @@ def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]]) -> tuple[np
     return Z, lab
 
 
+def _lstsq_batched(J: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Minimum-norm least-squares solutions of the stack ``J[k] d = b[k]`` through one batched SVD
+    (the cut-off of ``numpy.linalg.lstsq(rcond=None)``: ``eps * n * sigma_max``)."""
+    U, sig, Vt = np.linalg.svd(J)
+    cut = np.finfo(float).eps * J.shape[-1] * sig[:, :1]
+    inv = np.where(sig > cut, 1.0 / np.where(sig > cut, sig, 1.0), 0.0)
+    return np.einsum("kji,kj->ki", Vt, inv * np.einsum("kji,kj->ki", U, b))
+
+
 def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int = 60,
                       tol: float = 1e-13) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Batched semismooth Newton on ``min(x, A(mu) x) = 0, min(mu, e^T x - 1) = 0`` from the rows
@@ -106,8 +115,8 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         J[:, s, :] = np.where(use_mu[:, None], eye[s][None], np.concatenate([np.ones((len(idx), s)), np.zeros((len(idx), 1))], axis=1))
         try:
             d = np.linalg.solve(J, -F[idx][:, :, None])[:, :, 0]
-        except np.linalg.LinAlgError:
-            d = np.stack([np.linalg.lstsq(Jk, -Fk, rcond=None)[0] for Jk, Fk in zip(J, F[idx])])
+        except np.linalg.LinAlgError:      # a singular Jacobian in the stack: least squares for all
+            d = _lstsq_batched(J, -F[idx])
         step = np.ones(len(idx))
         base = nrm[idx]
         newZ = Z[idx] + d
