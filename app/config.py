@@ -201,6 +201,9 @@ class McpSettings(_Strict):
     # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
     # prove "no solution" up to this many DOFs (app/analyses/lambda2_exact.py); SNES VI search otherwise
     lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500
+    # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
+    # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)
+    search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40
 
 
 class EigSettings(_Strict):

@@ -312,7 +312,8 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                 f"no search: s = {s} <= certify_enumerate_max, every support enumerated")), enumerate_all(A0, A1, pairs)
             by_key = {}
         else:
-            rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,))
+            rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
+                                   zero_one_max=settings.search_zero_one_max)
             by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
             cert = None
         if settings.certify and cert is None:
