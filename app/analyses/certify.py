@@ -147,6 +147,10 @@ def _scip_solve(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     model.setParam("limits/time", max(seconds, 0.1))
     model.setParam("numerics/feastol", 1e-9)
     model.setParam("parallel/maxnthreads", 1)
+    # no NLP relaxation/heuristics: SCIP's Ipopt resolves MUMPS to the MPI build PETSc loaded, whose
+    # MPI_Bcast on COMM_WORLD deadlocks when one rank alone certifies (distributed MCEIP-mu); the
+    # proof rests on LP relaxations and spatial branching only
+    model.setParam("nlp/disable", True)
     model.setParam("numerics/lpfeastolfactor", lp_factor)   # 0.1: LP tolerance 1e-10 (1e-12 needs GMP)
     # SCIP catches Ctrl-C and stops with "userinterrupt", turned into KeyboardInterrupt below so
     # that an interrupted run stops promptly and cleans up like any other
