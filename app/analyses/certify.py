@@ -274,14 +274,16 @@ def certify_mu(A0: np.ndarray, A1: np.ndarray, cap: float, seconds: float = 30.0
                        (cap - lb) / cap, el, detail)   # gap: share of [0, cap] left unproven
 
 
-def enumerate_all(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None = None) -> Certificate:
-    """Every solution with ``mu >= 0`` by exhaustive enumeration (small ``s``): proven complete."""
+def enumerate_all(A0: np.ndarray, A1: np.ndarray, cap: float, pairs: list[tuple[int, int]] | None = None) -> Certificate:
+    """Every solution with ``mu >= 0`` by exhaustive enumeration (small ``s``). The certificate's
+    interval stays ``[0, cap]`` (the product question); the solutions above the cap are listed
+    too, and are complete as well (``detail.complete_above_cap``)."""
     t0 = time.perf_counter()
     s = A0.shape[0]
     sols = enumerate_patterns(A0, A1, np.arange(s), t_min=0.0, t_max=np.inf, pairs=list(pairs or []))
-    return Certificate("exhaustive enumeration (24)-(26), batched LAPACK", (0.0, np.inf), "proven", True,
-                       sols, sols[0].value if sols else np.inf, 0.0, time.perf_counter() - t0,
-                       {"s": s, "supports": int(2 ** s - 1)})
+    return Certificate("exhaustive enumeration (24)-(26), batched LAPACK", (0.0, cap), "proven", True,
+                       sols, cap, 0.0, time.perf_counter() - t0,
+                       {"s": s, "supports": int(2 ** s - 1), "cap": float(cap), "complete_above_cap": True})
 
 
 # --- the MCEIP-mu result of one state: search + certificate ----------------------------------------
@@ -313,7 +315,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
             # proves the whole set, every critical mu >= 0 (not only those below the cap); with
             # zero-reaction nodes (pairs) the search + certificate below the cap stays
             rep, cert = dense_mcp.DenseSearchReport([], 0, 0, 0, 0.0, note=(
-                f"no search: s = {s} <= certify_enumerate_max, every support enumerated")), enumerate_all(A0, A1, pairs)
+                f"no search: s = {s} <= certify_enumerate_max, every support enumerated")), enumerate_all(A0, A1, cap, pairs)
             by_key = {}
         else:
             rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
@@ -334,7 +336,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
         c = by_key.get(key)
         d.update({"iterations": c.iterations if c else 0,
                   "found_by": (c.found_by[:8] if c else []) + ([] if c else [f"certificate: {cert.method}"]),
-                  "found_count": len(c.found_by) if c else 0, "certified": proven})
+                  "found_count": len(c.found_by) if c else 0, "certified": proven and p.value <= cap})
         sols.append(d)
     for key, c in by_key.items():
         if key in seen or (proven and c.exact.value <= cap):
@@ -357,8 +359,8 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
         else:
             result = f"proven: no critical mu in [0, {cap:.6g}]"
         if above:
-            result += (f"; {above} more above the cap (also proven: the enumeration is complete)"
-                       if not np.isfinite(cert.interval[1]) else f"; {above} more found above the cap (not proven complete)")
+            result += (f"; {above} more above the cap (listed by the complete enumeration)"
+                       if cert.detail.get("complete_above_cap") else f"; {above} more found above the cap (not proven complete)")
     else:
         result = (f"{cert.status}: {len(sols)} solution(s) found" if sols else f"{cert.status}: no solution found") + \
                  f"; proven only that none lies below {cert.lower_bound:.6g}"
