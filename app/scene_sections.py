@@ -47,6 +47,12 @@ class McpSettings(Strict):
     mu_cap_factor: PosFloat = 10.0
     certify_seconds: PosFloat = 60.0            # per-state budget: an unfinished proof says so
     certify_enumerate_max: Annotated[int, Field(ge=0, le=20)] = 12   # enumeration up to here, SCIP above
+    # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
+    # prove "no solution" up to this many DOFs (app/analyses/lambda2_exact.py); SNES VI search otherwise
+    lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500
+    # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
+    # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)
+    search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40
 
 
 class EigSettings(Strict):

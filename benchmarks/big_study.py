@@ -41,9 +41,9 @@ def main() -> None:
     analyse = runner.analyse_state
     mceip_mu = runner._mceip_mu
 
-    def counted(system, p, sc, s):
+    def counted(system, p, sc, s, **kw):
         """MCEIP-mu of one classification (rank 0's share under MPI), with a progress line."""
-        out = mceip_mu(system, p, sc, s)
+        out = mceip_mu(system, p, sc, s, **kw)
         count[0] += 1
         if comm.rank == 0:
             print(json.dumps({"classification": count[0], "slip": s, "t": time.perf_counter() - t0}), flush=True)

@@ -220,7 +220,7 @@ def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
     from app.analyses.enumerate import enumerate_mceip
     from app.analyses.mcp import search_mceip
     from app.analyses.pencils import condensed_mu_pencil
-    from app.analyses.runner import _seq_aij
+    from app.analyses.runner import seq_aij
     from app.config import McpSettings
     from app.stages import Stages
     from app.system.discrete import random_contact_problem
@@ -248,7 +248,7 @@ def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
             t0 = time.perf_counter()
             ref = enumerate_mceip(A0, A1, np.arange(s), max_slip=24)
             te = time.perf_counter() - t0
-            M0, M1 = _seq_aij(A0), _seq_aij(A1)
+            M0, M1 = seq_aij(A0), seq_aij(A1)
             t0 = time.perf_counter()
             rep = search_mceip(M0, M1, np.arange(s), "mu", McpSettings())
             ts = time.perf_counter() - t0
@@ -313,7 +313,7 @@ def section_siconos(sizes: list[int]) -> dict:
         return {"skipped": msg}
     from app.analyses.enumerate import enumerate_mceip
     from app.analyses.mcp import RSLS, SSLS, BorderedMcp, search_mceip
-    from app.analyses.runner import _seq_aij
+    from app.analyses.runner import seq_aij
     from app.config import McpSettings
     from app.loading.contact import FrictionalContact
     from benchmarks.problems import block_problems
@@ -390,12 +390,12 @@ def section_siconos(sizes: list[int]) -> dict:
         total_ref += len(ref)
         alpha = float(np.max(np.abs(np.diag(p.A0))))
         B0, B1 = p.A0 / alpha, p.A1 / alpha
-        M0, M1 = _seq_aij(p.A0), _seq_aij(p.A1)
+        M0, M1 = seq_aij(p.A0), seq_aij(p.A1)
         t0 = time.perf_counter()
         rep = search_mceip(M0, M1, np.arange(s), "mu", settings)
         t_search += time.perf_counter() - t0
         found["app search"] += sum(any(_match(x.as_dict(), r) for x in rep.solutions) for r in ref)
-        S0, S1 = _seq_aij(B0), _seq_aij(B1)
+        S0, S1 = seq_aij(B0), seq_aij(B1)
         op = BorderedMcp(S0, S1, np.arange(s))
         values: dict = {k: [] for k in runs}
 

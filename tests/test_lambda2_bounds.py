@@ -28,6 +28,10 @@ def test_certificate_and_bound(signs, mu, count):
         # (19) fails: no solution, proven
         assert l2["certified"] is True and cert["status"] == "proven" and not expected
         assert cert["interval"] == [0.0, float("inf")]
+    elif l2["certified"]:
+        # proven on the exact slip-node reduction (app/analyses/lambda2_exact.py): no solution at all
+        assert cert["status"] == "proven" and cert["interval"] == [0.0, float("inf")] and not expected
+        assert not l2["solutions"] and l2["search"]["lambda2_upper_bound"] > 0
     else:
         assert l2["certified"] is False and "not proven" in cert["status"]
         bound = l2["search"]["lambda2_upper_bound"]

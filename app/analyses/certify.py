@@ -62,9 +62,9 @@ class Certificate:
 
 # --- certified lower bound (sign argument) ------------------------------------------------------
 
-def _in_pd_plus_nn(S: np.ndarray) -> bool:
+def in_pd_plus_nn(S: np.ndarray, margin: float = 1e-10) -> bool:
     """Sufficient test of ``S`` in ``PD + NN``: some explicit split ``S = P + N``, ``N >= 0``
-    entrywise, with ``P`` positive definite (Cholesky succeeds with a relative margin)."""
+    entrywise, with ``P`` positive definite (Cholesky succeeds with the relative ``margin``)."""
     d = np.sqrt(np.maximum(np.abs(np.diag(S)), 1e-300))
     Sn = S / d[:, None] / d[None, :]
     off = Sn - np.diag(np.diag(Sn))
@@ -72,7 +72,7 @@ def _in_pd_plus_nn(S: np.ndarray) -> bool:
     for theta in (0.0, 1.0, 0.5):
         P = Sn - theta * pos
         try:
-            L = np.linalg.cholesky(P - 1e-10 * np.eye(len(S)))
+            L = np.linalg.cholesky(P - margin * np.eye(len(S)))
         except np.linalg.LinAlgError:
             continue
         if np.all(np.isfinite(L)):
@@ -92,7 +92,7 @@ def copositivity_bound(A0: np.ndarray, A1: np.ndarray, cap: float, pairs: list |
     scale = pencil_scale(A0)
     S0 = 0.5 * (A0 + A0.T) / scale
     S1 = 0.5 * (A1 + A1.T) / scale
-    if not _in_pd_plus_nn(S0):
+    if not in_pd_plus_nn(S0):
         return 0.0, "none (sym A0 not certified copositive)"
     # Plain PD bound: sym A(mu) = S0 + mu S1 is PD for mu < -1 / min eig(S0^{-1} S1).
     L = np.linalg.cholesky(S0)
@@ -103,11 +103,11 @@ def copositivity_bound(A0: np.ndarray, A1: np.ndarray, cap: float, pairs: list |
     if pd_safe >= cap:
         return cap, "sym A(mu) positive definite on [0, cap]"
     lo, hi = pd_safe, cap
-    if _in_pd_plus_nn(S0 + hi * S1):
+    if in_pd_plus_nn(S0 + hi * S1):
         return cap, "sym A(mu) in PD + NN at 0 and at cap (convexity)"
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        if _in_pd_plus_nn(S0 + mid * S1):
+        if in_pd_plus_nn(S0 + mid * S1):
             lo = mid
         else:
             hi = mid
@@ -124,9 +124,24 @@ def _support_solutions(A0, A1, sup: np.ndarray, a: float, b: float) -> list[Patt
 
 
 def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarray],
-                pairs: list[tuple[int, int]], seconds: float, tight_lp: bool = True):
+                pairs: list[tuple[int, int]], seconds: float):
     """One SCIP solve: the smallest ``m`` in ``[m_lo, 1]`` with a support not cut.
-    Returns (status, m, v, z, nodes, gap)."""
+    Returns (status, m, v, z, nodes, gap). SCIP's "error in LP solver" (seen on random pencils
+    with the tighter LP tolerance) is retried once with SCIP's default LP tolerance."""
+    t0 = time.perf_counter()
+    try:
+        return _scip_solve(a0, a1, m_lo, cuts, pairs, seconds, 0.1)
+    except Exception as err:          # pyscipopt raises a bare Exception for SCIP errors
+        if "LP" not in str(err):
+            return f"SCIP error: {err}", None, None, None, 0, None     # reported: not proven
+    try:
+        return _scip_solve(a0, a1, m_lo, cuts, pairs, seconds - (time.perf_counter() - t0), 1.0)
+    except Exception as err:
+        return f"SCIP error: {err}", None, None, None, 0, None
+
+
+def _scip_solve(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarray],
+                pairs: list[tuple[int, int]], seconds: float, lp_factor: float):
     import pyscipopt
 
     s = a0.shape[0]
@@ -140,8 +155,11 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     model.setParam("limits/time", max(seconds, 0.1))
     model.setParam("numerics/feastol", 1e-9)
     model.setParam("parallel/maxnthreads", 1)
-    if tight_lp:
-        model.setParam("numerics/lpfeastolfactor", 0.1)   # LP tolerance 1e-10 (1e-12 needs GMP)
+    # no NLP relaxation/heuristics: SCIP's Ipopt resolves MUMPS to the MPI build PETSc loaded, whose
+    # MPI_Bcast on COMM_WORLD deadlocks when one rank alone certifies (distributed MCEIP-mu); the
+    # proof rests on LP relaxations and spatial branching only
+    model.setParam("nlp/disable", True)
+    model.setParam("numerics/lpfeastolfactor", lp_factor)   # 0.1: LP tolerance 1e-10 (1e-12 needs GMP)
     # SCIP catches Ctrl-C and stops with "userinterrupt", turned into KeyboardInterrupt below so
     # that an interrupted run stops promptly and cleans up like any other
     v = [model.addVar(f"v{i}", lb=0.0, ub=1.0) for i in range(s)]
@@ -168,14 +186,7 @@ def _scip_round(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
         model.addCons(pyscipopt.quicksum(1 - z[i] for i in np.flatnonzero(c)) +
                       pyscipopt.quicksum(z[i] for i in np.flatnonzero(~c)) >= 1)
     model.setObjective(m, "minimize")
-    try:
-        model.optimize()
-    except Exception as err:                 # pyscipopt raises a bare Exception on SCIP errors
-        if "LP" not in str(err) or not tight_lp:
-            return f"SCIP error: {err}", None, None, None, 0, None
-        # SoPlex can fail on a tightened LP tolerance; the same model with SCIP's default LP
-        # tolerance decides the same question (the answer is checked exactly either way)
-        return _scip_round(a0, a1, m_lo, cuts, pairs, seconds, tight_lp=False)
+    model.optimize()
     status = model.getStatus()
     if status == "userinterrupt":
         raise KeyboardInterrupt
@@ -271,6 +282,18 @@ def certify_mu(A0: np.ndarray, A1: np.ndarray, cap: float, seconds: float = 30.0
                        (cap - lb) / cap, el, detail)   # gap: share of [0, cap] left unproven
 
 
+def enumerate_all(A0: np.ndarray, A1: np.ndarray, cap: float, pairs: list[tuple[int, int]] | None = None) -> Certificate:
+    """Every solution with ``mu >= 0`` by exhaustive enumeration (small ``s``). The certificate's
+    interval stays ``[0, cap]`` (the product question); the solutions above the cap are listed
+    too, and are complete as well (``detail.complete_above_cap``)."""
+    t0 = time.perf_counter()
+    s = A0.shape[0]
+    sols = enumerate_patterns(A0, A1, np.arange(s), t_min=0.0, t_max=np.inf, pairs=list(pairs or []))
+    return Certificate("exhaustive enumeration (24)-(26), batched LAPACK", (0.0, cap), "proven", True,
+                       sols, cap, 0.0, time.perf_counter() - t0,
+                       {"s": s, "supports": int(2 ** s - 1), "cap": float(cap), "complete_above_cap": True})
+
+
 # --- the MCEIP-mu result of one state: search + certificate ----------------------------------------
 
 def mu_cap(scene_mu: float, settings) -> float:
@@ -295,10 +318,19 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     s = A0.shape[0]
     comp = np.arange(s)
     with one_blas_thread():
-        rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,))
-        by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
-        cert = None
-        if settings.certify:
+        if settings.certify and s <= settings.certify_enumerate_max and not pairs:
+            # small s: exhaustive enumeration of every support is cheaper than the search and
+            # proves the whole set, every critical mu >= 0 (not only those below the cap); with
+            # zero-reaction nodes (pairs) the search + certificate below the cap stays
+            rep, cert = dense_mcp.DenseSearchReport([], 0, 0, 0, 0.0, note=(
+                f"no search: s = {s} <= certify_enumerate_max, every support enumerated")), enumerate_all(A0, A1, cap, pairs)
+            by_key = {}
+        else:
+            rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
+                                   zero_one_max=settings.search_zero_one_max)
+            by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
+            cert = None
+        if settings.certify and cert is None:
             cert = certify_mu(A0, A1, cap, seconds=settings.certify_seconds,
                               enumerate_max=settings.certify_enumerate_max, pairs=pairs,
                               candidates=[c.exact for c in rep.candidates])
@@ -312,7 +344,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
         c = by_key.get(key)
         d.update({"iterations": c.iterations if c else 0,
                   "found_by": (c.found_by[:8] if c else []) + ([] if c else [f"certificate: {cert.method}"]),
-                  "found_count": len(c.found_by) if c else 0, "certified": proven})
+                  "found_count": len(c.found_by) if c else 0, "certified": proven and p.value <= cap})
         sols.append(d)
     for key, c in by_key.items():
         if key in seen or (proven and c.exact.value <= cap):
@@ -335,7 +367,8 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
         else:
             result = f"proven: no critical mu in [0, {cap:.6g}]"
         if above:
-            result += f"; {above} more found above the cap (not proven complete)"
+            result += (f"; {above} more above the cap (listed by the complete enumeration)"
+                       if cert.detail.get("complete_above_cap") else f"; {above} more found above the cap (not proven complete)")
     else:
         result = (f"{cert.status}: {len(sols)} solution(s) found" if sols else f"{cert.status}: no solution found") + \
                  f"; proven only that none lies below {cert.lower_bound:.6g}"

@@ -55,12 +55,15 @@ class DenseSearchReport:
                  "a search, not a proof")
 
 
-def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]]) -> tuple[np.ndarray, list[str]]:
+def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]],
+            zero_one: bool = True) -> tuple[np.ndarray, list[str]]:
+    """Start rows ``(x, mu)``, each with every ``mu0``: uniform ``x``, ``x`` on one unknown and
+    (``zero_one``) ``x`` zero on one unknown."""
     xs, labels = [np.ones(s)], ["uniform x"]
     for i in range(s):
         xs.append(np.eye(s)[i])
         labels.append(f"x on unknown {i}")
-    if s > 2:
+    if s > 2 and zero_one:
         for i in range(s):
             xs.append(1.0 - np.eye(s)[i])
             labels.append(f"x zero on unknown {i}")
@@ -71,6 +74,15 @@ def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]]) -> tuple[np
     Z = np.concatenate([np.hstack([X, np.full((len(X), 1), m)]) for m in mu0s])
     lab = [f"{l}, mu0={m:.6g}" for m in mu0s for l in labels]
     return Z, lab
+
+
+def _lstsq_batched(J: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Minimum-norm least-squares solutions of the stack ``J[k] d = b[k]`` through one batched SVD
+    (the cut-off of ``numpy.linalg.lstsq(rcond=None)``: ``eps * n * sigma_max``)."""
+    U, sig, Vt = np.linalg.svd(J)
+    cut = np.finfo(float).eps * J.shape[-1] * sig[:, :1]
+    inv = np.where(sig > cut, 1.0 / np.where(sig > cut, sig, 1.0), 0.0)
+    return np.einsum("kji,kj->ki", Vt, inv * np.einsum("kji,kj->ki", U, b))
 
 
 def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int = 60,
@@ -106,8 +118,8 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         J[:, s, :] = np.where(use_mu[:, None], eye[s][None], np.concatenate([np.ones((len(idx), s)), np.zeros((len(idx), 1))], axis=1))
         try:
             d = np.linalg.solve(J, -F[idx][:, :, None])[:, :, 0]
-        except np.linalg.LinAlgError:
-            d = np.stack([np.linalg.lstsq(Jk, -Fk, rcond=None)[0] for Jk, Fk in zip(J, F[idx])])
+        except np.linalg.LinAlgError:      # a singular Jacobian in the stack: least squares for all
+            d = _lstsq_batched(J, -F[idx])
         step = np.ones(len(idx))
         base = nrm[idx]
         newZ = Z[idx] + d
@@ -133,6 +145,7 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
 
 def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None = None,
            mu0s: tuple[float, ...] = (0.5, 2.0, 10.0, 100.0, 1000.0), max_it: int = 60,
+           zero_one_max: int | None = None,
            t_max: float = np.inf, neighbour_rounds: int = 0) -> DenseSearchReport:
     """Candidate solutions of the condensed MCEIP-mu (``A0``, ``A1``: s x s) from many starts."""
     t0 = time.perf_counter()
@@ -140,7 +153,8 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
     s = A0.shape[0]
     scale = pencil_scale(A0)
     a0, a1 = A0 / scale, A1 / scale
-    Z0, labels = _starts(s, list(mu0s), pairs)
+    # above ``zero_one_max`` unknowns the "x zero on one unknown" starts (nearly uniform there) are left out
+    Z0, labels = _starts(s, list(mu0s), pairs, zero_one=zero_one_max is None or s <= zero_one_max)
     Z, nrm, its = semismooth_newton(a0, a1, Z0, max_it=max_it)
     conv = np.flatnonzero(np.isfinite(nrm) & (nrm <= 1e-9) & (Z[:, s] >= 0))
     found: dict[tuple, Candidate] = {}

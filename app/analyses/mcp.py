@@ -240,8 +240,12 @@ class BorderedMcp:
         if method == RSLS and settings.rsls_linesearch != "bt":
             # petsc4py 3.18 has no SNESLineSearch object: set it through a private options prefix
             snes.setOptionsPrefix("mcp_rsls_")
-            PETSc.Options().setValue("mcp_rsls_snes_linesearch_type", settings.rsls_linesearch)
-            snes.setFromOptions()
+            opts = PETSc.Options()
+            opts.setValue("mcp_rsls_snes_linesearch_type", settings.rsls_linesearch)
+            try:
+                snes.setFromOptions()
+            finally:
+                opts.delValue("mcp_rsls_snes_linesearch_type")   # leave nothing in the global database
         snes.setFunction(self.residual, self.F)
         snes.setJacobian(self.jacobian, self.J)
         snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=settings.stol, max_it=settings.max_it)

@@ -14,6 +14,7 @@ from petsc4py import PETSc
 
 from app.analyses import eigen
 from app.analyses import lambda2_bounds as l2b
+from app.analyses import lambda2_exact as l2x
 from app.analyses.certify import condensed_mu_result, mu_cap
 from app.analyses.classify import ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
@@ -35,7 +36,7 @@ FULL_DENSE_LIMIT = 3000
 ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")   # in the order they run
 
 
-def _seq_aij(A: np.ndarray) -> PETSc.Mat:
+def seq_aij(A: np.ndarray) -> PETSc.Mat:
     """Small dense matrix as a sequential AIJ matrix (replicated problems run on COMM_SELF)."""
     n = A.shape[0]
     M = PETSc.Mat().createAIJ((n, n), nnz=n, comm=PETSc.COMM_SELF)
@@ -296,7 +297,42 @@ def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict 
     return d
 
 
+def _lambda2_proof(p: _Pencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict | None:
+    """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
+    (app/analyses/lambda2_exact.py), or None when that proof does not apply or does not succeed."""
+    if not (nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0):
+        return None
+    dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
+    if dc is None:
+        return None
+    rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+    proven, T, detail = l2x.prove_no_solution(dc, p.cls, mu, rayleigh)
+    comm = p.system.comm
+    if comm.size > 1:
+        proven, T, detail = comm.bcast((proven, T, detail), root=0)                 # MPI collective
+    if not proven:
+        return None
+    how = ("sign argument on the exact slip-node reduction S(t) (free DOFs eliminated through the (K, M) "
+           "eigen-decomposition): sym S(t) certified copositive on [0, T] by intervals (concave + convex "
+           "split, PD + NN at the ends), and the Schur complement of sym(K* + T M*) PD with sym M* PD for t >= T")
+    bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
+                       "Rayleigh-quotient bound -min eig sym K* / min eig sym M*)",
+             "rayleigh_bound": rayleigh, "proven_bound": T}
+    d = {"solutions": [], "result": "proven: no solution with lambda^2 >= 0",
+         "search": {"attempts": 0, "converged": 0, "accepted": 0, "by_method": {}, "intervals": [],
+                    "starts": [], "identical_runs_skipped": 0, "complete": True,
+                    "note": "no search needed: " + how,
+                    "necessary_condition": nec, "lambda2_upper_bound": T, "upper_bound": bound},
+         "certified": True}
+    d["certificate"] = l2b.certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
+                                       {**detail, "T": T, "eigen_decomposition_seconds": round(dc.seconds, 4)}, gap=0.0)
+    return d
+
+
 def _lambda2_search(p: _Pencils, scene: Scene, K0, K1, M0, M1, nec: dict, mu: float, t_start: float) -> dict:
+    proof = _lambda2_proof(p, scene, nec, mu, t_start)
+    if proof is not None:
+        return proof
     Ks, Ms = combine(K0, K1, mu), combine(M0, M1, mu)
     try:
         tau = diag_scale(Ks) / diag_scale(Ms)
@@ -439,7 +475,7 @@ def _analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) 
     cond = split_pencils(system, cls) if ("mceip_mu" in scene.analyses or "enumerate" in scene.analyses) else None
 
     def search(A0, A1, sp, problem, tau=None):
-        M0, M1 = _seq_aij(A0), _seq_aij(A1)
+        M0, M1 = seq_aij(A0), seq_aij(A1)
         try:
             d = search_mceip(M0, M1, sp.comp, problem, settings.mcp, value_scale=tau, pairs=sp.pairs).as_dict()
         finally:
