@@ -6,29 +6,23 @@ problem is solved, the contact Schur complement only for the condensed MCEIP-mu.
 """
 from __future__ import annotations
 
-import time
-import weakref
-
 import numpy as np
 from petsc4py import PETSc
 
 from app.analyses import eigen
 from app.analyses import lambda2_bounds as l2b
-from app.analyses import lambda2_exact as l2x
 from app.analyses.certify import condensed_mu_result, mu_cap
 from app.analyses.classify import ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
+from app.analyses.lambda2_analysis import mceip_lambda2
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import (
     UnsupportedState,
     combine,
-    condensed_mu_pencil,
     dense,
-    diag_scale,
-    reduced_pencil,
-    reduced_space,
     split_pencils,
 )
+from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, seq_aij, warm_hints
 from app.config import Scene
 from app.system.base import System
 
@@ -36,97 +30,24 @@ FULL_DENSE_LIMIT = 3000
 ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")   # in the order they run
 
 
-def seq_aij(A: np.ndarray) -> PETSc.Mat:
-    """Small dense matrix as a sequential AIJ matrix (replicated problems run on COMM_SELF)."""
-    n = A.shape[0]
-    M = PETSc.Mat().createAIJ((n, n), nnz=n, comm=PETSc.COMM_SELF)
-    rows = np.arange(n, dtype=PETSc.IntType)
-    M.setValues(rows, rows, A)
-    M.assemble()
-    return M
-
-
-class _Pencils:
-    """Lazily built reduced pencils of one state; destroyed at the end of the analyses."""
-
-    def __init__(self, system: System, cls: Classification):
-        self.system, self.cls = system, cls
-        self._space = None
-        self._K = None
-        self._M = None
-        self._cond = None
-
-    @property
-    def space(self):
-        if self._space is None:
-            with self.system.stages("reduced pencils"):
-                self._space = reduced_space(self.system, self.cls)
-        return self._space
-
-    def K(self):
-        if self._K is None:
-            space = self.space
-            with self.system.stages("reduced pencils"):
-                self._K = reduced_pencil(self.system.K, self.system, self.cls, space)
-        return self._K
-
-    def M(self):
-        if self._M is None:
-            Mfull = self.system.mass()
-            space = self.space
-            with self.system.stages("reduced pencils"):
-                self._M = reduced_pencil(Mfull, self.system, self.cls, space)
-        return self._M
-
-    def condensed_mu(self) -> tuple[np.ndarray, np.ndarray]:
-        if self._cond is None:
-            Sc = self.system.contact_schur()
-            with self.system.stages("condensed pencil"):
-                self._cond = condensed_mu_pencil(Sc, self.cls)
-        return self._cond
-
-    def destroy(self):
-        for pair in (self._K, self._M):
-            if pair is not None:
-                for m in pair:
-                    m.destroy()
-        if self._space is not None:
-            self._space.destroy()
-
-
-_WARM: dict[int, tuple[weakref.ref, dict]] = {}
-
-
-def _hints(system: System, mu: float) -> dict:
-    """Eigenvalues of the previous classification along the path (per system and mu): shifts
-    for the next one's eigen solves (they only speed them up; every answer is verified)."""
-    for key in [k for k, (ref, _) in _WARM.items() if ref() is None]:
-        del _WARM[key]
-    ref, hints = _WARM.get(id(system), (None, None))
-    if ref is None or ref() is not system:
-        hints = {}
-        _WARM[id(system)] = (weakref.ref(system), hints)
-    return hints.setdefault(float(mu), {})
-
-
 class AnalysisFailure(Exception):
     """A solver failed on one analysis of one state (reported, and the study goes on)."""
 
 
-def _necessary(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
+def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
     with system.stages("necessary condition (19)"):
-        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, _hints(system, scene.mu))
+        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu))
 
 
-def _sufficient(system: System, p: "_Pencils", scene: Scene, s: int) -> dict:
+def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
     with system.stages("sufficient condition (17)-(18)"):
         Ks, Ms = combine(K0, K1, scene.mu), combine(M0, M1, scene.mu)
         try:
-            out = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=_keep_modes(scene))
+            out = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
         finally:
             Ks.destroy()
             Ms.destroy()
@@ -147,11 +68,11 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
         return {name: {"not_applicable": True, "reason": na} for name in ANALYSES if name in scene.analyses}
     if ZERO in cls.status:
         return _analyse_with_zero_nodes(system, cls, scene)
-    p = _Pencils(system, cls)
+    p = StatePencils(system, cls)
     out: dict = {}
     s = len(cls.slip)
     runs = {"necessary": _necessary, "sufficient": _sufficient, "mceip_mu": _mceip_mu,
-            "mceip_lambda2": _mceip_lambda2, "enumerate": _enumerate}
+            "mceip_lambda2": mceip_lambda2, "enumerate": _enumerate}
     try:
         for name in ANALYSES:
             if name not in scene.analyses:
@@ -162,7 +83,7 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
             try:
                 if name == "mceip_lambda2":
                     nec = out.get("necessary") if scene.lambda2_mu == scene.mu else None
-                    out[name] = _mceip_lambda2(system, p, scene, s, nec if nec and "failed" not in nec else None)
+                    out[name] = mceip_lambda2(system, p, scene, s, nec if nec and "failed" not in nec else None)
                 else:
                     out[name] = runs[name](system, p, scene, s)
             except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
@@ -184,7 +105,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     for k, (cls, _) in enumerate(jobs):
         if k % comm.size != comm.rank:
             continue
-        p = _Pencils(system, cls)
+        p = StatePencils(system, cls)
         try:
             mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False)
         except (UnsupportedState, AnalysisFailure, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
@@ -203,26 +124,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     return failures
 
 
-def _keep_modes(scene: Scene) -> bool:
-    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/outputs/fields.py."""
-    outputs = getattr(scene, "outputs", None)
-    return bool(outputs is not None and outputs.fields)
-
-
-def _attach_vectors(d: dict, rep) -> None:
-    """Attach each solution's full kept-space vector (same order as ``as_dict``: sorted by value)."""
-    for sd, sol in zip(d["solutions"], sorted(rep.solutions, key=lambda s: s.value)):
-        if sol.x is not None:
-            sd["_x"] = sol.x
-
-
-def _no_slip() -> dict:
-    return {"solutions": [], "result": "no solution (no slip nodes)", "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
-                                                  "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
-                                          "complete": True}}
-
-
-def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int, replicated: bool = True) -> dict:
+def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True) -> dict:
     """MCEIP-mu (21)-(23) of one classification: the condensed s x s pencil with its certificate
     (:mod:`app.analyses.certify`), or the full-size SNES VI search (found, not proven).
 
@@ -231,7 +133,7 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int, replicated: boo
     it (:func:`analyse_condensed_distributed` gathers the answers itself).
     """
     if s == 0:
-        return {**_no_slip(), "certified": True,
+        return {**no_slip(), "certified": True,
                 "certificate": {"method": "no slip nodes (x_Ts is empty)", "interval": [0.0, float("inf")],
                                 "status": "proven", "gap": 0.0, "seconds": 0.0, "detail": {}}}
     method = scene.settings.mceip_mu_method
@@ -256,141 +158,12 @@ def _mceip_mu(system: System, p: _Pencils, scene: Scene, s: int, replicated: boo
                         "gap": None, "seconds": 0.0, "detail": {}}
     for sol in d["solutions"]:
         sol["certified"] = False
-    if method == "full" and _keep_modes(scene):
-        _attach_vectors(d, rep)
+    if method == "full" and keep_modes(scene):
+        attach_vectors(d, rep)
     return d
 
 
-def _mceip_lambda2(system: System, p: _Pencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
-    """MCEIP-lambda^2 (12)-(14) at ``scene.lambda2_mu`` with what is proven (app/analyses/lambda2_bounds.py):
-    no solution when (19) fails; otherwise no solution above an inertia-proven bound ``T``, and
-    ``[0, T]`` searched by SNES VI (found, not proven). Every result has ``certified`` and a
-    ``certificate``; solutions above the free-block spectrum or whose pattern does not solve its
-    restricted eigenproblem are labelled ill-conditioned."""
-    mu = scene.lambda2_mu
-    t_start = time.perf_counter()
-    if s == 0:
-        d = _no_slip()
-        d["certified"] = True
-        d["certificate"] = l2b.certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0)
-    else:
-        K0, K1 = p.K()
-        M0, M1 = p.M()
-        with system.stages("MCEIP-lambda2 (12)-(14)"):
-            if nec is None:
-                nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig, _hints(system, mu))
-            if not nec["satisfied"]:
-                # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
-                # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
-                d = {"solutions": [], "result": "no solution (proved by the necessary condition (19))", "search": {
-                    "complete": True, "necessary_condition": nec,
-                    "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
-                            "which proves that (12)-(14) has no solution"}}
-                d["certified"] = True
-                d["certificate"] = l2b.certificate(
-                    "sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19)",
-                    (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
-                    {"min_eig_K_sym": nec["min_eig_K_sym"], "min_eig_M_sym": nec["min_eig_M_sym"]}, gap=0.0)
-            else:
-                d = _lambda2_search(p, scene, K0, K1, M0, M1, nec, mu, t_start)
-    d["mu"] = mu
-    return d
-
-
-def _lambda2_proof(p: _Pencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict | None:
-    """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
-    (app/analyses/lambda2_exact.py), or None when that proof does not apply or does not succeed."""
-    if not (nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0):
-        return None
-    dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
-    if dc is None:
-        return None
-    rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
-    proven, T, detail = l2x.prove_no_solution(dc, p.cls, mu, rayleigh)
-    comm = p.system.comm
-    if comm.size > 1:
-        proven, T, detail = comm.bcast((proven, T, detail), root=0)                 # MPI collective
-    if not proven:
-        return None
-    how = ("sign argument on the exact slip-node reduction S(t) (free DOFs eliminated through the (K, M) "
-           "eigen-decomposition): sym S(t) certified copositive on [0, T] by intervals (concave + convex "
-           "split, PD + NN at the ends), and the Schur complement of sym(K* + T M*) PD with sym M* PD for t >= T")
-    bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
-                       "Rayleigh-quotient bound -min eig sym K* / min eig sym M*)",
-             "rayleigh_bound": rayleigh, "proven_bound": T}
-    d = {"solutions": [], "result": "proven: no solution with lambda^2 >= 0",
-         "search": {"attempts": 0, "converged": 0, "accepted": 0, "by_method": {}, "intervals": [],
-                    "starts": [], "identical_runs_skipped": 0, "complete": True,
-                    "note": "no search needed: " + how,
-                    "necessary_condition": nec, "lambda2_upper_bound": T, "upper_bound": bound},
-         "certified": True}
-    d["certificate"] = l2b.certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
-                                       {**detail, "T": T, "eigen_decomposition_seconds": round(dc.seconds, 4)}, gap=0.0)
-    return d
-
-
-def _lambda2_search(p: _Pencils, scene: Scene, K0, K1, M0, M1, nec: dict, mu: float, t_start: float) -> dict:
-    proof = _lambda2_proof(p, scene, nec, mu, t_start)
-    if proof is not None:
-        return proof
-    Ks, Ms = combine(K0, K1, mu), combine(M0, M1, mu)
-    try:
-        tau = diag_scale(Ks) / diag_scale(Ms)
-        # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
-        # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD; an LDL^T inertia
-        # count of sym K* + T sym M* proves a smaller bound T (lambda2_bounds.py).
-        upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
-        if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
-            rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
-            hints = _hints(p.system, mu)
-            prev = hints.get("lambda2_bound")
-            upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh, guess=None if prev is None else 1.05 * prev)
-            hints["lambda2_bound"] = upper       # warm start for the next classification
-            bound = {"method": "sym K* + T sym M* PD by an LDL^T inertia count, bisected from the "
-                               "Rayleigh-quotient bound -min eig sym K* / min eig sym M*",
-                     "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
-        rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
-                           t_upper=upper)
-        d = rep.as_dict()
-        if _keep_modes(scene):
-            _attach_vectors(d, rep)
-        d["search"]["necessary_condition"] = nec
-        d["search"]["lambda2_upper_bound"] = upper
-        d["search"]["upper_bound"] = bound
-        omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if d["solutions"] else None
-        for sol in d["solutions"]:
-            sol["certified"] = False
-            why = []
-            if omega2 is not None and sol["value"] > omega2:
-                why.append(f"lambda^2 above the free-block spectrum (max omega^2 = {omega2:.6g}): the mode "
-                           "decays by orders of magnitude between nodes, unresolvable in double precision")
-            if not sol.get("pattern_verified", True):
-                why.append("the pattern does not solve its restricted eigenproblem (25)-(26) to the tolerance")
-            sol["ill_conditioned"] = bool(why)
-            if why:
-                sol["conditioning"] = "; ".join(why)
-        if omega2 is not None:
-            d["search"]["free_block_max_omega2"] = omega2
-        clean = [x for x in d["solutions"] if not x["ill_conditioned"]]
-        if len(clean) < len(d["solutions"]):
-            d["result"] = (f"{len(clean)} clean solution(s) and {len(d['solutions']) - len(clean)} "
-                           "ill-conditioned one(s) found (not proven)")
-        hi = upper if np.isfinite(upper) else np.inf
-        d["certified"] = False
-        d["certificate"] = l2b.certificate(
-            bound["method"] if np.isfinite(upper) else "none",
-            (hi, np.inf) if np.isfinite(hi) else (0.0, 0.0),
-            ("proven: no solution with lambda^2 in the interval; " if np.isfinite(hi) else "") +
-            f"not proven: [0, {hi:.6g}] searched by SNES VI (solutions found there are not proven complete)",
-            time.perf_counter() - t_start,
-            {"proven_empty": [hi, np.inf] if np.isfinite(hi) else None, "searched_not_proven": [0.0, hi]})
-        return d
-    finally:
-        Ks.destroy()
-        Ms.destroy()
-
-
-def _enumerate(system: System, p: _Pencils, scene: Scene, s: int) -> dict:
+def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> dict:
     settings = scene.settings
     problems: dict = {}
     with system.stages("enumeration (24)-(26)"):

@@ -1,0 +1,114 @@
+"""The reduced pencils (10)-(16) of one classified state, built lazily, and shared helpers of the analyses.
+
+:class:`StatePencils` builds only what the requested analyses need (the mass matrix only for
+(17)-(19) and MCEIP-lambda^2, the condensed pencil only for the condensed MCEIP-mu) and destroys
+its PETSc objects in :meth:`StatePencils.destroy`. ``warm_hints`` carries eigenvalues from one
+classification to the next along the path (shifts only: every answer is verified).
+"""
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.analyses.classify import Classification
+from app.analyses.pencils import (
+    condensed_mu_pencil,
+    reduced_pencil,
+    reduced_space,
+)
+from app.config import Scene
+from app.system.base import System
+
+
+def seq_aij(A: np.ndarray) -> PETSc.Mat:
+    """Small dense matrix as a sequential AIJ matrix (replicated problems run on COMM_SELF)."""
+    n = A.shape[0]
+    M = PETSc.Mat().createAIJ((n, n), nnz=n, comm=PETSc.COMM_SELF)
+    rows = np.arange(n, dtype=PETSc.IntType)
+    M.setValues(rows, rows, A)
+    M.assemble()
+    return M
+
+
+class StatePencils:
+    """Lazily built reduced pencils of one state; destroyed at the end of the analyses."""
+
+    def __init__(self, system: System, cls: Classification):
+        self.system, self.cls = system, cls
+        self._space = None
+        self._K = None
+        self._M = None
+        self._cond = None
+
+    @property
+    def space(self):
+        if self._space is None:
+            with self.system.stages("reduced pencils"):
+                self._space = reduced_space(self.system, self.cls)
+        return self._space
+
+    def K(self):
+        if self._K is None:
+            space = self.space
+            with self.system.stages("reduced pencils"):
+                self._K = reduced_pencil(self.system.K, self.system, self.cls, space)
+        return self._K
+
+    def M(self):
+        if self._M is None:
+            Mfull = self.system.mass()
+            space = self.space
+            with self.system.stages("reduced pencils"):
+                self._M = reduced_pencil(Mfull, self.system, self.cls, space)
+        return self._M
+
+    def condensed_mu(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._cond is None:
+            Sc = self.system.contact_schur()
+            with self.system.stages("condensed pencil"):
+                self._cond = condensed_mu_pencil(Sc, self.cls)
+        return self._cond
+
+    def destroy(self):
+        for pair in (self._K, self._M):
+            if pair is not None:
+                for m in pair:
+                    m.destroy()
+        if self._space is not None:
+            self._space.destroy()
+
+
+_WARM: dict[int, tuple[weakref.ref, dict]] = {}
+
+
+def warm_hints(system: System, mu: float) -> dict:
+    """Eigenvalues of the previous classification along the path (per system and mu): shifts
+    for the next one's eigen solves (they only speed them up; every answer is verified)."""
+    for key in [k for k, (ref, _) in _WARM.items() if ref() is None]:
+        del _WARM[key]
+    ref, hints = _WARM.get(id(system), (None, None))
+    if ref is None or ref() is not system:
+        hints = {}
+        _WARM[id(system)] = (weakref.ref(system), hints)
+    return hints.setdefault(float(mu), {})
+
+
+def keep_modes(scene: Scene) -> bool:
+    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/outputs/fields.py."""
+    outputs = getattr(scene, "outputs", None)
+    return bool(outputs is not None and outputs.fields)
+
+
+def attach_vectors(d: dict, rep) -> None:
+    """Attach each solution's full kept-space vector (same order as ``as_dict``: sorted by value)."""
+    for sd, sol in zip(d["solutions"], sorted(rep.solutions, key=lambda s: s.value)):
+        if sol.x is not None:
+            sd["_x"] = sol.x
+
+
+def no_slip() -> dict:
+    return {"solutions": [], "result": "no solution (no slip nodes)", "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
+                                                  "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
+                                          "complete": True}}
