@@ -12,6 +12,7 @@ from petsc4py import PETSc
 
 from app.analyses.mcp_results import McpSolution
 from app.config import McpSettings
+from app.linalg import configure_direct
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
 MAX_LIFT_FACTORS = 16   # factorisations of A_ff(t) kept per problem (lifts at a t already seen reuse them)
@@ -185,15 +186,8 @@ class BorderedMcp:
         snes.setMaxFunctionEvaluations(100 * settings.max_it)
         self._atol, self._max_funcs = 1e-13, 100 * settings.max_it
         snes.setConvergenceTest(self._converged, args=(settings,))
-        ksp = snes.getKSP()
-        ksp.setType("preonly")
-        pc = ksp.getPC()
-        pc.setType("lu")
-        if self.comm.size > 1:
-            pc.setFactorSolverType("mumps")
-        else:
-            pc.setFactorShift(PETSc.Mat.FactorShiftType.NONZERO, 1e-14)
-            pc.setFactorOrdering("qmd")  # minimum degree: 3x less fill than nd with the dense border
+        # serial: minimum-degree ordering (3x less fill than nd with the dense border), tiny pivot shift
+        configure_direct(snes.getKSP(), shift=1e-14, ordering="qmd")
         self._snes[method] = snes
         return snes
 
@@ -259,10 +253,7 @@ class BorderedMcp:
         Aff.axpy(t, A1ff, structure=self._ff_structure)
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOperators(Aff)
-        ksp.setType("preonly")
-        ksp.getPC().setType("lu")
-        if self.comm.size > 1:
-            ksp.getPC().setFactorSolverType("mumps")
+        configure_direct(ksp)
         ksp.setUp()
         if len(self._lifts) >= MAX_LIFT_FACTORS:
             old = next(iter(self._lifts))

@@ -12,6 +12,7 @@ from slepc4py import SLEPc
 
 from app.analyses.pencils import combine, diag_scale, gather_vec
 from app.config import EigSettings
+from app.linalg import configure_direct
 
 
 def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> tuple[SLEPc.EPS, str]:
@@ -33,10 +34,7 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
             st.setType(SLEPc.ST.Type.SINVERT)
             eps.setTarget(0.0)
             eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-            st.getKSP().setType("preonly")
-            st.getKSP().getPC().setType("lu")
-            if A.getComm().getSize() > 1:
-                st.getKSP().getPC().setFactorSolverType("mumps")
+            configure_direct(st.getKSP())
             how += " (shift-and-invert about 0)"
     else:
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
@@ -51,11 +49,7 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
             st.setType(SLEPc.ST.Type.SINVERT)
             eps.setTarget(0.0)
             eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-            ksp = st.getKSP()
-            ksp.setType("preonly")
-            ksp.getPC().setType("lu")
-            if A.getComm().getSize() > 1:
-                ksp.getPC().setFactorSolverType("mumps")
+            configure_direct(st.getKSP())
             how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
     return eps, how
 
@@ -107,11 +101,7 @@ def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | Non
         st.setType(SLEPc.ST.Type.SINVERT)
         eps.setTarget(sigma)
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        ksp = st.getKSP()
-        ksp.setType("preonly")
-        ksp.getPC().setType("cholesky" if At.getComm().getSize() == 1 else "lu")
-        if At.getComm().getSize() > 1:
-            ksp.getPC().setFactorSolverType("mumps")
+        configure_direct(st.getKSP(), factor="cholesky" if At.getComm().getSize() == 1 else "lu")
         eps.solve()
         vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
     except PETSc.Error:

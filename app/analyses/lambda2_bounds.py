@@ -30,6 +30,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.pencils import diag_scale
+from app.linalg import configure_direct
 
 PROVEN = "proven"
 
@@ -58,15 +59,8 @@ def inertia_negative_or_zero(C: PETSc.Mat) -> int:
     ksp = PETSc.KSP().create(C.getComm())
     try:
         ksp.setOperators(C)
-        ksp.setType("preonly")
+        configure_direct(ksp, factor="cholesky", inertia=True)   # MUMPS (in parallel) reports the inertia
         pc = ksp.getPC()
-        pc.setType("cholesky")
-        if C.getComm().getSize() > 1:
-            pc.setFactorSolverType("mumps")
-            pc.setFactorSetUpSolverType()
-            F = pc.getFactorMatrix()
-            F.setMumpsIcntl(13, 1)   # no ScaLAPACK root: MUMPS reports the inertia
-            F.setMumpsIcntl(24, 1)   # null pivot detection
         ksp.setUp()
         neg, zero, _ = pc.getFactorMatrix().getInertia()
         return int(neg) + int(zero)
