@@ -154,9 +154,11 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
     out = {"mu": mu}
     for name, A0, A1 in (("K", K0, K1), ("M", M0, M1)):
         A = combine(A0, A1, mu)
-        scale = diag_scale(A)
-        lam = min_sym_eig(A, settings, None if hints is None else hints.get(name))
-        A.destroy()
+        try:
+            scale = diag_scale(A)
+            lam = min_sym_eig(A, settings, None if hints is None else hints.get(name))
+        finally:
+            A.destroy()
         if hints is not None:
             hints[name] = lam     # warm start for the next classification along the path
         out[f"min_eig_{name}_sym"] = lam
@@ -174,37 +176,38 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
     ``lambda^2 > 0`` is checked for ``x_Ts >= 0`` (up to the sign of the eigenvector).
     """
     eps, how = _eps(Ks, Ms, False, settings)
-    eps.solve()
-    nconv = eps.getConverged()
     vr, vi = Ks.createVecRight(), Ks.createVecRight()
-    candidates, admissible, modes = [], [], []
-    for i in range(nconv):
-        theta = eps.getEigenpair(i, vr, vi)
-        if abs(theta.imag) > 1e-8 * max(abs(theta), 1e-300) or not np.isfinite(theta.real):
-            continue
-        lam2 = -theta.real
-        if lam2 <= 0:
-            continue
-        x = gather_vec(vr)
-        xc = x[comp]
-        big = float(np.max(np.abs(xc))) if len(xc) else 0.0
-        if big > 0 and np.sum(xc) < 0:
-            x, xc = -x, -xc
-        ok = bool(big > 0 and np.min(xc) >= -1e-8 * big)
-        res = eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE)
-        candidates.append({"lambda2": float(lam2), "admissible": ok, "min_x_Ts_rel": float(np.min(xc) / big) if big else 0.0,
-                           "relative_error": float(res)})
-        if ok:
-            admissible.append(float(lam2))
-            xn = np.maximum(xc, 0) / np.sum(np.maximum(xc, 0))
-            mode = {"value": float(lam2), "x_Ts": [float(v) for v in xn],
-                    "pattern": ["slip" if v > 1e-8 else "stick" for v in xn], "relative_error": float(res)}
-            if keep_modes:
-                mode["_x"] = x / np.sum(xc)
-            modes.append(mode)
-    eps.destroy()
-    vr.destroy()
-    vi.destroy()
+    try:
+        eps.solve()
+        nconv = eps.getConverged()
+        candidates, admissible, modes = [], [], []
+        for i in range(nconv):
+            theta = eps.getEigenpair(i, vr, vi)
+            if abs(theta.imag) > 1e-8 * max(abs(theta), 1e-300) or not np.isfinite(theta.real):
+                continue
+            lam2 = -theta.real
+            if lam2 <= 0:
+                continue
+            x = gather_vec(vr)
+            xc = x[comp]
+            big = float(np.max(np.abs(xc))) if len(xc) else 0.0
+            if big > 0 and np.sum(xc) < 0:
+                x, xc = -x, -xc
+            ok = bool(big > 0 and np.min(xc) >= -1e-8 * big)
+            res = eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE)
+            candidates.append({"lambda2": float(lam2), "admissible": ok, "min_x_Ts_rel": float(np.min(xc) / big) if big else 0.0,
+                               "relative_error": float(res)})
+            if ok:
+                admissible.append(float(lam2))
+                xn = np.maximum(xc, 0) / np.sum(np.maximum(xc, 0))
+                mode = {"value": float(lam2), "x_Ts": [float(v) for v in xn],
+                        "pattern": ["slip" if v > 1e-8 else "stick" for v in xn], "relative_error": float(res)}
+                if keep_modes:
+                    mode["_x"] = x / np.sum(xc)
+                modes.append(mode)
+    finally:
+        for obj in (eps, vr, vi):
+            obj.destroy()
     order = np.argsort(admissible)[::-1]
     return {"satisfied": bool(admissible), "lambda2": [admissible[i] for i in order],
             "modes": [modes[i] for i in order], "real_candidates": sorted(candidates, key=lambda c: -c["lambda2"]),

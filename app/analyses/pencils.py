@@ -124,8 +124,10 @@ def diag_scale(A: PETSc.Mat) -> float:
     """Largest diagonal entry in magnitude (the infinity norm if the diagonal is zero): the
     unit-free scale that tolerances are relative to."""
     d = A.getDiagonal()
-    s = d.norm(PETSc.NormType.NORM_INFINITY)
-    d.destroy()
+    try:
+        s = d.norm(PETSc.NormType.NORM_INFINITY)
+    finally:
+        d.destroy()
     return s if s > 0 else max(A.norm(PETSc.NormType.NORM_INFINITY), 1e-300)
 
 
