@@ -30,10 +30,6 @@ FULL_DENSE_LIMIT = 3000
 ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")   # in the order they run
 
 
-class AnalysisFailure(Exception):
-    """A solver failed on one analysis of one state (reported, and the study goes on)."""
-
-
 def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
@@ -108,7 +104,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
         p = StatePencils(system, cls)
         try:
             mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False)
-        except (UnsupportedState, AnalysisFailure, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+        except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
             mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
         finally:
             p.destroy()

@@ -171,27 +171,29 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     params: dict[tuple, int] = {}
     raw: list[np.ndarray] = []               # reduced (unrotated) right-hand sides, local part
     u_D, Ku_D = K_full.createVecs()
-    for name, comp_dofs in presc.items():
-        modes = [("tx", {0: 1.0}), ("ty", {1: 1.0})]
-        if len(comp_dofs) == 2:
-            modes.append(("rz", None))
-        for kind, vals in modes:
-            if vals is not None and next(iter(vals)) not in comp_dofs:
-                continue
-            u_D.zeroEntries()
-            arr = u_D.getArray()
-            for c, loc in comp_dofs.items():
-                own = loc[loc < n_owned]
-                if vals is None:      # rotation about the origin: u = (-y, x)
-                    arr[own] = -dof_x[own // bs, 1] if c == 0 else dof_x[own // bs, 0]
-                else:
-                    arr[own] = vals.get(c, 0.0)
-            del arr
-            K_full.mult(u_D, Ku_D)
-            params[("motion", name, kind)] = len(raw)
-            raw.append(-Ku_D.getArray(readonly=True)[kept_local].copy())
-    u_D.destroy()
-    Ku_D.destroy()
+    try:
+        for name, comp_dofs in presc.items():
+            modes = [("tx", {0: 1.0}), ("ty", {1: 1.0})]
+            if len(comp_dofs) == 2:
+                modes.append(("rz", None))
+            for kind, vals in modes:
+                if vals is not None and next(iter(vals)) not in comp_dofs:
+                    continue
+                u_D.zeroEntries()
+                arr = u_D.getArray()
+                for c, loc in comp_dofs.items():
+                    own = loc[loc < n_owned]
+                    if vals is None:      # rotation about the origin: u = (-y, x)
+                        arr[own] = -dof_x[own // bs, 1] if c == 0 else dof_x[own // bs, 0]
+                    else:
+                        arr[own] = vals.get(c, 0.0)
+                del arr
+                K_full.mult(u_D, Ku_D)
+                params[("motion", name, kind)] = len(raw)
+                raw.append(-Ku_D.getArray(readonly=True)[kept_local].copy())
+    finally:
+        u_D.destroy()
+        Ku_D.destroy()
     loaded = sorted({nm for ph in cfg.program for kind in ("traction", "force") for nm in getattr(ph, kind)})
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
 
