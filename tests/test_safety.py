@@ -669,3 +669,31 @@ def test_someone_elses_empty_folder_in_a_sticky_folder_is_refused(tmp_path, monk
     problem = folder_mod.ResultsFolder(parent / "out", overwrite=True).check()
     assert problem and "belongs to another user" in problem
     assert sorted(os.listdir(parent)) == ["out"]
+
+
+@pytest.mark.parametrize("existing", ["staging", "probe"])
+def test_failed_staging_probe_removes_only_what_this_run_created(tmp_path, existing):
+    """The pre-flight's staging probe cleans up after a failure, but never a path that was there
+    before (a leftover or a user's folder with the same name)."""
+    from app.outputs.folder import ResultsFolder
+    rf = ResultsFolder(tmp_path / "out", overwrite=False)
+    path = rf.staging if existing == "staging" else rf.staging.with_name(rf.staging.name + "-probe")
+    (path / "sub").mkdir(parents=True)
+    (path / "sub" / "keep.txt").write_text("not the app's")
+    before = _snapshot(tmp_path)
+    problem = rf.check()
+    assert problem is not None and "cannot write the output folder" in problem
+    assert _snapshot(tmp_path) == before          # nothing removed, nothing left behind
+    rf.lock.release()
+
+
+def test_render_refuses_a_folder_the_app_did_not_write(tmp_path):
+    """`render` replaces pictures: it refuses a folder without the app's marker (user files stay)."""
+    mine = tmp_path / "mine"
+    (mine / "plots").mkdir(parents=True)
+    (mine / "plots" / "figure.png").write_bytes(b"user picture")
+    (mine / "results.json").write_text(json.dumps({"scene_config": {"outputs": {"plots": True}}, "states": []}))
+    before = _snapshot(mine)
+    line = _one_error_line(run_cli("render", str(mine)))
+    assert "not a results folder written by this app" in line
+    assert _snapshot(mine) == before

@@ -230,14 +230,18 @@ class ResultsFolder:
     def _probe_staging(self) -> str | None:
         """Create the staging folder and rename it once: the final rename works the same way."""
         probe = self.staging.with_name(self.staging.name + "-probe")
+        made = None            # the one path this run created (only that is removed on failure)
         try:
             self.staging.mkdir(parents=False, exist_ok=False)
-            os.rename(self.staging, probe)
+            made = self.staging
+            os.rename(self.staging, probe)     # refuses a non-empty existing probe: nothing is replaced
+            made = probe
             os.rename(probe, self.staging)
+            made = self.staging
             write_marker(self.staging, self.kind)
         except OSError as err:
-            for p in (probe, self.staging):
-                shutil.rmtree(p, ignore_errors=True) if p.is_dir() and not p.is_symlink() else None
+            if made is not None and made.is_dir() and not made.is_symlink():
+                shutil.rmtree(made, ignore_errors=True)
             return f"cannot write the output folder {self.final}: {err.strerror or err} ({err.filename or self.final.parent})"
         self._opened = True
         return None

@@ -20,6 +20,12 @@ def render_main(args) -> int:
         return 0
     outdir = pathlib.Path(args.results)
     res_file = outdir / "results.json"
+    from app.outputs.folder import MARKER, marker_kind
+    if res_file.is_file() and marker_kind(outdir) is None:
+        # redrawing replaces the pictures in plots/ and screenshots/: only in a folder the app wrote
+        print(f"error: {outdir}: not a results folder written by this app (no {MARKER}): nothing is redrawn there",
+              file=sys.stderr)
+        return 2
     if not res_file.is_file():
         print(f"error: {outdir}: no results.json here (not a results folder, or the run did not finish)",
               file=sys.stderr)
