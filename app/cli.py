@@ -128,13 +128,7 @@ def _guarded(fn, args) -> int:
     except (MemoryError, OSError, RuntimeError) as err:
         msg = _write_error(err)
         if msg is None:
-            if MPI.COMM_WORLD.size == 1:
-                raise
-            import traceback
-            traceback.print_exc()
-            print(f"error: rank {MPI.COMM_WORLD.rank} failed; aborting all ranks", file=sys.stderr, flush=True)
-            MPI.COMM_WORLD.Abort(1)
-            return 1
+            return _unexpected()
         print(f"error: {msg}", file=sys.stderr, flush=True)      # every rank that hit it: one line each
         if MPI.COMM_WORLD.size > 1:
             MPI.COMM_WORLD.Abort(EXIT_WRITE)
@@ -144,13 +138,20 @@ def _guarded(fn, args) -> int:
             MPI.COMM_WORLD.Abort(130)
         raise
     except Exception:
-        if MPI.COMM_WORLD.size == 1:
-            raise
-        import traceback
-        traceback.print_exc()
-        print(f"error: rank {MPI.COMM_WORLD.rank} failed; aborting all ranks", file=sys.stderr, flush=True)
-        MPI.COMM_WORLD.Abort(1)
-        return 1
+        return _unexpected()
+
+
+def _unexpected() -> int:
+    """An unexpected error, called from its ``except`` block: re-raised when serial; under mpirun
+    printed and the whole job aborted (the other ranks would otherwise wait forever)."""
+    from mpi4py import MPI
+    if MPI.COMM_WORLD.size == 1:
+        raise                      # the exception being handled
+    import traceback
+    traceback.print_exc()
+    print(f"error: rank {MPI.COMM_WORLD.rank} failed; aborting all ranks", file=sys.stderr, flush=True)
+    MPI.COMM_WORLD.Abort(1)
+    return 1
 
 
 def _main(args) -> int:

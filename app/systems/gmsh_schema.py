@@ -38,7 +38,7 @@ from typing import Annotated, Any, Literal, Optional
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, resolve_file
+from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, no_field_outputs, resolve_file
 
 Vec2 = tuple[Finite, Finite]
 
@@ -222,7 +222,5 @@ class GmshBody(StrictModel):
         if scene.loading is not None:
             raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a gmsh system: give "
                                   "system.program (the phases of the loading)")
-        for key in ("paraview", "screenshots"):
-            if getattr(scene.outputs, key):
-                raise SystemPathError(f"outputs.{key}", True, "not available yet for a gmsh system (the field "
-                                      "writer assumes the built-in block): use plots and report")
+        no_field_outputs(scene, "not available yet for a gmsh system (the field writer assumes the built-in "
+                                "block): use plots and report")

@@ -24,7 +24,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from app.systems.schema import Finite, NonNegFloat, StrictModel, SystemPathError, resolve_file
+from app.systems.schema import Finite, NonNegFloat, StrictModel, SystemPathError, no_field_outputs, resolve_file
 
 _MATRIX_CACHE: dict[tuple, Any] = {}
 _VECTOR_CACHE: dict[tuple, np.ndarray] = {}
@@ -298,10 +298,7 @@ class Matrices(StrictModel):
         if scene.loading is not None:
             raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a matrices system: "
                                   "give system.forces (phases of applied forces) or system.state")
-        for key in ("paraview", "screenshots"):
-            if getattr(scene.outputs, key):
-                raise SystemPathError(f"outputs.{key}", True, "needs a mesh: not available for a matrices system "
-                                      "(use plots and report)")
+        no_field_outputs(scene, "needs a mesh: not available for a matrices system (use plots and report)")
         if cfg.state is not None:
             r = np.array(cfg.state.reactions, dtype=float)
             excess = np.abs(r[:, 0]) - scene.mu * (-r[:, 1])

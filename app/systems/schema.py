@@ -50,3 +50,11 @@ def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.P
     if not is_file:
         raise SystemPathError(key, value, f"not a file ({path})")
     return path
+
+
+def no_field_outputs(scene, why: str) -> None:
+    """Refuse ``outputs.paraview``/``outputs.screenshots`` for a system type without the field
+    writer (app/outputs/fields.py): one line naming the key and ``why``."""
+    for key in ("paraview", "screenshots"):
+        if getattr(scene.outputs, key):
+            raise SystemPathError(f"outputs.{key}", True, why)
