@@ -309,7 +309,7 @@ def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path
     if not _font():      # VTK's own font has no Greek letters
         what = what.replace("\u03bc", "mu").replace("\u03bb\u00b2", "lambda^2")
     stuck = (f"{len(stuck_nodes)} of {c['slip']} slip nodes stuck in the mode (node{'s' if len(stuck_nodes) > 1 else ''} "
-             + ", ".join(str(k) for k in stuck_nodes) + " counted along the obstacle; on the block: from A)") if stuck_nodes else \
+             + ", ".join(str(k) for k in stuck_nodes) + " numbered along the obstacle)") if stuck_nodes else \
         f"all {c['slip']} slip nodes slip in the mode"
     unit = "" if meta["problem"] == "mceip_mu" else " " + (units or {}).get("lambda2", "1/s^2")
     title = [f"{what} = {meta['value']:.6g}{unit}",
