@@ -89,6 +89,11 @@ class MeshGather:
             new_of_global[order] = np.arange(n)
             self.points = pts[order]
             cells = new_of_global[np.concatenate([p[2] for p in parts])]
+            # each cell starts at its smallest vertex (a cyclic rotation: orientation and the VTK
+            # order of the mid-side nodes kept), whatever the mesh generator's local order
+            rot = (np.argmin(cells[:, :3], axis=1)[:, None] + np.arange(3)) % 3
+            cells = np.hstack([np.take_along_axis(cells[:, 3 * b:3 * b + 3], rot, axis=1)
+                               for b in range(cells.shape[1] // 3)])
             ckey = np.sort(cells, axis=1)
             self.cell_order = np.lexsort(ckey.T[::-1])
             self.cells = cells[self.cell_order]

@@ -419,9 +419,10 @@ class BodyFields:
         self.V = d["V"]
         comm = self.V.mesh.comm
         x = d["dof_x"]
-        lo = comm.allreduce(x.min(axis=0) if len(x) else np.full(2, np.inf), op=MPI.MIN)     # MPI collective
-        hi = comm.allreduce(x.max(axis=0) if len(x) else np.full(2, -np.inf), op=MPI.MAX)    # MPI collective
-        self.length_scale = float(np.max(hi - lo))
+        ext = np.concatenate([-x.min(axis=0), x.max(axis=0)]) if len(x) else np.full(4, -np.inf)
+        ext_all = np.empty(4)
+        comm.Allreduce(ext, ext_all, op=MPI.MAX)                                              # MPI collective
+        self.length_scale = float(np.max(ext_all[2:] + ext_all[:2]))      # the body's bounding-box size
         tvec, nvec = cfg.obstacle.frame()
         n = len(ops.contact_xy)
         self.contact_xy = ops.contact_xy
