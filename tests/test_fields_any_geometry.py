@@ -86,7 +86,7 @@ def test_gmsh_paper_block_writes_the_built_in_blocks_fields(tmp_path):
     assert [n["status"] for n in ref["states"][-1]["nodes"]] == [n["status"] for n in got["states"][-1]["nodes"]]
     assert any(n["status"] == "slip" for n in got["states"][-1]["nodes"])
     assert_same_fields(f_ref, f_got)
-    (pa, _, sa), (pb, _, sb) = _series(tmp_path / "block" / "paraview" / "states.xdmf"), \
+    (_, _, sa), (_, _, sb) = _series(tmp_path / "block" / "paraview" / "states.xdmf"), \
         _series(tmp_path / "gmsh" / "paraview" / "states.xdmf")
     assert len(sa) == len(sb) == len(ref["states"])
     for (_, da, ca), (_, db, cb) in zip(sa, sb):
