@@ -225,3 +225,63 @@ def test_matrices_skip_default_field_outputs_and_refuse_asked_ones(tmp_path):
     assert res["outputs"]["notes"].count(why) == 1 and not any("screenshots" in n and n != why
                                                                for n in res["outputs"]["notes"])
     assert why in (out / "report.md").read_text()
+
+
+LAYERED = """// two layers: soft bottom (y < 10), stiff top; 40 x 20 mm
+h = 2.5;
+Point(1) = {0, 0, 0, h}; Point(2) = {40, 0, 0, h}; Point(3) = {40, 10, 0, h}; Point(4) = {0, 10, 0, h};
+Point(5) = {40, 20, 0, h}; Point(6) = {0, 20, 0, h};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1};
+Line(5) = {3, 5}; Line(6) = {5, 6}; Line(7) = {6, 4};
+Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};
+Curve Loop(2) = {-3, 5, 6, 7}; Plane Surface(2) = {2};
+Physical Curve("bottom") = {1}; Physical Curve("top") = {6}; Physical Curve("sides") = {2, 4, 5, 7};
+Physical Surface("soft") = {1}; Physical Surface("stiff") = {2};
+"""
+
+
+def test_layered_body_loaded_every_way_writes_consistent_fields(tmp_path):
+    """Two materials, CD pressed then rotated about a point, a traction on the sides and gravity:
+    the field reproduces the contact displacements, the top curve moves rigidly as prescribed, and
+    the von Mises stress equals the one computed independently from the nodal field (constant
+    strain per P1 triangle, each layer's E and nu, plane stress)."""
+    (tmp_path / "layers.geo").write_text(LAYERED)
+    mats = {"soft": {"E": 5.0, "nu": 0.45}, "stiff": {"E": 50.0, "nu": 0.3}}
+    data = {"name": "layers", "mu": 0.8, "analyses": ["mceip_mu"],
+            "system": {"type": "gmsh", "file": str(tmp_path / "layers.geo"), "contact": "bottom",
+                       "prescribed": {"top": "xy"}, "materials": mats, "thickness": 5.0,
+                       "program": [{"name": "press", "steps": 2, "displacement": {"top": {"translation": [0, -1]}},
+                                    "until": {"normal_force": 20.0}},
+                                   {"name": "tilt", "steps": 3, "displacement": {"top": {"rotation_deg": 1.0,
+                                                                                         "about": [20.0, 20.0]}},
+                                    "traction": {"sides": [0.02, 0.0]}, "gravity": [0.0, -9810.0]}]},
+            "outputs": {"paraview": True, "states": [2, "final"], "screenshots": True}}
+    res, f = _run(data, tmp_path / "out")
+    assert res["outputs"]["contact_displacement_check"] < 1e-10
+    pts, cells = f["points"], f["cells"]
+    top = np.flatnonzero(np.abs(pts[:, 1] - 20.0) < 1e-9)
+    by_index = {s["index"]: s for s in res["states"]}
+    for k, i in enumerate(f["state_index"]):
+        par = by_index[int(i)]["load"]["parameters"]
+        th = par.get("motion.top.rz", 0.0)
+        want = np.column_stack([par.get("motion.top.tx", 0.0) - th * pts[top, 1],
+                                par.get("motion.top.ty", 0.0) + th * pts[top, 0]])
+        u = f["state_u"][k]
+        assert np.allclose(u[top], want, rtol=0, atol=1e-12 * np.abs(u).max())
+        if int(i) == res["states"][-1]["index"]:
+            assert th != 0.0 and "gravity.y" in par and "traction.sides.x" in par
+        # independent von Mises: constant strain of each P1 triangle
+        x, uu = pts[cells], u[cells]                                   # (C, 3, 2)
+        J = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]], axis=2)    # columns: edge vectors
+        D = np.stack([uu[:, 1] - uu[:, 0], uu[:, 2] - uu[:, 0]], axis=2)
+        G = D @ np.linalg.inv(J)                                       # displacement gradient
+        eps = 0.5 * (G + np.transpose(G, (0, 2, 1)))
+        soft = x[:, :, 1].mean(axis=1) < 10.0
+        E = np.where(soft, 5.0, 50.0)
+        nu = np.where(soft, 0.45, 0.3)
+        c = E / (1 - nu ** 2)
+        sxx = c * (eps[:, 0, 0] + nu * eps[:, 1, 1])
+        syy = c * (eps[:, 1, 1] + nu * eps[:, 0, 0])
+        sxy = E / (1 + nu) * eps[:, 0, 1]
+        vm = np.sqrt(sxx ** 2 - sxx * syy + syy ** 2 + 3 * sxy ** 2)
+        assert np.allclose(f["state_von_mises"][k], vm, rtol=1e-8, atol=1e-10 * vm.max())
