@@ -57,10 +57,19 @@ def _tangential_start(states: list[dict]) -> int | None:
 
 
 def _mark_phases(ax, states: list[dict]) -> None:
+    """The block's tangential loading, or where each phase of a loading program after the first starts."""
     t0 = _tangential_start(states)
-    if t0 is not None:
-        ax.axvline(t0 - 0.5, color="0.4", lw=0.8, ls=":")
-        ax.annotate("tangential loading ->", (t0 - 0.5, 0.0), xycoords=("data", "axes fraction"),
+    starts = [(t0, "tangential loading")] if t0 is not None else []
+    prev = None
+    for s in states if t0 is None else ():
+        load = s.get("load") or {}
+        ph = load.get("phase")
+        if isinstance(ph, int) and prev is not None and ph != prev:
+            starts.append((s["index"], load.get("name") or f"phase {ph}"))
+        prev = ph
+    for i, label in starts:
+        ax.axvline(i - 0.5, color="0.4", lw=0.8, ls=":")
+        ax.annotate(f"{label} ->", (i - 0.5, 0.0), xycoords=("data", "axes fraction"),
                     xytext=(3, 3), textcoords="offset points", va="bottom", fontsize=8, color="0.3")
 
 
