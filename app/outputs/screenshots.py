@@ -141,9 +141,9 @@ def _obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
     return corners
 
 
-def _outline(fd: FieldData):
-    """Boundary of the undeformed body: the mesh edges that belong to one cell only (through the
-    mid-side node of a quadratic cell)."""
+def _edges(fd: FieldData, displacement: np.ndarray | None = None, boundary: bool = False):
+    """Mesh edges as lines (through the mid-side node of a quadratic cell): all of them, or the
+    boundary ones (edges of one cell only); on the displaced points if given."""
     pv = _pyvista()
     c = fd.cells
     if c.shape[1] == 6:        # VTK quadratic triangle: vertices 0 1 2, mid-sides 3 (01) 4 (12) 5 (20)
@@ -151,12 +151,25 @@ def _outline(fd: FieldData):
     else:
         edges = np.concatenate([c[:, [0, 1]], c[:, [1, 2]], c[:, [2, 0]]])
     key = np.sort(edges[:, [0, -1]], axis=1)
-    _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    bnd = edges[count[inv.ravel()] == 1]
-    k = bnd.shape[1]
-    lines = np.column_stack([np.full(len(bnd), k), bnd]).ravel()
-    pts = np.column_stack([fd.points, np.full(len(fd.points), 0.01)])
-    return pv.PolyData(pts, lines=lines)
+    _, first, inv, count = np.unique(key, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    edges = edges[count[inv.ravel()] == 1] if boundary else edges[first]
+    k = edges.shape[1]
+    lines = np.column_stack([np.full(len(edges), k), edges]).ravel()
+    xy = fd.points if displacement is None else fd.points + displacement
+    return pv.PolyData(np.column_stack([xy, np.full(len(xy), 0.01)]), lines=lines)
+
+
+def _outline(fd: FieldData):
+    """Boundary of the undeformed body: the mesh edges that belong to one cell only."""
+    return _edges(fd, boundary=True)
+
+
+def _add_body(pl, fd: FieldData, grid, displacement: np.ndarray, **kw) -> None:
+    """The coloured mesh with its cell edges (a quadratic cell's curved edges, not VTK's subdivision)."""
+    quadratic = fd.cells.shape[1] == 6
+    pl.add_mesh(grid, show_edges=not quadratic, edge_color="#303030", line_width=0.5, **kw)
+    if quadratic:
+        pl.add_mesh(_edges(fd, displacement), color="#303030", line_width=0.5)
 
 
 def _markers(pl, pts: np.ndarray, groups: dict[str, list[int]], size: float) -> list[tuple[str, str]]:
@@ -256,8 +269,7 @@ def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, pat
     else:
         grid.point_data["u"] = np.linalg.norm(u, axis=1)
         name, bar = "u", f"displacement magnitude [{units.get('length', 'mm')}]"
-    pl.add_mesh(grid, scalars=name, cmap="viridis", show_edges=True, edge_color="#303030", line_width=0.5,
-                scalar_bar_args=_bar(bar, "%.3g", res))
+    _add_body(pl, fd, grid, scale * u, scalars=name, cmap="viridis", scalar_bar_args=_bar(bar, "%.3g", res))
     pts = fd.points + scale * u
     groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip", "free", "zero")}
     for nd, j in zip(state["nodes"], fd.contact):
@@ -286,8 +298,8 @@ def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path
     grid = fd.grid(amp * v)
     grid.point_data["mode"] = np.linalg.norm(v, axis=1)
     pl = _plotter(res)
-    pl.add_mesh(grid, scalars="mode", cmap="plasma", show_edges=True, edge_color="#303030", line_width=0.5,
-                scalar_bar_args=_bar("mode displacement magnitude (max 1)", "%.2f", res))
+    _add_body(pl, fd, grid, amp * v, scalars="mode", cmap="plasma",
+              scalar_bar_args=_bar("mode displacement magnitude (max 1)", "%.2f", res))
     pts = fd.points + amp * v
     groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip_mode", "stuck_mode", "free", "zero")}
     pattern = list(meta.get("pattern") or [])
