@@ -365,7 +365,7 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
         names = {v: k for k, v in params.items()}
 
         def describe(a: np.ndarray, names=names) -> dict:
-            return {"parameters": {".".join(x for x in names[j] if x): float(a[j]) for j in range(len(a)) if a[j] != 0}}
+            return {"parameters": {_parameter_name(names[j]): float(a[j]) for j in range(len(a)) if a[j] != 0}}
 
         out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da,
                                 normal_force=ph.until.normal_force if ph.until else None,
