@@ -9,7 +9,10 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import os
 import pathlib
+import sys
+import time
 
 from app.outputs.select import select_states
 from app.stages import Stages
@@ -67,13 +70,19 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     record["pictured_states"] = pictured
     notes = [n for n in notes if n not in record["notes"]]
     plot_files, shot_files = [], []
-    if cfg.get("plots"):
+    want_plots = bool(cfg.get("plots"))
+    want_shots = bool(cfg.get("screenshots")) and not record.get("fields_not_applicable")    # e.g. no mesh (matrices)
+    if "dolfinx.cpp" in sys.modules and (want_plots or want_shots):
+        # after a run: two child processes draw the plots and the screenshots at the same time
+        plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
+                                                   want_plots, want_shots)
+    if want_plots and "dolfinx.cpp" not in sys.modules:
         with stages(PICTURE_STAGES[0]), _survive("plots", notes):
             from app.outputs.plots import draw_plots
             _remove_old(outdir / "plots", ("*.png", "*.svg"))
             plot_files, n = draw_plots(results, pictured, outdir / "plots")
             notes += n
-    if cfg.get("screenshots"):
+    if want_shots and "dolfinx.cpp" not in sys.modules:
         with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
             from app.outputs.screenshots import draw_screenshots
             _remove_old(outdir / "screenshots", ("*.png",))
@@ -97,6 +106,66 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
         log.info("%s: %.2f s", st["name"], st["seconds"])
     log.info("pictures: drew %d file(s)", len(drawn))
     return drawn
+
+
+def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, progress, stages,
+                      notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
+    """Plots and screenshots drawn by two child processes at once (app/outputs/worker.py: VTK cannot
+    run next to DOLFINx; the children started by :func:`prestarted` are already warm). Each
+    picture stage records the drawing time its child reports."""
+    from app.outputs import worker
+    from app.outputs.screenshots import job_of, resolution_arg
+    t0 = time.perf_counter()
+    shots_cfg = cfg.get("screenshots") or {}
+    job = outdir / f".pictures-job-{os.getpid()}.json"
+    running, out = [], {}
+    try:
+        with _survive("plots and screenshots", notes):
+            if want_plots:
+                _remove_old(outdir / "plots", ("*.png", "*.svg"))
+            if want_shots:
+                _remove_old(outdir / "screenshots", ("*.png",))
+            data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
+                          progress)
+            job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
+            if want_shots:
+                running.append((PICTURE_STAGES[1], worker.take("screenshots", resolution_arg(shots_cfg)).submit(job)))
+            if want_plots:
+                running.append((PICTURE_STAGES[0], worker.take("plots").submit(job)))
+            worker.close_unused()
+            for stage, child in running:
+                files, n, seconds = child.wait()
+                notes += n
+                out[stage] = files
+                stages.records[stage] = {"name": stage, "count": 1,
+                                         "seconds": time.perf_counter() - t0 if seconds is None else seconds}
+    finally:
+        for _, child in running:
+            child.close()
+        job.unlink(missing_ok=True)
+    log.info("plots and screenshots: %.2f s (drawn at the same time by two processes)", time.perf_counter() - t0)
+    return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
+
+
+@contextlib.contextmanager
+def prestarted(scene, comm):
+    """Around a study whose results rank 0 will draw: on rank 0, the drawing processes of the
+    plots and the screenshots are started first, so that they import matplotlib and VTK and warm
+    up while the study runs (issue 14); those not used are stopped at the end."""
+    outputs = getattr(scene, "outputs", None)
+    if comm.rank != 0 or outputs is None or not (outputs.plots or outputs.screenshots is not None):
+        yield
+        return
+    from app.outputs import worker
+    try:
+        if outputs.plots:
+            worker.prestart("plots")
+        if outputs.screenshots is not None and getattr(scene.system, "has_fields", False):
+            from app.outputs.screenshots import resolution_arg
+            worker.prestart("screenshots", resolution_arg(outputs.screenshots.model_dump(mode="json")))
+        yield
+    finally:
+        worker.close_unused()
 
 
 def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
