@@ -121,7 +121,7 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     running, out = [], {}
     try:
         with _survive("plots and screenshots", notes):
-            if want_plots:
+            if want_plots and not _EARLY:     # (plots started early are being drawn there now)
                 _remove_old(outdir / "plots", ("*.png", "*.svg"))
             if want_shots:
                 _remove_old(outdir / "screenshots", ("*.png",))
@@ -130,7 +130,9 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
             job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
             if want_shots:
                 running.append((PICTURE_STAGES[1], worker.take("screenshots", resolution_arg(shots_cfg)).submit(job)))
-            if want_plots:
+            if want_plots and _EARLY:        # started before the field stage
+                running.append((PICTURE_STAGES[0], _EARLY.pop("plots")))
+            elif want_plots:
                 running.append((PICTURE_STAGES[0], worker.take("plots").submit(job)))
             worker.close_unused()
             for stage, child in running:
@@ -145,6 +147,38 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
         job.unlink(missing_ok=True)
     log.info("plots and screenshots: %.2f s (drawn at the same time by two processes)", time.perf_counter() - t0)
     return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
+
+
+_EARLY: dict = {}          # "plots": the drawing process given its job by plots_before_fields
+
+
+def plots_before_fields(scene, outdir: pathlib.Path | None):
+    """For :func:`app.study.run_study` on rank 0: a function that hands the plots to their drawing
+    process before the field stage (they need only the states), or None when there is nothing
+    to start. The job is the data the plots would get after the run (JSON data of the states)."""
+    outputs = getattr(scene, "outputs", None)
+    if outdir is None or outputs is None or not outputs.plots or "dolfinx.cpp" not in sys.modules:
+        return None
+
+    def start(system, out_states: list[dict]) -> None:
+        from app.outputs import worker
+        from app.outputs.results import json_clean
+        try:
+            results = json.loads(json.dumps(json_clean(
+                {"scene": scene.name, "units": system.units, "mu": scene.mu, "analyses_requested": list(scene.analyses),
+                 "scene_config": scene.model_dump(mode="json", exclude_none=True), "states": out_states})))
+            pictured, _ = select_states(results["states"], outputs_config(results).get("states") or ["final"])
+            job = pathlib.Path(outdir) / f".plots-job-{os.getpid()}.json"
+            _EARLY_JOBS.append(job)
+            job.write_text(json.dumps({"results": results, "pictured": pictured,
+                                       "plots_dir": str(pathlib.Path(outdir) / "plots")}))
+            _EARLY["plots"] = worker.take("plots").submit(job)
+        except Exception:                 # noqa: BLE001 - the plots are drawn after the run instead
+            log.warning("plots could not be started before the fields; drawn after the run", exc_info=True)
+    return start
+
+
+_EARLY_JOBS: list[pathlib.Path] = []
 
 
 @contextlib.contextmanager
@@ -166,6 +200,10 @@ def prestarted(scene, comm):
         yield
     finally:
         worker.close_unused()
+        while _EARLY:                    # the study failed after the plots were started
+            _EARLY.popitem()[1].close()
+        while _EARLY_JOBS:
+            _EARLY_JOBS.pop().unlink(missing_ok=True)
 
 
 def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
