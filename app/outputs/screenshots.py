@@ -199,7 +199,9 @@ def _finish(pl, fd: FieldData, pts: np.ndarray, title: list[str], legend: list[t
     path.parent.mkdir(parents=True, exist_ok=True)
     pl.suppress_rendering = False
     pl.render()                 # a reused plotter: render this scene (the first screenshot renders itself)
-    pl.screenshot(str(path))
+    from PIL import Image
+    # the same pixels as pl.screenshot(path); zlib level 1: 1.5x faster to write, 14 % larger (issue 14)
+    Image.fromarray(pl.screenshot(None, return_img=True)).save(path, format="PNG", compress_level=1)
     return path
 
 
