@@ -111,8 +111,9 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
 def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, progress, stages,
                       notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
     """Plots and screenshots drawn by two child processes at once (app/outputs/worker.py: VTK cannot
-    run next to DOLFINx; the children started by :func:`prestarted` are already warm). Each
-    picture stage records the drawing time its child reports."""
+    run next to DOLFINx; the children started by :func:`prestarted` are already warm, and those
+    given their job during the run (:func:`pictures_before_fields`, :func:`draw_after_run`) are
+    drawing). Each picture stage records the drawing time its child reports."""
     from app.outputs import worker
     from app.outputs.screenshots import job_of, resolution_arg
     t0 = time.perf_counter()
@@ -121,19 +122,18 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     running, out = [], {}
     try:
         with _survive("plots and screenshots", notes):
-            if want_plots and not _EARLY:     # (plots started early are being drawn there now)
+            if want_plots and "plots" not in _EARLY:    # (plots started early are being drawn now)
                 _remove_old(outdir / "plots", ("*.png", "*.svg"))
-            if want_shots:
+            if want_shots and "screenshots" not in _EARLY:
                 _remove_old(outdir / "screenshots", ("*.png",))
-            data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
-                          progress)
-            job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
-            if want_shots:
-                running.append((PICTURE_STAGES[1], worker.take("screenshots", resolution_arg(shots_cfg)).submit(job)))
-            if want_plots and _EARLY:        # started before the field stage
-                running.append((PICTURE_STAGES[0], _EARLY.pop("plots")))
-            elif want_plots:
-                running.append((PICTURE_STAGES[0], worker.take("plots").submit(job)))
+            if (want_plots and "plots" not in _EARLY) or (want_shots and "screenshots" not in _EARLY):
+                data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
+                              progress)
+                job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
+            for stage, kind, want, arg in ((PICTURE_STAGES[1], "screenshots", want_shots, resolution_arg(shots_cfg)),
+                                           (PICTURE_STAGES[0], "plots", want_plots, "")):
+                if want:
+                    running.append((stage, _EARLY.pop(kind, None) or worker.take(kind, arg).submit(job)))
             worker.close_unused()
             for stage, child in running:
                 files, n, seconds = child.wait()
@@ -145,40 +145,63 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
         for _, child in running:
             child.close()
         job.unlink(missing_ok=True)
-    log.info("plots and screenshots: %.2f s (drawn at the same time by two processes)", time.perf_counter() - t0)
+    log.info("plots and screenshots: %.2f s after the run (drawn at the same time by two processes)",
+             time.perf_counter() - t0)
     return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
 
 
-_EARLY: dict = {}          # "plots": the drawing process given its job by plots_before_fields
+# Started during the run (rank 0): "plots" / "screenshots" -> their drawing process, given its job;
+# "job" -> the job file they share (written before the field stage).
+_EARLY: dict = {}
 
 
-def plots_before_fields(scene, outdir: pathlib.Path | None):
-    """For :func:`app.study.run_study` on rank 0: a function that hands the plots to their drawing
-    process before the field stage (they need only the states), or None when there is nothing
-    to start. The job is the data the plots would get after the run (JSON data of the states)."""
+def pictures_before_fields(scene, outdir: pathlib.Path | None, progress=None):
+    """For :func:`app.study.run_study` on rank 0: a function that writes the drawing job before the
+    field stage (plots and screenshots need only the states and, for the screenshots, the fields
+    file the stage writes) and hands it to the plots' process at once; None when there is
+    nothing to start. The job holds the data the pictures would get after the run."""
     outputs = getattr(scene, "outputs", None)
-    if outdir is None or outputs is None or not outputs.plots or "dolfinx.cpp" not in sys.modules:
+    if outdir is None or outputs is None or "dolfinx.cpp" not in sys.modules \
+            or not (outputs.plots or outputs.screenshots is not None):
         return None
 
     def start(system, out_states: list[dict]) -> None:
         from app.outputs import worker
         from app.outputs.results import json_clean
+        from app.outputs.screenshots import job_of
         try:
             results = json.loads(json.dumps(json_clean(
                 {"scene": scene.name, "units": system.units, "mu": scene.mu, "analyses_requested": list(scene.analyses),
                  "scene_config": scene.model_dump(mode="json", exclude_none=True), "states": out_states})))
-            pictured, _ = select_states(results["states"], outputs_config(results).get("states") or ["final"])
-            job = pathlib.Path(outdir) / f".plots-job-{os.getpid()}.json"
-            _EARLY_JOBS.append(job)
-            job.write_text(json.dumps({"results": results, "pictured": pictured,
-                                       "plots_dir": str(pathlib.Path(outdir) / "plots")}))
-            _EARLY["plots"] = worker.take("plots").submit(job)
-        except Exception:                 # noqa: BLE001 - the plots are drawn after the run instead
-            log.warning("plots could not be started before the fields; drawn after the run", exc_info=True)
+            cfg = outputs_config(results)
+            pictured, _ = select_states(results["states"], cfg.get("states") or ["final"])
+            folder = pathlib.Path(outdir)
+            job = folder / f".pictures-job-early-{os.getpid()}.json"
+            _EARLY["job"] = job
+            data = job_of(results, pictured, cfg.get("screenshots") or {}, folder / "screenshots",
+                          folder / "fields" / "fields.npz", progress)
+            job.write_text(json.dumps({**data, "plots_dir": str(folder / "plots")}))
+            if outputs.plots:
+                _EARLY["plots"] = worker.take("plots").submit(job)
+        except Exception:                 # noqa: BLE001 - the pictures are drawn after the run instead
+            log.warning("the pictures could not be started before the fields; drawn after the run", exc_info=True)
     return start
 
 
-_EARLY_JOBS: list[pathlib.Path] = []
+def _screenshots_now(results: dict) -> None:
+    """After the run, before its results are turned into JSON: hand the job written before the
+    field stage to the screenshots' process (the fields file is written now)."""
+    cfg = outputs_config(results)
+    job = _EARLY.get("job")
+    if job is None or "screenshots" in _EARLY or not cfg.get("screenshots") \
+            or (results.get("outputs") or {}).get("fields_not_applicable"):
+        return
+    from app.outputs import worker
+    from app.outputs.screenshots import resolution_arg
+    try:
+        _EARLY["screenshots"] = worker.take("screenshots", resolution_arg(cfg["screenshots"])).submit(job)
+    except Exception:                     # noqa: BLE001 - drawn by a new process later instead
+        log.warning("the screenshots could not be started", exc_info=True)
 
 
 @contextlib.contextmanager
@@ -200,10 +223,11 @@ def prestarted(scene, comm):
         yield
     finally:
         worker.close_unused()
-        while _EARLY:                    # the study failed after the plots were started
+        job = _EARLY.pop("job", None)
+        while _EARLY:                    # not waited for (the run failed before drawing): stop them
             _EARLY.popitem()[1].close()
-        while _EARLY_JOBS:
-            _EARLY_JOBS.pop().unlink(missing_ok=True)
+        if job is not None:
+            job.unlink(missing_ok=True)
 
 
 def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
@@ -215,6 +239,7 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     if not wants_pictures(results):
         return results
     from app.outputs.results import json_clean
+    _screenshots_now(results)
     data = json.loads(json.dumps(json_clean(results)))
     draw_outputs(data, outdir, progress)
     return data
