@@ -22,6 +22,7 @@ import sys
 import time
 
 KINDS = ("plots", "screenshots")
+NICE = 5              # niceness added to the drawing processes
 
 
 class Worker:
@@ -98,6 +99,12 @@ def _main(argv: list[str]) -> int:
     import signal
     # Ctrl-C is for the run: this child ends when the run closes its standard input (or dies)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # below the study's priority: it warms up while the study runs and must not slow it down
+    # (after the study the run only waits for it)
+    try:
+        os.nice(NICE)
+    except OSError:
+        pass
     kind, arg = argv[0], (argv[1] if len(argv) > 1 else "")
     if kind == "plots":
         from app.outputs import plots as module
