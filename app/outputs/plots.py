@@ -308,8 +308,8 @@ def warm_up(_arg: str = "") -> None:
     cached), before the plots are asked for (app/outputs/worker.py)."""
     import io
     plt = _plt()
-    from matplotlib.colors import BoundaryNorm, ListedColormap   # noqa: F401 - imported for status_map
-    from matplotlib.patches import Patch                          # noqa: F401
+    from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: F401 - imported for status_map
+    from matplotlib.patches import Patch  # noqa: F401
     fig, ax = plt.subplots(figsize=(2, 1.5))
     ax.plot([0, 1], [0, 1], "-o", label="warm-up \u03bc")
     ax.set_yscale("log")

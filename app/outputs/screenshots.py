@@ -9,7 +9,8 @@
 
 Drawn from ``fields/fields.npz`` and the results only, so ``python -m app render`` redraws them.
 
-In a process that has loaded DOLFINx the drawing runs in a child process: DOLFINx switches the
+In a process that has loaded DOLFINx the drawing runs in a child process (app/outputs/worker.py,
+started by app/outputs/pictures.py): DOLFINx switches the
 interpreter to RTLD_GLOBAL library loading, after which VTK's scalar bar aborts the process
 (conflicting C++ template symbols). The child also keeps a rendering failure (no EGL/OSMesa on
 the machine, say) from taking the study's results with it.
@@ -292,24 +293,14 @@ def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path
 
 def draw_screenshots(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
                      fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
-    """Every screenshot the scene asks for; returns (files, notes). In a process that has loaded
-    DOLFINx they are drawn by a child process (app/outputs/worker.py)."""
+    """Every screenshot the scene asks for, drawn in this process; returns (files, notes).
+
+    Not in a process that has loaded DOLFINx (see the module docstring): there
+    app/outputs/pictures.py has them drawn by a child process (app/outputs/worker.py)."""
     if "dolfinx.cpp" in sys.modules:
-        return _draw_in_child(results, pictured, cfg, outdir, fields_path, progress)
+        raise RuntimeError("screenshots cannot be drawn in a process that has loaded DOLFINx: "
+                           "use app.outputs.pictures.draw_outputs (it draws them in a child process)")
     return _draw(results, pictured, cfg, outdir, fields_path, progress)
-
-
-def _draw_in_child(results, pictured, cfg, outdir, fields_path, progress):
-    """``_draw`` in a child process (the one started early, if any)."""
-    from app.outputs import worker
-    fields_path = pathlib.Path(fields_path)
-    job = fields_path.parent / f".screenshots-job-{os.getpid()}.json"
-    job.write_text(json.dumps(job_of(results, pictured, cfg, outdir, fields_path, progress)))
-    try:
-        files, notes, _ = worker.take("screenshots", resolution_arg(cfg)).submit(job).wait()
-    finally:
-        job.unlink(missing_ok=True)
-    return files, notes
 
 
 def job_of(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields_path: pathlib.Path,
