@@ -25,4 +25,4 @@ sweep: setup
 	@mpirun --allow-run-as-root --oversubscribe -n $(SWEEP_MPI) $(PY) -m app run $(SWEEP)
 
 clean:
-	rm -rf output/* meshes/*.msh
+	rm -rf output/* meshes/*.msh meshes/*.npz

@@ -114,7 +114,7 @@ def test_cache_file_created_once_and_reused(tmp_path):
 
     block_mesh(comm, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
     files = listing(cache)
-    assert len(files) == 1 and files[0][0].startswith("block_") and files[0][0].endswith(".msh")
+    assert len(files) == 1 and files[0][0].startswith("block_") and files[0][0].endswith(".npz")
 
     block_mesh(comm, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
     assert listing(cache) == files  # not rewritten, no second file, no temporary left behind
@@ -125,6 +125,57 @@ def test_cache_file_created_once_and_reused(tmp_path):
         shutil.copyfile(next(other.iterdir()), cache / files[0][0])
     mesh, _ = block_mesh(comm, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=cache)
     assert comm.allreduce(mesh.topology.index_map(2).size_local) == 16
+
+
+def _model_to_mesh_reference(length, height, nx, ny, pattern, mesh_size=None):
+    """The block mesh as the earlier code built it: the .msh read back into gmsh, model_to_mesh."""
+    import gmsh
+    from dolfinx.io.gmshio import model_to_mesh
+
+    import app.systems.block_mesh as bm
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        gmsh.model.add("ref")
+        if pattern == "unstructured":
+            bm._add_unstructured_model(gmsh, length, height, mesh_size)
+        else:
+            bm._add_structured_model(gmsh, length, height, nx, ny, pattern)
+        with __import__("tempfile").TemporaryDirectory() as tmp:
+            gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+            gmsh.write(str(pathlib.Path(tmp) / "b.msh"))
+            gmsh.model.add("back")
+            gmsh.merge(str(pathlib.Path(tmp) / "b.msh"))
+        return model_to_mesh(gmsh.model, MPI.COMM_SELF, 0, gdim=2)
+    finally:
+        gmsh.finalize()
+
+
+@pytest.mark.parametrize("pattern, nx, ny, size", [("crossed", 20, 10, None), ("right", 5, 3, None),
+                                                   ("alternate", 4, 2, None), ("unstructured", 0, 0, 9.0)])
+def test_cached_mesh_is_the_gmsh_mesh(tmp_path, pattern, nx, ny, size):
+    """The mesh read from the cached arrays (no gmsh) has the node and cell numbering, coordinates
+    and facet tags of the one model_to_mesh builds from the gmsh model (issue 14)."""
+    ref, _, ref_ft = _model_to_mesh_reference(81.3, 37.7, nx, ny, pattern, size)
+    for _ in range(2):                     # generated, then read from the cache
+        mesh, ft = block_mesh(MPI.COMM_SELF, 81.3, 37.7, nx, ny, pattern, mesh_size=size, cache_dir=tmp_path)
+        assert np.array_equal(mesh.geometry.x, ref.geometry.x)
+        assert np.array_equal(mesh.geometry.dofmap.array, ref.geometry.dofmap.array)
+        assert np.array_equal(mesh.geometry.input_global_indices, ref.geometry.input_global_indices)
+        assert np.array_equal(mesh.topology.connectivity(2, 0).array, ref.topology.connectivity(2, 0).array)
+        assert np.array_equal(ft.indices, ref_ft.indices) and np.array_equal(ft.values, ref_ft.values)
+    assert len(list(tmp_path.iterdir())) == 1
+
+
+def test_cached_mesh_is_read_without_gmsh(tmp_path):
+    """A run on a cached block mesh does not import gmsh (issue 14: start-up)."""
+    block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=tmp_path)
+    code = ("import sys, pathlib; from mpi4py import MPI; from app.systems.block_mesh import block_mesh; "
+            f"m, _ = block_mesh(MPI.COMM_SELF, {LENGTH}, {HEIGHT}, 4, 2, 'crossed', cache_dir=pathlib.Path({str(tmp_path)!r})); "
+            "print('gmsh' in sys.modules, m.topology.index_map(2).size_global)")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "32"]
 
 
 # --- operators ----------------------------------------------------------------------------

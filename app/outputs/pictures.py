@@ -9,7 +9,10 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import os
 import pathlib
+import sys
+import time
 
 from app.outputs.select import select_states
 from app.stages import Stages
@@ -67,13 +70,19 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     record["pictured_states"] = pictured
     notes = [n for n in notes if n not in record["notes"]]
     plot_files, shot_files = [], []
-    if cfg.get("plots"):
+    want_plots = bool(cfg.get("plots"))
+    want_shots = bool(cfg.get("screenshots")) and not record.get("fields_not_applicable")    # e.g. no mesh (matrices)
+    if "dolfinx.cpp" in sys.modules and (want_plots or want_shots):
+        # after a run: two child processes draw the plots and the screenshots at the same time
+        plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
+                                                   want_plots, want_shots)
+    if want_plots and "dolfinx.cpp" not in sys.modules:
         with stages(PICTURE_STAGES[0]), _survive("plots", notes):
             from app.outputs.plots import draw_plots
             _remove_old(outdir / "plots", ("*.png", "*.svg"))
             plot_files, n = draw_plots(results, pictured, outdir / "plots")
             notes += n
-    if cfg.get("screenshots") and not record.get("fields_not_applicable"):    # e.g. no mesh (matrices)
+    if want_shots and "dolfinx.cpp" not in sys.modules:
         with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
             from app.outputs.screenshots import draw_screenshots
             _remove_old(outdir / "screenshots", ("*.png",))
@@ -99,6 +108,128 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     return drawn
 
 
+def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, progress, stages,
+                      notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
+    """Plots and screenshots drawn by two child processes at once (app/outputs/worker.py: VTK cannot
+    run next to DOLFINx; the children started by :func:`prestarted` are already warm, and those
+    given their job during the run (:func:`pictures_before_fields`, :func:`draw_after_run`) are
+    drawing). Each picture stage records the drawing time its child reports."""
+    from app.outputs import worker
+    from app.outputs.screenshots import job_of, resolution_arg
+    t0 = time.perf_counter()
+    shots_cfg = cfg.get("screenshots") or {}
+    job = outdir / f".pictures-job-{os.getpid()}.json"
+    running, out = [], {}
+    try:
+        with _survive("plots and screenshots", notes):
+            if want_plots and "plots" not in _EARLY:    # (plots started early are being drawn now)
+                _remove_old(outdir / "plots", ("*.png", "*.svg"))
+            if want_shots and "screenshots" not in _EARLY:
+                _remove_old(outdir / "screenshots", ("*.png",))
+            if (want_plots and "plots" not in _EARLY) or (want_shots and "screenshots" not in _EARLY):
+                data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
+                              progress)
+                job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
+            for stage, kind, want, arg in ((PICTURE_STAGES[1], "screenshots", want_shots, resolution_arg(shots_cfg)),
+                                           (PICTURE_STAGES[0], "plots", want_plots, "")):
+                if want:
+                    running.append((stage, _EARLY.pop(kind, None) or worker.take(kind, arg).submit(job)))
+            worker.close_unused()
+            for stage, child in running:
+                files, n, seconds = child.wait()
+                notes += n
+                out[stage] = files
+                stages.records[stage] = {"name": stage, "count": 1,
+                                         "seconds": time.perf_counter() - t0 if seconds is None else seconds}
+    finally:
+        for _, child in running:
+            child.close()
+        job.unlink(missing_ok=True)
+    log.info("plots and screenshots: %.2f s after the run (drawn at the same time by two processes)",
+             time.perf_counter() - t0)
+    return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
+
+
+# Started during the run (rank 0): "plots" / "screenshots" -> their drawing process, given its job;
+# "job" -> the job file they share (written before the field stage).
+_EARLY: dict = {}
+
+
+def pictures_before_fields(scene, outdir: pathlib.Path | None, progress=None):
+    """For :func:`app.study.run_study` on rank 0: a function that writes the drawing job before the
+    field stage (plots and screenshots need only the states and, for the screenshots, the fields
+    file the stage writes) and hands it to the plots' process at once; None when there is
+    nothing to start. The job holds the data the pictures would get after the run."""
+    outputs = getattr(scene, "outputs", None)
+    if outdir is None or outputs is None or "dolfinx.cpp" not in sys.modules \
+            or not (outputs.plots or outputs.screenshots is not None):
+        return None
+
+    def start(system, out_states: list[dict]) -> None:
+        from app.outputs import worker
+        from app.outputs.results import json_clean
+        from app.outputs.screenshots import job_of
+        try:
+            results = json.loads(json.dumps(json_clean(
+                {"scene": scene.name, "units": system.units, "mu": scene.mu, "analyses_requested": list(scene.analyses),
+                 "scene_config": scene.model_dump(mode="json", exclude_none=True), "states": out_states})))
+            cfg = outputs_config(results)
+            pictured, _ = select_states(results["states"], cfg.get("states") or ["final"])
+            folder = pathlib.Path(outdir)
+            job = folder / f".pictures-job-early-{os.getpid()}.json"
+            _EARLY["job"] = job
+            data = job_of(results, pictured, cfg.get("screenshots") or {}, folder / "screenshots",
+                          folder / "fields" / "fields.npz", progress)
+            job.write_text(json.dumps({**data, "plots_dir": str(folder / "plots")}))
+            if outputs.plots:
+                _EARLY["plots"] = worker.take("plots").submit(job)
+        except Exception:                 # noqa: BLE001 - the pictures are drawn after the run instead
+            log.warning("the pictures could not be started before the fields; drawn after the run", exc_info=True)
+    return start
+
+
+def _screenshots_now(results: dict) -> None:
+    """After the run, before its results are turned into JSON: hand the job written before the
+    field stage to the screenshots' process (the fields file is written now)."""
+    cfg = outputs_config(results)
+    job = _EARLY.get("job")
+    if job is None or "screenshots" in _EARLY or not cfg.get("screenshots") \
+            or (results.get("outputs") or {}).get("fields_not_applicable"):
+        return
+    from app.outputs import worker
+    from app.outputs.screenshots import resolution_arg
+    try:
+        _EARLY["screenshots"] = worker.take("screenshots", resolution_arg(cfg["screenshots"])).submit(job)
+    except Exception:                     # noqa: BLE001 - drawn by a new process later instead
+        log.warning("the screenshots could not be started", exc_info=True)
+
+
+@contextlib.contextmanager
+def prestarted(scene, comm):
+    """Around a study whose results rank 0 will draw: on rank 0, the drawing processes of the
+    plots and the screenshots are started first, so that they import matplotlib and VTK and warm
+    up while the study runs (issue 14); those not used are stopped at the end."""
+    outputs = getattr(scene, "outputs", None)
+    if comm.rank != 0 or outputs is None or not (outputs.plots or outputs.screenshots is not None):
+        yield
+        return
+    from app.outputs import worker
+    try:
+        if outputs.plots:
+            worker.prestart("plots")
+        if outputs.screenshots is not None and getattr(scene.system, "has_fields", False):
+            from app.outputs.screenshots import resolution_arg
+            worker.prestart("screenshots", resolution_arg(outputs.screenshots.model_dump(mode="json")))
+        yield
+    finally:
+        worker.close_unused()
+        job = _EARLY.pop("job", None)
+        while _EARLY:                    # not waited for (the run failed before drawing): stop them
+            _EARLY.popitem()[1].close()
+        if job is not None:
+            job.unlink(missing_ok=True)
+
+
 def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """After a run (rank 0): the results as JSON data, with the pictures drawn if the scene asks.
 
@@ -108,6 +239,7 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     if not wants_pictures(results):
         return results
     from app.outputs.results import json_clean
+    _screenshots_now(results)
     data = json.loads(json.dumps(json_clean(results)))
     draw_outputs(data, outdir, progress)
     return data

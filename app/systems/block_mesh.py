@@ -3,9 +3,13 @@
 Every pattern goes through gmsh the same way: the structured patterns are
 built as exact numpy node/element arrays and handed to gmsh as a discrete
 model, the unstructured one is meshed by gmsh from a built-in geometry.
-The model is written to a ``.msh`` file on rank 0 (cached, written
-atomically), read back into a fresh gmsh model and distributed with
-:func:`dolfinx.io.gmshio.model_to_mesh`.
+The model is written to a ``.msh`` file, read back into a fresh gmsh model,
+and the arrays :func:`dolfinx.io.gmshio.model_to_mesh` would distribute
+(nodes, cells, marked facets) are cached on rank 0 in a ``.npz`` file
+(written atomically, never over an existing file). A cached mesh is read
+with numpy and distributed with :func:`dolfinx.mesh.create_mesh` exactly as
+``model_to_mesh`` does, so gmsh is not even imported (issue 14: 0.2-0.4 s
+of start-up) and the node/cell numbering is the same.
 
 Physical groups (= DOLFINx facet/cell tag values)::
 
@@ -25,12 +29,13 @@ import pathlib
 import tempfile
 import uuid
 
-import dolfinx.io.gmshio
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
+
+from app.systems import mesh_arrays
 
 __all__ = ["AB", "CD", "LATERAL", "CELLS", "PATTERNS", "DEFAULT_CACHE_DIR", "block_mesh",
            "structured_triangulation", "mesh_file_name"]
@@ -150,7 +155,7 @@ def mesh_file_name(length: float, height: float, nx: int, ny: int, pattern: str,
         readable = f"unstructured_h{mesh_size:g}"
     else:
         readable = f"{pattern}_{nx}x{ny}"
-    return f"block_{readable}_{length:g}x{height:g}_{digest}.msh"
+    return f"block_{readable}_{length:g}x{height:g}_{digest}.npz"
 
 
 def gmsh_is_initialized(gmsh) -> bool:
@@ -231,41 +236,56 @@ def _add_unstructured_model(gmsh, length: float, height: float, mesh_size: float
     gmsh.model.mesh.renumberElements()
 
 
-def _write_msh_atomically(gmsh, path: pathlib.Path) -> None:
-    """Write the current gmsh model to ``path`` via a temporary file and os.replace."""
-    # gmsh picks the format from the extension, so the temporary name ends in .msh
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp.msh")
+def _generate(length: float, height: float, nx: int, ny: int, pattern: str,
+              mesh_size: float | None) -> mesh_arrays.MeshArrays:
+    """Build the block's gmsh model, write it to a temporary ``.msh``, read it back into a fresh
+    model and extract the arrays ``model_to_mesh`` distributes (rank-0 only; imports gmsh)."""
+    import gmsh
+    initialized_here = False
+    if not gmsh_is_initialized(gmsh):
+        gmsh.initialize()
+        initialized_here = True
+    previous = gmsh.model.getCurrent() if not initialized_here else None
+    names = []
     try:
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.option.setNumber("Mesh.SaveAll", 0)
-        gmsh.write(str(tmp))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
-def _ensure_msh_file(gmsh, path: pathlib.Path, length: float, height: float, nx: int, ny: int,
-                     pattern: str, mesh_size: float | None) -> None:
-    """Generate the mesh file ``path`` unless it exists (rank-0 only)."""
-    if path.exists():
-        return
-    path.parent.mkdir(parents=True, exist_ok=True)
-    previous = gmsh.model.getCurrent()
-    name = f"block_build_{uuid.uuid4().hex[:8]}"
-    gmsh.model.add(name)
-    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        names.append(f"block_build_{uuid.uuid4().hex[:8]}")
+        gmsh.model.add(names[-1])
         if pattern == "unstructured":
             _add_unstructured_model(gmsh, length, height, mesh_size)
         else:
             _add_structured_model(gmsh, length, height, nx, ny, pattern)
-        _write_msh_atomically(gmsh, path)
+        with tempfile.TemporaryDirectory(prefix="block-mesh-") as tmp:
+            msh = pathlib.Path(tmp) / "block.msh"     # gmsh picks the format from the extension
+            gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+            gmsh.option.setNumber("Mesh.Binary", 0)
+            gmsh.option.setNumber("Mesh.SaveAll", 0)
+            gmsh.write(str(msh))
+            names.append(f"block_{uuid.uuid4().hex[:8]}")
+            gmsh.model.add(names[-1])
+            gmsh.merge(str(msh))
+        return mesh_arrays.extract(gmsh)
     finally:
-        gmsh.model.setCurrent(name)
-        gmsh.model.remove()
-        if previous in gmsh.model.list():
-            gmsh.model.setCurrent(previous)
+        if initialized_here:
+            gmsh.finalize()
+        else:
+            for name in names:
+                if name in gmsh.model.list():
+                    gmsh.model.setCurrent(name)
+                    gmsh.model.remove()
+            if previous in gmsh.model.list():
+                gmsh.model.setCurrent(previous)
+
+
+def _cached_arrays(path: pathlib.Path, length: float, height: float, nx: int, ny: int, pattern: str,
+                   mesh_size: float | None) -> mesh_arrays.MeshArrays:
+    """The mesh arrays of ``path`` (numpy only), generated and cached first if the file is missing."""
+    if path.exists():
+        return mesh_arrays.load(path)
+    arrays = _generate(length, height, nx, ny, pattern, mesh_size)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mesh_arrays.save(arrays, path)
+    return arrays
 
 
 def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, pattern: str,
@@ -273,9 +293,9 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
                cache_dir: pathlib.Path | None = None) -> tuple[dolfinx.mesh.Mesh, MeshTags_int32]:
     """Distributed triangular mesh of the block with tagged facets (collective).
 
-    The mesh is generated on rank 0 of ``comm`` as a gmsh model, cached in
-    ``cache_dir`` as a ``.msh`` file (reused if present), read back and
-    distributed over ``comm``.
+    The mesh is generated on rank 0 of ``comm`` with gmsh and its arrays cached in ``cache_dir``
+    as a ``.npz`` file (reused if present: gmsh is then not imported), and distributed over
+    ``comm`` as :func:`dolfinx.io.gmshio.model_to_mesh` would (app/systems/mesh_arrays.py).
 
     Args:
         comm: MPI communicator of the mesh.
@@ -286,7 +306,7 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
         pattern: One of :data:`PATTERNS`.
         mesh_size: Target element size (required for "unstructured",
             ignored otherwise).
-        cache_dir: Directory of the cached ``.msh`` files (None: the install folder's
+        cache_dir: Directory of the cached ``.npz`` files (None: the install folder's
             ``meshes/`` if writable, else the user's cache folder, :func:`mesh_cache_path`).
 
     Returns:
@@ -305,51 +325,23 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
         if nx < 1 or ny < 1:
             raise ValueError(f"nx and ny must be positive, got nx={nx}, ny={ny}")
 
-    import gmsh
-
     root = 0
     name = mesh_file_name(length, height, nx, ny, pattern, mesh_size)
     path = pathlib.Path(cache_dir) / name if cache_dir is not None else None
 
-    # Rank 0 generates or reads the file into a fresh gmsh model; errors are
-    # broadcast so that no rank is left waiting in model_to_mesh.
-    error = None
-    initialized_here = False
-    model_name = None
+    # Rank 0 reads (or generates and caches) the arrays; errors are broadcast so that no rank
+    # is left waiting in the distribution.
+    error, arrays = None, None
     if comm.rank == root:
         try:
-            if not gmsh_is_initialized(gmsh):
-                gmsh.initialize()
-                initialized_here = True
-            gmsh.option.setNumber("General.Terminal", 0)
-            if path is None:
-                path = mesh_cache_path(name)
-            _ensure_msh_file(gmsh, path, length, height, nx, ny, pattern, mesh_size)
-            model_name = f"block_{uuid.uuid4().hex[:8]}"
-            gmsh.model.add(model_name)
-            gmsh.merge(str(path))
+            arrays = _cached_arrays(path if path is not None else mesh_cache_path(name), length, height, nx, ny,
+                                    pattern, mesh_size)
         except Exception as e:  # noqa: BLE001 -- re-raised on every rank below
             error = f"{type(e).__name__}: {e}"
-    error = comm.bcast(error, root=root)
+    error = comm.bcast(error, root=root)                                 # MPI collective
     if error is not None:
-        if comm.rank == root:
-            _cleanup_gmsh(gmsh, model_name, initialized_here)
         raise RuntimeError(f"block_mesh: mesh generation failed on rank {root}: {error}")
-
-    try:
-        mesh, _cell_tags, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model, comm, root, gdim=2)
-    finally:
-        if comm.rank == root:
-            _cleanup_gmsh(gmsh, model_name, initialized_here)
+    mesh, _cell_tags, facet_tags = mesh_arrays.build(comm, arrays, root, gdim=2)     # MPI collective
     mesh.name = pathlib.Path(name).stem
     facet_tags.name = "facet_tags"
     return mesh, facet_tags
-
-
-def _cleanup_gmsh(gmsh, model_name: str | None, finalize: bool) -> None:
-    """Remove the model read by block_mesh and finalize gmsh if block_mesh initialized it."""
-    if finalize:
-        gmsh.finalize()
-    elif model_name is not None and model_name in gmsh.model.list():
-        gmsh.model.setCurrent(model_name)
-        gmsh.model.remove()
