@@ -56,6 +56,7 @@ class BodyOperators:
     params: dict[tuple, int]                  # (kind, curve, component) -> index
     contact_dofs: np.ndarray                  # (n, 2) reduced DOFs (u_T, u_N) of the contact nodes
     contact_xy: np.ndarray                    # (n, 2) coordinates
+    contact_edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))   # (m, 2, 2) facet ends
     mass_form: object = None
     mass_kind: str = "consistent"
     _M: PETSc.Mat | None = field(default=None, repr=False)
@@ -225,6 +226,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
 
     # Contact nodes: owned, not prescribed, on the contact curve; gathered and sorted along t
     tvec, nvec = cfg.obstacle.frame()
+    edges = _contact_edges(mesh, facets(cfg.contact), comm)                       # MPI collective
     cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
     cblocks = cblocks[cblocks < im.size_local]
     keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
@@ -268,8 +270,95 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         f.destroy()
         loads.append(g)
     return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
-                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy,
+                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
                          mass_form=m, mass_kind=cfg.mass)
+
+
+def _contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+    """End points of every facet of the contact curve, gathered on every rank, each once
+    (MPI collective). The mesh is affine, so a P2 mid-side node is the mean of its ends."""
+    top = mesh.topology
+    top.create_connectivity(1, 0)
+    top.create_connectivity(2, 0)
+    c2v = top.connectivity(2, 0).array.reshape(-1, 3)
+    geo_of_vertex = np.empty(int(c2v.max()) + 1 if c2v.size else 0, dtype=np.int64)
+    geo_of_vertex[c2v.ravel()] = mesh.geometry.dofmap.array.reshape(-1, 3)[:len(c2v)].ravel()   # affine P1 geometry
+    f2v = top.connectivity(1, 0)
+    verts = np.array([f2v.links(f) for f in facet_ids], dtype=np.int64).reshape(-1, 2)
+    ends = mesh.geometry.x[geo_of_vertex[verts.ravel()], :2].reshape(-1, 2, 2)
+    allends = np.concatenate([e.reshape(-1, 2, 2) for e in comm.allgather(ends)])      # MPI collective
+    key = np.round(np.sort(allends.reshape(-1, 4), axis=1), 12)
+    _, first = np.unique(key, axis=0, return_index=True)
+    return allends[np.sort(first)]
+
+
+@dataclass
+class ContactRecovery:
+    """Tractions from nodal reactions on the contact curve (contact nodes in the order of ``xy``).
+
+    ``M``: boundary mass matrix ``int phi_i phi_j ds`` of the displacement space (element matrices
+    ``L/6 [[2, 1], [1, 2]]`` for P1, ``L/30 [[4, -1, 2], [-1, 4, 2], [2, 2, 16]]`` for P2: ends,
+    mid-side node), so ``r = t M p`` for a traction ``p`` in that space (t the thickness): the
+    consistent recovery ``p = M^-1 r / t``. For P2 a vertex carries ``L/3`` and a mid-side node ``2L/3``
+    (nodal reaction / tributary length is 30 % off), and the consistent recovery of node-wise
+    contact reactions alternates between vertex and mid-side nodes; ``C`` (P2 only) maps a P1
+    traction on the vertices to P2 nodal forces, ``C_ij = int phi_i psi_j ds``, and ``I``
+    interpolates it to every contact node: ``p = I argmin |t C q - r|`` is the smooth recovery.
+    Curve nodes outside the contact set (a prescribed component) are left out."""
+    M: np.ndarray
+    C: np.ndarray | None = None
+    I: np.ndarray | None = None
+
+    def tractions(self, thickness: float, r: np.ndarray) -> dict[str, np.ndarray]:
+        """Recovered tractions of nodal reactions ``r`` (one row per state, one column per node)."""
+        import scipy.linalg
+        r = np.atleast_2d(r)
+        out = {"consistent": scipy.linalg.cho_solve(scipy.linalg.cho_factor(self.M), r.T).T / thickness}
+        if self.C is not None:
+            q = np.linalg.lstsq(thickness * self.C, r.T, rcond=None)[0]
+            out["vertex_fit"] = (self.I @ q).T
+        return out
+
+
+def contact_recovery(edges: np.ndarray, xy: np.ndarray, degree: int) -> ContactRecovery:
+    """The :class:`ContactRecovery` of the contact curve's facets ``edges`` (end points)."""
+    from scipy.spatial import cKDTree
+    n = len(xy)
+    M = np.zeros((n, n))
+    if n == 0 or len(edges) == 0:
+        return ContactRecovery(M)
+    size = max(float(np.ptp(xy, axis=0).max()), float(np.abs(edges).max()), 1e-300)
+    pts = [edges[:, 0], edges[:, 1]] + ([0.5 * (edges[:, 0] + edges[:, 1])] if degree == 2 else [])
+    tree = cKDTree(xy)
+    idx = []
+    for q in pts:
+        dist, j = tree.query(q)
+        idx.append(np.where(dist <= 1e-9 * size, j, -1))
+    idx = np.column_stack(idx)
+    L = np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1)
+    Me = (np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0 if degree == 1 else
+          np.array([[4.0, -1.0, 2.0], [-1.0, 4.0, 2.0], [2.0, 2.0, 16.0]]) / 30.0)
+    for e in range(len(edges)):
+        for a in range(idx.shape[1]):
+            for b in range(idx.shape[1]):
+                if idx[e, a] >= 0 and idx[e, b] >= 0:
+                    M[idx[e, a], idx[e, b]] += L[e] * Me[a, b]
+    if degree == 1:
+        return ContactRecovery(M)
+    verts = np.unique(idx[:, :2][idx[:, :2] >= 0])
+    col = {int(v): j for j, v in enumerate(verts)}
+    C, Ip = np.zeros((n, len(verts))), np.zeros((n, len(verts)))
+    Ce = np.array([[1.0, 0.0], [0.0, 1.0], [2.0, 2.0]]) / 6.0     # rows: ends, mid; columns: the P1 hats
+    for e in range(len(edges)):
+        for a in range(3):
+            for b in range(2):
+                if idx[e, a] >= 0 and idx[e, b] >= 0:
+                    C[idx[e, a], col[int(idx[e, b])]] += L[e] * Ce[a, b]
+                    if a == 2:
+                        Ip[idx[e, 2], col[int(idx[e, b])]] = 0.5
+    for v, j in col.items():
+        Ip[v, j] = 1.0
+    return ContactRecovery(M, C, Ip)
 
 
 def _contact_columns(flex, loads: list[PETSc.Vec], K: PETSc.Mat) -> np.ndarray:
@@ -335,7 +424,8 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
                                  f"{tuple(cfg.obstacle.point)} with outward normal {tuple(np.round(nvec, 12))}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
-                    "params": ops.params, "contact_xy": ops.contact_xy}
+                    "params": ops.params, "contact_xy": ops.contact_xy,
+                    "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
     return system
 
 
@@ -391,4 +481,22 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             system.destroy()
             raise UnreachableLoad(str(err)) from None
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
+    _add_tractions(cfg, system.extra["recovery"], states)
     return system, states, info
+
+
+def _add_tractions(cfg: GmshBody, rec: ContactRecovery, states: list) -> None:
+    """Each state's contact pressure ``p_N`` and tangential traction ``p_T`` per contact node [stress]
+    (results.json ``contact_traction``), recovered from the nodal reactions (:class:`ContactRecovery`):
+    the consistent recovery, and for P2 also the smooth vertex fit (``p_N_vertex_fit``)."""
+    if not states or not np.all(np.diag(rec.M) > 0):
+        return
+    pN = rec.tractions(cfg.thickness, -np.array([s.r_N for s in states]))
+    pT = rec.tractions(cfg.thickness, np.array([s.r_T for s in states]))
+    for i, st in enumerate(states):
+        out = {"p_N": [float(v) for v in pN["consistent"][i]], "p_T": [float(v) for v in pT["consistent"][i]],
+               "recovery": f"consistent (P{cfg.degree} boundary mass matrix of the contact curve)"}
+        if "vertex_fit" in pN:
+            out.update(p_N_vertex_fit=[float(v) for v in pN["vertex_fit"][i]],
+                       p_T_vertex_fit=[float(v) for v in pT["vertex_fit"][i]])
+        st.extra["contact_traction"] = out
