@@ -147,7 +147,7 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
                                                                    "violation": inc.violation}})
                     states.append(st)
                     bar.update(1)
-                    if ph.stop_at_gross_sliding:
+                    if ph.stop_at_gross_sliding and mu > 0:     # frictionless: "slip" is every contact
                         cls = classify(st, mu, classify_rtol)
                         contact = [s for s in cls.status if s != FREE]
                         if contact and all(s == SLIP for s in contact):

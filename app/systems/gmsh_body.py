@@ -57,6 +57,7 @@ class BodyOperators:
     contact_dofs: np.ndarray                  # (n, 2) reduced DOFs (u_T, u_N) of the contact nodes
     contact_xy: np.ndarray                    # (n, 2) coordinates
     contact_edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))   # (m, 2, 2) facet ends
+    deepest: tuple = (np.inf, (0.0, 0.0), 1.0)    # (smallest clearance (p - x).n of any node, that node, body size)
     mass_form: object = None
     mass_kind: str = "consistent"
     _M: PETSc.Mat | None = field(default=None, repr=False)
@@ -225,8 +226,16 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     K_full.destroy()
 
     # Contact nodes: owned, not prescribed, on the contact curve; gathered and sorted along t
-    tvec, nvec = cfg.obstacle.frame()
     edges = _contact_edges(mesh, facets(cfg.contact), comm)                       # MPI collective
+    # the whole body must start on its side of the obstacle line (not only the contact curve)
+    tvec, nvec = cfg.obstacle.frame()
+    clear = (np.array(cfg.obstacle.point) - dof_x) @ nvec
+    i = int(np.argmin(clear)) if len(clear) else 0
+    mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
+    deepest = min(comm.allgather(mine), key=lambda c: c[0])                     # MPI collective
+    lo = comm.allreduce(dof_x.min(axis=0) if len(dof_x) else np.full(2, np.inf), op=MPI.MIN)    # MPI collective
+    hi = comm.allreduce(dof_x.max(axis=0) if len(dof_x) else np.full(2, -np.inf), op=MPI.MAX)   # MPI collective
+    deepest = (*deepest, float(np.max(hi - lo)))
     cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
     cblocks = cblocks[cblocks < im.size_local]
     keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
@@ -271,6 +280,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         loads.append(g)
     return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
                          contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
+                         deepest=deepest,
                          mass_form=m, mass_kind=cfg.mass)
 
 
@@ -415,6 +425,12 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         i = int(np.argmin(gaps))
         raise BodyError(f"system.obstacle: the contact node at ({ops.contact_xy[i, 0]:.6g}, {ops.contact_xy[i, 1]:.6g}) "
                         f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
+    depth, where, body = ops.deepest
+    if depth < -1e-10 * body:
+        raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line: its node at "
+                        f"({where[0]:.6g}, {where[1]:.6g}) is {-depth:.3g} beyond it (line through "
+                        f"{tuple(cfg.obstacle.point)}, outward normal {tuple(np.round(nvec, 6))}): the normal must "
+                        "point from the body into the obstacle, and no part of the body may start inside it")
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
     u = UNITS[units]
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,

@@ -104,7 +104,8 @@ class Phase(StrictModel):
     force: dict[str, Vec2] = Field({}, description="total force increments, spread uniformly over curves [force]")
     gravity: Optional[Vec2] = Field(None, description="acceleration increment of the body force [length/time^2]")
     until: Optional[Until] = Field(None, description="force control: scale the phase's motion to reach it")
-    stop_at_gross_sliding: bool = Field(True, description="end the path when every node in contact slips")
+    stop_at_gross_sliding: bool = Field(True, description="end the path when every node in contact slips "
+                                        "(never with mu = 0, where every node in contact slips)")
 
 
 class GmshBody(StrictModel):
