@@ -183,6 +183,9 @@ def _err_scene(file, **system):
     (GOOD, {"program": [{"steps": 2, "force": {"top": [0, -1]}}], "prescribed": {}},
      "the stiffness is singular"),
     (GOOD, {"obstacle": {"point": [0, 1], "normal": [0, -1]}}, "inside the obstacle"),
+    # the normal points into the body (the contact curve is on the line, the rest of the body beyond it)
+    (GOOD, {"obstacle": {"point": [0, 0], "normal": [0, 1]}}, "the body starts on the obstacle's side of the line"),
+    (GOOD, {"obstacle": {"point": [5, -3], "angle_deg": 180}}, "the body starts on the obstacle's side of the line"),
 ])
 def test_user_mistakes_are_one_line_errors(tmp_path, geo, system, needle):
     import yaml

@@ -421,16 +421,16 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
     gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
     gaps[np.abs(gaps) <= 1e-10 * size] = 0.0
-    if np.any(gaps < 0):
-        i = int(np.argmin(gaps))
-        raise BodyError(f"system.obstacle: the contact node at ({ops.contact_xy[i, 0]:.6g}, {ops.contact_xy[i, 1]:.6g}) "
-                        f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
     depth, where, body = ops.deepest
-    if depth < -1e-10 * body:
+    if depth < -1e-10 * body and depth < min(float(np.min(gaps)), 0.0) - 1e-10 * body:
         raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line: its node at "
                         f"({where[0]:.6g}, {where[1]:.6g}) is {-depth:.3g} beyond it (line through "
                         f"{tuple(cfg.obstacle.point)}, outward normal {tuple(np.round(nvec, 6))}): the normal must "
                         "point from the body into the obstacle, and no part of the body may start inside it")
+    if np.any(gaps < 0):
+        i = int(np.argmin(gaps))
+        raise BodyError(f"system.obstacle: the contact node at ({ops.contact_xy[i, 0]:.6g}, {ops.contact_xy[i, 1]:.6g}) "
+                        f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
     u = UNITS[units]
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
