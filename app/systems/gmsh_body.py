@@ -233,8 +233,9 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     i = int(np.argmin(clear)) if len(clear) else 0
     mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
     deepest = min(comm.allgather(mine), key=lambda c: c[0])                     # MPI collective
-    lo = comm.allreduce(dof_x.min(axis=0) if len(dof_x) else np.full(2, np.inf), op=MPI.MIN)    # MPI collective
-    hi = comm.allreduce(dof_x.max(axis=0) if len(dof_x) else np.full(2, -np.inf), op=MPI.MAX)   # MPI collective
+    box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
+                                  else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
+    lo, hi = box[:, :2].min(axis=0), box[:, 2:].max(axis=0)
     deepest = (*deepest, float(np.max(hi - lo)))
     cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
     cblocks = cblocks[cblocks < im.size_local]
