@@ -311,3 +311,20 @@ def test_unnamed_physical_groups_are_named_by_their_tags(tmp_path):
                                 "materials": {5: {"E": 1.0, "nu": 0.3}},
                                 "program": [{"steps": 2, "displacement": {12: {"translation": [0, -0.1]}}}]}})
     assert len(res["states"]) == 2 and res["states"][-1]["load"]["normal_resultant"] > 0
+
+
+def test_until_scales_the_motion_not_the_loads_of_its_phase(tmp_path):
+    """``until: normal_force`` scales the phase's prescribed motion only: a force applied in the same
+    phase is applied as given (it used to be multiplied by the same factor)."""
+    (tmp_path / "m.geo").write_text(GOOD + 'Physical Curve("sides") = {2, 4};\n')
+    s = _err_scene("m.geo")
+    s["system"]["program"] = [{"steps": 2, "displacement": {"top": {"translation": [0, -1]}}, "force": {"sides": [0.05, 0]},
+                               "until": {"normal_force": 2.0}}]
+    s["analyses"] = []
+    s["system"]["file"] = str(tmp_path / "m.geo")
+    res = run_scene(s)
+    end = res["states"][-1]["load"]
+    assert end["normal_resultant"] == pytest.approx(2.0, rel=1e-10)
+    assert end["parameters"]["force.sides.x"] == pytest.approx(0.05, rel=1e-14)
+    assert res["path"]["phases"][0]["homogeneous"] is False
+    assert abs(end["parameters"]["motion.top.ty"]) != pytest.approx(1.0, rel=1e-6)     # the motion was scaled

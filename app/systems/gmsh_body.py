@@ -450,7 +450,8 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
     P = len(params)
     out = []
     for i, ph in enumerate(cfg.program):
-        da = np.zeros(P)
+        da = np.zeros(P)            # motions of prescribed curves (what `until` scales)
+        fixed = np.zeros(P)         # loads: forces, tractions, gravity
         for name, mo in ph.displacement.items():
             th = np.radians(mo.rotation_deg)
             tx = mo.translation[0] + th * mo.about[1]
@@ -460,17 +461,17 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
                     da[params[("motion", name, kind)]] += val
         for kind in ("traction", "force"):
             for name, vec in getattr(ph, kind).items():
-                da[params[(kind, name, "x")]] += vec[0]
-                da[params[(kind, name, "y")]] += vec[1]
+                fixed[params[(kind, name, "x")]] += vec[0]
+                fixed[params[(kind, name, "y")]] += vec[1]
         if ph.gravity is not None:
-            da[params[("gravity", "", "x")]] += ph.gravity[0]
-            da[params[("gravity", "", "y")]] += ph.gravity[1]
+            fixed[params[("gravity", "", "x")]] += ph.gravity[0]
+            fixed[params[("gravity", "", "y")]] += ph.gravity[1]
         names = {v: k for k, v in params.items()}
 
         def describe(a: np.ndarray, names=names) -> dict:
             return {"parameters": {".".join(x for x in names[j] if x): float(a[j]) for j in range(len(a)) if a[j] != 0}}
 
-        out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da,
+        out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da, fixed=fixed,
                                 normal_force=ph.until.normal_force if ph.until else None,
                                 stop_at_gross_sliding=ph.stop_at_gross_sliding, describe=describe))
     return out
