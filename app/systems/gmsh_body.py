@@ -60,6 +60,7 @@ class BodyOperators:
     deepest: tuple = (np.inf, (0.0, 0.0), 1.0)    # (smallest clearance (p - x).n of any node, that node, body size)
     mass_form: object = None
     mass_kind: str = "consistent"
+    degree: int = 1
     _M: PETSc.Mat | None = field(default=None, repr=False)
 
     def mass(self) -> PETSc.Mat:
@@ -69,7 +70,14 @@ class BodyOperators:
         try:
             M_full.assemble()
             if self.mass_kind == "lumped":
-                d = M_full.getRowSum()
+                # P1: row sums. P2: row sums vanish at the vertices (singular M), so the HRZ lumping:
+                # the diagonal scaled to keep each element's mass, for affine P2 triangles the
+                # constant factor 30/19 (element diagonal: A/30 per vertex, 8A/45 per mid-side node)
+                if self.degree == 2:
+                    d = M_full.getDiagonal()
+                    d.scale(30.0 / 19.0)
+                else:
+                    d = M_full.getRowSum()
                 M_full.zeroEntries()
                 M_full.setDiagonal(d)
                 d.destroy()
@@ -282,7 +290,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
                          contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
                          deepest=deepest,
-                         mass_form=m, mass_kind=cfg.mass)
+                         mass_form=m, mass_kind=cfg.mass, degree=cfg.degree)
 
 
 def _contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
