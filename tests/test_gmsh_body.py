@@ -351,3 +351,21 @@ def test_lumped_mass_is_positive_and_keeps_the_mass(tmp_path, degree):
     d = np.diag(M)
     assert np.all(d > 1e-3 * d.max()) and np.abs(M - np.diag(d)).max() == 0.0
     assert d.sum() / 2 == pytest.approx(2.5 * 1.0 * 40 * 20, rel=1e-12)
+
+
+def test_named_physical_groups_may_be_given_by_their_tags(tmp_path):
+    """``Physical Curve("bottom") = {1}`` has the tag 1: ``contact: 1`` names it as ``contact: bottom``
+    (it was an error: "no physical curve '1'"), for curves, prescribed curves, materials and phases."""
+    from app.systems.gmsh_mesh import model_info
+    (tmp_path / "m.geo").write_text(GOOD)
+    info = model_info(tmp_path / "m.geo", "m.geo")
+    bottom, top, body = info.curves["bottom"][0], info.curves["top"][0], info.surfaces["body"][0]
+    named = _err_scene(str(tmp_path / "m.geo"), material=None, materials={"body": {"E": 1.0, "nu": 0.3}})
+    named["system"].pop("material")
+    tagged = _err_scene(str(tmp_path / "m.geo"), contact=bottom, prescribed={top: "xy"}, material=None,
+                        materials={body: {"E": 1.0, "nu": 0.3}},
+                        program=[{"steps": 2, "displacement": {top: {"translation": [0, -0.1]}}}])
+    tagged["system"].pop("material")
+    a, b = run_scene(named), run_scene(tagged)
+    assert [s["load"]["normal_resultant"] for s in a["states"]] == [s["load"]["normal_resultant"] for s in b["states"]]
+    assert a["states"][-1]["load"]["normal_resultant"] > 0
