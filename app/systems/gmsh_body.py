@@ -346,13 +346,14 @@ def contact_recovery(edges: np.ndarray, xy: np.ndarray, degree: int) -> ContactR
     M = np.zeros((n, n))
     if n == 0 or len(edges) == 0:
         return ContactRecovery(M)
-    size = max(float(np.ptp(xy, axis=0).max()), float(np.abs(edges).max()), 1e-300)
+    # matching tolerance: relative to the curve's extent, and to the coordinates' round-off far from the origin
+    tol = 1e-9 * float(np.ptp(edges.reshape(-1, 2), axis=0).max()) + 1e-13 * float(np.abs(edges).max())
     pts = [edges[:, 0], edges[:, 1]] + ([0.5 * (edges[:, 0] + edges[:, 1])] if degree == 2 else [])
     tree = cKDTree(xy)
     idx = []
     for q in pts:
         dist, j = tree.query(q)
-        idx.append(np.where(dist <= 1e-9 * size, j, -1))
+        idx.append(np.where(dist <= tol, j, -1))
     idx = np.column_stack(idx)
     L = np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1)
     Me = (np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0 if degree == 1 else
