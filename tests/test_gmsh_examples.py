@@ -86,9 +86,9 @@ def test_shipped_scenes_validate_from_any_folder(scene):
     assert p.returncode == 0, p.stderr
 
 
-@pytest.mark.parametrize("alpha,mu,step,k", [(25.0, 0.505, 51, None), (25.0, 0.305, 31, None), (-40.0, 0.705, 71, None),
+@pytest.mark.parametrize("alpha,mu,step,found", [(25.0, 0.505, 51, None), (25.0, 0.305, 31, None), (-40.0, 0.705, 71, None),
                                               (25.0, 0.505, 51, 3.0e-7), (10.0, 0.125, 13, 3.0e-9)])
-def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, k):
+def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, found):
     """Gravity tilted by tan(theta) = 0.01 per step against the incline's normal: the path ends by
     gross sliding (every node in contact slips) at the first step with tan(theta) > mu, and not
     before; the incline (mesh and obstacle) is at any angle. With a weak foundation k = 1e-4 and
@@ -105,8 +105,8 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, 
     s["system"]["program"][1]["gravity"] = [-g * t[0], -g * t[1]]
     s["mu"] = mu
     s["analyses"] = []
-    if k is not None:
-        s["system"]["foundation"] = k
+    if found is not None:
+        s["system"]["foundation"] = found
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
     p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
@@ -119,7 +119,8 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, 
         normal = -sum(x["r_N"] for x in st["nodes"])
         # the obstacle carries the weight; the foundation (1e-2 E / L^2) takes a fraction below 1 %
         # (0.3 % of the tangential load once most nodes slip): far below the 2 % load step
-        assert normal == pytest.approx(weight, rel=2e-3)
+        # (with k = 1e-4, 1e-6 E / L^2: a fraction of the order of 1e-5, 1e-7)
+        assert normal == pytest.approx(weight, rel=2e-3 if found is None else 1e-4)
         if k < step:
             assert tangential == pytest.approx(0.01 * k * weight, rel=1e-2, abs=1e-3 * weight)
             assert any(x["status"] == "stick" for x in st["nodes"])
