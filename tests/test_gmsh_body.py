@@ -369,3 +369,16 @@ def test_named_physical_groups_may_be_given_by_their_tags(tmp_path):
     a, b = run_scene(named), run_scene(tagged)
     assert [s["load"]["normal_resultant"] for s in a["states"]] == [s["load"]["normal_resultant"] for s in b["states"]]
     assert a["states"][-1]["load"]["normal_resultant"] > 0
+
+
+def test_contact_nodes_with_one_prescribed_component_are_reported(tmp_path):
+    """A symmetry line held in x through the contact curve: its node on the contact curve is left
+    out of the contact set (not modelled: a normal-only contact node); the results say so."""
+    (tmp_path / "m.geo").write_text(GOOD + 'Physical Curve("sym") = {4};\n')
+    s = _err_scene(str(tmp_path / "m.geo"), prescribed={"sym": "x"}, foundation=1e-6,
+                   program=[{"steps": 2, "force": {"top": [0, -0.1]}}])
+    s["analyses"] = []
+    res = run_scene(s)
+    assert all(n["x"] > 0 for n in res["states"][0]["nodes"])
+    w = [x for x in res["warnings"] if "left out of the contact set" in x]
+    assert len(w) == 1 and w[0].startswith("1 node(s) of the contact curve 'bottom'") and "(0, 0)" in w[0], res["warnings"]

@@ -58,6 +58,7 @@ class BodyOperators:
     contact_xy: np.ndarray                    # (n, 2) coordinates
     contact_edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))   # (m, 2, 2) facet ends
     deepest: tuple = (np.inf, (0.0, 0.0), 1.0)    # (smallest clearance (p - x).n of any node, that node, body size)
+    left_out: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))   # contact-curve nodes with one prescribed component
     mass_form: object = None
     mass_kind: str = "consistent"
     degree: int = 1
@@ -248,6 +249,8 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
     cblocks = cblocks[cblocks < im.size_local]
     keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
+    half = keep ^ ((reduced[cblocks * bs] >= 0) | (reduced[cblocks * bs + 1] >= 0))   # one component prescribed
+    left_out = np.concatenate([g.reshape(-1, 2) for g in comm.allgather(dof_x[cblocks[half]])])   # MPI collective
     cblocks = cblocks[keep]
     local = (dof_x[cblocks], reduced[cblocks * bs], reduced[cblocks * bs + 1])
     gathered = comm.allgather(local)                                # MPI collective
@@ -289,8 +292,13 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         loads.append(g)
     return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
                          contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
-                         deepest=deepest,
+                         deepest=deepest, left_out=left_out,
                          mass_form=m, mass_kind=cfg.mass, degree=cfg.degree)
+
+
+def _point(xy, size: float) -> str:
+    """``(x, y)`` for messages, coordinates at round-off of the body's size shown as 0."""
+    return "(" + ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, xy)) + ")"
 
 
 def _contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
@@ -434,12 +442,12 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     depth, where, body = ops.deepest
     if depth < -1e-10 * body and depth < min(float(np.min(gaps)), 0.0) - 1e-10 * body:
         raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line: its node at "
-                        f"({where[0]:.6g}, {where[1]:.6g}) is {-depth:.3g} beyond it (line through "
+                        f"{_point(where, body)} is {-depth:.3g} beyond it (line through "
                         f"{tuple(cfg.obstacle.point)}, outward normal {tuple(np.round(nvec, 6))}): the normal must "
                         "point from the body into the obstacle, and no part of the body may start inside it")
     if np.any(gaps < 0):
         i = int(np.argmin(gaps))
-        raise BodyError(f"system.obstacle: the contact node at ({ops.contact_xy[i, 0]:.6g}, {ops.contact_xy[i, 1]:.6g}) "
+        raise BodyError(f"system.obstacle: the contact node at {_point(ops.contact_xy[i], body)} "
                         f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
     u = UNITS[units]
@@ -449,6 +457,15 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
                                  f"thickness {cfg.thickness} {u['length']}, {mats}, obstacle through "
                                  f"{tuple(cfg.obstacle.point)} with outward normal {tuple(np.round(nvec, 12))}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
+    if len(ops.left_out):
+        gl = (np.array(cfg.obstacle.point) - ops.left_out) @ nvec
+        i = int(np.argmin(gl))
+        g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.deepest[2] else 0.0
+        w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
+             f"left out of the contact set (not kept out of the obstacle), e.g. {_point(ops.left_out[i], ops.deepest[2])} "
+             f"with initial gap {g:.3g}")
+        log.warning("%s", w)
+        stages.warnings.append(w)
     system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
                     "params": ops.params, "contact_xy": ops.contact_xy,
                     "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
