@@ -382,3 +382,20 @@ def test_contact_nodes_with_one_prescribed_component_are_reported(tmp_path):
     assert all(n["x"] > 0 for n in res["states"][0]["nodes"])
     w = [x for x in res["warnings"] if "left out of the contact set" in x]
     assert len(w) == 1 and w[0].startswith("1 node(s) of the contact curve 'bottom'") and "(0, 0)" in w[0], res["warnings"]
+
+
+def test_part_of_the_body_beyond_the_obstacle_line_is_a_warning(tmp_path):
+    """A body on a ledge: the obstacle is an infinite line, a part hanging beside the ledge starts
+    beyond it. Only the contact curve is kept out of the obstacle: a warning, not an error (an
+    error when most of the body is beyond: the normal points into the body, see the mistakes)."""
+    (tmp_path / "m.geo").write_text("""
+Point(1) = {0, 0, 0, 2}; Point(2) = {20, 0, 0, 2}; Point(3) = {20, -3, 0, 2}; Point(4) = {40, -3, 0, 2};
+Point(5) = {40, 20, 0, 2}; Point(6) = {0, 20, 0, 2};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 5}; Line(5) = {5, 6}; Line(6) = {6, 1};
+Curve Loop(1) = {1, 2, 3, 4, 5, 6}; Plane Surface(1) = {1};
+Physical Curve("bottom") = {1}; Physical Curve("top") = {5}; Physical Surface("body") = {1};
+""")
+    s = _err_scene(str(tmp_path / "m.geo"))
+    s["analyses"] = []
+    res = run_scene(s)
+    assert any("part of the body starts beyond the obstacle line" in w for w in res["warnings"]), res["warnings"]

@@ -57,7 +57,8 @@ class BodyOperators:
     contact_dofs: np.ndarray                  # (n, 2) reduced DOFs (u_T, u_N) of the contact nodes
     contact_xy: np.ndarray                    # (n, 2) coordinates
     contact_edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))   # (m, 2, 2) facet ends
-    deepest: tuple = (np.inf, (0.0, 0.0), 1.0)    # (smallest clearance (p - x).n of any node, that node, body size)
+    # (smallest clearance (p - x).n of any node, that node, body size, fraction of the nodes beyond the line)
+    deepest: tuple = (np.inf, (0.0, 0.0), 1.0, 0.0)
     left_out: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))   # contact-curve nodes with one prescribed component
     mass_form: object = None
     mass_kind: str = "consistent"
@@ -245,7 +246,11 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
                                   else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
     lo, hi = box[:, :2].min(axis=0), box[:, 2:].max(axis=0)
-    deepest = (*deepest, float(np.max(hi - lo)))
+    body = float(np.max(hi - lo))
+    owned_clear = clear[:im.size_local]
+    beyond = comm.allreduce(int(np.sum(owned_clear < -1e-10 * body)), op=MPI.SUM)    # MPI collective
+    total = comm.allreduce(int(owned_clear.size), op=MPI.SUM)                        # MPI collective
+    deepest = (*deepest, body, beyond / max(total, 1))
     cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
     cblocks = cblocks[cblocks < im.size_local]
     keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
@@ -439,16 +444,21 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
     gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
     gaps[np.abs(gaps) <= 1e-10 * size] = 0.0
-    depth, where, body = ops.deepest
-    if depth < -1e-10 * body and depth < min(float(np.min(gaps)), 0.0) - 1e-10 * body:
-        raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line: its node at "
-                        f"{_point(where, body)} is {-depth:.3g} beyond it (line through "
+    depth, where, body, frac = ops.deepest
+    if depth < -1e-10 * body and frac > 0.5:
+        raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line ({100 * frac:.0f} % of its "
+                        f"nodes, up to {-depth:.3g} beyond it at {_point(where, body)}; line through "
                         f"{tuple(cfg.obstacle.point)}, outward normal {tuple(np.round(nvec, 6))}): the normal must "
-                        "point from the body into the obstacle, and no part of the body may start inside it")
+                        "point from the body into the obstacle")
     if np.any(gaps < 0):
         i = int(np.argmin(gaps))
         raise BodyError(f"system.obstacle: the contact node at {_point(ops.contact_xy[i], body)} "
                         f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
+    if depth < -1e-10 * body:
+        w = (f"part of the body starts beyond the obstacle line ({100 * frac:.2g} % of its nodes, up to {-depth:.3g} at "
+             f"{_point(where, body)}): the line is infinite and only the contact curve '{cfg.contact}' is kept out of it")
+        log.warning("%s", w)
+        stages.warnings.append(w)
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
     u = UNITS[units]
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
