@@ -334,11 +334,12 @@ def test_until_scales_the_motion_not_the_loads_of_its_phase(tmp_path):
 def test_lumped_mass_is_positive_and_keeps_the_mass(tmp_path, degree):
     """mass: lumped gives a positive diagonal M carrying the body's mass rho t A per direction; for
     P2 the row sums vanish at the vertices (a singular M before), so the HRZ lumping is used."""
+    from mpi4py import MPI
+
     from app.analyses.pencils import dense
     from app.config import parse_scene
     from app.stages import Stages
     from app.systems import gmsh_body
-    from mpi4py import MPI
     (tmp_path / "m.geo").write_text(GOOD)
     s = _err_scene(str(tmp_path / "m.geo"), prescribed={}, foundation=1e-6, degree=degree, mass="lumped",
                    material={"E": 1.0, "nu": 0.3, "density": 2.5},
