@@ -513,6 +513,23 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
     return out
 
 
+def _add_tractions(cfg: GmshBody, rec: ContactRecovery, states: list) -> None:
+    """Each state's contact pressure ``p_N`` and tangential traction ``p_T`` per contact node [stress]
+    (results.json ``contact_traction``), recovered from the nodal reactions (:class:`ContactRecovery`):
+    the consistent recovery, and for P2 also the smooth vertex fit (``p_N_vertex_fit``)."""
+    if not states or not np.all(np.diag(rec.M) > 0):
+        return
+    pN = rec.tractions(cfg.thickness, -np.array([s.r_N for s in states]))
+    pT = rec.tractions(cfg.thickness, np.array([s.r_T for s in states]))
+    for i, st in enumerate(states):
+        out = {"p_N": [float(v) for v in pN["consistent"][i]], "p_T": [float(v) for v in pT["consistent"][i]],
+               "recovery": f"consistent (P{cfg.degree} boundary mass matrix of the contact curve)"}
+        if "vertex_fit" in pN:
+            out.update(p_N_vertex_fit=[float(v) for v in pN["vertex_fit"][i]],
+                       p_T_vertex_fit=[float(v) for v in pT["vertex_fit"][i]])
+        st.extra["contact_traction"] = out
+
+
 def path(scene, comm: MPI.Comm, stages: Stages, progress):
     """``(system, states, path_info)`` of a gmsh scene (MPI collective)."""
     from app.loading.program import ProgramError
@@ -537,20 +554,3 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     _add_tractions(cfg, system.extra["recovery"], states)
     return system, states, info
-
-
-def _add_tractions(cfg: GmshBody, rec: ContactRecovery, states: list) -> None:
-    """Each state's contact pressure ``p_N`` and tangential traction ``p_T`` per contact node [stress]
-    (results.json ``contact_traction``), recovered from the nodal reactions (:class:`ContactRecovery`):
-    the consistent recovery, and for P2 also the smooth vertex fit (``p_N_vertex_fit``)."""
-    if not states or not np.all(np.diag(rec.M) > 0):
-        return
-    pN = rec.tractions(cfg.thickness, -np.array([s.r_N for s in states]))
-    pT = rec.tractions(cfg.thickness, np.array([s.r_T for s in states]))
-    for i, st in enumerate(states):
-        out = {"p_N": [float(v) for v in pN["consistent"][i]], "p_T": [float(v) for v in pT["consistent"][i]],
-               "recovery": f"consistent (P{cfg.degree} boundary mass matrix of the contact curve)"}
-        if "vertex_fit" in pN:
-            out.update(p_N_vertex_fit=[float(v) for v in pN["vertex_fit"][i]],
-                       p_T_vertex_fit=[float(v) for v in pT["vertex_fit"][i]])
-        st.extra["contact_traction"] = out
