@@ -400,3 +400,33 @@ Physical Curve("bottom") = {1}; Physical Curve("top") = {5}; Physical Surface("b
     s["analyses"] = []
     res = run_scene(s)
     assert any("part of the body starts beyond the obstacle line" in w for w in res["warnings"]), res["warnings"]
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_traction_recovery_is_exact_on_its_space(degree):
+    """Nodal forces of a traction of the displacement space (P1: linear per edge, P2: quadratic)
+    are recovered exactly by the consistent recovery, a linear one also by the P2 vertex fit;
+    a uniform pressure loads P2 vertices and mid-side nodes 1 : 2 (interior, equal edges)."""
+    from app.systems.contact_traction import contact_recovery
+    rng = np.random.default_rng(3)
+    xv = np.concatenate([[0.0], np.sort(rng.uniform(0, 2, 7)), [2.0]])
+    c, s = math.cos(0.3), math.sin(0.3)                        # a straight curve at 0.3 rad
+    pts = lambda x: np.column_stack([c * x + 5.0, s * x - 1.0])    # noqa: E731
+    edges = np.stack([pts(xv[:-1]), pts(xv[1:])], axis=1)
+    xs = np.sort(np.concatenate([xv, 0.5 * (xv[:-1] + xv[1:])])) if degree == 2 else xv
+    order = rng.permutation(len(xs))                            # any node order
+    rec = contact_recovery(edges, pts(xs[order]), degree)
+    t = 2.5
+    p = (1.0 + 0.3 * xs - 0.7 * xs ** 2 if degree == 2 else 1.0 + 0.3 * xs)[order]
+    r = t * rec.M @ p
+    assert rec.M.sum() == pytest.approx(2.0, rel=1e-12)         # length of the curve
+    got = rec.tractions(t, r)
+    assert got["consistent"][0] == pytest.approx(p, rel=1e-10)
+    if degree == 2:
+        lin = (1.0 + 0.3 * xs)[order]
+        assert rec.tractions(t, t * rec.M @ lin)["vertex_fit"][0] == pytest.approx(lin, rel=1e-10)
+        even = np.linspace(0, 2, 9)
+        e2 = np.stack([pts(even[:-1]), pts(even[1:])], axis=1)
+        x2 = np.linspace(0, 2, 17)
+        u = contact_recovery(e2, pts(x2), 2).M @ np.ones(17)
+        assert u[2] / u[1] == pytest.approx(0.5, rel=1e-12) and u[1] == pytest.approx(2 * 0.25 / 3, rel=1e-12)
