@@ -430,3 +430,29 @@ def test_traction_recovery_is_exact_on_its_space(degree):
         x2 = np.linspace(0, 2, 17)
         u = contact_recovery(e2, pts(x2), 2).M @ np.ones(17)
         assert u[2] / u[1] == pytest.approx(0.5, rel=1e-12) and u[1] == pytest.approx(2 * 0.25 / 3, rel=1e-12)
+
+
+def test_two_materials_in_series_give_the_exact_uniaxial_compliance(tmp_path):
+    """Two physical surfaces (E 2 below y = 8, E 10 above), plane stress, held by a symmetry line
+    (x) and the bottom (y), nu = 0 (no lateral mismatch), a total force F on the top: uniaxial stress, so the top moves by
+    F / (t W) (8 / 2 + 12 / 10) exactly (P1 and P2). The top is the contact curve, 100 below an
+    obstacle it never reaches, so its displacement is reported."""
+    (tmp_path / "m.geo").write_text("""
+Point(1) = {0, 0, 0, 2}; Point(2) = {10, 0, 0, 2}; Point(3) = {10, 8, 0, 2}; Point(4) = {0, 8, 0, 2};
+Point(5) = {10, 20, 0, 2}; Point(6) = {0, 20, 0, 2};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1}; Line(5) = {3, 5}; Line(6) = {5, 6};
+Line(7) = {6, 4};
+Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1}; Curve Loop(2) = {-3, 5, 6, 7}; Plane Surface(2) = {2};
+Physical Curve("bottom") = {1}; Physical Curve("sym") = {4, 7}; Physical Curve("top") = {6};
+Physical Surface("soft") = {1}; Physical Surface("hard") = {2};
+""")
+    for degree in (1, 2):
+        res = run_scene({"name": "s", "mu": 0.0, "analyses": [], "system": {
+            "type": "gmsh", "file": str(tmp_path / "m.geo"), "contact": "top", "prescribed": {"bottom": "y", "sym": "x"},
+            "materials": {"soft": {"E": 2.0, "nu": 0.0}, "hard": {"E": 10.0, "nu": 0.0}}, "degree": degree,
+            "thickness": 1.5, "obstacle": {"point": [0, 120], "normal": [0, 1]},
+            "program": [{"steps": 2, "force": {"top": [0, -3.0]}}]}})
+        top = res["states"][-1]["nodes"]
+        delta = 3.0 / (1.5 * 10) * (8 / 2.0 + 12 / 10.0)
+        assert all(n["status"] == "free" for n in top)
+        assert [n["u_N"] + 100.0 for n in top] == pytest.approx([-delta] * len(top), rel=1e-9)

@@ -128,7 +128,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     Q = dolfinx.fem.FunctionSpace(mesh, ("DG", 0))
     mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
     for name, tag in tag_of_surface.items():
-        cells = cell_tags.indices[cell_tags.values == tag]
+        cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
         mat = cfg.material_of(name)
         mu_v, lam_v = _lame(mat.E, mat.nu, cfg.plane)
         mu_f.x.array[cells] = mu_v
