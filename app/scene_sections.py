@@ -190,7 +190,7 @@ class StateCounts(Strict):
 
 
 class Screenshots(Strict):
-    """Off-screen pyvista pictures of the block (app/outputs/screenshots.py)."""
+    """Off-screen pyvista pictures of the body (app/outputs/screenshots.py)."""
     resolution: tuple[Annotated[int, Field(ge=100, le=8192)], Annotated[int, Field(ge=100, le=8192)]] = (1200, 800)
     field: Literal["displacement", "von_mises"] = "von_mises"
     modes: bool = True               # also draw every divergence mode found at the pictured states
@@ -199,12 +199,12 @@ class Screenshots(Strict):
 
 class Outputs(Strict):
     """Files and pictures for people (app/outputs/); all off unless asked for."""
-    paraview: bool = False           # XDMF time series of the states, VTU of the modes (block only)
+    paraview: bool = False           # XDMF time series of the states, VTU of the modes (systems with a mesh)
     plots: bool = False              # matplotlib PNG + SVG
     report: bool = False             # report.md
     states: list[Union[Annotated[int, Field(ge=0, strict=True)], Literal["final", "first_mceip_mu", "all_distinct"],
                        StateCounts]] = ["final"]   # the states pictured (screenshots, reactions along AB)
-    screenshots: Optional[Screenshots] = None     # true: the defaults (block only)
+    screenshots: Optional[Screenshots] = None     # true: the defaults (systems with a mesh)
 
     @field_validator("screenshots", mode="before")
     @classmethod

@@ -71,11 +71,11 @@ MEANING = {
     "sweep.mode": "product: every combination; zip: the i-th values together",
     "sweep.parameters": "dotted scene keys (e.g. system.length) -> a list of values or a range "
                         "{start, stop, num} or {start, stop, step}",
-    "outputs.paraview": "paraview/states.xdmf (+ .h5) and paraview/modes.vtu (block only)",
+    "outputs.paraview": "paraview/states.xdmf (+ .h5) and paraview/modes.vtu (systems with a mesh: block, gmsh)",
     "outputs.plots": "plots/*.png and *.svg (matplotlib)", "outputs.report": "report.md",
     "outputs.states": "the states pictured: an index, final, first_mceip_mu, all_distinct, or node counts "
                       "{stick, slip, free, zero} (the first state with them)",
-    "outputs.screenshots": "pyvista off-screen pictures (block only); true: the defaults",
+    "outputs.screenshots": "pyvista off-screen pictures (systems with a mesh: block, gmsh); true: the defaults",
     "outputs.screenshots.resolution": "[width, height] in pixels",
     "outputs.screenshots.field": "colouring of the block", "outputs.screenshots.modes":
         "also draw every divergence mode found at the pictured states",

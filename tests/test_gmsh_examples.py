@@ -78,6 +78,11 @@ def test_l_shape_example_runs_with_outputs(tmp_path):
     for name in ("status_map", "reactions", "mceip_mu", "necessary"):
         assert (tmp_path / "out" / "plots" / f"{name}.png").stat().st_size > 1000
     assert "gmsh body l_shape.geo" in (tmp_path / "out" / "report.md").read_text()
+    # screenshots of the final state and of the first MCEIP-mu state, with their modes
+    shots = sorted(p.name for p in (tmp_path / "out" / "screenshots").glob("*.png"))
+    first = next(s["index"] for s in res["states"] if s["analyses"].get("mceip_mu", {}).get("solutions"))
+    assert f"state_{first:04d}_von_mises.png" in shots and f"state_{final['index']:04d}_von_mises.png" in shots
+    assert any(n.startswith("mode_") for n in shots) and res["outputs"]["contact_displacement_check"] < 1e-8
 
 
 @pytest.mark.parametrize("scene", ["block.yaml", "half_disk.yaml", "l_shape.yaml", "incline.yaml"])

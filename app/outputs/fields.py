@@ -1,10 +1,15 @@
-"""Fields of the block for ParaView and the screenshots, computed while the system is alive.
+"""Fields of a meshed system for ParaView and the screenshots, computed while the system is alive.
 
-Per equilibrium state: the displacement (from the contact reactions and the prescribed motion of
-CD, one solve with the factorised K), the von Mises stress (cellwise, at the cell midpoint), and
-on the contact side AB the node status, the reactions and the impending slip direction.
+Works through the system's field capability only (``system.fields``, an
+:class:`app.system.base.FieldSource`: the block, a Gmsh body), with no assumption on the body's
+shape, the contact side or the obstacle. Per equilibrium state: the displacement (from the
+contact reactions and the state's prescribed loading: displacements, tractions, body force; one
+solve with the factorised K), the von Mises stress (cellwise, at the cell midpoint), and at the
+contact nodes their status, the reactions and the impending slip direction, in global x/y from
+each node's own tangent t and outward normal n (``r = r_T t + r_N n``, slip along ``-sign(r_T) t``).
 Per divergence mode found (sufficient condition, MCEIP-mu, MCEIP-lambda^2) its displacement,
-normalised to max |v| = 1 (a shape: the scale of an eigenvector is arbitrary):
+normalised to max |v| = 1 (a shape: the scale of an eigenvector is arbitrary); modes live in the
+system's DOFs, i.e. in the node frames (T, N) at contact nodes, and are rotated back to x/y:
 
 * when the analysis kept the full vector in the reduced space of (10) (the sufficient condition,
   MCEIP-lambda^2, MCEIP-mu with ``mceip_mu_method: full``) it is mapped back exactly:
@@ -20,10 +25,13 @@ the files do not depend on the number of MPI ranks, and rank 0 writes:
 * ``paraview/states.xdmf`` (+ ``.h5``): one mesh, time = state index, fields ``displacement``
   [length], ``von_mises`` [stress, cell data], ``contact_status`` (-1 not a contact node, 0 free,
   1 zero, 2 stick, 3 slip), ``reaction`` (nodal contact force on the body, global x/y) [force],
-  ``slip_direction`` (unit x direction of impending slip, opposite to r_T; 0 elsewhere);
+  ``slip_direction`` (unit vector of impending slip along the node's tangent, global x/y; 0 elsewhere);
 * ``paraview/modes.vtu``: one point field per mode, named ``s<state>_<problem>_<k>_<value>``;
-* ``fields/fields.npz``: the mesh, the pictured states' fields and their modes, for the
-  screenshots and ``python -m app render``.
+* ``fields/fields.npz``: the mesh, the contact nodes and their frames, the obstacle line, the
+  pictured states' fields and their modes, for the screenshots and ``python -m app render``.
+
+A system without a mesh (matrices, two particles) has no fields: the stage then records
+"not applicable" (the schema refuses ``outputs.paraview``/``screenshots`` written by the user).
 """
 from __future__ import annotations
 
@@ -32,6 +40,7 @@ import logging
 import pathlib
 
 import numpy as np
+from mpi4py import MPI
 
 from app.analyses.classify import Classification
 from app.outputs.select import analyses_of, mode_name, modes_of, select_states
@@ -42,9 +51,10 @@ STATUS_CODE = {"free": 0, "zero": 1, "stick": 2, "slip": 3}
 
 
 def wants_fields(scene) -> bool:
-    """The scene asks for fields (ParaView files, screenshots) and its system type draws them."""
+    """The scene's outputs need fields (ParaView files, screenshots); a system type without a mesh
+    then gets a "not applicable" record from :func:`compute_fields`."""
     outputs = getattr(scene, "outputs", None)
-    return getattr(scene.system, "has_fields", False) and outputs is not None and outputs.fields
+    return outputs is not None and outputs.fields
 
 
 class MeshGather:
@@ -79,6 +89,11 @@ class MeshGather:
             new_of_global[order] = np.arange(n)
             self.points = pts[order]
             cells = new_of_global[np.concatenate([p[2] for p in parts])]
+            # each cell starts at its smallest vertex (a cyclic rotation: orientation and the VTK
+            # order of the mid-side nodes kept), whatever the mesh generator's local order
+            rot = (np.argmin(cells[:, :3], axis=1)[:, None] + np.arange(3)) % 3
+            cells = np.hstack([np.take_along_axis(cells[:, 3 * b:3 * b + 3], rot, axis=1)
+                               for b in range(cells.shape[1] // 3)])
             ckey = np.sort(cells, axis=1)
             self.cell_order = np.lexsort(ckey.T[::-1])
             self.cells = cells[self.cell_order]
@@ -102,30 +117,15 @@ class MeshGather:
             return None
         return np.concatenate(parts)[self.cell_order]
 
-    def contact_points(self, xs: np.ndarray, length_scale: float) -> np.ndarray:
-        """Indices (rank 0) of the nodes at (x, 0) for the contact nodes' x."""
-        on_ab = np.flatnonzero(np.abs(self.points[:, 1]) <= 1e-9 * length_scale)
-        idx = []
-        for x in xs:
-            j = on_ab[np.argmin(np.abs(self.points[on_ab, 0] - x))]
-            if abs(self.points[j, 0] - x) > 1e-9 * length_scale:
-                raise RuntimeError(f"no mesh node at contact position x = {x}")
-            idx.append(j)
+    def contact_points(self, xy: np.ndarray, length_scale: float) -> np.ndarray:
+        """Indices (rank 0) of the mesh nodes at the contact nodes' coordinates ``xy`` (n, 2)."""
+        from scipy.spatial import cKDTree
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        dist, idx = cKDTree(self.points).query(xy)
+        if len(xy) and dist.max() > 1e-9 * length_scale:
+            k = int(np.argmax(dist))
+            raise RuntimeError(f"no mesh node at contact position ({xy[k, 0]}, {xy[k, 1]})")
         return np.asarray(idx, dtype=np.int64)
-
-
-def _von_mises_expression(u, E: float, nu: float, plane: str):
-    """UFL von Mises stress of the 2D displacement ``u`` (plane stress: s_zz = 0; plane strain:
-    s_zz = lambda tr(eps))."""
-    import ufl
-
-    from app.system.elasticity import lame_parameters
-    mu, lmbda = lame_parameters(E, nu, plane)
-    eps = ufl.sym(ufl.grad(u))
-    s = 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(2)
-    szz = lmbda * ufl.tr(eps) if plane == "strain" else 0.0
-    sxx, syy, sxy = s[0, 0], s[1, 1], s[0, 1]
-    return ufl.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3.0 * sxy ** 2)
 
 
 def _classification(entry: dict) -> Classification:
@@ -133,53 +133,55 @@ def _classification(entry: dict) -> Classification:
 
 
 class _FieldMaker:
-    """Fields of one block system (collective methods)."""
+    """Fields of one meshed system through its :class:`app.system.base.FieldSource` (collective methods)."""
 
-    def __init__(self, scene, system):
+    def __init__(self, system):
         import dolfinx.fem
-        cfg = scene.system
         self.system = system
-        self.ops = system.extra["operators"]
-        self.flex = system.extra["flexibility"]
+        self.src = src = system.fields
         self.comm = system.comm
-        V = self.ops.V
-        self.scale = max(cfg.length, cfg.height)
+        V = src.V
+        self.scale = src.length_scale
         self.gather = MeshGather(V, self.scale)
         Q = dolfinx.fem.FunctionSpace(V.mesh, ("DG", 0))
         self.q = dolfinx.fem.Function(Q, name="von_mises")
         self.u = dolfinx.fem.Function(V, name="displacement")
-        self.vm = dolfinx.fem.Expression(_von_mises_expression(self.u, cfg.E, cfg.nu, cfg.plane),
-                                         Q.element.interpolation_points())
+        self.vm = dolfinx.fem.Expression(src.von_mises(self.u), Q.element.interpolation_points())
         n_cells = V.mesh.topology.index_map(V.mesh.topology.dim).size_local
         self.q_dofs = Q.dofmap.list.array[:n_cells]
         self.n = len(system.nodes)
+        self.dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes], dtype=np.int64).ravel()
+        self.signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
 
     def state(self, entry: dict) -> tuple[np.ndarray | None, np.ndarray | None, float]:
         """Displacement (N, 2) and von Mises (C,) of a state on rank 0, and the largest mismatch
-        of the field's contact displacements with the state's (relative)."""
+        of the field's contact displacements with the state's (relative to the field's scale)."""
         nodes = entry["nodes"]
+        load = entry.get("load") or {}
         r = np.ravel([[n["r_T"], n["r_N"]] for n in nodes])
-        gx, gy = float(entry["load"]["u_x"]), float(entry["load"]["u_y"])
-        vec = self.flex.field(gx, gy, r)
-        uc = self._contact_values(vec)
-        vec_f = self.ops.to_function(vec, gx, gy)
-        vec.destroy()
-        self.u.x.array[:] = vec_f.x.array
+        vec = self.src.response(load, r)
+        try:
+            uc = self._contact_values(vec)
+            f = self.src.to_function(vec, load)
+        finally:
+            vec.destroy()
+        self.u.x.array[:] = f.x.array
         self.q.interpolate(self.vm)
-        want = np.ravel([[n["u_T"], n["u_N"]] for n in nodes])
-        # relative to the prescribed motion of CD (contact displacements are 0 while all nodes stick)
-        mismatch = float(np.max(np.abs(uc - want)) / max(np.max(np.abs(want)), abs(gx), abs(gy), 1e-300))
+        # a state's u_N is the normal displacement minus the initial gap (app/loading/program.py)
+        want = np.ravel([[n["u_T"], n["u_N"] + g] for n, g in zip(nodes, self.src.gaps)])
+        big = self.comm.allreduce(float(np.max(np.abs(f.x.array), initial=0.0)), op=MPI.MAX)   # MPI collective
+        mismatch = float(np.max(np.abs(uc - want), initial=0.0) / max(np.max(np.abs(want), initial=0.0), big, 1e-300))
         return self.gather.nodal(self.u.x.array), self.gather.cellwise(self.q.x.array[self.q_dofs]), mismatch
 
     def _contact_values(self, vec) -> np.ndarray:
-        """Contact displacements of a reduced vector in paper axes (T0, N0, T1, ...), replicated."""
+        """Contact displacements of a system vector in paper axes (T0, N0, T1, ...), replicated."""
         r0, r1 = vec.getOwnershipRange()
         arr = vec.getArray(readonly=True)
-        dofs = self.flex.dofs
+        dofs = self.dofs
         mine = (dofs >= r0) & (dofs < r1)
         local = np.zeros(len(dofs))
         local[mine] = arr[dofs[mine] - r0]
-        return self.flex.signs * self.comm.allreduce(local)                     # MPI collective
+        return self.signs * self.comm.allreduce(local)                           # MPI collective
 
     def mode(self, entry: dict, problem: str, sol: dict) -> tuple[np.ndarray | None, str]:
         """Mode displacement (N, 2) on rank 0, normalised to max |v| = 1, and how it was built."""
@@ -206,11 +208,13 @@ class _FieldMaker:
             v_c[2 * slip] = -cls.slip_signs * xts
             con = np.asarray(con, dtype=np.int64)
             r = np.zeros(2 * self.n)
-            r[con] = np.linalg.solve(self.flex.W[np.ix_(con, con)], v_c[con])
-            vec = self.flex.field(0.0, 0.0, r)
+            r[con] = np.linalg.solve(self.src.W[np.ix_(con, con)], v_c[con])
+            vec = self.src.response(None, r)
             how = "static response to the contact rates (W_cc r_c = v_c): exact for MCEIP-mu"
-        f = self.ops.to_function(vec, 0.0, 0.0)
-        vec.destroy()
+        try:
+            f = self.src.to_function(vec, None)
+        finally:
+            vec.destroy()
         v = self.gather.nodal(f.x.array)
         if v is not None:
             big = float(np.max(np.linalg.norm(v, axis=1)))
@@ -248,6 +252,10 @@ def compute_fields(scene, system, out_states: list[dict], stages, progress, outd
     """The field stage of a study (MPI collective); writes the files on rank 0; returns the record
     of what it did (identical on every rank) for results.json ``outputs``."""
     try:
+        if system.fields is None:
+            why = f"ParaView files and screenshots not applicable: a {scene.system.type} system has no mesh"
+            log.info("fields: %s", why)
+            return {"notes": [why], "files": [], "fields_not_applicable": why}
         if outdir is None:
             return {"notes": ["fields not computed: the study was run without an output folder"], "files": []}
         return _compute_fields(scene, system, out_states, stages, progress, outdir)
@@ -267,7 +275,8 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
     record["notes"] += notes
     shots = outputs.screenshots
     with stages("fields (ParaView files, screenshot data)"):
-        maker = _FieldMaker(scene, system)
+        maker = _FieldMaker(system)
+        src = system.fields
         g = maker.gather
         by_index = {s["index"]: s for s in out_states}
         state_ids = [s["index"] for s in out_states] if outputs.paraview else list(pictured)
@@ -281,7 +290,7 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
         paraview_dir = outdir / "paraview"
         contact = None
         if rank0:
-            contact = g.contact_points(np.array([n.x for n in system.nodes]), maker.scale)
+            contact = g.contact_points(src.contact_xy, maker.scale)
             if outputs.paraview:
                 paraview_dir.mkdir(parents=True, exist_ok=True)
         series = _XdmfSeries(paraview_dir / "states.xdmf") if (rank0 and outputs.paraview) else None
@@ -298,7 +307,7 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
                 worst = max(worst, mismatch)
                 if rank0:
                     if writer is not None:
-                        writer.write_data(idx, point_data=_contact_fields(entry, u, contact, system.nodes),
+                        writer.write_data(idx, point_data=_contact_fields(entry, u, contact, src),
                                           cell_data={"von_mises": [vm]})
                     if idx in pictured:
                         kept_u[idx], kept_vm[idx] = u, vm
@@ -346,23 +355,25 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
                     state_von_mises=np.array([kept_vm[i] for i in ids]).reshape(len(ids), len(g.cells)),
                     mode_v=np.array([modes[n] for n in names]).reshape(len(names), len(g.points), 2),
                     modes_json=np.array(json.dumps(meta)),
-                    block=np.array([scene.system.length, scene.system.height]))
+                    contact_tangent=src.tangent, contact_normal=src.normal, length_scale=np.array(maker.scale),
+                    **({"obstacle_point": np.array(src.obstacle["point"], dtype=float),
+                        "obstacle_normal": np.array(src.obstacle["normal"], dtype=float)} if src.obstacle else {}))
                 record["files"].append("fields/fields.npz")
             log.info("fields: %d mode(s); wrote %s", len(meta), ", ".join(record["files"]) or "nothing")
     record = comm.bcast(record, root=0)                                          # MPI collective
     return record
 
 
-def _contact_fields(entry: dict, u: np.ndarray, contact: np.ndarray, nodes) -> dict:
-    """Point fields of one state: displacement and the contact side's status, reaction, slip direction."""
+def _contact_fields(entry: dict, u: np.ndarray, contact: np.ndarray, src) -> dict:
+    """Point fields of one state: displacement and, at the contact nodes, status, reaction and slip
+    direction in global x/y from each node's own frame (u = t u_T + n u_N)."""
     n_pts = len(u)
     status = np.full(n_pts, -1, dtype=np.int32)
     reaction = np.zeros((n_pts, 3))
     slip_dir = np.zeros((n_pts, 3))
-    for node, j, cn in zip(entry["nodes"], contact, nodes):
+    for node, j, t, n in zip(entry["nodes"], contact, src.tangent, src.normal):
         status[j] = STATUS_CODE[node["status"]]
-        # paper axes -> global: T = sign_T x, N = sign_N y (the block: T = +x, N = -y, outward normal of AB)
-        reaction[j, 0], reaction[j, 1] = cn.sign_T * node["r_T"], cn.sign_N * node["r_N"]
+        reaction[j, :2] = node["r_T"] * t + node["r_N"] * n
         if node["status"] == "slip":
-            slip_dir[j, 0] = -float(node["sign"]) * cn.sign_T      # impending slip opposes r_T
+            slip_dir[j, :2] = -float(node["sign"]) * t      # impending slip opposes r_T
     return {"displacement": _pad3(u), "contact_status": status, "reaction": reaction, "slip_direction": slip_dir}

@@ -73,7 +73,7 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
             _remove_old(outdir / "plots", ("*.png", "*.svg"))
             plot_files, n = draw_plots(results, pictured, outdir / "plots")
             notes += n
-    if cfg.get("screenshots"):
+    if cfg.get("screenshots") and not record.get("fields_not_applicable"):    # e.g. no mesh (matrices)
         with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
             from app.outputs.screenshots import draw_screenshots
             _remove_old(outdir / "screenshots", ("*.png",))

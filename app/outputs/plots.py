@@ -57,10 +57,19 @@ def _tangential_start(states: list[dict]) -> int | None:
 
 
 def _mark_phases(ax, states: list[dict]) -> None:
+    """The block's tangential loading, or where each phase of a loading program after the first starts."""
     t0 = _tangential_start(states)
-    if t0 is not None:
-        ax.axvline(t0 - 0.5, color="0.4", lw=0.8, ls=":")
-        ax.annotate("tangential loading ->", (t0 - 0.5, 0.0), xycoords=("data", "axes fraction"),
+    starts = [(t0, "tangential loading")] if t0 is not None else []
+    prev = None
+    for s in states if t0 is None else ():
+        load = s.get("load") or {}
+        ph = load.get("phase")
+        if isinstance(ph, int) and prev is not None and ph != prev:
+            starts.append((s["index"], load.get("name") or f"phase {ph}"))
+        prev = ph
+    for i, label in starts:
+        ax.axvline(i - 0.5, color="0.4", lw=0.8, ls=":")
+        ax.annotate(f"{label} ->", (i - 0.5, 0.0), xycoords=("data", "axes fraction"),
                     xytext=(3, 3), textcoords="offset points", va="bottom", fontsize=8, color="0.3")
 
 
@@ -106,7 +115,11 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     idx = np.array([s["index"] for s in states])
     fig, ax = plt.subplots(figsize=(10, 4.2))
     cmap = ListedColormap([STATUS_COLOURS[k] for k in STATUS_ORDER])
-    # node rows at their positions along AB: edges halfway between neighbours
+    # node rows at their positions along AB: edges halfway between neighbours; nodes that do not
+    # increase strictly along it (e.g. a contact curve folding back over the obstacle) as numbered rows
+    label, line = _position_label(results), _contact_line(results)
+    if label and n > 1 and np.any(np.diff(xs) <= 0):
+        xs, label, line = np.arange(n, dtype=float), None, None
     if n > 1:
         mid = 0.5 * (xs[1:] + xs[:-1])
         yedges = np.concatenate([[xs[0] - (mid[0] - xs[0])], mid, [xs[-1] + (xs[-1] - mid[-1])]])
@@ -117,12 +130,11 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     length = results.get("units", {}).get("length", "mm")
     ax.set_xlabel("load step (state index)")
     ax.hlines(yedges[1:-1], xedges[0], xedges[-1], colors="white", linewidth=0.6)    # one row per node
-    if n <= 12 or not _position_label(results):
+    if n <= 12 or not label:
         ax.set_yticks(xs)
-        ax.set_yticklabels([f"{x:g}" for x in xs] if _position_label(results) else [f"node {i}" for i in range(n)])
-    line = _contact_line(results)
+        ax.set_yticklabels([f"{x:g}" for x in xs] if label else [f"node {i}" for i in range(n)])
     ax.set_ylabel(f"contact node position x [{length}] ({line[0]} at the bottom)" if line
-                  else _position_label(results) or "contact node")
+                  else label or "contact node")
     _few_states(ax, idx)
     _mark_phases(ax, states)
     present = sorted({s for row in codes for s in row})
@@ -174,7 +186,7 @@ def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[
     a2.plot([], [], "--", color="0.4", lw=0.8, label="Coulomb limits +-mu |r_N|")
     a2.legend(fontsize=8, loc="best")
     line = _contact_line(results)
-    where = f"along {line}" if line else "at the contact nodes"
+    where = f"along {line}" if line else "along the obstacle" if _position_label(results) else "at the contact nodes"
     a1.set_title(_title(results, f"reactions {where} (mu = {results.get('mu')})"))
     return _save(fig, outdir / "reactions")
 

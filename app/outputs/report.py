@@ -23,6 +23,27 @@ PLOT_CAPTIONS = {
 }
 
 
+GENERIC_CAPTIONS = {     # a body other than the built-in block: no side AB, no CD
+    "status_map": "Contact status of every contact node (rows, ordered by their tangential coordinate s "
+                  "along the obstacle) against the load step: slip spreading along the contact boundary.",
+    "reactions": "Normal and tangential reactions (in each node's own obstacle frame) against the contact "
+                 "nodes' tangential coordinate s along the obstacle at the pictured states; dashed: the "
+                 "Coulomb limits +-mu |r_N|, squares: slip nodes (on the limit).",
+}
+
+
+def _block_like(results: dict) -> bool:
+    """The contact side is the block's AB (captions name AB and CD), from the registered system type."""
+    from app.systems import SYSTEM_TYPES
+    kind = SYSTEM_TYPES.get(((results.get("scene_config") or {}).get("system") or {}).get("type", "block"))
+    return kind is not None and kind.contact_line == "AB"
+
+
+def _load_label(load: dict) -> str:
+    """A loading program's state: phase name and step (the block's states give CD u_x instead)."""
+    return f"{load.get('name') or load.get('phase', '')} {load.get('step', '')}".strip()
+
+
 def versions() -> dict:
     """Versions of the software a run used (read from package metadata and loaded modules)."""
     import importlib.metadata as md
@@ -81,13 +102,15 @@ def summary_table(results: dict) -> list[str]:
         groups.setdefault(first, []).append(s)
     asked = results.get("analyses_requested", [])
     length = results.get("units", {}).get("length", "mm")
-    head = ["states", f"CD u_x [{length}]", "stick / slip / free"]
+    program = not any(isinstance((s.get("load") or {}).get("u_x"), (int, float)) for s in states) \
+        and any("step" in (s.get("load") or {}) for s in states)
+    head = ["states", "load (phase step)" if program else f"CD u_x [{length}]", "stick / slip / free"]
     if "necessary" in asked:
         head.append("min eig sym K* (19)")
     if "sufficient" in asked:
         head.append("sufficient (17)-(18): lambda^2")
     if "mceip_mu" in asked:
-        head.append("MCEIP-mu (pattern A to B)")
+        head.append("MCEIP-mu (pattern A to B)" if _block_like(results) else "MCEIP-mu (pattern along s)")
     if "mceip_lambda2" in asked:
         head.append("MCEIP-lambda^2")
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -101,6 +124,9 @@ def summary_table(results: dict) -> list[str]:
         ux = [u for u in ux if isinstance(u, (int, float))]
         uxs = "" if not ux else (_fmt(ux[0], ".4g") if len(ux) == 1 or ux[0] == ux[-1]
                                   else f"{_fmt(ux[0], '.4g')} to {_fmt(ux[-1], '.4g')}")
+        if program:
+            labels = [_load_label(m.get("load") or {}) for m in members]
+            uxs = labels[0] if len(labels) == 1 else f"{labels[0]} to {labels[-1]}"
         c = s0["classification"]
         row = [rng, uxs, f"{c['stick']} / {c['slip']} / {c['free']}" + (f" / {c['zero']} zero" if c.get("zero") else "")]
         if "necessary" in asked:
@@ -162,16 +188,20 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
 
     L += ["## Distinct classifications", "",
           "Analyses depend only on the classification, so each row is computed once, at its first state, "
-          "and shared by the others. Patterns list the slip nodes from A to B: `S` slips in the mode, "
+          "and shared by the others. Patterns list the slip nodes "
+          + ("from A to B" if _block_like(results) else "in the order of the contact nodes")
+          + ": `S` slips in the mode, "
           "`-` is stuck in it. Full numbers: `results.json`, one row per state: `steps.csv`.", ""]
     L += summary_table(results) + [""]
 
+    block = _block_like(results)
+    body = "block" if block else "body"
     if plot_files:
         L += ["## Plots", ""]
         for p in plot_files:
             if p.suffix != ".png":
                 continue
-            L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{PLOT_CAPTIONS.get(p.stem, p.stem)}* "
+            L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{(PLOT_CAPTIONS if block else {**PLOT_CAPTIONS, **GENERIC_CAPTIONS}).get(p.stem, p.stem)}* "
                   f"(also [{p.with_suffix('.svg').name}]({_rel(p.with_suffix('.svg'), outdir)}))", ""]
 
     modes_built = sorted({m["built"] for m in (results.get("outputs") or {}).get("modes") or []})
@@ -179,12 +209,12 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
         L += ["## Screenshots", "", "Pictured states: " + ", ".join(describe(s) for s in out.get("states", []))
               + f" -> states {', '.join(str(i) for i in pictured)}.", ""]
         if any(p.name.startswith("mode_") for p in shot_files):
-            L += ["Mode shapes (drawn with the largest displacement at 12 % of the block height): "
+            L += [f"Mode shapes (drawn with the largest displacement at 12 % of the {body}'s smaller side): "
                   + "; ".join(modes_built) + ".", ""]
         for p in shot_files:
             kind = "state" if p.name.startswith("state_") else "mode"
-            cap = ("The block at this state (contact nodes marked by status; grey: the obstacle; thin line: "
-                   "the undeformed block)." if kind == "state" else
+            cap = (f"The {body} at this state (contact nodes marked by status; grey: the obstacle; thin line: "
+                   f"the undeformed {body})." if kind == "state" else
                    "Divergence mode (shape scaled to fit; contact nodes marked; black: slip nodes stuck in the mode).")
             L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{p.stem}*: {cap}", ""]
 
@@ -192,9 +222,10 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
     if any(f.startswith("paraview/") for f in files):
         L += ["## ParaView files", "",
               "- `paraview/states.xdmf` (+ `states.h5`): every equilibrium state, time = state index. "
-              "Fields: `displacement` (apply *Warp By Vector*), `von_mises` (cells), and on AB "
-              "`contact_status` (-1 not a contact node, 0 free, 1 zero, 2 stick, 3 slip), `reaction` "
-              "(contact force on the block, global x/y) and `slip_direction` (impending slip, unit x).",
+              "Fields: `displacement` (apply *Warp By Vector*), `von_mises` (cells), and at the contact "
+              "nodes `contact_status` (-1 not a contact node, 0 free, 1 zero, 2 stick, 3 slip), `reaction` "
+              f"(contact force on the {body}, global x/y) and `slip_direction` (unit vector of impending slip "
+              "along the node's obstacle tangent, global x/y).",
               "- `paraview/modes.vtu`: every divergence mode found, one point field per mode, named "
               "`s<state>_<problem>_<k>_<value>`, normalised to max |v| = 1.", ""]
         if modes_built:

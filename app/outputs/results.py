@@ -52,7 +52,7 @@ def atomic_write(path: pathlib.Path, text: str) -> None:
 STEP_COLUMNS = ["index", "phase", "u_x_CD_mm", "u_y_CD_mm", "normal_resultant_N", "tangential_resultant_N",
                 "n_free", "n_zero", "n_stick", "n_slip", "necessary_min_eig_K_sym", "necessary_satisfied",
                 "sufficient_max_lambda2_per_s2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",
-                "shared_with", "analysis_seconds"]
+                "shared_with", "analysis_seconds", "step", "load_parameters"]
 
 
 def step_rows(results: dict) -> list[dict]:
@@ -68,7 +68,9 @@ def step_rows(results: dict) -> list[dict]:
         nec = a.get("necessary", {})
         c = st["classification"]
         rows.append({
-            "index": st["index"], "phase": load.get("phase", ""),
+            "index": st["index"], "phase": load.get("phase", ""), "step": load.get("step", ""),
+            # a loading program's parameters (a body from Gmsh: motions, loads, gravity), name=value;...
+            "load_parameters": ";".join(f"{k}={v!r}" for k, v in (load.get("parameters") or {}).items()),
             "u_x_CD_mm": load.get("u_x", ""), "u_y_CD_mm": load.get("u_y", ""),
             "normal_resultant_N": load.get("normal_resultant", ""),
             "tangential_resultant_N": load.get("tangential_resultant", ""),

@@ -1,12 +1,15 @@
-"""Off-screen pyvista pictures of the block (no display or X server needed).
+"""Off-screen pyvista pictures of the body (no display or X server needed).
 
-* ``state_XXXX_<field>.png``: the block deformed at a pictured state (true scale unless
+* ``state_XXXX_<field>.png``: the body deformed at a pictured state (true scale unless
   ``screenshots.scale``), coloured by |u| or the von Mises stress with a colour bar, the
-  undeformed outline, the obstacle, and the contact nodes marked by status;
+  undeformed outline (the mesh's boundary edges), the obstacle (a hatched strip along its line,
+  on the side its normal points to), and the contact nodes marked by status;
 * ``mode_<name>.png``: a divergence mode drawn like the paper's Figs. 2-3: the mesh displaced by
   the mode shape (scaled to fit), coloured by the mode amplitude, the contact nodes marked (stick,
   slip nodes that slip in the mode, slip nodes stuck in the mode, free), eigenvalue in the title.
 
+Nothing assumes a rectangle or a horizontal contact side: the geometry comes from the mesh, the
+contact nodes and the obstacle line saved in fields.npz.
 Drawn from ``fields/fields.npz`` and the results only, so ``python -m app render`` redraws them.
 
 In a process that has loaded DOLFINx the drawing runs in a child process: DOLFINx switches the
@@ -60,7 +63,16 @@ class FieldData:
             self.state_vm = z["state_von_mises"]
             self.mode_v = z["mode_v"]
             self.modes = json.loads(str(z["modes_json"]))
-            self.length, self.height = (float(v) for v in z["block"])
+            files = set(z.files)
+            self.obstacle = None        # (point, outward normal of the body), None: no obstacle line
+            if "obstacle_point" in files:
+                self.obstacle = (z["obstacle_point"].astype(float), z["obstacle_normal"].astype(float))
+            elif "length_scale" not in files:      # written before the geometry keys: the block on y = 0
+                self.obstacle = (np.zeros(2), np.array([0.0, -1.0]))
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        self.width, self.height = (float(v) for v in (hi - lo))
+        self.size = max(self.width, self.height)          # the body's extent
+        self.small = min(self.width, self.height) or self.size   # its smaller side (mode amplitude, strip depth)
 
     def grid(self, displacement: np.ndarray):
         pv = _pyvista()
@@ -95,24 +107,69 @@ def _font_size(res) -> int:
     return max(8, int(round(11 * min(res[0] / 1000, res[1] / 640))))
 
 
-def _obstacle(pl, fd: FieldData, xmin: float, xmax: float) -> None:
-    """The rigid obstacle: a grey strip under AB, hatched."""
+def _obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
+    """The rigid obstacle: a grey hatched strip along its line, on the side of the body's outward
+    normal, as long as the body's projection on the line plus margins; returns its corners (x, y)."""
+    if fd.obstacle is None:
+        return np.zeros((0, 2))
     pv = _pyvista()
-    depth = 0.08 * fd.height
-    rect = pv.Rectangle([[xmin, -depth, -0.02], [xmax, -depth, -0.02], [xmax, 0.0, -0.02]])
+    p, n = fd.obstacle
+    n = n / np.linalg.norm(n)
+    t = np.array([-n[1], n[0]])
+    s = np.concatenate([(pts - p) @ t, (fd.points - p) @ t])
+    margin = 0.06 * fd.size
+    s0, s1 = float(s.min()) - margin, float(s.max()) + margin
+    depth = 0.08 * fd.small
+
+    def at(a: float, b: float) -> list[float]:        # point a along t, b along n (into the obstacle)
+        q = p + a * t + b * n
+        return [float(q[0]), float(q[1])]
+
+    corners = np.array([at(s0, depth), at(s1, depth), at(s1, 0.0), at(s0, 0.0)])
+    rect = pv.Rectangle([[*corners[0], -0.02], [*corners[1], -0.02], [*corners[2], -0.02]])
     pl.add_mesh(rect, color="#9a9a9a")
-    step = (xmax - xmin) / 40
-    x0 = xmin
-    while x0 + depth <= xmax:
-        pl.add_mesh(pv.Line((x0, -depth, -0.01), (x0 + depth, 0.0, -0.01)), color="#5f5f5f", line_width=1)
-        x0 += step
+    hatch = []
+    a = s0
+    while a + depth <= s1:
+        hatch += [[*at(a, depth), -0.01], [*at(a + depth, 0.0), -0.01]]
+        a += (s1 - s0) / 40
+    if hatch:
+        k = len(hatch) // 2
+        lines = np.column_stack([np.full(k, 2), 2 * np.arange(k), 2 * np.arange(k) + 1]).ravel()
+        pl.add_mesh(pv.PolyData(np.array(hatch), lines=lines), color="#5f5f5f", line_width=1)
+    pl.add_mesh(pv.Line((*at(s0, 0.0), -0.015), (*at(s1, 0.0), -0.015)), color="#5f5f5f", line_width=1.5)
+    return corners
+
+
+def _edges(fd: FieldData, displacement: np.ndarray | None = None, boundary: bool = False):
+    """Mesh edges as lines (through the mid-side node of a quadratic cell): all of them, or the
+    boundary ones (edges of one cell only); on the displaced points if given."""
+    pv = _pyvista()
+    c = fd.cells
+    if c.shape[1] == 6:        # VTK quadratic triangle: vertices 0 1 2, mid-sides 3 (01) 4 (12) 5 (20)
+        edges = np.concatenate([c[:, [0, 3, 1]], c[:, [1, 4, 2]], c[:, [2, 5, 0]]])
+    else:
+        edges = np.concatenate([c[:, [0, 1]], c[:, [1, 2]], c[:, [2, 0]]])
+    key = np.sort(edges[:, [0, -1]], axis=1)
+    _, first, inv, count = np.unique(key, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    edges = edges[count[inv.ravel()] == 1] if boundary else edges[first]
+    k = edges.shape[1]
+    lines = np.column_stack([np.full(len(edges), k), edges]).ravel()
+    xy = fd.points if displacement is None else fd.points + displacement
+    return pv.PolyData(np.column_stack([xy, np.full(len(xy), 0.01)]), lines=lines)
 
 
 def _outline(fd: FieldData):
-    """Boundary of the undeformed block."""
-    L, H = fd.length, fd.height
-    pv = _pyvista()
-    return pv.MultipleLines(points=[[0, 0, 0.01], [L, 0, 0.01], [L, H, 0.01], [0, H, 0.01], [0, 0, 0.01]])
+    """Boundary of the undeformed body: the mesh edges that belong to one cell only."""
+    return _edges(fd, boundary=True)
+
+
+def _add_body(pl, fd: FieldData, grid, displacement: np.ndarray, **kw) -> None:
+    """The coloured mesh with its cell edges (a quadratic cell's curved edges, not VTK's subdivision)."""
+    quadratic = fd.cells.shape[1] == 6
+    pl.add_mesh(grid, show_edges=not quadratic, edge_color="#303030", line_width=0.5, **kw)
+    if quadratic:
+        pl.add_mesh(_edges(fd, displacement), color="#303030", line_width=0.5)
 
 
 def _markers(pl, pts: np.ndarray, groups: dict[str, list[int]], size: float) -> list[tuple[str, str]]:
@@ -137,10 +194,11 @@ def _text(pl, text: str, x: float, y: float, size: int, colour: str = "black") -
 def _finish(pl, fd: FieldData, pts: np.ndarray, title: list[str], legend: list[tuple[str, str]],
             path: pathlib.Path, res) -> pathlib.Path:
     """Obstacle, outline, title lines and legend row at the top, camera, screenshot."""
-    xmin = min(float(pts[:, 0].min()), 0.0) - 0.06 * fd.length
-    xmax = max(float(pts[:, 0].max()), fd.length) + 0.06 * fd.length
-    _obstacle(pl, fd, xmin, xmax)
+    strip = _obstacle(pl, fd, pts)
     pl.add_mesh(_outline(fd), color="#666666", line_width=1.5, style="wireframe")
+    seen = np.vstack([pts, fd.points, strip])
+    xmin = float(seen[:, 0].min()) - (0.0 if len(strip) else 0.06 * fd.size)
+    xmax = float(seen[:, 0].max()) + (0.0 if len(strip) else 0.06 * fd.size)
     fs = _font_size(res)
     line = 1.9 * fs / res[1]                      # one text line, as a fraction of the height
     char = 1.0 * fs / res[0]                      # mean character width (DejaVu Sans), fraction of the width
@@ -162,8 +220,7 @@ def _finish(pl, fd: FieldData, pts: np.ndarray, title: list[str], legend: list[t
     top_band = 1.0 - (y - 0.02)                   # fraction of the picture used by the text at the top
     pl.view_xy()
     pl.enable_parallel_projection()
-    depth = 0.08 * fd.height
-    ymin, ymax = -depth, max(float(pts[:, 1].max()), fd.height)
+    ymin, ymax = float(seen[:, 1].min()), float(seen[:, 1].max())
     band = max(0.3, 1.0 - top_band - 0.17)        # free band between the text and the colour bar
     aspect = res[0] / res[1]
     height = max((ymax - ymin) / band, (xmax - xmin) / (0.97 * aspect))
@@ -173,7 +230,7 @@ def _finish(pl, fd: FieldData, pts: np.ndarray, title: list[str], legend: list[t
     cy = 0.5 * (ymin + ymax) + (0.5 - v_mid) * height
     cam = pl.camera
     cam.focal_point = (cx, cy, 0.0)
-    cam.position = (cx, cy, 10.0 * fd.length)
+    cam.position = (cx, cy, 10.0 * fd.size)
     cam.up = (0.0, 1.0, 0.0)
     cam.parallel_scale = 0.5 * height
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -212,8 +269,7 @@ def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, pat
     else:
         grid.point_data["u"] = np.linalg.norm(u, axis=1)
         name, bar = "u", f"displacement magnitude [{units.get('length', 'mm')}]"
-    pl.add_mesh(grid, scalars=name, cmap="viridis", show_edges=True, edge_color="#303030", line_width=0.5,
-                scalar_bar_args=_bar(bar, "%.3g", res))
+    _add_body(pl, fd, grid, scale * u, scalars=name, cmap="viridis", scalar_bar_args=_bar(bar, "%.3g", res))
     pts = fd.points + scale * u
     groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip", "free", "zero")}
     for nd, j in zip(state["nodes"], fd.contact):
@@ -222,7 +278,13 @@ def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, pat
     c = state["classification"]
     load = state.get("load") or {}
     length = units.get("length", "mm")
-    where = f"CD moved by u_x = {load['u_x']:.4g} {length}, u_y = {load['u_y']:.4g} {length}" if "u_x" in load else ""
+    if "u_x" in load:
+        where = f"CD moved by u_x = {load['u_x']:.4g} {length}, u_y = {load['u_y']:.4g} {length}"
+    elif "parameters" in load:       # a loading program: the phase and its load parameters
+        where = (f"phase '{load.get('name', load.get('phase', ''))}', step {load.get('step', '')}: "
+                 + ", ".join(f"{k} = {v:.4g}" for k, v in load["parameters"].items()))
+    else:
+        where = ""
     title = [f"{scene}: state {state['index']}, {c['stick']} stick / {c['slip']} slip / {c['free']} free"
              + (f" / {c['zero']} zero" if c.get("zero") else ""),
              where + ("" if scale == 1.0 else f"; displacements drawn x{scale:g}")]
@@ -232,12 +294,12 @@ def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, pat
 def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path, scene: str,
                  units: dict | None = None) -> pathlib.Path:
     v = fd.mode(meta["name"])
-    amp = 0.12 * fd.height                       # max mode displacement drawn: 12 % of the height
+    amp = 0.12 * fd.small                        # max mode displacement drawn: 12 % of the smaller side
     grid = fd.grid(amp * v)
     grid.point_data["mode"] = np.linalg.norm(v, axis=1)
     pl = _plotter(res)
-    pl.add_mesh(grid, scalars="mode", cmap="plasma", show_edges=True, edge_color="#303030", line_width=0.5,
-                scalar_bar_args=_bar("mode displacement magnitude (max 1)", "%.2f", res))
+    _add_body(pl, fd, grid, amp * v, scalars="mode", cmap="plasma",
+              scalar_bar_args=_bar("mode displacement magnitude (max 1)", "%.2f", res))
     pts = fd.points + amp * v
     groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip_mode", "stuck_mode", "free", "zero")}
     pattern = list(meta.get("pattern") or [])
@@ -259,7 +321,7 @@ def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path
     if not _font():      # VTK's own font has no Greek letters
         what = what.replace("\u03bc", "mu").replace("\u03bb\u00b2", "lambda^2")
     stuck = (f"{len(stuck_nodes)} of {c['slip']} slip nodes stuck in the mode (node{'s' if len(stuck_nodes) > 1 else ''} "
-             + ", ".join(str(k) for k in stuck_nodes) + " from A)") if stuck_nodes else \
+             + ", ".join(str(k) for k in stuck_nodes) + " numbered along the obstacle)") if stuck_nodes else \
         f"all {c['slip']} slip nodes slip in the mode"
     unit = "" if meta["problem"] == "mceip_mu" else " " + (units or {}).get("lambda2", "1/s^2")
     title = [f"{what} = {meta['value']:.6g}{unit}",

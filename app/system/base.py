@@ -7,11 +7,15 @@ flexibility W = B K^-1 B^T) used by the exact condensation of MCEIP-mu.
 
 Axes: the stability code works in the paper's axes (T tangential, N the body's outward normal),
 ``u_T = sign_T * u[dof_T]`` and ``u_N = sign_N * u[dof_N]``.
+
+Systems with a mesh also carry a :class:`FieldSource` (``System.fields``): what the field outputs
+(app/outputs/fields.py: ParaView files, screenshots) need to rebuild displacement fields, with no
+knowledge of the body's shape; systems without one (matrices, two particles) have ``None``.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import Callable, Optional, Protocol
 
 import numpy as np
 from mpi4py import MPI
@@ -31,6 +35,40 @@ class ContactNode:
     sign_N: int = 1
 
 
+class FieldSource(Protocol):
+    """Displacement fields of a meshed system, in the system's own DOFs (collective methods).
+
+    ``response(load, r)`` solves ``K u = f(load) + B^T r`` (paper eq. (3)) with the factorised K:
+    ``f(load)`` the right-hand side of the state's prescribed loading (prescribed displacements,
+    tractions, body force; ``load`` is a state's ``load`` record, None for no loading) and ``r``
+    the contact reactions in paper axes (T_0, N_0, T_1, ...). ``to_function(u, load)`` adds the
+    prescribed displacements of that loading and returns the whole field as a DOLFINx Function of
+    ``V`` (node frames rotated back to x/y). ``contact_xy``, ``tangent`` and ``normal`` are the
+    contact nodes' coordinates and their own unit tangent and outward normal in global x/y
+    (``u = t u_T + n u_N`` at node i), ``gaps`` their initial gaps (a state's ``u_N`` is the
+    normal displacement minus the gap), ``W`` the contact flexibility in paper axes.
+    ``obstacle`` is the rigid line (``point``, ``normal``: the body's outward normal) when there
+    is one.
+    """
+    V: object
+    length_scale: float
+    contact_xy: np.ndarray
+    tangent: np.ndarray
+    normal: np.ndarray
+    gaps: np.ndarray
+    W: np.ndarray
+    obstacle: Optional[dict]
+
+    def von_mises(self, u) -> object:
+        """UFL expression of the von Mises stress of the displacement ``u`` (the body's materials)."""
+
+    def response(self, load: Optional[dict], r: np.ndarray) -> PETSc.Vec:
+        """Displacement in the system's DOFs (the caller destroys the vector)."""
+
+    def to_function(self, u: PETSc.Vec, load: Optional[dict]):
+        """The whole displacement field, prescribed DOFs included."""
+
+
 @dataclass
 class System:
     """Elastic system with frictional contact candidates (paper eq. (3)-(7))."""
@@ -43,6 +81,7 @@ class System:
     build_contact_schur: Callable[[], np.ndarray]
     description: str = ""
     extra: dict = field(default_factory=dict)
+    fields: Optional[FieldSource] = None     # displacement fields (None: no mesh)
     _M: Optional[PETSc.Mat] = field(default=None, repr=False)
     _Sc: Optional[np.ndarray] = field(default=None, repr=False)
 

@@ -85,4 +85,4 @@ register(SystemType("matrices", Matrices, "app.systems.matrices",
                     "K (and M) from Matrix Market or PETSc binary files, contact DOF pairs"))
 register(SystemType("gmsh", GmshBody, "app.systems.gmsh_body",
                     "a 2D body from a Gmsh .geo/.msh file, a straight obstacle, a loading program",
-                    position_axis="position along the obstacle, s [{length}]"))
+                    position_axis="tangential coordinate s along the obstacle [{length}]"))

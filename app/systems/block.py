@@ -66,6 +66,8 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
                                  f"{cfg.pattern} P{cfg.degree}, plane {cfg.plane}, E={cfg.E} {UNITS[units]['stress']}, nu={cfg.nu}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     system.extra = {"operators": ops, "flexibility": flex}
+    from app.systems.block_fields import BlockFields
+    system.fields = BlockFields(cfg, ops, flex, nodes)
     return system, ops, flex
 
 

@@ -33,12 +33,12 @@ deformable bodies, large rotations (rotations are linearised), contact of nodes 
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal, Optional
+from typing import Annotated, Any, ClassVar, Literal, Optional
 
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, no_field_outputs, resolve_file
+from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, resolve_file
 
 Vec2 = tuple[Finite, Finite]
 
@@ -111,6 +111,7 @@ class Phase(StrictModel):
 class GmshBody(StrictModel):
     """A 2D body meshed by Gmsh (physical groups name its curves and surfaces)."""
     type: Literal["gmsh"]
+    has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/outputs/fields.py)
     file: str = Field(description="Gmsh .geo or .msh file, relative to the scene file")
     contact: str = Field(description="physical curve that may touch the obstacle")
     prescribed: dict[str, Literal["x", "y", "xy"]] = Field(
@@ -232,9 +233,7 @@ class GmshBody(StrictModel):
 
     @classmethod
     def check_scene(cls, scene: Any) -> None:
-        """Scene-level checks: no block loading; pictures of meshes are not drawn for this type yet."""
+        """Scene-level checks: no block loading (ParaView files and screenshots work for any body)."""
         if scene.loading is not None:
             raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a gmsh system: give "
                                   "system.program (the phases of the loading)")
-        no_field_outputs(scene, "not available yet for a gmsh system (the field writer assumes the built-in "
-                                "block): use plots and report")

@@ -298,7 +298,7 @@ class Matrices(StrictModel):
         if scene.loading is not None:
             raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a matrices system: "
                                   "give system.forces (phases of applied forces) or system.state")
-        no_field_outputs(scene, "needs a mesh: not available for a matrices system (use plots and report)")
+        no_field_outputs(scene, "needs a mesh: not applicable, a matrices system has no mesh (use plots and report)")
         if cfg.state is not None:
             r = np.array(cfg.state.reactions, dtype=float)
             excess = np.abs(r[:, 0]) - scene.mu * (-r[:, 1])

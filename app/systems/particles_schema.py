@@ -43,8 +43,5 @@ class TwoParticles(Strict):
             raise PathError("loading", scene.loading.model_dump(),
                             "not allowed for a two_particles system (a single equilibrium state): "
                             "remove 'loading', or use a block system")
-        out = scene.outputs
-        for key in ("paraview", "screenshots"):
-            if getattr(out, key):
-                raise PathError(f"outputs.{key}", getattr(out, key) if key == "paraview" else True,
-                                "needs a mesh: not available for a two_particles system (use plots and report)")
+        from app.systems.schema import no_field_outputs
+        no_field_outputs(scene, "needs a mesh: not applicable, a two_particles system has no mesh (use plots and report)")

@@ -53,8 +53,10 @@ def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.P
 
 
 def no_field_outputs(scene, why: str) -> None:
-    """Refuse ``outputs.paraview``/``outputs.screenshots`` for a system type without the field
-    writer (app/outputs/fields.py): one line naming the key and ``why``."""
+    """Refuse ``outputs.paraview``/``outputs.screenshots`` written by the user for a system type
+    without a mesh: one line naming the key and ``why``. When they are on only by default (not in
+    the scene), the run skips them with a "not applicable" note (app/outputs/fields.py)."""
+    given = getattr(scene.outputs, "model_fields_set", {"paraview", "screenshots"})
     for key in ("paraview", "screenshots"):
-        if getattr(scene.outputs, key):
+        if key in given and getattr(scene.outputs, key):
             raise SystemPathError(f"outputs.{key}", True, why)
