@@ -217,7 +217,7 @@ def main(scene: Scene, args, comm) -> int:
     if getattr(scene, "refinement", None) is not None:
         return _fail(f"{source}: sweep: a scene has either a 'sweep' or a 'refinement' section, not both")
     try:
-        cases = expand(scene, source)
+        cases = expand(scene, source, pathlib.Path(args.scene).parent if args.scene else None)
     except SceneError as err:
         return _fail(str(err))
     from app import preflight

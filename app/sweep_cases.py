@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import pathlib
 import re
 from dataclasses import dataclass
 from typing import Any
@@ -67,8 +68,12 @@ def _set(data: dict, key: str, value: Any) -> None:
     data[last] = list(value) if isinstance(value, tuple) else value
 
 
-def expand(scene: Scene, source: str = "scene") -> list[Case]:
+def expand(scene: Scene, source: str = "scene", base_dir: str | pathlib.Path | None = None) -> list[Case]:
     """The cases of a sweep scene, each validated as a normal scene.
+
+    ``base_dir`` is the scene file's folder: a swept file value (``system.file``, ``system.K``)
+    that is a relative path is resolved against it, like the same key written in the scene (the
+    base scene's own paths are already absolute in its dump).
 
     Raises :class:`SceneError` (one line, naming the case) when a value makes a case invalid.
     """
@@ -92,7 +97,7 @@ def expand(scene: Scene, source: str = "scene") -> list[Case]:
         for k, v in values.items():
             _set(data, k, v)
         try:
-            case_scene = Scene.model_validate(data)
+            case_scene = Scene.model_validate(data, context={"base_dir": base_dir} if base_dir is not None else None)
         except ValidationError as err:
             raise SceneError(f"{source}: sweep case '{name}': {format_error(err)}") from None
         except RecursionError:

@@ -183,6 +183,9 @@ def _err_scene(file, **system):
     (GOOD, {"program": [{"steps": 2, "force": {"top": [0, -1]}}], "prescribed": {}},
      "the stiffness is singular"),
     (GOOD, {"obstacle": {"point": [0, 1], "normal": [0, -1]}}, "inside the obstacle"),
+    # the normal points into the body (the contact curve is on the line, the rest of the body beyond it)
+    (GOOD, {"obstacle": {"point": [0, 0], "normal": [0, 1]}}, "the body starts on the obstacle's side of the line"),
+    (GOOD, {"obstacle": {"point": [5, -3], "angle_deg": 180}}, "the body starts on the obstacle's side of the line"),
 ])
 def test_user_mistakes_are_one_line_errors(tmp_path, geo, system, needle):
     import yaml
@@ -308,3 +311,148 @@ def test_unnamed_physical_groups_are_named_by_their_tags(tmp_path):
                                 "materials": {5: {"E": 1.0, "nu": 0.3}},
                                 "program": [{"steps": 2, "displacement": {12: {"translation": [0, -0.1]}}}]}})
     assert len(res["states"]) == 2 and res["states"][-1]["load"]["normal_resultant"] > 0
+
+
+def test_until_scales_the_motion_not_the_loads_of_its_phase(tmp_path):
+    """``until: normal_force`` scales the phase's prescribed motion only: a force applied in the same
+    phase is applied as given (it used to be multiplied by the same factor)."""
+    (tmp_path / "m.geo").write_text(GOOD + 'Physical Curve("sides") = {2, 4};\n')
+    s = _err_scene("m.geo")
+    s["system"]["program"] = [{"steps": 2, "displacement": {"top": {"translation": [0, -1]}}, "force": {"sides": [0.05, 0]},
+                               "until": {"normal_force": 2.0}}]
+    s["analyses"] = []
+    s["system"]["file"] = str(tmp_path / "m.geo")
+    res = run_scene(s)
+    end = res["states"][-1]["load"]
+    assert end["normal_resultant"] == pytest.approx(2.0, rel=1e-10)
+    assert end["parameters"]["force.sides.x"] == pytest.approx(0.05, rel=1e-14)
+    assert res["path"]["phases"][0]["homogeneous"] is False
+    assert abs(end["parameters"]["motion.top.ty"]) != pytest.approx(1.0, rel=1e-6)     # the motion was scaled
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_lumped_mass_is_positive_and_keeps_the_mass(tmp_path, degree):
+    """mass: lumped gives a positive diagonal M carrying the body's mass rho t A per direction; for
+    P2 the row sums vanish at the vertices (a singular M before), so the HRZ lumping is used."""
+    from mpi4py import MPI
+
+    from app.analyses.pencils import dense
+    from app.config import parse_scene
+    from app.stages import Stages
+    from app.systems import gmsh_body
+    (tmp_path / "m.geo").write_text(GOOD)
+    s = _err_scene(str(tmp_path / "m.geo"), prescribed={}, foundation=1e-6, degree=degree, mass="lumped",
+                   material={"E": 1.0, "nu": 0.3, "density": 2.5},
+                   program=[{"steps": 1, "gravity": [0, -1]}])
+    system = gmsh_body.build(parse_scene(s).system, MPI.COMM_WORLD, Stages())
+    try:
+        M = dense(system.mass())
+    finally:
+        system.destroy()
+    d = np.diag(M)
+    assert np.all(d > 1e-3 * d.max()) and np.abs(M - np.diag(d)).max() == 0.0
+    assert d.sum() / 2 == pytest.approx(2.5 * 1.0 * 40 * 20, rel=1e-12)
+
+
+def test_named_physical_groups_may_be_given_by_their_tags(tmp_path):
+    """``Physical Curve("bottom") = {1}`` has the tag 1: ``contact: 1`` names it as ``contact: bottom``
+    (it was an error: "no physical curve '1'"), for curves, prescribed curves, materials and phases."""
+    from app.systems.gmsh_mesh import model_info
+    (tmp_path / "m.geo").write_text(GOOD)
+    info = model_info(tmp_path / "m.geo", "m.geo")
+    bottom, top, body = info.curves["bottom"][0], info.curves["top"][0], info.surfaces["body"][0]
+    named = _err_scene(str(tmp_path / "m.geo"), material=None, materials={"body": {"E": 1.0, "nu": 0.3}})
+    named["system"].pop("material")
+    tagged = _err_scene(str(tmp_path / "m.geo"), contact=bottom, prescribed={top: "xy"}, material=None,
+                        materials={body: {"E": 1.0, "nu": 0.3}},
+                        program=[{"steps": 2, "displacement": {top: {"translation": [0, -0.1]}}}])
+    tagged["system"].pop("material")
+    a, b = run_scene(named), run_scene(tagged)
+    assert [s["load"]["normal_resultant"] for s in a["states"]] == [s["load"]["normal_resultant"] for s in b["states"]]
+    assert a["states"][-1]["load"]["normal_resultant"] > 0
+
+
+def test_contact_nodes_with_one_prescribed_component_are_reported(tmp_path):
+    """A symmetry line held in x through the contact curve: its node on the contact curve is left
+    out of the contact set (not modelled: a normal-only contact node); the results say so."""
+    (tmp_path / "m.geo").write_text(GOOD + 'Physical Curve("sym") = {4};\n')
+    s = _err_scene(str(tmp_path / "m.geo"), prescribed={"sym": "x"}, foundation=1e-6,
+                   program=[{"steps": 2, "force": {"top": [0, -0.1]}}])
+    s["analyses"] = []
+    res = run_scene(s)
+    assert all(n["x"] > 0 for n in res["states"][0]["nodes"])
+    w = [x for x in res["warnings"] if "left out of the contact set" in x]
+    assert len(w) == 1 and w[0].startswith("1 node(s) of the contact curve 'bottom'") and "(0, 0)" in w[0], res["warnings"]
+
+
+def test_part_of_the_body_beyond_the_obstacle_line_is_a_warning(tmp_path):
+    """A body on a ledge: the obstacle is an infinite line, a part hanging beside the ledge starts
+    beyond it. Only the contact curve is kept out of the obstacle: a warning, not an error (an
+    error when most of the body is beyond: the normal points into the body, see the mistakes)."""
+    (tmp_path / "m.geo").write_text("""
+Point(1) = {0, 0, 0, 2}; Point(2) = {20, 0, 0, 2}; Point(3) = {20, -3, 0, 2}; Point(4) = {40, -3, 0, 2};
+Point(5) = {40, 20, 0, 2}; Point(6) = {0, 20, 0, 2};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 5}; Line(5) = {5, 6}; Line(6) = {6, 1};
+Curve Loop(1) = {1, 2, 3, 4, 5, 6}; Plane Surface(1) = {1};
+Physical Curve("bottom") = {1}; Physical Curve("top") = {5}; Physical Surface("body") = {1};
+""")
+    s = _err_scene(str(tmp_path / "m.geo"))
+    s["analyses"] = []
+    res = run_scene(s)
+    assert any("part of the body starts beyond the obstacle line" in w for w in res["warnings"]), res["warnings"]
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_traction_recovery_is_exact_on_its_space(degree):
+    """Nodal forces of a traction of the displacement space (P1: linear per edge, P2: quadratic)
+    are recovered exactly by the consistent recovery, a linear one also by the P2 vertex fit;
+    a uniform pressure loads P2 vertices and mid-side nodes 1 : 2 (interior, equal edges)."""
+    from app.systems.contact_traction import contact_recovery
+    rng = np.random.default_rng(3)
+    xv = np.concatenate([[0.0], np.sort(rng.uniform(0, 2, 7)), [2.0]])
+    c, s = math.cos(0.3), math.sin(0.3)                        # a straight curve at 0.3 rad
+    pts = lambda x: np.column_stack([c * x + 5.0, s * x - 1.0])    # noqa: E731
+    edges = np.stack([pts(xv[:-1]), pts(xv[1:])], axis=1)
+    xs = np.sort(np.concatenate([xv, 0.5 * (xv[:-1] + xv[1:])])) if degree == 2 else xv
+    order = rng.permutation(len(xs))                            # any node order
+    rec = contact_recovery(edges, pts(xs[order]), degree)
+    t = 2.5
+    p = (1.0 + 0.3 * xs - 0.7 * xs ** 2 if degree == 2 else 1.0 + 0.3 * xs)[order]
+    r = t * rec.M @ p
+    assert rec.M.sum() == pytest.approx(2.0, rel=1e-12)         # length of the curve
+    got = rec.tractions(t, r)
+    assert got["consistent"][0] == pytest.approx(p, rel=1e-10)
+    if degree == 2:
+        lin = (1.0 + 0.3 * xs)[order]
+        assert rec.tractions(t, t * rec.M @ lin)["vertex_fit"][0] == pytest.approx(lin, rel=1e-10)
+        even = np.linspace(0, 2, 9)
+        e2 = np.stack([pts(even[:-1]), pts(even[1:])], axis=1)
+        x2 = np.linspace(0, 2, 17)
+        u = contact_recovery(e2, pts(x2), 2).M @ np.ones(17)
+        assert u[2] / u[1] == pytest.approx(0.5, rel=1e-12) and u[1] == pytest.approx(2 * 0.25 / 3, rel=1e-12)
+
+
+def test_two_materials_in_series_give_the_exact_uniaxial_compliance(tmp_path):
+    """Two physical surfaces (E 2 below y = 8, E 10 above), plane stress, held by a symmetry line
+    (x) and the bottom (y), nu = 0 (no lateral mismatch), a total force F on the top: uniaxial stress, so the top moves by
+    F / (t W) (8 / 2 + 12 / 10) exactly (P1 and P2). The top is the contact curve, 100 below an
+    obstacle it never reaches, so its displacement is reported."""
+    (tmp_path / "m.geo").write_text("""
+Point(1) = {0, 0, 0, 2}; Point(2) = {10, 0, 0, 2}; Point(3) = {10, 8, 0, 2}; Point(4) = {0, 8, 0, 2};
+Point(5) = {10, 20, 0, 2}; Point(6) = {0, 20, 0, 2};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1}; Line(5) = {3, 5}; Line(6) = {5, 6};
+Line(7) = {6, 4};
+Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1}; Curve Loop(2) = {-3, 5, 6, 7}; Plane Surface(2) = {2};
+Physical Curve("bottom") = {1}; Physical Curve("sym") = {4, 7}; Physical Curve("top") = {6};
+Physical Surface("soft") = {1}; Physical Surface("hard") = {2};
+""")
+    for degree in (1, 2):
+        res = run_scene({"name": "s", "mu": 0.0, "analyses": [], "system": {
+            "type": "gmsh", "file": str(tmp_path / "m.geo"), "contact": "top", "prescribed": {"bottom": "y", "sym": "x"},
+            "materials": {"soft": {"E": 2.0, "nu": 0.0}, "hard": {"E": 10.0, "nu": 0.0}}, "degree": degree,
+            "thickness": 1.5, "obstacle": {"point": [0, 120], "normal": [0, 1]},
+            "program": [{"steps": 2, "force": {"top": [0, -3.0]}}]}})
+        top = res["states"][-1]["nodes"]
+        delta = 3.0 / (1.5 * 10) * (8 / 2.0 + 12 / 10.0)
+        assert all(n["status"] == "free" for n in top)
+        assert [n["u_N"] + 100.0 for n in top] == pytest.approx([-delta] * len(top), rel=1e-9)

@@ -91,11 +91,14 @@ def test_shipped_scenes_validate_from_any_folder(scene):
     assert p.returncode == 0, p.stderr
 
 
-@pytest.mark.parametrize("alpha,mu,step", [(25.0, 0.505, 51), (25.0, 0.305, 31), (-40.0, 0.705, 71)])
-def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step):
+@pytest.mark.parametrize("alpha,mu,step,found", [(25.0, 0.505, 51, None), (25.0, 0.305, 31, None), (-40.0, 0.705, 71, None),
+                                              (25.0, 0.505, 51, 3.0e-7), (10.0, 0.125, 13, 3.0e-9)])
+def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, found):
     """Gravity tilted by tan(theta) = 0.01 per step against the incline's normal: the path ends by
     gross sliding (every node in contact slips) at the first step with tan(theta) > mu, and not
-    before; the incline (mesh and obstacle) is at any angle."""
+    before; the incline (mesh and obstacle) is at any angle. With a weak foundation k = 1e-4 and
+    1e-6 E / L^2 the gross-sliding increment used to fail (SNES VI line search) and is now solved
+    (full Newton steps as the last attempt, app/loading/contact.py)."""
     import yaml
     geo = (EX / "incline.geo").read_text().replace("alpha = 25 * Pi / 180", f"alpha = {alpha} * Pi / 180")
     (tmp_path / "incline.geo").write_text(geo)
@@ -107,6 +110,8 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step):
     s["system"]["program"][1]["gravity"] = [-g * t[0], -g * t[1]]
     s["mu"] = mu
     s["analyses"] = []
+    if found is not None:
+        s["system"]["foundation"] = found
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
     p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
@@ -119,7 +124,8 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step):
         normal = -sum(x["r_N"] for x in st["nodes"])
         # the obstacle carries the weight; the foundation (1e-2 E / L^2) takes a fraction below 1 %
         # (0.3 % of the tangential load once most nodes slip): far below the 2 % load step
-        assert normal == pytest.approx(weight, rel=2e-3)
+        # (with k = 1e-4, 1e-6 E / L^2: a fraction of the order of 1e-5, 1e-7)
+        assert normal == pytest.approx(weight, rel=2e-3 if found is None else 1e-4)
         if k < step:
             assert tangential == pytest.approx(0.01 * k * weight, rel=1e-2, abs=1e-3 * weight)
             assert any(x["status"] == "stick" for x in st["nodes"])
@@ -144,6 +150,8 @@ def test_examples_same_numbers_on_two_ranks(tmp_path, scene):
         for p_, q_ in zip(x["nodes"], y["nodes"]):
             assert q_["r_N"] == pytest.approx(p_["r_N"], abs=1e-9 * scale)
             assert q_["r_T"] == pytest.approx(p_["r_T"], abs=1e-9 * scale)
+        pa, pb = (np.array(z["contact_traction"]["p_N"]) for z in (x, y))     # recovered from the facets of all ranks
+        assert pb == pytest.approx(pa, abs=1e-9 * np.abs(pa).max())
         va = sorted(s["value"] for s in x["analyses"].get("mceip_mu", {}).get("solutions", []))
         vb = sorted(s["value"] for s in y["analyses"].get("mceip_mu", {}).get("solutions", []))
         assert vb == pytest.approx(va, rel=1e-8)
@@ -168,3 +176,80 @@ def test_limits_of_a_gmsh_study(tmp_path):
     assert p.returncode != 0 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
     assert "settings.limits.max_dofs = 100" in lines[0] and "DOFs" in lines[0]
     assert not (tmp_path / "o2").exists()
+
+
+DISK_GEO = """// full disk of radius R, centre (0, R): the lower arcs may touch y = 0; a small top arc is held
+R = 15; h = H_NEAR; H = 2.0; b = 10 * Pi / 180;
+Point(1) = {0, R, 0, H}; Point(2) = {0, 0, 0, h}; Point(3) = {R, R, 0, H}; Point(4) = {-R, R, 0, H};
+Point(5) = {R * Sin(b), R + R * Cos(b), 0, H}; Point(6) = {-R * Sin(b), R + R * Cos(b), 0, H};
+Circle(1) = {4, 1, 2}; Circle(2) = {2, 1, 3}; Circle(3) = {3, 1, 5}; Circle(4) = {5, 1, 6}; Circle(5) = {6, 1, 4};
+Curve Loop(1) = {1, 2, 3, 4, 5};
+Plane Surface(1) = {1};
+Field[1] = Distance; Field[1].NodesList = {2};
+Field[2] = Threshold; Field[2].IField = 1; Field[2].LcMin = h; Field[2].LcMax = H;
+Field[2].DistMin = 1.0; Field[2].DistMax = 8.0;
+Background Field = 2;
+Mesh.MeshSizeExtendFromBoundary = 0; Mesh.MeshSizeFromPoints = 0; Mesh.MeshSizeFromCurvature = 0;
+Physical Curve("arc") = {1, 2};
+Physical Curve(7) = {4};
+Physical Curve("free") = {3, 5};
+Physical Surface("disk") = {1};
+"""
+
+
+def _disk(tmp_path, h, degree, stop=None):
+    """A frictionless full disk (R = 15 mm, E = 200 MPa, nu = 0.25, plane stress, 2 mm thick) pressed
+    by a held top arc (a physical group given by its ID, 7) to 8 N; returns results.json."""
+    import yaml
+    (tmp_path / "disk.geo").write_text(DISK_GEO.replace("H_NEAR", str(h)))
+    press = {"name": "press", "steps": 3, "displacement": {7: {"translation": [0, -1]}}, "until": {"normal_force": 8.0}}
+    if stop is not None:
+        press["stop_at_gross_sliding"] = stop
+    s = {"name": "disk", "mu": 0.0, "analyses": [],
+         "system": {"type": "gmsh", "file": "disk.geo", "contact": "arc", "prescribed": {7: "xy"},
+                    "material": {"E": 200.0, "nu": 0.25, "density": 1e-9}, "plane": "stress", "degree": degree,
+                    "thickness": 2.0, "program": [press]}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    return json.loads((tmp_path / "out" / "results.json").read_text())
+
+
+def test_p2_disk_pressure_recovery_against_hertz(tmp_path):
+    """P2 nodal reactions are not pressure x tributary length (a vertex carries L/3, a mid-side
+    node 2L/3): the consistent recovery (boundary mass matrix) integrates back to the force, the
+    vertex fit converges to Hertz's peak pressure, and the half-width from the second moment of
+    the reactions, 2 sqrt(sum x^2 r / sum r) (exact for an elliptic pressure), matches Hertz."""
+    F, R, E, t = 8.0, 15.0, 200.0, 2.0
+    a_ex = math.sqrt(4 * (F / t) * R / (math.pi * E))        # plane stress: E* = E
+    p_ex = 2 * (F / t) / (math.pi * a_ex)
+    errs = []
+    for h in (0.1, 0.05):
+        (tmp_path / f"h{h}").mkdir()
+        res = _disk(tmp_path / f"h{h}", h, 2)
+        assert res["path"]["end"] == "all phases applied"
+        st = res["states"][-1]
+        x = np.array([n["x"] for n in st["nodes"]])
+        r = -np.array([n["r_N"] for n in st["nodes"]])
+        assert r.sum() == pytest.approx(F, rel=1e-10)
+        tr = st["contact_traction"]
+        pc, pf = np.array(tr["p_N"]), np.array(tr["p_N_vertex_fit"])
+        # the recovered pressures carry the force: t * integral of p (trapezoid on the fine contact zone)
+        c = slice(np.flatnonzero(r > 0).min() - 2, np.flatnonzero(r > 0).max() + 3)
+        assert t * np.trapz(pf[c], x[c]) == pytest.approx(F, rel=0.02)
+        p_trib = (r[1:-1] / (0.5 * (x[2:] - x[:-2]))).max() / t
+        assert p_trib / p_ex - 1 > 0.2                 # the naive P1 formula is ~30 % off for P2
+        a_m = 2 * math.sqrt(np.sum(x ** 2 * r) / np.sum(r))
+        assert a_m == pytest.approx(a_ex, rel=5e-3)
+        errs.append((abs(pf.max() / p_ex - 1), abs(pc.max() / p_ex - 1)))
+    assert errs[1][0] < errs[0][0] and errs[1][0] < 0.01          # vertex fit: 1.4 %, 0.7 %
+    assert errs[1][1] < errs[0][1]                                # consistent: oscillates, converges (19 %, 9.5 %)
+
+
+def test_frictionless_program_is_not_stopped_as_gross_sliding(tmp_path):
+    """mu = 0: every node in contact 'slips', which is not gross sliding: the press runs to its end
+    (it used to stop after its first step); P1 peak pressure of the consistent recovery vs Hertz."""
+    res = _disk(tmp_path, 0.1, 1)
+    assert res["path"]["end"] == "all phases applied" and len(res["states"]) == 3
+    a_ex = math.sqrt(4 * 4.0 * 15.0 / (math.pi * 200.0))
+    assert max(res["states"][-1]["contact_traction"]["p_N"]) == pytest.approx(2 * 4.0 / (math.pi * a_ex), rel=0.01)

@@ -328,3 +328,21 @@ def test_killed_sweep_finishes_only_the_missing_cases(serial_sweep, tmp_path):
     assert sorted(f[2] for f in second if f[1] == "skip") == sorted(done)
     _assert_same_rows(ref, rows)                          # and the combined table is complete and right
     assert (out / "plots" / "mu.png").exists() and (out / "plots" / "system.length.png").exists()
+
+
+def test_swept_file_paths_are_relative_to_the_scene_file(tmp_path):
+    """A swept file key (system.file of a gmsh scene) is resolved against the scene's folder, as the
+    same key written in the scene; it used to be resolved against the current folder."""
+    geo = (ROOT / "app" / "scenes" / "gmsh" / "block.geo").read_text()
+    (tmp_path / "sub").mkdir()
+    for nx in (10, 20):
+        (tmp_path / "sub" / f"b{nx}.geo").write_text(geo.replace("nx = 20; ny = 10;", f"nx = {nx}; ny = {nx // 2};"))
+    scene = (ROOT / "app" / "scenes" / "gmsh" / "block.yaml").read_text().replace("file: block.geo", "file: sub/b20.geo")
+    scene = scene.replace("outputs: {plots: true, report: true}", "")
+    (tmp_path / "s.yaml").write_text(scene + "sweep:\n  parameters:\n    system.file: [sub/b10.geo, sub/b20.geo]\n")
+    p = run_cli("validate", str(tmp_path / "s.yaml"), cwd="/")
+    assert p.returncode == 0, p.stderr
+    assert "of 2 case(s)" in p.stdout and "system.file=sub-b10.geo" in p.stdout, p.stdout
+    (tmp_path / "s2.yaml").write_text(scene + "sweep:\n  parameters:\n    system.file: [sub/nope.geo]\n")
+    p = run_cli("validate", str(tmp_path / "s2.yaml"), cwd="/")
+    assert p.returncode == 2 and str(tmp_path / "sub" / "nope.geo") in p.stderr, p.stderr

@@ -41,6 +41,15 @@ class ContactSolveError(RuntimeError):
     pass
 
 
+# SNES VI runs tried in turn until one satisfies (1)-(2): the reduced-space method with PETSc's
+# backtracking line search, the semismooth one, then the reduced-space method with full Newton
+# steps. The last is what a floating body on a weak foundation needs at gross sliding: the slip
+# increment (excess force / k) is far from the previous state, Kc has a nearly rigid tangential
+# mode (condition number ~ E / (k L^2)), and backtracking stalls on the first (too long) steps
+# while full steps of the piecewise linear problem find the active set.
+ATTEMPTS = (("vinewtonrsls", "bt"), ("vinewtonssls", "bt"), ("vinewtonrsls", "basic"))
+
+
 class FrictionalContact:
     """Incremental frictional contact on the contact stiffness (one instance per study)."""
 
@@ -94,7 +103,7 @@ class FrictionalContact:
         Pm.setValues(range(2 * n), range(2 * n), Jd)
         Pm.assemble()
 
-    def _snes(self, method: str, z0: np.ndarray, atol: float) -> tuple[np.ndarray, int, int]:
+    def _snes(self, method: str, z0: np.ndarray, atol: float, linesearch: str = "bt") -> tuple[np.ndarray, int, int]:
         m = 2 * self.n
         X = PETSc.Vec().createSeq(m, comm=PETSc.COMM_SELF)
         X.setArray(z0)
@@ -105,6 +114,15 @@ class FrictionalContact:
         snes = PETSc.SNES().create(PETSc.COMM_SELF)
         try:
             snes.setType(method)
+            if linesearch != "bt":
+                # petsc4py 3.18 has no SNESLineSearch object: a private options prefix, removed at once
+                snes.setOptionsPrefix("contact_inc_")
+                opts = PETSc.Options()
+                opts.setValue("contact_inc_snes_linesearch_type", linesearch)
+                try:
+                    snes.setFromOptions()
+                finally:
+                    opts.delValue("contact_inc_snes_linesearch_type")
             snes.setFunction(self._residual, F)
             snes.setJacobian(self._jacobian, self.J)
             snes.setVariableBounds(lo, hi)
@@ -140,16 +158,20 @@ class FrictionalContact:
         scale = max(float(np.max(np.abs(self.base))), 1e-300)
         z0 = np.concatenate([g_prev, np.zeros(n)])
         best = None
-        for method in ("vinewtonrsls", "vinewtonssls"):
-            z, reason, its = self._snes(method, z0, 1e-14 * scale)
+        for method, linesearch in ATTEMPTS:
+            z, reason, its = self._snes(method, z0, 1e-14 * scale, linesearch)
             viol = self.violation(z, scale) if np.all(np.isfinite(z)) else np.inf
             if best is None or viol < best[1]:
-                best = (z, viol, its, method)
+                best = (z, viol, its, method if linesearch == "bt" else f"{method} ({linesearch} line search)")
             if viol <= 1e-9:
                 break
         z, viol, its, method = best
         if viol > 1e-9:
-            raise ContactSolveError(f"SNES VI did not solve the contact increment (violation {viol:.3g})")
+            cond = np.linalg.cond(self.Kc)
+            hint = (f"; the contact stiffness is ill-conditioned (condition number {cond:.2g}): a body held only by "
+                    "a weak system.foundation slides by excess force / k, raise it" if cond > 1e8 else "")
+            raise ContactSolveError(f"SNES VI did not solve the contact increment (violation {viol:.3g}, tried "
+                                    f"{', '.join(m + ('' if ls == 'bt' else ' + ' + ls) for m, ls in ATTEMPTS)}){hint}")
         z[:n] = np.maximum(z[:n], 0.0)
         u_c = self.P @ z + u_fixed
         r = self._reactions(z) * self.kscale

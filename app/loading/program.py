@@ -7,9 +7,10 @@ contact displacements are ``u0(a) = U0 a`` (paper axes, columns from one solve e
 is the frictional contact problem (app/loading/contact.py, paper eqs. (1)-(2)) with the initial
 gaps ``g0`` entering as a shift of ``u0`` (``u_N <= g0``).
 
-Force control of a displacement phase (``until: normal_force F``): the phase's ``da`` is scaled
-by ``c`` so that the normal resultant ``-sum r_N`` is F at its end. When the phase starts from the
-unloaded state with zero gaps and no loads, every increment is positively homogeneous in ``c``
+Force control of a displacement phase (``until: normal_force F``): the phase's motions ``da`` are
+scaled by ``c`` so that the normal resultant ``-sum r_N`` is F at its end; the loads of the same
+phase (``fixed``: forces, tractions, gravity) are applied as given. When the phase starts from the
+unloaded state with zero gaps and no loads (in it or before), every increment is positively homogeneous in ``c``
 (DESIGN.md section 5): one trial run gives the exact factor, as for the built-in block
 (app/loading/block_path.py), and the same two runs are made here. Otherwise ``c`` is bracketed
 (doubled until the force is passed, e.g. to close gaps) and found by regula falsi (Illinois); either way the reached force is checked to 1e-10 relative.
@@ -35,10 +36,15 @@ class ProgramPhase:
     """A phase in parameter form: increment ``da`` of the load parameters in ``steps`` steps."""
     name: str
     steps: int
-    da: np.ndarray
+    da: np.ndarray                        # the increment (with ``normal_force``: the part it scales, the motions)
     normal_force: Optional[float] = None
     stop_at_gross_sliding: bool = True
     describe: Callable[[np.ndarray], dict] = field(default=lambda a: {})
+    fixed: Optional[np.ndarray] = None    # the part of the increment ``normal_force`` does not scale (loads)
+
+    def increment(self, c: float = 1.0) -> np.ndarray:
+        """The phase's whole increment when its scaled part is multiplied by ``c``."""
+        return c * self.da if self.fixed is None else self.fixed + c * self.da
 
 
 def _run_phase(solver: FrictionalContact, U0: np.ndarray, G: np.ndarray, a0: np.ndarray, da: np.ndarray,
@@ -74,15 +80,15 @@ def _scale_for_force(solver, U0, G, a0, ph: ProgramPhase, u_prev, homogeneous: b
     c = F / bonded
     if homogeneous:
         for _ in range(4):          # the block's recipe: exact after one rescaling (homogeneity)
-            fn = _end_force(solver, U0, G, a0, c * ph.da, ph.steps, u_prev)
+            fn = _end_force(solver, U0, G, a0, ph.increment(c), ph.steps, u_prev)
             if not fn > 0:
                 raise ProgramError(f"phase '{ph.name}': normal force {F} cannot be reached (the path gives {fn})")
             c *= F / fn
-            if abs(_end_force(solver, U0, G, a0, c * ph.da, ph.steps, u_prev) - F) <= 1e-10 * F:
+            if abs(_end_force(solver, U0, G, a0, ph.increment(c), ph.steps, u_prev) - F) <= 1e-10 * F:
                 return c
     else:                            # bracket, then regula falsi (Illinois) on f(c) = resultant(c) - F
         def f(c: float) -> float:
-            return _end_force(solver, U0, G, a0, c * ph.da, ph.steps, u_prev) - F
+            return _end_force(solver, U0, G, a0, ph.increment(c), ph.steps, u_prev) - F
         lo, f_lo = 0.0, f(0.0)
         if f_lo >= 0:
             raise ProgramError(f"phase '{ph.name}': the normal resultant already reaches {F} without this phase's motion")
@@ -128,12 +134,13 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
     try:
         bar = progress.bar(sum(p.steps for p in phases), "loading")
         for i, ph in enumerate(phases):
-            da = ph.da
+            da = ph.increment()
             rec = {"name": ph.name, "steps": ph.steps}
             if ph.normal_force is not None:
-                homogeneous = not np.any(a) and not np.any(gaps) and not np.any(u_prev)
+                homogeneous = (not np.any(a) and not np.any(gaps) and not np.any(u_prev)
+                               and (ph.fixed is None or not np.any(ph.fixed)))
                 c = _scale_for_force(solver, U0, G, a, ph, u_prev, homogeneous)
-                da = c * ph.da
+                da = ph.increment(c)
                 rec.update(scale=c, normal_force=ph.normal_force, homogeneous=homogeneous)
             stop = None
             try:
@@ -147,7 +154,7 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
                                                                    "violation": inc.violation}})
                     states.append(st)
                     bar.update(1)
-                    if ph.stop_at_gross_sliding:
+                    if ph.stop_at_gross_sliding and mu > 0:     # frictionless: "slip" is every contact
                         cls = classify(st, mu, classify_rtol)
                         contact = [s for s in cls.status if s != FREE]
                         if contact and all(s == SLIP for s in contact):

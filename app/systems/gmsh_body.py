@@ -32,6 +32,7 @@ from app.errors import UnreachableLoad
 from app.loading.program import ProgramPhase, run_program
 from app.stages import Stages
 from app.system.base import ContactNode, System
+from app.systems.contact_traction import ContactRecovery, contact_recovery
 from app.systems.gmsh_schema import GmshBody
 
 log = logging.getLogger(__name__)
@@ -56,8 +57,13 @@ class BodyOperators:
     params: dict[tuple, int]                  # (kind, curve, component) -> index
     contact_dofs: np.ndarray                  # (n, 2) reduced DOFs (u_T, u_N) of the contact nodes
     contact_xy: np.ndarray                    # (n, 2) coordinates
+    contact_edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))   # (m, 2, 2) facet ends
+    # (smallest clearance (p - x).n of any node, that node, body size, fraction of the nodes beyond the line)
+    deepest: tuple = (np.inf, (0.0, 0.0), 1.0, 0.0)
+    left_out: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))   # contact-curve nodes with one prescribed component
     mass_form: object = None
     mass_kind: str = "consistent"
+    degree: int = 1
     field_data: dict | None = None            # what BodyFields needs (space, prescribed DOFs, materials)
     _M: PETSc.Mat | None = field(default=None, repr=False)
 
@@ -68,7 +74,14 @@ class BodyOperators:
         try:
             M_full.assemble()
             if self.mass_kind == "lumped":
-                d = M_full.getRowSum()
+                # P1: row sums. P2: row sums vanish at the vertices (singular M), so the HRZ lumping:
+                # the diagonal scaled to keep each element's mass, for affine P2 triangles the
+                # constant factor 30/19 (element diagonal: A/30 per vertex, 8A/45 per mid-side node)
+                if self.degree == 2:
+                    d = M_full.getDiagonal()
+                    d.scale(30.0 / 19.0)
+                else:
+                    d = M_full.getRowSum()
                 M_full.zeroEntries()
                 M_full.setDiagonal(d)
                 d.destroy()
@@ -116,7 +129,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     Q = dolfinx.fem.FunctionSpace(mesh, ("DG", 0))
     mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
     for name, tag in tag_of_surface.items():
-        cells = cell_tags.indices[cell_tags.values == tag]
+        cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
         mat = cfg.material_of(name)
         mu_v, lam_v = _lame(mat.E, mat.nu, cfg.plane)
         mu_f.x.array[cells] = mu_v
@@ -225,10 +238,26 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     K_full.destroy()
 
     # Contact nodes: owned, not prescribed, on the contact curve; gathered and sorted along t
+    edges = _contact_edges(mesh, facets(cfg.contact), comm)                       # MPI collective
+    # the whole body must start on its side of the obstacle line (not only the contact curve)
     tvec, nvec = cfg.obstacle.frame()
+    clear = (np.array(cfg.obstacle.point) - dof_x) @ nvec
+    i = int(np.argmin(clear)) if len(clear) else 0
+    mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
+    deepest = min(comm.allgather(mine), key=lambda c: c[0])                     # MPI collective
+    box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
+                                  else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
+    lo, hi = box[:, :2].min(axis=0), box[:, 2:].max(axis=0)
+    body = float(np.max(hi - lo))
+    owned_clear = clear[:im.size_local]
+    beyond = comm.allreduce(int(np.sum(owned_clear < -1e-10 * body)), op=MPI.SUM)    # MPI collective
+    total = comm.allreduce(int(owned_clear.size), op=MPI.SUM)                        # MPI collective
+    deepest = (*deepest, body, beyond / max(total, 1))
     cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
     cblocks = cblocks[cblocks < im.size_local]
     keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
+    half = keep ^ ((reduced[cblocks * bs] >= 0) | (reduced[cblocks * bs + 1] >= 0))   # one component prescribed
+    left_out = np.concatenate([g.reshape(-1, 2) for g in comm.allgather(dof_x[cblocks[half]])])   # MPI collective
     cblocks = cblocks[keep]
     local = (dof_x[cblocks], reduced[cblocks * bs], reduced[cblocks * bs + 1])
     gathered = comm.allgather(local)                                # MPI collective
@@ -269,10 +298,34 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         f.destroy()
         loads.append(g)
     return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
-                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy,
-                         mass_form=m, mass_kind=cfg.mass,
+                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
+                         deepest=deepest, left_out=left_out,
+                         mass_form=m, mass_kind=cfg.mass, degree=cfg.degree,
                          field_data={"V": V, "prescribed": presc, "kept_local": kept_local, "dof_x": dof_x,
                                      "mu": mu_f, "lambda": lam_f})
+
+
+def _point(xy, size: float) -> str:
+    """``(x, y)`` for messages, coordinates at round-off of the body's size shown as 0."""
+    return "(" + ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, xy)) + ")"
+
+
+def _contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+    """End points of every facet of the contact curve, gathered on every rank, each once
+    (MPI collective). The mesh is affine, so a P2 mid-side node is the mean of its ends."""
+    top = mesh.topology
+    top.create_connectivity(1, 0)
+    top.create_connectivity(2, 0)
+    c2v = top.connectivity(2, 0).array.reshape(-1, 3)
+    geo_of_vertex = np.empty(int(c2v.max()) + 1 if c2v.size else 0, dtype=np.int64)
+    geo_of_vertex[c2v.ravel()] = mesh.geometry.dofmap.array.reshape(-1, 3)[:len(c2v)].ravel()   # affine P1 geometry
+    f2v = top.connectivity(1, 0)
+    verts = np.array([f2v.links(f) for f in facet_ids], dtype=np.int64).reshape(-1, 2)
+    ends = mesh.geometry.x[geo_of_vertex[verts.ravel()], :2].reshape(-1, 2, 2)
+    allends = np.concatenate([e.reshape(-1, 2, 2) for e in comm.allgather(ends)])      # MPI collective
+    key = np.round(np.sort(allends.reshape(-1, 4), axis=1), 12)
+    _, first = np.unique(key, axis=0, return_index=True)
+    return allends[np.sort(first)]
 
 
 def _contact_columns(flex, loads: list[PETSc.Vec], K: PETSc.Mat) -> np.ndarray:
@@ -325,10 +378,21 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
     gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
     gaps[np.abs(gaps) <= 1e-10 * size] = 0.0
+    depth, where, body, frac = ops.deepest
+    if depth < -1e-10 * body and frac > 0.5:
+        raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line ({100 * frac:.0f} % of its "
+                        f"nodes, up to {-depth:.3g} beyond it at {_point(where, body)}; line through "
+                        f"{tuple(cfg.obstacle.point)}, outward normal {tuple(np.round(nvec, 6))}): the normal must "
+                        "point from the body into the obstacle")
     if np.any(gaps < 0):
         i = int(np.argmin(gaps))
-        raise BodyError(f"system.obstacle: the contact node at ({ops.contact_xy[i, 0]:.6g}, {ops.contact_xy[i, 1]:.6g}) "
+        raise BodyError(f"system.obstacle: the contact node at {_point(ops.contact_xy[i], body)} "
                         f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
+    if depth < -1e-10 * body:
+        w = (f"part of the body starts beyond the obstacle line ({100 * frac:.2g} % of its nodes, up to {-depth:.3g} at "
+             f"{_point(where, body)}): the line is infinite and only the contact curve '{cfg.contact}' is kept out of it")
+        log.warning("%s", w)
+        stages.warnings.append(w)
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
     u = UNITS[units]
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
@@ -337,8 +401,18 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
                                  f"thickness {cfg.thickness} {u['length']}, {mats}, obstacle through "
                                  f"{tuple(cfg.obstacle.point)} with outward normal {tuple(np.round(nvec, 12))}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
+    if len(ops.left_out):
+        gl = (np.array(cfg.obstacle.point) - ops.left_out) @ nvec
+        i = int(np.argmin(gl))
+        g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.deepest[2] else 0.0
+        w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
+             f"left out of the contact set (not kept out of the obstacle), e.g. {_point(ops.left_out[i], ops.deepest[2])} "
+             f"with initial gap {g:.3g}")
+        log.warning("%s", w)
+        stages.warnings.append(w)
     system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
-                    "params": ops.params, "contact_xy": ops.contact_xy}
+                    "params": ops.params, "contact_xy": ops.contact_xy,
+                    "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
     system.fields = BodyFields(cfg, ops, flex, gaps)
     return system
 
@@ -347,7 +421,8 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
     P = len(params)
     out = []
     for i, ph in enumerate(cfg.program):
-        da = np.zeros(P)
+        da = np.zeros(P)            # motions of prescribed curves (what `until` scales)
+        fixed = np.zeros(P)         # loads: forces, tractions, gravity
         for name, mo in ph.displacement.items():
             th = np.radians(mo.rotation_deg)
             tx = mo.translation[0] + th * mo.about[1]
@@ -357,20 +432,37 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
                     da[params[("motion", name, kind)]] += val
         for kind in ("traction", "force"):
             for name, vec in getattr(ph, kind).items():
-                da[params[(kind, name, "x")]] += vec[0]
-                da[params[(kind, name, "y")]] += vec[1]
+                fixed[params[(kind, name, "x")]] += vec[0]
+                fixed[params[(kind, name, "y")]] += vec[1]
         if ph.gravity is not None:
-            da[params[("gravity", "", "x")]] += ph.gravity[0]
-            da[params[("gravity", "", "y")]] += ph.gravity[1]
+            fixed[params[("gravity", "", "x")]] += ph.gravity[0]
+            fixed[params[("gravity", "", "y")]] += ph.gravity[1]
         names = {v: k for k, v in params.items()}
 
         def describe(a: np.ndarray, names=names) -> dict:
             return {"parameters": {_parameter_name(names[j]): float(a[j]) for j in range(len(a)) if a[j] != 0}}
 
-        out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da,
+        out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da, fixed=fixed,
                                 normal_force=ph.until.normal_force if ph.until else None,
                                 stop_at_gross_sliding=ph.stop_at_gross_sliding, describe=describe))
     return out
+
+
+def _add_tractions(cfg: GmshBody, rec: ContactRecovery, states: list) -> None:
+    """Each state's contact pressure ``p_N`` and tangential traction ``p_T`` per contact node [stress]
+    (results.json ``contact_traction``), recovered from the nodal reactions (:class:`ContactRecovery`):
+    the consistent recovery, and for P2 also the smooth vertex fit (``p_N_vertex_fit``)."""
+    if not states or not np.all(np.diag(rec.M) > 0):
+        return
+    pN = rec.tractions(cfg.thickness, -np.array([s.r_N for s in states]))
+    pT = rec.tractions(cfg.thickness, np.array([s.r_T for s in states]))
+    for i, st in enumerate(states):
+        out = {"p_N": [float(v) for v in pN["consistent"][i]], "p_T": [float(v) for v in pT["consistent"][i]],
+               "recovery": f"consistent (P{cfg.degree} boundary mass matrix of the contact curve)"}
+        if "vertex_fit" in pN:
+            out.update(p_N_vertex_fit=[float(v) for v in pN["vertex_fit"][i]],
+                       p_T_vertex_fit=[float(v) for v in pT["vertex_fit"][i]])
+        st.extra["contact_traction"] = out
 
 
 def path(scene, comm: MPI.Comm, stages: Stages, progress):
@@ -395,6 +487,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             system.destroy()
             raise UnreachableLoad(str(err)) from None
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
+    _add_tractions(cfg, system.extra["recovery"], states)
     return system, states, info
 
 

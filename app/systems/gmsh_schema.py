@@ -104,7 +104,8 @@ class Phase(StrictModel):
     force: dict[str, Vec2] = Field({}, description="total force increments, spread uniformly over curves [force]")
     gravity: Optional[Vec2] = Field(None, description="acceleration increment of the body force [length/time^2]")
     until: Optional[Until] = Field(None, description="force control: scale the phase's motion to reach it")
-    stop_at_gross_sliding: bool = Field(True, description="end the path when every node in contact slips")
+    stop_at_gross_sliding: bool = Field(True, description="end the path when every node in contact slips "
+                                        "(never with mu = 0, where every node in contact slips)")
 
 
 class GmshBody(StrictModel):
@@ -133,19 +134,32 @@ class GmshBody(StrictModel):
 
     @model_validator(mode="before")
     @classmethod
-    def _tags_as_names(cls, data: Any) -> Any:
-        """Unnamed physical groups are named by their tag: accept ``contact: 3`` for ``'3'``."""
+    def _tags_as_names(cls, data: Any, info: ValidationInfo) -> Any:
+        """Unnamed physical groups are named by their tag: accept ``contact: 3`` for ``'3'``; a named
+        group may also be given by its tag (``contact: 1`` for ``Physical Curve("AB", 1)``)."""
         if not isinstance(data, dict):
             return data
+        alias = {1: {}, 2: {}}
+        try:
+            from app.systems.gmsh_mesh import model_info
+            path = resolve_file("", data.get("file"), info)
+            mi = model_info(path, path.name)
+            for dim, groups in ((1, mi.curves), (2, mi.surfaces)):
+                alias[dim] = {str(tag): name for name, (tag, _) in groups.items() if str(tag) not in groups}
+        except Exception:     # noqa: BLE001 - a bad file is reported by the file validator
+            pass
 
-        def names(d: Any) -> Any:
-            return {(str(k) if isinstance(k, int) and not isinstance(k, bool) else k): v
-                    for k, v in d.items()} if isinstance(d, dict) else d
+        def one(v: Any, dim: int = 1) -> Any:
+            v = str(v) if isinstance(v, int) and not isinstance(v, bool) else v
+            return alias[dim].get(v, v) if isinstance(v, str) else v
+
+        def names(d: Any, dim: int = 1) -> Any:
+            return {one(k, dim): v for k, v in d.items()} if isinstance(d, dict) else d
         data = dict(data)
-        if isinstance(data.get("contact"), int) and not isinstance(data.get("contact"), bool):
-            data["contact"] = str(data["contact"])
-        for key in ("prescribed", "materials"):
-            data[key] = names(data[key]) if key in data else data.get(key, {})
+        if "contact" in data:
+            data["contact"] = one(data["contact"])
+        for key, dim in (("prescribed", 1), ("materials", 2)):
+            data[key] = names(data[key], dim) if key in data else data.get(key, {})
         if isinstance(data.get("program"), list):
             data["program"] = [dict(ph, **{k: names(ph[k]) for k in ("displacement", "traction", "force") if k in ph})
                                if isinstance(ph, dict) else ph for ph in data["program"]]
