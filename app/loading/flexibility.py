@@ -37,20 +37,28 @@ class ContactFlexibility:
 
     def field(self, gx: float, gy: float, r: np.ndarray) -> PETSc.Vec:
         """Reduced displacement solving K u = gx f_x + gy f_y + B^T (signs * r) (one solve)."""
-        rhs = self.loads[0].duplicate()
-        rhs.zeroEntries()
-        rhs.axpy(gx, self.loads[0])
-        rhs.axpy(gy, self.loads[1])
-        r0, r1 = rhs.getOwnershipRange()
-        mine = (self.dofs >= r0) & (self.dofs < r1)
-        rhs.setValues(self.dofs[mine].astype(PETSc.IntType), (self.signs * r)[mine], addv=PETSc.InsertMode.ADD_VALUES)
-        rhs.assemble()
-        u = rhs.duplicate()
+        return self.response(((gx, self.loads[0]), (gy, self.loads[1])), r)
+
+    def response(self, loads, r: np.ndarray) -> PETSc.Vec:
+        """Displacement solving K u = sum_j a_j f_j + B^T (signs * r) for ``loads`` = ((a_j, f_j), ...)
+        (one solve with the factorised K; the caller destroys the returned Vec)."""
+        rhs = self.ksp.getOperators()[0].createVecLeft()
         try:
-            self.ksp.solve(rhs, u)
-        except BaseException:
-            u.destroy()
-            raise
+            rhs.zeroEntries()
+            for a, f in loads:
+                if a != 0.0:
+                    rhs.axpy(a, f)
+            r0, r1 = rhs.getOwnershipRange()
+            mine = (self.dofs >= r0) & (self.dofs < r1)
+            rhs.setValues(self.dofs[mine].astype(PETSc.IntType), (self.signs * np.asarray(r))[mine],
+                          addv=PETSc.InsertMode.ADD_VALUES)
+            rhs.assemble()
+            u = rhs.duplicate()
+            try:
+                self.ksp.solve(rhs, u)
+            except BaseException:
+                u.destroy()
+                raise
         finally:
             rhs.destroy()
         return u

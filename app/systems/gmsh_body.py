@@ -538,25 +538,7 @@ class BodyFields:
 
     def response(self, load: dict | None, r: np.ndarray) -> PETSc.Vec:
         a = self._parameters(load)
-        rhs = self.ops.K.createVecLeft()
-        u = self.ops.K.createVecRight()
-        try:
-            rhs.zeroEntries()
-            for j in np.flatnonzero(a):
-                rhs.axpy(a[j], self.ops.loads[j])
-            dofs = self.flex.dofs
-            r0, r1 = rhs.getOwnershipRange()
-            mine = (dofs >= r0) & (dofs < r1)
-            rhs.setValues(dofs[mine].astype(PETSc.IntType), (self.flex.signs * np.asarray(r))[mine],
-                          addv=PETSc.InsertMode.ADD_VALUES)
-            rhs.assemble()
-            self.flex.ksp.solve(rhs, u)
-        except BaseException:
-            u.destroy()
-            raise
-        finally:
-            rhs.destroy()
-        return u
+        return self.flex.response([(a[j], self.ops.loads[j]) for j in np.flatnonzero(a)], r)
 
     def to_function(self, u: PETSc.Vec, load: dict | None):
         import dolfinx.fem
