@@ -46,7 +46,11 @@ def main() -> None:
         out = mceip_mu(system, p, sc, s, **kw)
         count[0] += 1
         if comm.rank == 0:
-            print(json.dumps({"classification": count[0], "slip": s, "t": time.perf_counter() - t0}), flush=True)
+            print(json.dumps({"classification": count[0], "slip": s, "t": round(time.perf_counter() - t0, 3),
+                              "search_s": (out.get("search") or {}).get("seconds"),
+                              "certificate_s": (out.get("certificate") or {}).get("seconds"),
+                              "status": (out.get("certificate") or {}).get("status"),
+                              "found": len(out.get("solutions", []))}), flush=True)
         return out
 
     runner._mceip_mu = counted            # analyse_condensed_distributed calls it by this name

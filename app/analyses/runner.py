@@ -92,18 +92,25 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
 
 def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple[Classification, dict]],
                                   comm) -> list[dict]:
-    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict): job ``k``
-    runs on rank ``k % size`` alone (dense s x s work on COMM_SELF objects), and the results are
-    gathered on every rank (``allgather``), so the output is the same on any number of ranks.
-    Fills each analyses dict in place (key order as in :func:`analyse_state`); returns the failures."""
+    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict, in path order).
+
+    The jobs are cut into chains of ``mcp.warm_chain`` consecutive classifications; chain ``c`` runs
+    on rank ``c % size`` alone (dense s x s work on COMM_SELF objects), each job of a chain warm-started
+    from the previous job's solutions (neighbouring classifications differ by about one node; used
+    only above ``mcp.search_full_max`` slip nodes). The chains do not depend on the number of ranks,
+    and the results are gathered on every rank (``allgather``), so the output is the same on any
+    number of ranks. Fills each analyses dict in place (key order as in :func:`analyse_state`);
+    returns the failures."""
     system.contact_schur()        # collective the first time: built on every rank before the split
+    chain = scene.settings.mcp.warm_chain
     mine: dict[int, dict] = {}
     for k, (cls, _) in enumerate(jobs):
-        if k % comm.size != comm.rank:
+        if (k // chain) % comm.size != comm.rank:
             continue
+        warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k % chain else None
         p = StatePencils(system, cls)
         try:
-            mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False)
+            mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False, warm=warm)
         except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
             mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
         finally:
@@ -120,13 +127,31 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     return failures
 
 
-def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True) -> dict:
+def _warm_starts(prev: Classification, prev_result: dict | None, cls: Classification) -> list[tuple[np.ndarray, float]]:
+    """The previous classification's solutions as starts ``(x_Ts, mu)`` on ``cls``'s slip nodes
+    (a node that does not slip in ``cls`` is dropped, a new slip node starts at 0)."""
+    if not prev_result or prev_result.get("failed") or ZERO in prev.status or ZERO in cls.status:
+        return []
+    where = {int(node): j for j, node in enumerate(cls.slip)}
+    out = []
+    for sol in prev_result.get("solutions", []):
+        x = np.zeros(len(where))
+        for node, v in zip(prev.slip, sol.get("x_Ts", [])):
+            if int(node) in where:
+                x[where[int(node)]] = v
+        out.append((x, float(sol["value"])))
+    return out
+
+
+def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True,
+              warm: list[tuple[np.ndarray, float]] | None = None) -> dict:
     """MCEIP-mu (21)-(23) of one classification: the condensed s x s pencil with its certificate
     (:mod:`app.analyses.certify`), or the full-size SNES VI search (found, not proven).
 
     ``replicated``: every rank computes the same dense problem and rank 0's answer is broadcast
     (a time budget could end differently on different ranks). ``False`` when only this rank runs
-    it (:func:`analyse_condensed_distributed` gathers the answers itself).
+    it (:func:`analyse_condensed_distributed` gathers the answers itself). ``warm``: starts for the
+    dense search from the previous classification along the path (large ``s`` only).
     """
     if s == 0:
         return {**no_slip(), "certified": True,
@@ -137,7 +162,7 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
         # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
         A0, A1 = p.condensed_mu()
         with system.stages("MCEIP-mu (21)-(23)"):
-            d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp)
+            d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp, warm=warm)
             if replicated and system.comm.size > 1:
                 # replicated dense work; a time budget could end differently on different ranks,
                 # so every rank reports rank 0's answer
