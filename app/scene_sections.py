@@ -61,7 +61,7 @@ class McpSettings(Strict):
     search_full_max: Annotated[int, Field(ge=0, le=100_000)] = 40
     search_one_node: Annotated[int, Field(ge=2, le=100_000)] = 4
     warm_chain: Annotated[int, Field(ge=1, le=100_000)] = 8
-    certify_seconds_large: NonNegFloat = 0.5
+    certify_seconds_large: NonNegFloat = 0.25
 
 
 class EigSettings(Strict):

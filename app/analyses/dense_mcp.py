@@ -210,11 +210,14 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
     large = full_max is not None and s > full_max
     if large:
         Z0, labels = _reduced_starts(a0, a1, list(mu0s), pairs, one_node)
-        for x, mu in warm or []:
+        rows, wl = [], []
+        for x, mu in warm or []:            # first, so that the evidence (found_by[:8]) shows them
             x = np.maximum(np.asarray(x, dtype=float), 0.0)
             if x.shape == (s,) and x.sum() > 0 and np.isfinite(mu) and mu >= 0:
-                Z0 = np.vstack([Z0, np.append(x / x.sum(), mu)])
-                labels.append(f"previous classification's solution (mu={mu:.6g})")
+                rows.append(np.append(x / x.sum(), mu))
+                wl.append(f"previous classification's solution (mu={mu:.6g})")
+        if rows:
+            Z0, labels = np.vstack([np.array(rows), Z0]), wl + labels
         note = (f"reduced start set (s = {s} > search_full_max = {full_max}): uniform x and x on {one_node} "
                 "evenly spaced unknowns with every mu0, and the all-slip eigenvectors (25); "
                 f"runs stagnating for {stagnation_its} iterations stopped")

@@ -94,8 +94,9 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
                                   comm) -> list[dict]:
     """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict, in path order).
 
-    The jobs are cut into chains of ``mcp.warm_chain`` consecutive classifications; chain ``c`` runs
-    on rank ``c % size`` alone (dense s x s work on COMM_SELF objects), each job of a chain warm-started
+    The jobs are cut into chains of ``mcp.warm_chain`` consecutive classifications; each chain runs
+    on one rank alone (dense s x s work on COMM_SELF objects; :func:`_chain_ranks` balances the
+    estimated cost, sum of s^3, over the ranks), each job of a chain warm-started
     from the previous job's solutions (neighbouring classifications differ by about one node; used
     only above ``mcp.search_full_max`` slip nodes). The chains do not depend on the number of ranks,
     and the results are gathered on every rank (``allgather``), so the output is the same on any
@@ -103,9 +104,10 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     returns the failures."""
     system.contact_schur()        # collective the first time: built on every rank before the split
     chain = scene.settings.mcp.warm_chain
+    owner = _chain_ranks([len(cls.slip) for cls, _ in jobs], chain, comm.size)
     mine: dict[int, dict] = {}
     for k, (cls, _) in enumerate(jobs):
-        if (k // chain) % comm.size != comm.rank:
+        if owner[k // chain] != comm.rank:
             continue
         warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k % chain else None
         p = StatePencils(system, cls)
@@ -125,6 +127,18 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
             if d.get("failed"):
                 failures.append((k, d["reason"]))
     return failures
+
+
+def _chain_ranks(slip_counts: list[int], chain: int, size: int) -> list[int]:
+    """The rank of each chain: the most expensive chains first (cost ~ sum of (s + 1)^3: the
+    dense search and certificate are cubic in s), each to the least loaded rank (deterministic)."""
+    cost = [sum((s + 1) ** 3 for s in slip_counts[c:c + chain]) for c in range(0, len(slip_counts), chain)]
+    load, owner = [0.0] * size, [0] * len(cost)
+    for c in sorted(range(len(cost)), key=lambda c: (-cost[c], c)):
+        r = min(range(size), key=lambda r: (load[r], r))
+        owner[c] = r
+        load[r] += cost[c]
+    return owner
 
 
 def _warm_starts(prev: Classification, prev_result: dict | None, cls: Classification) -> list[tuple[np.ndarray, float]]:
