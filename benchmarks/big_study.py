@@ -57,7 +57,8 @@ def main() -> None:
                               "search_s": (out.get("search") or {}).get("seconds"),
                               "certificate_s": (out.get("certificate") or {}).get("seconds"),
                               "status": (out.get("certificate") or {}).get("status"),
-                              "found": len(out.get("solutions", []))}), flush=True)
+                              "found": len(out.get("solutions", [])),
+                              "values": [round(x["value"], 6) for x in out.get("solutions", [])][:4]}), flush=True)
         return out
 
     runner._mceip_mu = counted            # analyse_condensed_distributed calls it by this name
