@@ -13,7 +13,7 @@ from conftest import run_cli
 from app.analyses import dense_mcp
 from app.analyses.certify import condensed_mu_result, copositivity_bound
 from app.analyses.enumerate import enumerate_patterns
-from app.analyses.runner import _chain_ranks
+from app.analyses.runner import _chain_order
 from app.config import McpSettings
 
 
@@ -86,14 +86,12 @@ def test_large_budget_is_used_and_labelled(pencils):
     assert seen_unproven
 
 
-def test_chain_ranks_deterministic_and_balanced():
+def test_chain_order_most_expensive_first():
     s = [1, 2, 3, 5, 8, 13, 40, 90, 120, 150, 170, 180, 180, 181, 179]
-    assert _chain_ranks(s, 4, 1) == [0, 0, 0, 0]
-    owner = _chain_ranks(s, 4, 2)
-    assert owner == _chain_ranks(s, 4, 2) and set(owner) == {0, 1}
-    cost = [sum((x + 1) ** 3 for x in s[c:c + 4]) for c in range(0, len(s), 4)]
-    load = [sum(c for c, o in zip(cost, owner) if o == r) for r in (0, 1)]
-    assert abs(load[0] - load[1]) <= max(cost)              # greedy: within one chain of each other
+    order = _chain_order(s, 4)
+    assert sorted(order) == [0, 1, 2, 3]                      # every chain once
+    cost = [sum((x + 1) ** 3 for x in s[c:c + 4]) for c in order]
+    assert cost == sorted(cost, reverse=True)
 
 
 SCENE = """\

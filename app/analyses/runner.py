@@ -94,29 +94,39 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
                                   comm) -> list[dict]:
     """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict, in path order).
 
-    The jobs are cut into chains of ``mcp.warm_chain`` consecutive classifications; each chain runs
-    on one rank alone (dense s x s work on COMM_SELF objects; :func:`_chain_ranks` balances the
-    estimated cost, sum of s^3, over the ranks), each job of a chain warm-started
-    from the previous job's solutions (neighbouring classifications differ by about one node; used
-    only above ``mcp.search_full_max`` slip nodes). The chains do not depend on the number of ranks,
-    and the results are gathered on every rank (``allgather``), so the output is the same on any
-    number of ranks. Fills each analyses dict in place (key order as in :func:`analyse_state`);
-    returns the failures."""
+    The jobs are cut into chains of ``mcp.warm_chain`` consecutive classifications, each job of a
+    chain warm-started from the previous job's solutions (neighbouring classifications differ by
+    about one node; used only above ``mcp.search_full_max`` slip nodes). Each chain runs on one
+    rank alone (dense s x s work on COMM_SELF objects); under MPI the ranks take the next chain
+    from a shared counter (one-sided atomic fetch-and-add on rank 0's window), the most expensive
+    chains first, so a rank that finishes early takes more. The chains do not depend on the
+    number of ranks, and the results are gathered on every rank (``allgather``), so the output is
+    the same on any number of ranks. Fills each analyses dict in place (key order as in
+    :func:`analyse_state`); returns the failures."""
     system.contact_schur()        # collective the first time: built on every rank before the split
     chain = scene.settings.mcp.warm_chain
-    owner = _chain_ranks([len(cls.slip) for cls, _ in jobs], chain, comm.size)
+    order = _chain_order([len(cls.slip) for cls, _ in jobs], chain)
     mine: dict[int, dict] = {}
-    for k, (cls, _) in enumerate(jobs):
-        if owner[k // chain] != comm.rank:
-            continue
-        warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k % chain else None
-        p = StatePencils(system, cls)
-        try:
-            mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False, warm=warm)
-        except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
-            mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
-        finally:
-            p.destroy()
+
+    def run_chain(c: int) -> None:
+        for k in range(c * chain, min((c + 1) * chain, len(jobs))):
+            cls = jobs[k][0]
+            warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k % chain else None
+            p = StatePencils(system, cls)
+            try:
+                mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False, warm=warm)
+            except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+                mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
+            finally:
+                p.destroy()
+
+    if comm.size == 1:
+        for c in order:
+            run_chain(c)
+    else:
+        with _SharedCounter(comm) as counter:                           # MPI collective (window)
+            while (i := counter.next()) < len(order):                   # one-sided, rank 0's window
+                run_chain(order[i])
     failures = []
     for part in comm.allgather(mine):                                    # MPI collective
         for k, d in part.items():
@@ -129,16 +139,39 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     return failures
 
 
-def _chain_ranks(slip_counts: list[int], chain: int, size: int) -> list[int]:
-    """The rank of each chain: the most expensive chains first (cost ~ sum of (s + 1)^3: the
-    dense search and certificate are cubic in s), each to the least loaded rank (deterministic)."""
+class _SharedCounter:
+    """A counter on rank 0 that every rank increments atomically (MPI one-sided ``Fetch_and_op``
+    under a passive-target lock: no participation of rank 0 needed, it may be computing)."""
+
+    def __init__(self, comm):
+        from mpi4py import MPI
+        self._MPI = MPI
+        self.comm = comm
+        self.win = MPI.Win.Allocate(8 if comm.rank == 0 else 0, 8, comm=comm)   # MPI collective
+        if comm.rank == 0:
+            np.frombuffer(self.win.tomemory(), dtype=np.int64)[:] = 0
+        comm.Barrier()                                                     # MPI collective: counter set
+
+    def next(self) -> int:
+        one, got = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
+        self.win.Lock(0, self._MPI.LOCK_SHARED)
+        self.win.Fetch_and_op(one, got, 0, 0, self._MPI.SUM)
+        self.win.Unlock(0)
+        return int(got[0])
+
+    def __enter__(self) -> "_SharedCounter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.comm.Barrier()                                                # MPI collective
+        self.win.Free()                                                    # MPI collective
+
+
+def _chain_order(slip_counts: list[int], chain: int) -> list[int]:
+    """The chains (``chain`` consecutive jobs each) by decreasing estimated cost, sum of (s + 1)^3
+    (the dense search and certificate are cubic in s): big chains first balance the ranks."""
     cost = [sum((s + 1) ** 3 for s in slip_counts[c:c + chain]) for c in range(0, len(slip_counts), chain)]
-    load, owner = [0.0] * size, [0] * len(cost)
-    for c in sorted(range(len(cost)), key=lambda c: (-cost[c], c)):
-        r = min(range(size), key=lambda r: (load[r], r))
-        owner[c] = r
-        load[r] += cost[c]
-    return owner
+    return sorted(range(len(cost)), key=lambda c: (-cost[c], c))
 
 
 def _warm_starts(prev: Classification, prev_result: dict | None, cls: Classification) -> list[tuple[np.ndarray, float]]:
