@@ -14,7 +14,6 @@ from app.analyses.pencils import combine, diag_scale, gather_vec
 from app.config import EigSettings
 from app.linalg import configure_direct
 
-
 MUMPS_MIN_DOFS = 20_000     # from this size on, shift-and-invert factorises with MUMPS even on one rank
 
 
