@@ -13,7 +13,7 @@ from conftest import run_cli
 from app.analyses import dense_mcp
 from app.analyses.certify import condensed_mu_result, copositivity_bound
 from app.analyses.enumerate import enumerate_patterns
-from app.analyses.runner import _chain_order
+from app.analyses.runner import _chain_order, _chains
 from app.config import McpSettings
 
 
@@ -86,11 +86,13 @@ def test_large_budget_is_used_and_labelled(pencils):
     assert seen_unproven
 
 
-def test_chain_order_most_expensive_first():
-    s = [1, 2, 3, 5, 8, 13, 40, 90, 120, 150, 170, 180, 180, 181, 179]
-    order = _chain_order(s, 4)
-    assert sorted(order) == [0, 1, 2, 3]                      # every chain once
-    cost = [sum((x + 1) ** 3 for x in s[c:c + 4]) for c in order]
+def test_chains_and_their_order():
+    s = [1, 2, 3, 5, 8, 13, 40, 90, 120, 150, 170, 180, 180, 181, 179, 30, 60]
+    chains = _chains(s, 4, 40)
+    assert chains == [[0], [1], [2], [3], [4], [5], [6], [7, 8, 9, 10], [11, 12, 13, 14], [15], [16]]
+    order = _chain_order(s, chains)
+    assert sorted(order) == list(range(len(chains)))          # every chain once
+    cost = [sum((s[k] + 1) ** 3 for k in chains[c]) for c in order]
     assert cost == sorted(cost, reverse=True)
 
 

@@ -94,9 +94,10 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
                                   comm) -> list[dict]:
     """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict, in path order).
 
-    The jobs are cut into chains of ``mcp.warm_chain`` consecutive classifications, each job of a
-    chain warm-started from the previous job's solutions (neighbouring classifications differ by
-    about one node; used only above ``mcp.search_full_max`` slip nodes). Each chain runs on one
+    The jobs with more than ``mcp.search_full_max`` slip nodes are cut into chains of at most
+    ``mcp.warm_chain`` consecutive classifications, each job of a chain warm-started from the
+    previous job's solutions (neighbouring classifications differ by about one node); every
+    other job is a chain of its own (:func:`_chains`). Each chain runs on one
     rank alone (dense s x s work on COMM_SELF objects); under MPI the ranks take the next chain
     from a shared counter (one-sided atomic fetch-and-add on rank 0's window), the most expensive
     chains first, so a rank that finishes early takes more. The chains do not depend on the
@@ -104,14 +105,15 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     the same on any number of ranks. Fills each analyses dict in place (key order as in
     :func:`analyse_state`); returns the failures."""
     system.contact_schur()        # collective the first time: built on every rank before the split
-    chain = scene.settings.mcp.warm_chain
-    order = _chain_order([len(cls.slip) for cls, _ in jobs], chain)
+    mcp = scene.settings.mcp
+    chains = _chains([len(cls.slip) for cls, _ in jobs], mcp.warm_chain, mcp.search_full_max)
+    order = _chain_order([len(cls.slip) for cls, _ in jobs], chains)
     mine: dict[int, dict] = {}
 
     def run_chain(c: int) -> None:
-        for k in range(c * chain, min((c + 1) * chain, len(jobs))):
+        for k in chains[c]:
             cls = jobs[k][0]
-            warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k % chain else None
+            warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k != chains[c][0] else None
             p = StatePencils(system, cls)
             try:
                 mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False, warm=warm)
@@ -167,11 +169,25 @@ class _SharedCounter:
         self.win.Free()                                                    # MPI collective
 
 
-def _chain_order(slip_counts: list[int], chain: int) -> list[int]:
-    """The chains (``chain`` consecutive jobs each) by decreasing estimated cost, sum of (s + 1)^3
-    (the dense search and certificate are cubic in s): big chains first balance the ranks."""
-    cost = [sum((s + 1) ** 3 for s in slip_counts[c:c + chain]) for c in range(0, len(slip_counts), chain)]
-    return sorted(range(len(cost)), key=lambda c: (-cost[c], c))
+def _chains(slip_counts: list[int], chain: int, full_max: int) -> list[list[int]]:
+    """Jobs (in path order) grouped into chains: runs of at most ``chain`` consecutive jobs with
+    more than ``full_max`` slip nodes (where warm starts are used); every other job alone (finer
+    work units balance the ranks better). Depends on the jobs and settings only, not on the ranks."""
+    out: list[list[int]] = []
+    for k, s in enumerate(slip_counts):
+        if s > full_max and out and len(out[-1]) < chain and slip_counts[out[-1][-1]] > full_max \
+                and out[-1][-1] == k - 1:
+            out[-1].append(k)
+        else:
+            out.append([k])
+    return out
+
+
+def _chain_order(slip_counts: list[int], chains: list[list[int]]) -> list[int]:
+    """The chains by decreasing estimated cost, sum of (s + 1)^3 (the dense search and certificate
+    are cubic in s): big chains first balance the ranks."""
+    cost = [sum((slip_counts[k] + 1) ** 3 for k in c) for c in chains]
+    return sorted(range(len(chains)), key=lambda c: (-cost[c], c))
 
 
 def _warm_starts(prev: Classification, prev_result: dict | None, cls: Classification) -> list[tuple[np.ndarray, float]]:
