@@ -53,6 +53,19 @@ class McpSettings(Strict):
     # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
     # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)
     search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40
+    # large condensed problems (100k-DOF studies, issue 14): above search_full_max slip nodes the search
+    # runs a reduced start set (uniform x and x on search_one_node spread unknowns with every t0, the
+    # all-slip eigenvectors, the previous classification's solutions within a chain of warm_chain
+    # classifications along the path) and SCIP gets certify_seconds_large (0: not started) instead of
+    # certify_seconds; an unfinished proof says "not proven within N s"
+    search_full_max: Annotated[int, Field(ge=0, le=100_000)] = Field(
+        40, description="condensed MCEIP-mu: above this many slip nodes, the reduced search and certify_seconds_large")
+    search_one_node: Annotated[int, Field(ge=2, le=100_000)] = Field(
+        4, description="reduced search: number of evenly spaced one-node starts")
+    warm_chain: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        8, description="classifications per warm-started chain along the path (one rank per chain)")
+    certify_seconds_large: NonNegFloat = Field(
+        0.25, description="SCIP budget per state above search_full_max slip nodes [s] (0: not started)")
 
 
 class EigSettings(Strict):

@@ -17,6 +17,13 @@ import time
 from mpi4py import MPI
 
 
+def _dofs(description) -> int | None:
+    """The DOF count in the system's description ("..., 101026 DOFs")."""
+    import re
+    m = re.search(r"(\d+) DOFs", str(description))
+    return int(m.group(1)) if m else None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--nx", type=int, default=224)
@@ -46,7 +53,12 @@ def main() -> None:
         out = mceip_mu(system, p, sc, s, **kw)
         count[0] += 1
         if comm.rank == 0:
-            print(json.dumps({"classification": count[0], "slip": s, "t": time.perf_counter() - t0}), flush=True)
+            print(json.dumps({"classification": count[0], "slip": s, "t": round(time.perf_counter() - t0, 3),
+                              "search_s": (out.get("search") or {}).get("seconds"),
+                              "certificate_s": (out.get("certificate") or {}).get("seconds"),
+                              "status": (out.get("certificate") or {}).get("status"),
+                              "found": len(out.get("solutions", [])),
+                              "values": [round(x["value"], 6) for x in out.get("solutions", [])][:4]}), flush=True)
         return out
 
     runner._mceip_mu = counted            # analyse_condensed_distributed calls it by this name
@@ -63,7 +75,7 @@ def main() -> None:
     wall = time.perf_counter() - t0
     if comm.rank == 0:
         suff = res["inspection"]["sufficient"] or {}
-        print(json.dumps({"done": True, "wall_s": wall, "dofs": res["system"].get("dofs") if isinstance(res["system"], dict) else None,
+        print(json.dumps({"done": True, "wall_s": wall, "dofs": _dofs(res["system"]),
                           "states": len(res["states"]), "classifications": res["distinct_classifications"],
                           "stages": res["stages"], "ranks": comm.size,
                           "final_sufficient": {"satisfied": suff.get("satisfied"), "lambda2": suff.get("lambda2"),

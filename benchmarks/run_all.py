@@ -486,9 +486,9 @@ def _big_run(nx: int, ranks: int, timeout: float) -> dict:
     """benchmarks/big_study.py in its own process(es); a run stopped by ``timeout`` reports how far it got."""
     cmd = [PY, str(ROOT / "benchmarks" / "big_study.py"), "--nx", str(nx)]
     env = ENV
-    if ranks > 1:   # one core per rank, one BLAS thread per rank
+    if ranks > 1:   # one core per rank, one BLAS thread per rank; a waiting rank yields its core
         cmd = ["mpirun", "--oversubscribe", "--bind-to", "core", "-n", str(ranks), *cmd]
-        env = dict(ENV, OPENBLAS_NUM_THREADS="1")
+        env = dict(ENV, OPENBLAS_NUM_THREADS="1", OMPI_MCA_mpi_yield_when_idle="1")
     t0 = time.perf_counter()
     try:
         out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)

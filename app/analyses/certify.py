@@ -305,14 +305,19 @@ def mu_cap(scene_mu: float, settings) -> float:
 
 
 def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
-                        pairs: list[tuple[int, int]] | None = None) -> dict:
+                        pairs: list[tuple[int, int]] | None = None,
+                        warm: list[tuple[np.ndarray, float]] | None = None) -> dict:
     """MCEIP-mu (21)-(23) on the condensed pencil: candidates from the dense semismooth Newton
     search (:mod:`app.analyses.dense_mcp`), then the certificate for ``[0, cap]``.
 
     The ``solutions`` are the exact pairs (25)-(26): every one in ``[0, cap]`` (each with
     ``certified: true`` when the proof finished) and those the search found above the cap
     (``certified: false``). The state-level ``certified`` flag says whether the onset and every
-    value up to the cap are proven; ``certificate`` says how."""
+    value up to the cap are proven; ``certificate`` says how.
+
+    Above ``settings.search_full_max`` unknowns (issue 14: s up to ~180 at 100k DOFs) the search
+    uses its reduced start set plus the ``warm`` starts ``(x, mu)`` (the previous classification's
+    solutions mapped onto these unknowns), and SCIP gets ``settings.certify_seconds_large``."""
     from app.analyses import dense_mcp
 
     s = A0.shape[0]
@@ -327,11 +332,13 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
             by_key = {}
         else:
             rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
-                                   zero_one_max=settings.search_zero_one_max)
+                                   zero_one_max=settings.search_zero_one_max, full_max=settings.search_full_max,
+                                   one_node=settings.search_one_node, warm=warm)
             by_key = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
             cert = None
         if settings.certify and cert is None:
-            cert = certify_mu(A0, A1, cap, seconds=settings.certify_seconds,
+            large = s > settings.search_full_max
+            cert = certify_mu(A0, A1, cap, seconds=settings.certify_seconds_large if large else settings.certify_seconds,
                               enumerate_max=settings.certify_enumerate_max, pairs=pairs,
                               candidates=[c.exact for c in rep.candidates])
     proven = bool(cert is not None and cert.proven)

@@ -23,6 +23,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from app.analyses.enumerate import PatternSolution, enumerate_patterns, pencil_scale
 
@@ -76,6 +77,43 @@ def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]],
     return Z, lab
 
 
+def _reduced_starts(a0: np.ndarray, a1: np.ndarray, mu0s: list[float], pairs: list[tuple[int, int]],
+                    one_node: int) -> tuple[np.ndarray, list[str]]:
+    """The start set of a large condensed problem (``s`` above ``search_full_max``): uniform ``x``
+    and ``x`` on ``one_node`` evenly spaced unknowns (the first and last included), each with every
+    ``mu0``, plus the eigenvectors (25) of the all-slip pattern with a real ``mu >= 0`` (positive
+    part, started at their own ``mu``). About ``(one_node + 1) * len(mu0s)`` runs instead of
+    ``(s + 1) * len(mu0s)``: each Newton step costs ``O(s^3)``, so the full set costs ``O(s^4)``."""
+    s = a0.shape[0]
+    picks = np.unique(np.round(np.linspace(0, s - 1, max(one_node, 2))).astype(int))
+    xs, labels = [np.ones(s)], ["uniform x"]
+    for i in picks:
+        xs.append(np.eye(s)[i])
+        labels.append(f"x on unknown {i}")
+    X = np.array(xs)
+    for a, b in pairs:
+        X[:, b] = np.where(X[:, a] > 0, 0.0, X[:, b])
+    X = X / np.maximum(X.sum(axis=1, keepdims=True), 1e-300)
+    rows = [np.hstack([X, np.full((len(X), 1), m)]) for m in mu0s]
+    lab = [f"{l}, mu0={m:.6g}" for m in mu0s for l in labels]
+    try:
+        w, V = scipy.linalg.eig(a0, -a1)
+    except (np.linalg.LinAlgError, ValueError):
+        w, V = np.zeros(0), np.zeros((s, 0))
+    real = np.isfinite(w) & (np.abs(w.imag) <= 1e-9 * np.maximum(1.0, np.abs(w))) & (w.real >= 0)
+    for j in np.flatnonzero(real):
+        v = V[:, j].real
+        v = v if v.sum() >= 0 else -v
+        x = np.maximum(v, 0.0)
+        for a, b in pairs:
+            x[b] = 0.0 if x[a] > 0 else x[b]
+        if x.sum() <= 0:
+            continue
+        rows.append(np.append(x / x.sum(), w[j].real)[None])
+        lab.append(f"positive part of the all-slip eigenvector (25) at mu={w[j].real:.6g}")
+    return np.concatenate(rows), lab
+
+
 def _lstsq_batched(J: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Minimum-norm least-squares solutions of the stack ``J[k] d = b[k]`` through one batched SVD
     (the cut-off of ``numpy.linalg.lstsq(rcond=None)``: ``eps * n * sigma_max``)."""
@@ -86,9 +124,12 @@ def _lstsq_batched(J: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int = 60,
-                      tol: float = 1e-13) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                      tol: float = 1e-13, stagnation_its: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Batched semismooth Newton on ``min(x, A(mu) x) = 0, min(mu, e^T x - 1) = 0`` from the rows
-    of ``Z = (x, mu)``. Returns final iterates, ``|Phi|`` and iteration counts."""
+    of ``Z = (x, mu)``. Returns final iterates, ``|Phi|`` and iteration counts.
+
+    ``stagnation_its`` > 0: a run whose ``|Phi|`` has not halved within that many iterations is
+    stopped (it is reported as not converged, like a run that ran out of iterations)."""
     B, n1 = Z.shape
     s = n1 - 1
     Z = Z.copy()
@@ -104,6 +145,7 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
     nrm = np.linalg.norm(F, axis=1)
     active = np.isfinite(nrm) & (nrm > tol)
     eye = np.eye(n1)
+    ref, ref_it = nrm.copy(), np.zeros(B, dtype=int)     # stagnation test: |Phi| to halve from ref
     for it in range(max_it):
         idx = np.flatnonzero(active)
         if not len(idx):
@@ -140,22 +182,50 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         nrm = np.linalg.norm(F, axis=1)
         active[idx[~moved]] = False              # stagnation: stop early
         active &= np.isfinite(nrm) & (nrm > tol)
+        if stagnation_its > 0:
+            halved = nrm <= 0.5 * ref
+            ref = np.where(halved, nrm, ref)
+            ref_it = np.where(halved, it + 1, ref_it)
+            active &= (it + 1 - ref_it) < stagnation_its
     return Z, nrm, its
 
 
 def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None = None,
            mu0s: tuple[float, ...] = (0.5, 2.0, 10.0, 100.0, 1000.0), max_it: int = 60,
            zero_one_max: int | None = None,
-           t_max: float = np.inf, neighbour_rounds: int = 0) -> DenseSearchReport:
-    """Candidate solutions of the condensed MCEIP-mu (``A0``, ``A1``: s x s) from many starts."""
+           t_max: float = np.inf, neighbour_rounds: int = 0, full_max: int | None = None,
+           one_node: int = 8, stagnation_its: int = 10,
+           warm: list[tuple[np.ndarray, float]] | None = None) -> DenseSearchReport:
+    """Candidate solutions of the condensed MCEIP-mu (``A0``, ``A1``: s x s) from many starts.
+
+    Up to ``full_max`` unknowns (``None``: always) every one-unknown start is run; above it the
+    reduced start set of :func:`_reduced_starts` (``one_node`` one-unknown starts), and runs that
+    stagnate for ``stagnation_its`` iterations are stopped, and ``warm`` starts ``(x, mu)`` (the
+    previous classification's solutions along the path, mapped onto these unknowns) are added."""
     t0 = time.perf_counter()
     pairs = list(pairs or [])
     s = A0.shape[0]
     scale = pencil_scale(A0)
     a0, a1 = A0 / scale, A1 / scale
-    # above ``zero_one_max`` unknowns the "x zero on one unknown" starts (nearly uniform there) are left out
-    Z0, labels = _starts(s, list(mu0s), pairs, zero_one=zero_one_max is None or s <= zero_one_max)
-    Z, nrm, its = semismooth_newton(a0, a1, Z0, max_it=max_it)
+    large = full_max is not None and s > full_max
+    if large:
+        Z0, labels = _reduced_starts(a0, a1, list(mu0s), pairs, one_node)
+        rows, wl = [], []
+        for x, mu in warm or []:            # first, so that the evidence (found_by[:8]) shows them
+            x = np.maximum(np.asarray(x, dtype=float), 0.0)
+            if x.shape == (s,) and x.sum() > 0 and np.isfinite(mu) and mu >= 0:
+                rows.append(np.append(x / x.sum(), mu))
+                wl.append(f"previous classification's solution (mu={mu:.6g})")
+        if rows:
+            Z0, labels = np.vstack([np.array(rows), Z0]), wl + labels
+        note = (f"reduced start set (s = {s} > search_full_max = {full_max}): uniform x and x on {one_node} "
+                "evenly spaced unknowns with every mu0, and the all-slip eigenvectors (25); "
+                f"runs stagnating for {stagnation_its} iterations stopped")
+    else:
+        # above ``zero_one_max`` unknowns the "x zero on one unknown" starts (nearly uniform there) are left out
+        Z0, labels = _starts(s, list(mu0s), pairs, zero_one=zero_one_max is None or s <= zero_one_max)
+        note = None
+    Z, nrm, its = semismooth_newton(a0, a1, Z0, max_it=max_it, stagnation_its=stagnation_its if large else 0)
     conv = np.flatnonzero(np.isfinite(nrm) & (nrm <= 1e-9) & (Z[:, s] >= 0))
     found: dict[tuple, Candidate] = {}
     rejected = 0
@@ -219,5 +289,8 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
                                      found_by=["exact eigenpair (25) of a pattern one flip from a found one"])
                 frontier.append(k[1])
     cands = sorted(found.values(), key=lambda c: c.exact.value)
-    return DenseSearchReport(candidates=cands, starts=len(Z0), converged=len(conv), rejected=rejected,
-                             seconds=time.perf_counter() - t0)
+    rep = DenseSearchReport(candidates=cands, starts=len(Z0), converged=len(conv), rejected=rejected,
+                            seconds=time.perf_counter() - t0)
+    if note:
+        rep.note = f"{rep.note}; {note}"
+    return rep

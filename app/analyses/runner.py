@@ -92,22 +92,43 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
 
 def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple[Classification, dict]],
                                   comm) -> list[dict]:
-    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict): job ``k``
-    runs on rank ``k % size`` alone (dense s x s work on COMM_SELF objects), and the results are
-    gathered on every rank (``allgather``), so the output is the same on any number of ranks.
-    Fills each analyses dict in place (key order as in :func:`analyse_state`); returns the failures."""
+    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict, in path order).
+
+    The jobs with more than ``mcp.search_full_max`` slip nodes are cut into chains of at most
+    ``mcp.warm_chain`` consecutive classifications, each job of a chain warm-started from the
+    previous job's solutions (neighbouring classifications differ by about one node); every
+    other job is a chain of its own (:func:`_chains`). Each chain runs on one
+    rank alone (dense s x s work on COMM_SELF objects); under MPI the ranks take the next chain
+    from a shared counter (one-sided atomic fetch-and-add on rank 0's window), the most expensive
+    chains first, so a rank that finishes early takes more. The chains do not depend on the
+    number of ranks, and the results are gathered on every rank (``allgather``), so the output is
+    the same on any number of ranks. Fills each analyses dict in place (key order as in
+    :func:`analyse_state`); returns the failures."""
     system.contact_schur()        # collective the first time: built on every rank before the split
+    mcp = scene.settings.mcp
+    chains = _chains([len(cls.slip) for cls, _ in jobs], mcp.warm_chain, mcp.search_full_max)
+    order = _chain_order([len(cls.slip) for cls, _ in jobs], chains)
     mine: dict[int, dict] = {}
-    for k, (cls, _) in enumerate(jobs):
-        if k % comm.size != comm.rank:
-            continue
-        p = StatePencils(system, cls)
-        try:
-            mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False)
-        except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
-            mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
-        finally:
-            p.destroy()
+
+    def run_chain(c: int) -> None:
+        for k in chains[c]:
+            cls = jobs[k][0]
+            warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k != chains[c][0] else None
+            p = StatePencils(system, cls)
+            try:
+                mine[k] = _mceip_mu(system, p, scene, len(cls.slip), replicated=False, warm=warm)
+            except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+                mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
+            finally:
+                p.destroy()
+
+    if comm.size == 1:
+        for c in order:
+            run_chain(c)
+    else:
+        with _SharedCounter(comm) as counter:                           # MPI collective (window)
+            while (i := counter.next()) < len(order):                   # one-sided, rank 0's window
+                run_chain(order[i])
     failures = []
     for part in comm.allgather(mine):                                    # MPI collective
         for k, d in part.items():
@@ -120,13 +141,80 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     return failures
 
 
-def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True) -> dict:
+class _SharedCounter:
+    """A counter on rank 0 that every rank increments atomically (MPI one-sided ``Fetch_and_op``
+    under a passive-target lock: no participation of rank 0 needed, it may be computing)."""
+
+    def __init__(self, comm):
+        from mpi4py import MPI
+        self._MPI = MPI
+        self.comm = comm
+        self.win = MPI.Win.Allocate(8 if comm.rank == 0 else 0, 8, comm=comm)   # MPI collective
+        if comm.rank == 0:
+            np.frombuffer(self.win.tomemory(), dtype=np.int64)[:] = 0
+        comm.Barrier()                                                     # MPI collective: counter set
+
+    def next(self) -> int:
+        one, got = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
+        self.win.Lock(0, self._MPI.LOCK_SHARED)
+        self.win.Fetch_and_op(one, got, 0, 0, self._MPI.SUM)
+        self.win.Unlock(0)
+        return int(got[0])
+
+    def __enter__(self) -> "_SharedCounter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.comm.Barrier()                                                # MPI collective
+        self.win.Free()                                                    # MPI collective
+
+
+def _chains(slip_counts: list[int], chain: int, full_max: int) -> list[list[int]]:
+    """Jobs (in path order) grouped into chains: runs of at most ``chain`` consecutive jobs with
+    more than ``full_max`` slip nodes (where warm starts are used); every other job alone (finer
+    work units balance the ranks better). Depends on the jobs and settings only, not on the ranks."""
+    out: list[list[int]] = []
+    for k, s in enumerate(slip_counts):
+        if s > full_max and out and len(out[-1]) < chain and slip_counts[out[-1][-1]] > full_max \
+                and out[-1][-1] == k - 1:
+            out[-1].append(k)
+        else:
+            out.append([k])
+    return out
+
+
+def _chain_order(slip_counts: list[int], chains: list[list[int]]) -> list[int]:
+    """The chains by decreasing estimated cost, sum of (s + 1)^3 (the dense search and certificate
+    are cubic in s): big chains first balance the ranks."""
+    cost = [sum((slip_counts[k] + 1) ** 3 for k in c) for c in chains]
+    return sorted(range(len(chains)), key=lambda c: (-cost[c], c))
+
+
+def _warm_starts(prev: Classification, prev_result: dict | None, cls: Classification) -> list[tuple[np.ndarray, float]]:
+    """The previous classification's solutions as starts ``(x_Ts, mu)`` on ``cls``'s slip nodes
+    (a node that does not slip in ``cls`` is dropped, a new slip node starts at 0)."""
+    if not prev_result or prev_result.get("failed") or ZERO in prev.status or ZERO in cls.status:
+        return []
+    where = {int(node): j for j, node in enumerate(cls.slip)}
+    out = []
+    for sol in prev_result.get("solutions", []):
+        x = np.zeros(len(where))
+        for node, v in zip(prev.slip, sol.get("x_Ts", [])):
+            if int(node) in where:
+                x[where[int(node)]] = v
+        out.append((x, float(sol["value"])))
+    return out
+
+
+def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True,
+              warm: list[tuple[np.ndarray, float]] | None = None) -> dict:
     """MCEIP-mu (21)-(23) of one classification: the condensed s x s pencil with its certificate
     (:mod:`app.analyses.certify`), or the full-size SNES VI search (found, not proven).
 
     ``replicated``: every rank computes the same dense problem and rank 0's answer is broadcast
     (a time budget could end differently on different ranks). ``False`` when only this rank runs
-    it (:func:`analyse_condensed_distributed` gathers the answers itself).
+    it (:func:`analyse_condensed_distributed` gathers the answers itself). ``warm``: starts for the
+    dense search from the previous classification along the path (large ``s`` only).
     """
     if s == 0:
         return {**no_slip(), "certified": True,
@@ -137,7 +225,7 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
         # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
         A0, A1 = p.condensed_mu()
         with system.stages("MCEIP-mu (21)-(23)"):
-            d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp)
+            d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp, warm=warm)
             if replicated and system.comm.size > 1:
                 # replicated dense work; a time budget could end differently on different ranks,
                 # so every rank reports rank 0's answer
