@@ -155,24 +155,26 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         use_mu = mu <= g[idx]
         J[:, s, :] = np.where(use_mu[:, None], eye[s][None], ones_row[None])
         d = _newton_steps(J, -F[idx])
-        step = np.ones(m)
+        # monotone backtracking on |Phi|: the full step for every row, then the halvings
+        # 1/2 ... 1/2^11 of the rows that rejected it, all at once (the first accepted one is taken)
         base = nrm[idx]
         newZ = Zi + d
-        moved = np.zeros(m, dtype=bool)
-        todo = np.arange(m)
-        Fm, ym, gm, xm, nm = np.empty_like(Zi), np.empty((m, s)), np.empty(m), np.empty((m, s)), np.empty(m)
-        for _ in range(12):                      # monotone backtracking on |Phi|, rows not yet accepted
-            Fn, yn, gn, xn = phi(newZ[todo])
-            nn = np.linalg.norm(Fn, axis=1)
-            ok = np.isfinite(nn) & (nn <= (1 - 1e-4 * step[todo]) * base[todo])
-            acc = todo[ok]
-            moved[acc] = True
-            Fm[acc], ym[acc], gm[acc], xm[acc], nm[acc] = Fn[ok], yn[ok], gn[ok], xn[ok], nn[ok]
-            todo = todo[~ok]
-            if not len(todo):
-                break
-            step[todo] *= 0.5
-            newZ[todo] = Zi[todo] + step[todo, None] * d[todo]
+        Fm, ym, gm, xm = phi(newZ)
+        nm = np.linalg.norm(Fm, axis=1)
+        moved = np.isfinite(nm) & (nm <= (1 - 1e-4) * base)
+        todo = np.flatnonzero(~moved)
+        if len(todo):
+            steps = 0.5 ** np.arange(1, 12)
+            Zt = (Zi[todo, None, :] + steps[None, :, None] * d[todo, None, :]).reshape(-1, n1)
+            Ft, yt, gt, xt = phi(Zt)
+            nt = np.linalg.norm(Ft, axis=1).reshape(len(todo), len(steps))
+            okt = np.isfinite(nt) & (nt <= (1 - 1e-4 * steps[None, :]) * base[todo, None])
+            hit = okt.any(axis=1)
+            first = np.argmax(okt, axis=1)[hit]
+            rows, pick = todo[hit], np.flatnonzero(hit) * len(steps) + first
+            moved[rows] = True
+            newZ[rows], Fm[rows], ym[rows], gm[rows], xm[rows] = Zt[pick], Ft[pick], yt[pick], gt[pick], xt[pick]
+            nm[rows] = nt[hit, first]
         im = idx[moved]
         Z[im] = newZ[moved]
         F[im], y[im], g[im], xa1[im], nrm[im] = Fm[moved], ym[moved], gm[moved], xm[moved], nm[moved]
