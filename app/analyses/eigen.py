@@ -167,21 +167,24 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
 
 
 def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,
-              settings: EigSettings, hints: dict | None = None) -> dict:
+              settings: EigSettings, hints: dict | None = None,
+              stars: tuple[PETSc.Mat, PETSc.Mat] | None = None) -> dict:
     """Necessary condition (19): M*(mu) not PSD or K*(mu) not PD, from the symmetric parts.
 
+    ``stars``: ``(K*(mu), M*(mu))`` already combined (kept; otherwise built and destroyed here).
     ``hints`` (name -> value, updated): the previous classification's eigenvalues, used as
     shifts (neighbouring classifications differ by one node). Both eigenvalues are also reported relative to the largest diagonal entry of the matrix, the
     scale used for the decision (so it does not depend on units).
     """
     out = {"mu": mu}
-    for name, A0, A1 in (("K", K0, K1), ("M", M0, M1)):
-        A = combine(A0, A1, mu)
+    for k, (name, A0, A1) in enumerate((("K", K0, K1), ("M", M0, M1))):
+        A = combine(A0, A1, mu) if stars is None else stars[k]
         try:
             scale = diag_scale(A)
             lam = min_sym_eig(A, settings, None if hints is None else hints.get(name))
         finally:
-            A.destroy()
+            if stars is None:
+                A.destroy()
         if hints is not None:
             hints[name] = lam     # warm start for the next classification along the path
         out[f"min_eig_{name}_sym"] = lam
