@@ -69,13 +69,20 @@ def _below(A: PETSc.Mat, sigma: float) -> int:
     C = A.copy()
     try:
         C.shift(-sigma)
-        return inertia_negative_or_zero(C)
+        return inertia_negative_or_zero(C, _ordering(A))
     finally:
         C.destroy()
 
 
 #: Krylov-Schur subspace of the shift-and-invert solve for one eigenvalue nearest a shift
 NEAREST_NCV = 4
+#: up to this size PETSc's own serial Cholesky uses the QMD ordering (0.9 against 1.3 ms per
+#: factorisation at 800 DOFs, issue 14); above it, PETSc's default (nested dissection)
+QMD_MAX = 5000
+
+
+def _ordering(A: PETSc.Mat) -> str | None:
+    return "qmd" if A.getSize()[0] <= QMD_MAX else None
 
 
 def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings) -> float | None:
@@ -94,7 +101,8 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings) -> floa
         st.setType(SLEPc.ST.Type.SINVERT)
         eps.setTarget(sigma)
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        configure_direct(st.getKSP(), factor="cholesky" if At.getComm().getSize() == 1 else "lu")
+        configure_direct(st.getKSP(), factor="cholesky" if At.getComm().getSize() == 1 else "lu",
+                         ordering=_ordering(At))
         eps.solve()
         vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
     except PETSc.Error:
