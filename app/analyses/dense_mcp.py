@@ -109,9 +109,12 @@ def _newton_steps(J: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int = 60,
-                      tol: float = 1e-13) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                      tol: float = 1e-13, stagnation_its: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Batched semismooth Newton on ``min(x, A(mu) x) = 0, min(mu, e^T x - 1) = 0`` from the rows
     of ``Z = (x, mu)``. Returns final iterates, ``|Phi|`` and iteration counts.
+
+    ``stagnation_its`` > 0: a run whose ``|Phi|`` has not halved within that many iterations is
+    stopped (it is reported as not converged, like a run that ran out of iterations).
 
     Only the rows still iterating are evaluated (Newton step, each backtracking halving, the new
     residual): a row stops when it converges (``|Phi| <= tol``) or when no step of the monotone
@@ -137,6 +140,7 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
     active = np.isfinite(nrm) & (nrm > tol)
     eye = np.eye(n1)
     ones_row = np.concatenate([np.ones(s), [0.0]])
+    ref, ref_it = nrm.copy(), np.zeros(B, dtype=int)     # stagnation test: |Phi| to halve from ref
     for it in range(max_it):
         idx = np.flatnonzero(active)
         if not len(idx):
@@ -181,6 +185,11 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         its[idx] += 1
         active[idx[~moved]] = False              # stagnation: stop early
         active &= np.isfinite(nrm) & (nrm > tol)
+        if stagnation_its > 0:
+            halved = nrm <= 0.5 * ref
+            ref = np.where(halved, nrm, ref)
+            ref_it = np.where(halved, it + 1, ref_it)
+            active &= (it + 1 - ref_it) < stagnation_its
     return Z, nrm, its
 
 
