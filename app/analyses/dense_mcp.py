@@ -114,16 +114,16 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
     of ``Z = (x, mu)``. Returns final iterates, ``|Phi|`` and iteration counts.
 
     ``stagnation_its`` > 0: a run whose ``|Phi|`` has not halved within that many iterations is
-    stopped (it is reported as not converged, like a run that ran out of iterations).
-
-    Only the rows still iterating are evaluated (Newton step, each backtracking halving, the new
-    residual): a row stops when it converges (``|Phi| <= tol``) or when no step of the monotone
-    backtracking decreases ``|Phi|`` (stagnation)."""
+    stopped (it is reported as not converged, like a run that ran out of iterations)."""
     B, n1 = Z.shape
     s = n1 - 1
     Z = Z.copy()
     its = np.zeros(B, dtype=int)
+    # Only the rows still iterating are evaluated (Newton step, each backtracking halving, the new
+    # residual): a row stops when it converges (|Phi| <= tol) or when no step of the monotone
+    # backtracking decreases |Phi| (stagnation). Issue 14: 2x less time than whole-batch evaluation.
     a0t, a1t = np.ascontiguousarray(a0.T), np.ascontiguousarray(a1.T)
+    ones_row = np.concatenate([np.ones(s), [0.0]])
 
     def phi(Z):
         x, mu = Z[:, :s], Z[:, s]
@@ -139,7 +139,6 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
     nrm = np.linalg.norm(F, axis=1)
     active = np.isfinite(nrm) & (nrm > tol)
     eye = np.eye(n1)
-    ones_row = np.concatenate([np.ones(s), [0.0]])
     ref, ref_it = nrm.copy(), np.zeros(B, dtype=int)     # stagnation test: |Phi| to halve from ref
     for it in range(max_it):
         idx = np.flatnonzero(active)
