@@ -85,9 +85,17 @@ def _ordering(A: PETSc.Mat) -> str | None:
     return "qmd" if A.getSize()[0] <= QMD_MAX else None
 
 
-def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings) -> float | None:
+def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
+                     shift_below: bool = False) -> float | None:
     """The eigenvalue of the symmetric ``At`` nearest ``sigma`` by shift-and-invert Krylov-Schur
-    (LDL^T of ``At - sigma I``); None when the solve fails or converges nothing."""
+    (LDL^T of ``At - sigma I``); None when the solve fails or converges nothing.
+
+    ``shift_below``: first prove ``sigma`` below the spectrum from the solve's own factorisation
+    (no negative and no zero pivot, serial only), else return None without solving. Without this
+    proof the shift must already be known to lie below the spectrum: Cholesky without pivoting of
+    an indefinite ``At - sigma I`` can be unstable, and the value would then be unreliable."""
+    if shift_below and At.getComm().getSize() > 1:
+        return None                     # MUMPS LU in parallel: no inertia from the solve's factor
     eps = SLEPc.EPS().create(At.getComm())
     try:
         eps.setOperators(At)
@@ -103,6 +111,13 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings) -> floa
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
         configure_direct(st.getKSP(), factor="cholesky" if At.getComm().getSize() == 1 else "lu",
                          ordering=_ordering(At))
+        if shift_below:
+            eps.setUp()
+            ksp = st.getKSP()
+            ksp.setUp()
+            neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
+            if neg + zero > 0:
+                return None
         eps.solve()
         vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
     except PETSc.Error:
@@ -126,14 +141,15 @@ def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | Non
     classification's value). The answer is checked by a second inertia count. None when a step
     fails (the caller falls back to plain Krylov-Schur).
 
-    With a ``hint`` the first shift is tried directly (issue 14: one factorisation fewer): its
-    nearest eigenvalue is kept only when the inertia count proves it the smallest; otherwise the
-    shift is first moved below the spectrum as without a hint."""
+    With a ``hint`` the first shift is tried directly (issue 14: one factorisation fewer): the
+    solve's own LDL^T must show it below the spectrum, and its nearest eigenvalue is kept only
+    when the second inertia count proves it the smallest; otherwise the shift is moved below the
+    spectrum as without a hint."""
     scale = diag_scale(At)
     step = 1e-3 * scale
     sigma = (hint if hint is not None else 0.0) - step
     if hint is not None:
-        lam = _nearest_sym_eig(At, sigma, settings)
+        lam = _nearest_sym_eig(At, sigma, settings, shift_below=True)
         if lam is not None and _proven_smallest(At, lam, scale):
             return lam
     for _ in range(60):
