@@ -164,7 +164,7 @@ def _scip_solve(a0: np.ndarray, a1: np.ndarray, m_lo: float, cuts: list[np.ndarr
     # find nothing, and cutting planes cost more than the nodes they save (paper states s = 15-17: 4
     # proofs 0.62 -> 0.07 s CPU). Presolving stays at its default: with "fast" presolving (and
     # separation off) SCIP declared infeasible a random pencil with a clean solution (seed 394604 of
-    # tests/test_certify.py; 3 misses in 80 random pencils, none with these settings in 230).
+    # tests/test_certify.py; 3 misses in 80 random pencils, none with these settings in 290 with s = 1-13).
     model.setHeuristics(pyscipopt.SCIP_PARAMSETTING.OFF)
     model.setSeparating(pyscipopt.SCIP_PARAMSETTING.OFF)
     # SCIP catches Ctrl-C and stops with "userinterrupt", turned into KeyboardInterrupt below so
