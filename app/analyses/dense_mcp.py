@@ -123,6 +123,29 @@ def _lstsq_batched(J: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("kji,kj->ki", Vt, inv * np.einsum("kji,kj->ki", U, b))
 
 
+def _newton_steps(J: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Newton steps ``J[k] d = b[k]`` of the stack by one batched LAPACK solve; when LAPACK finds
+    a singular Jacobian, only the singular ones (zero determinant, i.e. a zero pivot) get the
+    minimum-norm least-squares step (:func:`_lstsq_batched`), the others still the solve."""
+    try:
+        return np.linalg.solve(J, b[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        pass
+    # an exactly zero pivot of the LU factorisation makes the determinant exactly zero
+    sing = ~(np.abs(np.linalg.det(J)) > 0)
+    d = np.empty(b.shape)
+    if sing.all() or len(J) == 1:
+        return _lstsq_batched(J, b)
+    d[sing] = _lstsq_batched(J[sing], b[sing])
+    ok = ~sing
+    try:
+        d[ok] = np.linalg.solve(J[ok], b[ok][:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:     # not isolated by the determinant (underflow): halve the stack
+        h = len(J) // 2
+        return np.concatenate([_newton_steps(J[:h], b[:h]), _newton_steps(J[h:], b[h:])])
+    return d
+
+
 def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int = 60,
                       tol: float = 1e-13, stagnation_its: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Batched semismooth Newton on ``min(x, A(mu) x) = 0, min(mu, e^T x - 1) = 0`` from the rows
@@ -134,14 +157,23 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
     s = n1 - 1
     Z = Z.copy()
     its = np.zeros(B, dtype=int)
+    # Only the rows still iterating are evaluated (Newton step, each backtracking halving, the new
+    # residual): a row stops when it converges (|Phi| <= tol) or when no step of the monotone
+    # backtracking decreases |Phi| (stagnation). Issue 14: 2x less time than whole-batch evaluation.
+    a0t, a1t = np.ascontiguousarray(a0.T), np.ascontiguousarray(a1.T)
+    ones_row = np.concatenate([np.ones(s), [0.0]])
 
     def phi(Z):
         x, mu = Z[:, :s], Z[:, s]
-        y = x @ a0.T + mu[:, None] * (x @ a1.T)
+        xa1 = x @ a1t
+        y = x @ a0t + mu[:, None] * xa1
         g = x.sum(axis=1) - 1.0
-        return np.hstack([np.minimum(x, y), np.minimum(mu, g)[:, None]]), y, g
+        F = np.empty_like(Z)
+        np.minimum(x, y, out=F[:, :s])
+        np.minimum(mu, g, out=F[:, s])
+        return F, y, g, xa1
 
-    F, y, g = phi(Z)
+    F, y, g, xa1 = phi(Z)
     nrm = np.linalg.norm(F, axis=1)
     active = np.isfinite(nrm) & (nrm > tol)
     eye = np.eye(n1)
@@ -150,36 +182,44 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         idx = np.flatnonzero(active)
         if not len(idx):
             break
-        x, mu = Z[idx, :s], Z[idx, s]
-        J = np.zeros((len(idx), n1, n1))
-        Am = a0[None] + mu[:, None, None] * a1[None]
-        rowy = np.concatenate([Am, (x @ a1.T)[:, :, None]], axis=2)    # d y / d (x, mu)
+        m = len(idx)
+        Zi = Z[idx]
+        x, mu = Zi[:, :s], Zi[:, s]
+        J = np.empty((m, n1, n1))
+        # rows of the pencil: d y / d (x, mu) = [A(mu), A1 x]; rows e_i where x_i <= y_i
+        np.multiply(mu[:, None, None], a1[None], out=J[:, :s, :s])
+        J[:, :s, :s] += a0[None]
+        J[:, :s, s] = xa1[idx]
         use_x = x <= y[idx]
-        J[:, :s, :] = np.where(use_x[:, :, None], eye[None, :s, :], rowy)
+        ri, ci = np.nonzero(use_x)
+        J[ri, ci, :] = eye[ci]
         use_mu = mu <= g[idx]
-        J[:, s, :] = np.where(use_mu[:, None], eye[s][None], np.concatenate([np.ones((len(idx), s)), np.zeros((len(idx), 1))], axis=1))
-        try:
-            d = np.linalg.solve(J, -F[idx][:, :, None])[:, :, 0]
-        except np.linalg.LinAlgError:      # a singular Jacobian in the stack: least squares for all
-            d = _lstsq_batched(J, -F[idx])
-        step = np.ones(len(idx))
+        J[:, s, :] = np.where(use_mu[:, None], eye[s][None], ones_row[None])
+        d = _newton_steps(J, -F[idx])
+        # monotone backtracking on |Phi|: the full step for every row, then the halvings
+        # 1/2 ... 1/2^11 of the rows that rejected it, all at once (the first accepted one is taken)
         base = nrm[idx]
-        newZ = Z[idx] + d
-        done = np.zeros(len(idx), dtype=bool)
-        for _ in range(12):                      # monotone backtracking on |Phi|
-            Fn, _, _ = phi(newZ)
-            nn = np.linalg.norm(Fn, axis=1)
-            ok = np.isfinite(nn) & (nn <= (1 - 1e-4 * step) * base)
-            done |= ok
-            if done.all():
-                break
-            step = np.where(done, step, 0.5 * step)
-            newZ = np.where(done[:, None], newZ, Z[idx] + step[:, None] * d)
-        moved = done
-        Z[idx[moved]] = newZ[moved]
+        newZ = Zi + d
+        Fm, ym, gm, xm = phi(newZ)
+        nm = np.linalg.norm(Fm, axis=1)
+        moved = np.isfinite(nm) & (nm <= (1 - 1e-4) * base)
+        todo = np.flatnonzero(~moved)
+        if len(todo):
+            steps = 0.5 ** np.arange(1, 12)
+            Zt = (Zi[todo, None, :] + steps[None, :, None] * d[todo, None, :]).reshape(-1, n1)
+            Ft, yt, gt, xt = phi(Zt)
+            nt = np.linalg.norm(Ft, axis=1).reshape(len(todo), len(steps))
+            okt = np.isfinite(nt) & (nt <= (1 - 1e-4 * steps[None, :]) * base[todo, None])
+            hit = okt.any(axis=1)
+            first = np.argmax(okt, axis=1)[hit]
+            rows, pick = todo[hit], np.flatnonzero(hit) * len(steps) + first
+            moved[rows] = True
+            newZ[rows], Fm[rows], ym[rows], gm[rows], xm[rows] = Zt[pick], Ft[pick], yt[pick], gt[pick], xt[pick]
+            nm[rows] = nt[hit, first]
+        im = idx[moved]
+        Z[im] = newZ[moved]
+        F[im], y[im], g[im], xa1[im], nrm[im] = Fm[moved], ym[moved], gm[moved], xm[moved], nm[moved]
         its[idx] += 1
-        F, y, g = phi(Z)
-        nrm = np.linalg.norm(F, axis=1)
         active[idx[~moved]] = False              # stagnation: stop early
         active &= np.isfinite(nrm) & (nrm > tol)
         if stagnation_its > 0:

@@ -40,14 +40,21 @@ RESIDUAL_TOL = 1e-8
 BATCH_ELEMENTS = 2_000_000
 
 
+_CONTROLLER: list = []
+
+
 def one_blas_thread():
     """Context: one BLAS thread around small batched dense work (OpenBLAS threads make stacks
-    of 20 x 20 solves 10-20x slower on this kind of machine); all threads again afterwards."""
+    of 20 x 20 solves 10-20x slower on this kind of machine); all threads again afterwards.
+    The BLAS libraries are inspected once per process (``threadpool_limits`` scans every loaded
+    library on each call: 2-4 ms, issue 14)."""
     try:
-        from threadpoolctl import threadpool_limits
+        from threadpoolctl import ThreadpoolController
     except ImportError:              # pragma: no cover - threadpoolctl is a dependency
         return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
+    if not _CONTROLLER:
+        _CONTROLLER.append(ThreadpoolController())
+    return _CONTROLLER[0].limit(limits=1, user_api="blas")
 
 
 @dataclass

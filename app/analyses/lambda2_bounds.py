@@ -53,13 +53,16 @@ def _sym(A: PETSc.Mat) -> PETSc.Mat:
     return S
 
 
-def inertia_negative_or_zero(C: PETSc.Mat) -> int:
+def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
     """Number of negative plus zero pivots of an LDL^T (Cholesky without pivoting) factorisation
-    of the symmetric ``C``; a failed factorisation counts as 1 (nothing proven)."""
+    of the symmetric ``C``; a failed factorisation counts as 1 (nothing proven). Only "0" is
+    evidence (``C`` positive definite): for an indefinite ``C`` PETSc's own serial factorisation
+    reports counts that depend on the ordering (not the true inertia). ``ordering``: for PETSc's
+    own factorisation (e.g. ``"qmd"``), default its own."""
     ksp = PETSc.KSP().create(C.getComm())
     try:
         ksp.setOperators(C)
-        configure_direct(ksp, factor="cholesky", inertia=True)   # MUMPS (in parallel) reports the inertia
+        configure_direct(ksp, factor="cholesky", inertia=True, ordering=ordering)   # MUMPS (in parallel) reports the inertia
         pc = ksp.getPC()
         ksp.setUp()
         neg, zero, _ = pc.getFactorMatrix().getInertia()

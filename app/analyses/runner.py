@@ -18,7 +18,6 @@ from app.analyses.lambda2_analysis import mceip_lambda2
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import (
     UnsupportedState,
-    combine,
     dense,
     split_pencils,
 )
@@ -33,20 +32,15 @@ ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")
 def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
     K0, K1 = p.K()
     M0, M1 = p.M()
+    stars = p.star(scene.mu)
     with system.stages("necessary condition (19)"):
-        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu))
+        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars)
 
 
 def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
-    K0, K1 = p.K()
-    M0, M1 = p.M()
+    Ks, Ms = p.star(scene.mu)        # shared with the necessary condition, destroyed with p
     with system.stages("sufficient condition (17)-(18)"):
-        Ks, Ms = combine(K0, K1, scene.mu), combine(M0, M1, scene.mu)
-        try:
-            out = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
-        finally:
-            Ks.destroy()
-            Ms.destroy()
+        out = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
     out["mu"] = scene.mu
     return out
 

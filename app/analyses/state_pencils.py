@@ -14,6 +14,7 @@ from petsc4py import PETSc
 
 from app.analyses.classify import Classification
 from app.analyses.pencils import (
+    combine,
     condensed_mu_pencil,
     reduced_pencil,
     reduced_space,
@@ -41,6 +42,7 @@ class StatePencils:
         self._K = None
         self._M = None
         self._cond = None
+        self._star: dict[float, tuple[PETSc.Mat, PETSc.Mat]] = {}
 
     @property
     def space(self):
@@ -64,6 +66,17 @@ class StatePencils:
                 self._M = reduced_pencil(Mfull, self.system, self.cls, space)
         return self._M
 
+    def star(self, mu: float) -> tuple[PETSc.Mat, PETSc.Mat]:
+        """``(K*(mu), M*(mu))`` of (15), built once and shared by the necessary and sufficient
+        conditions (issue 14); destroyed with the rest. Callers must not modify them."""
+        mu = float(mu)
+        if mu not in self._star:
+            K0, K1 = self.K()
+            M0, M1 = self.M()
+            with self.system.stages("reduced pencils"):
+                self._star[mu] = (combine(K0, K1, mu), combine(M0, M1, mu))
+        return self._star[mu]
+
     def condensed_mu(self) -> tuple[np.ndarray, np.ndarray]:
         if self._cond is None:
             Sc = self.system.contact_schur()
@@ -72,7 +85,7 @@ class StatePencils:
         return self._cond
 
     def destroy(self):
-        for pair in (self._K, self._M):
+        for pair in (self._K, self._M, *self._star.values()):
             if pair is not None:
                 for m in pair:
                     m.destroy()
