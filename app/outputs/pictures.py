@@ -72,23 +72,25 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     plot_files, shot_files = [], []
     want_plots = bool(cfg.get("plots"))
     want_shots = bool(cfg.get("screenshots")) and not record.get("fields_not_applicable")    # e.g. no mesh (matrices)
-    if "dolfinx.cpp" in sys.modules and (want_plots or want_shots):
+    if "dolfinx.cpp" in sys.modules:
         # after a run: two child processes draw the plots and the screenshots at the same time
-        plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
-                                                   want_plots, want_shots)
-    if want_plots and "dolfinx.cpp" not in sys.modules:
-        with stages(PICTURE_STAGES[0]), _survive("plots", notes):
-            from app.outputs.plots import draw_plots
-            _remove_old(outdir / "plots", ("*.png", "*.svg"))
-            plot_files, n = draw_plots(results, pictured, outdir / "plots")
-            notes += n
-    if want_shots and "dolfinx.cpp" not in sys.modules:
-        with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
-            from app.outputs.screenshots import draw_screenshots
-            _remove_old(outdir / "screenshots", ("*.png",))
-            shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
-                                             outdir / "fields" / "fields.npz", progress)
-            notes += n
+        if want_plots or want_shots:
+            plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
+                                                       want_plots, want_shots)
+    else:                    # no DOLFINx here (e.g. python -m app render): drawn in this process
+        if want_plots:
+            with stages(PICTURE_STAGES[0]), _survive("plots", notes):
+                from app.outputs.plots import draw_plots
+                _remove_old(outdir / "plots", ("*.png", "*.svg"))
+                plot_files, n = draw_plots(results, pictured, outdir / "plots")
+                notes += n
+        if want_shots:
+            with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
+                from app.outputs.screenshots import draw_screenshots
+                _remove_old(outdir / "screenshots", ("*.png",))
+                shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
+                                                 outdir / "fields" / "fields.npz", progress)
+                notes += n
     record["notes"] += notes
     for n in notes:
         log.warning("%s", n)
