@@ -152,6 +152,12 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
 
 
+def _draws(scene) -> bool:
+    """The scene's outputs ask for plots or screenshots (drawn by child processes after a run)."""
+    outputs = getattr(scene, "outputs", None)
+    return outputs is not None and bool(outputs.plots or outputs.screenshots is not None)
+
+
 # Started during the run (rank 0): "plots" / "screenshots" -> their drawing process, given its job;
 # "job" -> the job file they share (written before the field stage).
 _EARLY: dict = {}
@@ -162,10 +168,9 @@ def pictures_before_fields(scene, outdir: pathlib.Path | None, progress=None):
     field stage (plots and screenshots need only the states and, for the screenshots, the fields
     file the stage writes) and hands it to the plots' process at once; None when there is
     nothing to start. The job holds the data the pictures would get after the run."""
-    outputs = getattr(scene, "outputs", None)
-    if outdir is None or outputs is None or "dolfinx.cpp" not in sys.modules \
-            or not (outputs.plots or outputs.screenshots is not None):
+    if outdir is None or "dolfinx.cpp" not in sys.modules or not _draws(scene):
         return None
+    outputs = scene.outputs
 
     def start(system, out_states: list[dict]) -> None:
         from app.outputs import worker
@@ -211,10 +216,10 @@ def prestarted(scene, comm):
     """Around a study whose results rank 0 will draw: on rank 0, the drawing processes of the
     plots and the screenshots are started first, so that they import matplotlib and VTK and warm
     up while the study runs (issue 14); those not used are stopped at the end."""
-    outputs = getattr(scene, "outputs", None)
-    if comm.rank != 0 or outputs is None or not (outputs.plots or outputs.screenshots is not None):
+    if comm.rank != 0 or not _draws(scene):
         yield
         return
+    outputs = scene.outputs
     from app.outputs import worker
     try:
         if outputs.plots:
