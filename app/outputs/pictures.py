@@ -221,7 +221,10 @@ def prestarted(scene, comm):
     """Around a study whose results rank 0 will draw: on rank 0, the drawing processes of the
     plots and the screenshots are started first, so that they import matplotlib and VTK and warm
     up while the study runs (issue 14); those not used are stopped at the end."""
-    if comm.rank != 0 or not _draws(scene):
+    # the children draw only in a process that has loaded DOLFINx (:func:`draw_outputs`): a meshed
+    # system's study loads it; a mesh-less system's pictures (particles, matrices) are drawn here
+    meshed = getattr(scene.system, "has_fields", False)
+    if comm.rank != 0 or not _draws(scene) or not (meshed or "dolfinx.cpp" in sys.modules):
         yield
         return
     outputs = scene.outputs
@@ -229,7 +232,7 @@ def prestarted(scene, comm):
     try:
         if outputs.plots:
             worker.prestart("plots")
-        if outputs.screenshots is not None and getattr(scene.system, "has_fields", False):
+        if outputs.screenshots is not None and meshed:
             from app.outputs.screenshots import resolution_arg
             worker.prestart("screenshots", resolution_arg(outputs.screenshots.model_dump(mode="json")))
         yield
