@@ -188,6 +188,13 @@ def test_recorded_stages_and_files(serial):
     assert "outputs:" in proc.stdout and "report.md" in proc.stdout
 
 
+def test_drawing_job_files_are_removed(serial):
+    """The job files handed to the drawing processes (app/outputs/pictures.py, worker.py) are
+    removed before the results are committed: none is left in the results folder."""
+    out, res, proc = serial
+    assert sorted(p.name for p in out.rglob(".pictures-job*")) == []
+
+
 def test_paraview_states_series(serial):
     out, res, _ = serial
     points, cells, steps = _states_series(out / "paraview" / "states.xdmf")
