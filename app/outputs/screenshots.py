@@ -67,7 +67,7 @@ class FieldData:
             self.obstacle = None        # (point, outward normal of the body), None: no obstacle line
             if "obstacle_point" in files:
                 self.obstacle = (z["obstacle_point"].astype(float), z["obstacle_normal"].astype(float))
-            elif "block" in files:     # written by the previous release (block only): its obstacle is y = 0
+            elif "length_scale" not in files:      # written before the geometry keys: the block on y = 0
                 self.obstacle = (np.zeros(2), np.array([0.0, -1.0]))
         lo, hi = self.points.min(axis=0), self.points.max(axis=0)
         self.width, self.height = (float(v) for v in (hi - lo))
