@@ -167,17 +167,12 @@ def pictures_before_fields(scene, outdir: pathlib.Path | None, progress=None):
     """For :func:`app.study.run_study` on rank 0: a function that writes the drawing job before the
     field stage (plots and screenshots need only the states and, for the screenshots, the fields
     file the stage writes) and hands it to the plots' process at once; None when there is
-    nothing to start. The job holds the data the pictures would get after the run.
-
-    Whether DOLFINx is loaded (the pictures then drawn by child processes, :func:`draw_outputs`)
-    is asked when the hook runs: the study loads it after this function is called."""
-    if outdir is None or not _draws(scene):
+    nothing to start. The job holds the data the pictures would get after the run."""
+    if outdir is None or "dolfinx.cpp" not in sys.modules or not _draws(scene):
         return None
     outputs = scene.outputs
 
     def start(system, out_states: list[dict]) -> None:
-        if "dolfinx.cpp" not in sys.modules:      # drawn in this process after the run
-            return
         from app.outputs import worker
         from app.outputs.results import json_clean
         from app.outputs.screenshots import job_of
