@@ -30,8 +30,6 @@ the paper's (a solution with one slip node appears at the first slip, then disap
 """
 from __future__ import annotations
 
-import csv
-import io
 import pathlib
 import time
 
@@ -194,7 +192,7 @@ def _warm_up(scene: Scene, comm: MPI.Comm) -> None:
 def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = None,
                    outdir: pathlib.Path | None = None, log=print) -> dict:
     """Run every level; rank 0 writes the outputs into ``outdir``. Returns the summary."""
-    from app.outputs.results import STEP_COLUMNS, step_rows
+    from app.outputs.results import steps_csv
     ref = scene.refinement
     t0 = time.perf_counter()
     _warm_up(scene, comm)
@@ -217,11 +215,7 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
                     if outdir is not None:
                         d = outdir / "levels" / f"P{deg}-{plane}-nx{nx}"
                         d.mkdir(parents=True, exist_ok=True)
-                        buf = io.StringIO()
-                        w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS, extrasaction="ignore")
-                        w.writeheader()
-                        w.writerows(step_rows(res))
-                        (d / "steps.csv").write_text(buf.getvalue())
+                        (d / "steps.csv").write_text(steps_csv(res))
     conv = analyse_convergence(rows)
     cfg = scene.system
     summary = {"scene": scene.name, "mu": scene.mu,

@@ -9,23 +9,14 @@ from __future__ import annotations
 import time
 
 from mpi4py import MPI
-from threadpoolctl import ThreadpoolController
 
 from app.analyses.classify import classify
+from app.analyses.enumerate import one_blas_thread
 from app.analyses.runner import analyse_condensed_distributed, analyse_state
 from app.config import Scene
 from app.progress import Progress
 from app.stages import Stages
 from app.systems import get as system_type
-
-_BLAS: list = []
-
-
-def _blas() -> ThreadpoolController:
-    """The process's BLAS thread pools (inspected once: threadpoolctl scans the loaded libraries)."""
-    if not _BLAS:
-        _BLAS.append(ThreadpoolController())
-    return _BLAS[0]
 
 
 def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
@@ -66,7 +57,7 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
         else:
             # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
             # 3-6x faster than OpenBLAS's default on these sizes (issue 14)
-            with _blas().limit(limits=1, user_api="blas"):
+            with one_blas_thread():
                 analyses = analyse_state(system, cls, scene, defer_condensed=True)
             for name, a in analyses.items():
                 if a.get("failed"):
@@ -81,7 +72,7 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
         bar.update(1)
     bar.close()
     if deferred:   # the condensed MCEIP-mu of every classification, one rank each under MPI
-        with _blas().limit(limits=1, user_api="blas"):
+        with one_blas_thread():
             failed = analyse_condensed_distributed(system, scene, [(c, a) for c, a, _ in deferred], comm)
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, cache) if inspect is not None else None

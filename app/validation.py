@@ -50,11 +50,6 @@ def show_value(value: Any) -> str:
     return text if len(text) <= 160 else text[:150] + "...(cut)"
 
 
-def is_numeric_annotation(tp: Any) -> bool:
-    """The annotation takes numbers (int/float) and no booleans (``mu: yes`` must not become 1.0)."""
-    return number_kind(tp) is not None
-
-
 def number_kind(tp: Any) -> str | None:
     """'an integer' or 'a number' if the annotation takes numbers and no booleans, else None."""
     import typing

@@ -188,6 +188,30 @@ def test_recorded_stages_and_files(serial):
     assert "outputs:" in proc.stdout and "report.md" in proc.stdout
 
 
+def test_drawing_job_files_are_removed(serial):
+    """The job files handed to the drawing processes (app/outputs/pictures.py, worker.py) are
+    removed before the results are committed: none is left in the results folder."""
+    out, res, proc = serial
+    assert sorted(p.name for p in out.rglob(".pictures-job*")) == []
+
+
+def test_fields_file_of_the_previous_release_keeps_its_obstacle(serial, tmp_path):
+    """``python -m app render`` of a results folder of the previous release: its fields.npz has the
+    ``block`` key instead of the geometry keys; the obstacle is then the block's line y = 0."""
+    from app.outputs.screenshots import FieldData
+    out, res, proc = serial
+    with np.load(out / "fields" / "fields.npz") as z:
+        now = {k: z[k] for k in z.files}
+    assert FieldData(out / "fields" / "fields.npz").obstacle is not None
+    old = {k: v for k, v in now.items() if k not in ("contact_tangent", "contact_normal", "length_scale",
+                                                     "obstacle_point", "obstacle_normal")}
+    np.savez(tmp_path / "old.npz", **old, block=np.array([80.0, 40.0]))
+    p, n = FieldData(tmp_path / "old.npz").obstacle
+    assert np.allclose(p, 0.0) and np.allclose(n, [0.0, -1.0])
+    np.savez(tmp_path / "none.npz", **old, length_scale=np.array(80.0))     # a body without an obstacle line
+    assert FieldData(tmp_path / "none.npz").obstacle is None
+
+
 def test_paraview_states_series(serial):
     out, res, _ = serial
     points, cells, steps = _states_series(out / "paraview" / "states.xdmf")

@@ -7,6 +7,7 @@ process with one writer patched to fail as a full disk would.
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import json
@@ -247,61 +248,61 @@ def test_full_disk_or_no_memory_gives_one_line(tmp_path, monkeypatch, capsys, wh
     _no_litter(tmp_path)
 
 
-def _tmpfs(path: pathlib.Path, size: str) -> bool:
+@contextlib.contextmanager
+def _tmpfs(path: pathlib.Path, size: str):
+    """A tmpfs of ``size`` mounted at ``path`` (created) for the block, unmounted after it; the test
+    is skipped where tmpfs cannot be mounted."""
     path.mkdir()
-    return subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-                          capture_output=True).returncode == 0
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a tmpfs here")
+    try:
+        yield path
+    finally:
+        subprocess.run(["umount", str(path)], capture_output=True)
 
 
 @pytest.mark.slow
 def test_full_tmpfs_during_the_run(tmp_path):
     """A real full disk (a 64 MB tmpfs filled once the run is writing its fields): one line, exit 4,
     the staging folder removed. Skipped where tmpfs cannot be mounted."""
-    mnt = tmp_path / "mnt"
-    if not _tmpfs(mnt, "64m"):
-        pytest.skip("cannot mount a tmpfs here")
-    proc = None
-    try:
-        scene = tmp_path / "s.yaml"
-        scene.write_text(BLOCK.replace("MU", "1.1") + "outputs: {paraview: true, plots: true, report: true}\n")
-        env = dict(os.environ, PYTHONPATH=str(ROOT))
-        proc = subprocess.Popen([PY, "-m", "app", "run", str(scene), "-o", str(mnt / "out"), "-q"], cwd=ROOT,
-                                env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        t0 = time.time()
-        while not list(mnt.glob(".out.partial-*/paraview")) and proc.poll() is None and time.time() - t0 < 120:
-            time.sleep(0.005)
-        fd = os.open(mnt / "fill", os.O_WRONLY | os.O_CREAT)
+    with _tmpfs(tmp_path / "mnt", "64m") as mnt:
+        proc = None
         try:
-            while True:
-                os.write(fd, b"\0" * 65536)
-        except OSError as err:
-            assert err.errno == errno.ENOSPC
+            scene = tmp_path / "s.yaml"
+            scene.write_text(BLOCK.replace("MU", "1.1") + "outputs: {paraview: true, plots: true, report: true}\n")
+            env = dict(os.environ, PYTHONPATH=str(ROOT))
+            proc = subprocess.Popen([PY, "-m", "app", "run", str(scene), "-o", str(mnt / "out"), "-q"], cwd=ROOT,
+                                    env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            t0 = time.time()
+            while not list(mnt.glob(".out.partial-*/paraview")) and proc.poll() is None and time.time() - t0 < 120:
+                time.sleep(0.005)
+            fd = os.open(mnt / "fill", os.O_WRONLY | os.O_CREAT)
+            try:
+                while True:
+                    os.write(fd, b"\0" * 65536)
+            except OSError as err:
+                assert err.errno == errno.ENOSPC
+            finally:
+                os.close(fd)
+            stdout, stderr = proc.communicate(timeout=300)
+            (mnt / "fill").unlink()
+            assert proc.returncode == 4, (stdout, stderr)
+            assert len(stderr.splitlines()) == 1 and "no space left" in stderr and "Traceback" not in stderr
+            assert sorted(os.listdir(mnt)) == []
         finally:
-            os.close(fd)
-        stdout, stderr = proc.communicate(timeout=300)
-        (mnt / "fill").unlink()
-        assert proc.returncode == 4, (stdout, stderr)
-        assert len(stderr.splitlines()) == 1 and "no space left" in stderr and "Traceback" not in stderr
-        assert sorted(os.listdir(mnt)) == []
-    finally:
-        if proc is not None and proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        subprocess.run(["umount", str(mnt)], capture_output=True)
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait()
 
 
 def test_disk_preflight_refuses_before_the_work(tmp_path):
-    mnt = tmp_path / "mnt"
-    if not _tmpfs(mnt, "1m"):
-        pytest.skip("cannot mount a tmpfs here")
-    try:
+    with _tmpfs(tmp_path / "mnt", "1m") as mnt:
         scene = tmp_path / "s.yaml"
         scene.write_text(TP)
         line = _one_error_line(run_cli("run", str(scene), "-o", str(mnt / "out"), "-q"))
         assert "not enough free space" in line and str(mnt / "out") in line
         assert os.listdir(mnt) == []
-    finally:
-        subprocess.run(["umount", str(mnt)], capture_output=True)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -645,17 +646,12 @@ def test_sane_paths_have_no_strain_warning():
 
 
 def test_mount_point_target_is_refused_before_the_work(tmp_path):
-    mnt = tmp_path / "mnt"
-    if not _tmpfs(mnt, "8m"):
-        pytest.skip("cannot mount a tmpfs here")
-    try:
+    with _tmpfs(tmp_path / "mnt", "8m") as mnt:
         scene = tmp_path / "s.yaml"
         scene.write_text(TP)
         line = _one_error_line(run_cli("run", str(scene), "-o", str(mnt), "-q", "--overwrite"))
         assert "mount point" in line and os.listdir(mnt) == []
         _no_litter(tmp_path)
-    finally:
-        subprocess.run(["umount", str(mnt)], capture_output=True)
 
 
 def test_someone_elses_empty_folder_in_a_sticky_folder_is_refused(tmp_path, monkeypatch):

@@ -72,23 +72,25 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     plot_files, shot_files = [], []
     want_plots = bool(cfg.get("plots"))
     want_shots = bool(cfg.get("screenshots")) and not record.get("fields_not_applicable")    # e.g. no mesh (matrices)
-    if "dolfinx.cpp" in sys.modules and (want_plots or want_shots):
+    if "dolfinx.cpp" in sys.modules:
         # after a run: two child processes draw the plots and the screenshots at the same time
-        plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
-                                                   want_plots, want_shots)
-    if want_plots and "dolfinx.cpp" not in sys.modules:
-        with stages(PICTURE_STAGES[0]), _survive("plots", notes):
-            from app.outputs.plots import draw_plots
-            _remove_old(outdir / "plots", ("*.png", "*.svg"))
-            plot_files, n = draw_plots(results, pictured, outdir / "plots")
-            notes += n
-    if want_shots and "dolfinx.cpp" not in sys.modules:
-        with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
-            from app.outputs.screenshots import draw_screenshots
-            _remove_old(outdir / "screenshots", ("*.png",))
-            shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
-                                             outdir / "fields" / "fields.npz", progress)
-            notes += n
+        if want_plots or want_shots:
+            plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
+                                                       want_plots, want_shots)
+    else:                    # no DOLFINx here (e.g. python -m app render): drawn in this process
+        if want_plots:
+            with stages(PICTURE_STAGES[0]), _survive("plots", notes):
+                from app.outputs.plots import draw_plots
+                _remove_old(outdir / "plots", ("*.png", "*.svg"))
+                plot_files, n = draw_plots(results, pictured, outdir / "plots")
+                notes += n
+        if want_shots:
+            with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
+                from app.outputs.screenshots import draw_screenshots
+                _remove_old(outdir / "screenshots", ("*.png",))
+                shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
+                                                 outdir / "fields" / "fields.npz", progress)
+                notes += n
     record["notes"] += notes
     for n in notes:
         log.warning("%s", n)
@@ -150,6 +152,12 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
 
 
+def _draws(scene) -> bool:
+    """The scene's outputs ask for plots or screenshots (drawn by child processes after a run)."""
+    outputs = getattr(scene, "outputs", None)
+    return outputs is not None and bool(outputs.plots or outputs.screenshots is not None)
+
+
 # Started during the run (rank 0): "plots" / "screenshots" -> their drawing process, given its job;
 # "job" -> the job file they share (written before the field stage).
 _EARLY: dict = {}
@@ -160,10 +168,9 @@ def pictures_before_fields(scene, outdir: pathlib.Path | None, progress=None):
     field stage (plots and screenshots need only the states and, for the screenshots, the fields
     file the stage writes) and hands it to the plots' process at once; None when there is
     nothing to start. The job holds the data the pictures would get after the run."""
-    outputs = getattr(scene, "outputs", None)
-    if outdir is None or outputs is None or "dolfinx.cpp" not in sys.modules \
-            or not (outputs.plots or outputs.screenshots is not None):
+    if outdir is None or "dolfinx.cpp" not in sys.modules or not _draws(scene):
         return None
+    outputs = scene.outputs
 
     def start(system, out_states: list[dict]) -> None:
         from app.outputs import worker
@@ -209,15 +216,18 @@ def prestarted(scene, comm):
     """Around a study whose results rank 0 will draw: on rank 0, the drawing processes of the
     plots and the screenshots are started first, so that they import matplotlib and VTK and warm
     up while the study runs (issue 14); those not used are stopped at the end."""
-    outputs = getattr(scene, "outputs", None)
-    if comm.rank != 0 or outputs is None or not (outputs.plots or outputs.screenshots is not None):
+    # the children draw only in a process that has loaded DOLFINx (:func:`draw_outputs`): a meshed
+    # system's study loads it; a mesh-less system's pictures (particles, matrices) are drawn here
+    meshed = getattr(scene.system, "has_fields", False)
+    if comm.rank != 0 or not _draws(scene) or not (meshed or "dolfinx.cpp" in sys.modules):
         yield
         return
+    outputs = scene.outputs
     from app.outputs import worker
     try:
         if outputs.plots:
             worker.prestart("plots")
-        if outputs.screenshots is not None and getattr(scene.system, "has_fields", False):
+        if outputs.screenshots is not None and meshed:
             from app.outputs.screenshots import resolution_arg
             worker.prestart("screenshots", resolution_arg(outputs.screenshots.model_dump(mode="json")))
         yield

@@ -87,14 +87,19 @@ def step_rows(results: dict) -> list[dict]:
     return rows
 
 
-def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
-    """Write steps.csv then results.json (last: its presence marks a complete run)."""
-    outdir.mkdir(parents=True, exist_ok=True)
+def steps_csv(results: dict) -> str:
+    """The text of steps.csv: a header and one row per state (:func:`step_rows`)."""
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS)
     w.writeheader()
     w.writerows(step_rows(results))
-    atomic_write(outdir / "steps.csv", buf.getvalue())
+    return buf.getvalue()
+
+
+def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Write steps.csv then results.json (last: its presence marks a complete run)."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    atomic_write(outdir / "steps.csv", steps_csv(results))
     doc = {"format_version": FORMAT_VERSION, **json_clean(results)}
     atomic_write(outdir / "results.json", json.dumps(doc, indent=1))
     return [outdir / "steps.csv", outdir / "results.json"]
