@@ -26,14 +26,12 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
     ``extra``: keys added to the results before they are written (e.g. a sweep case's identity).
     Returns the results dictionary (on rank 0 with the pictures drawn recorded in it).
     """
-    from app.outputs.pictures import pictures_before_fields, prestarted
+    from app.outputs.pictures import prestarted
     from app.study import run_study
     progress = progress or Progress(enabled=False)
     with prestarted(scene, comm):     # rank 0: the drawing processes warm up during the study
-        # outdir: where the scene's field outputs (if any) go, written while the system is alive;
-        # rank 0 starts drawing the plots before them
-        results = run_study(scene, comm, progress, outdir=outdir,
-                            before_fields=pictures_before_fields(scene, outdir, progress) if comm.rank == 0 else None)
+        # outdir: where the scene's field outputs (if any) go, written while the system is alive
+        results = run_study(scene, comm, progress, outdir=outdir)
         if comm.rank == 0:
             from app.outputs.pictures import draw_after_run  # plots, screenshots, report (if asked)
             from app.outputs.results import write_results

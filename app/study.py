@@ -20,7 +20,7 @@ from app.systems import get as system_type
 
 
 def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
-              outdir=None, before_fields=None) -> dict:
+              outdir=None) -> dict:
     """Run ``scene``; returns the results dictionary (identical on every rank).
 
     ``inspect(system, states, cache)``, if given, runs after the per-state analyses while the
@@ -28,8 +28,6 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     returns is stored as ``results["inspection"]`` (used by app/refinement.py).
     ``outdir``: the results folder, where the field stage (app/outputs/fields.py: ParaView
     files, screenshot data) writes when the scene's ``outputs`` ask for fields.
-    ``before_fields(system, states)``, if given, runs just before the field stage (the driver
-    starts drawing the plots there, app/outputs/pictures.py).
     """
     t_start = time.perf_counter()
     stages = Stages()
@@ -80,8 +78,6 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     from app.outputs.fields import wants_fields
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
         from app.outputs.fields import compute_fields
-        if before_fields is not None:
-            before_fields(system, out_states)
         outputs_record = compute_fields(scene, system, out_states, stages, progress, outdir)
     system.destroy()
     return {**({"inspection": inspection} if inspect is not None else {}), "scene": scene.name, "units": system.units, "system": system.description,

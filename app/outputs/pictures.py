@@ -113,9 +113,8 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
 def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, progress, stages,
                       notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
     """Plots and screenshots drawn by two child processes at once (app/outputs/worker.py: VTK cannot
-    run next to DOLFINx; the children started by :func:`prestarted` are already warm, and those
-    given their job during the run (:func:`pictures_before_fields`, :func:`draw_after_run`) are
-    drawing). Each picture stage records the drawing time its child reports."""
+    run next to DOLFINx; the children started by :func:`prestarted` are already warm). Each
+    picture stage records the drawing time its child reports."""
     from app.outputs import worker
     from app.outputs.screenshots import job_of, resolution_arg
     t0 = time.perf_counter()
@@ -124,18 +123,17 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     running, out = [], {}
     try:
         with _survive("plots and screenshots", notes):
-            if want_plots and "plots" not in _EARLY:    # (plots started early are being drawn now)
+            if want_plots:
                 _remove_old(outdir / "plots", ("*.png", "*.svg"))
-            if want_shots and "screenshots" not in _EARLY:
+            if want_shots:
                 _remove_old(outdir / "screenshots", ("*.png",))
-            if (want_plots and "plots" not in _EARLY) or (want_shots and "screenshots" not in _EARLY):
-                data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
-                              progress)
-                job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
+            data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
+                          progress)
+            job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
             for stage, kind, want, arg in ((PICTURE_STAGES[1], "screenshots", want_shots, resolution_arg(shots_cfg)),
                                            (PICTURE_STAGES[0], "plots", want_plots, "")):
                 if want:
-                    running.append((stage, _EARLY.pop(kind, None) or worker.take(kind, arg).submit(job)))
+                    running.append((stage, worker.take(kind, arg).submit(job)))
             worker.close_unused()
             for stage, child in running:
                 files, n, seconds = child.wait()
@@ -156,59 +154,6 @@ def _draws(scene) -> bool:
     """The scene's outputs ask for plots or screenshots (drawn by child processes after a run)."""
     outputs = getattr(scene, "outputs", None)
     return outputs is not None and bool(outputs.plots or outputs.screenshots is not None)
-
-
-# Started during the run (rank 0): "plots" / "screenshots" -> their drawing process, given its job;
-# "job" -> the job file they share (written before the field stage).
-_EARLY: dict = {}
-
-
-def pictures_before_fields(scene, outdir: pathlib.Path | None, progress=None):
-    """For :func:`app.study.run_study` on rank 0: a function that writes the drawing job before the
-    field stage (plots and screenshots need only the states and, for the screenshots, the fields
-    file the stage writes) and hands it to the plots' process at once; None when there is
-    nothing to start. The job holds the data the pictures would get after the run."""
-    if outdir is None or "dolfinx.cpp" not in sys.modules or not _draws(scene):
-        return None
-    outputs = scene.outputs
-
-    def start(system, out_states: list[dict]) -> None:
-        from app.outputs import worker
-        from app.outputs.results import json_clean
-        from app.outputs.screenshots import job_of
-        try:
-            results = json.loads(json.dumps(json_clean(
-                {"scene": scene.name, "units": system.units, "mu": scene.mu, "analyses_requested": list(scene.analyses),
-                 "scene_config": scene.model_dump(mode="json", exclude_none=True), "states": out_states})))
-            cfg = outputs_config(results)
-            pictured, _ = select_states(results["states"], cfg.get("states") or ["final"])
-            folder = pathlib.Path(outdir)
-            job = folder / f".pictures-job-early-{os.getpid()}.json"
-            _EARLY["job"] = job
-            data = job_of(results, pictured, cfg.get("screenshots") or {}, folder / "screenshots",
-                          folder / "fields" / "fields.npz", progress)
-            job.write_text(json.dumps({**data, "plots_dir": str(folder / "plots")}))
-            if outputs.plots:
-                _EARLY["plots"] = worker.take("plots").submit(job)
-        except Exception:                 # noqa: BLE001 - the pictures are drawn after the run instead
-            log.warning("the pictures could not be started before the fields; drawn after the run", exc_info=True)
-    return start
-
-
-def _screenshots_now(results: dict) -> None:
-    """After the run, before its results are turned into JSON: hand the job written before the
-    field stage to the screenshots' process (the fields file is written now)."""
-    cfg = outputs_config(results)
-    job = _EARLY.get("job")
-    if job is None or "screenshots" in _EARLY or not cfg.get("screenshots") \
-            or (results.get("outputs") or {}).get("fields_not_applicable"):
-        return
-    from app.outputs import worker
-    from app.outputs.screenshots import resolution_arg
-    try:
-        _EARLY["screenshots"] = worker.take("screenshots", resolution_arg(cfg["screenshots"])).submit(job)
-    except Exception:                     # noqa: BLE001 - drawn by a new process later instead
-        log.warning("the screenshots could not be started", exc_info=True)
 
 
 @contextlib.contextmanager
@@ -233,11 +178,6 @@ def prestarted(scene, comm):
         yield
     finally:
         worker.close_unused()
-        job = _EARLY.pop("job", None)
-        while _EARLY:                    # not waited for (the run failed before drawing): stop them
-            _EARLY.popitem()[1].close()
-        if job is not None:
-            job.unlink(missing_ok=True)
 
 
 def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
@@ -249,7 +189,6 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     if not wants_pictures(results):
         return results
     from app.outputs.results import json_clean
-    _screenshots_now(results)
     data = json.loads(json.dumps(json_clean(results)))
     draw_outputs(data, outdir, progress)
     return data
