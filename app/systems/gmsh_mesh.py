@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.systems.schema import SystemPathError
+from app.systems.schema import SystemPathError, file_version
 
 GMSH_LINE, GMSH_TRIANGLE = 1, 2
 _INFO_CACHE: dict[tuple, "ModelInfo"] = {}
@@ -133,8 +133,7 @@ def check_model(gmsh, value: str) -> ModelInfo:
 
 def model_info(path: pathlib.Path, value: str) -> ModelInfo:
     """Open and check a model file (cached per file version); raises :class:`SystemPathError`."""
-    st = path.stat()
-    key = (str(path), st.st_mtime_ns, st.st_size)
+    key = file_version(path)
     if key in _INFO_CACHE:
         return _INFO_CACHE[key]
     if path.suffix.lower() not in (".geo", ".msh"):
