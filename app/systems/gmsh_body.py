@@ -17,6 +17,8 @@ Obstacle frames: the contact DOFs are rotated into the obstacle's tangent t and 
 ``R^T f`` with R orthogonal and block-diagonal, so the stability code sees plain DOF pairs in the
 paper's axes (DESIGN.md section 1). For axis-aligned obstacles R has entries 0 and +-1 and the
 rotation is exact. Initial gaps ``g0 = (p - x) . n`` from the geometry (p the obstacle's point).
+
+The body's displacement fields (ParaView files, screenshots) are in app/systems/gmsh_fields.py.
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ from app.loading.program import ProgramPhase, run_program
 from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.contact_traction import ContactRecovery, contact_recovery
+from app.systems.gmsh_fields import BodyFields, parameter_name
 from app.systems.gmsh_schema import GmshBody
 
 log = logging.getLogger(__name__)
@@ -440,7 +443,7 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
         names = {v: k for k, v in params.items()}
 
         def describe(a: np.ndarray, names=names) -> dict:
-            return {"parameters": {_parameter_name(names[j]): float(a[j]) for j in range(len(a)) if a[j] != 0}}
+            return {"parameters": {parameter_name(names[j]): float(a[j]) for j in range(len(a)) if a[j] != 0}}
 
         out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da, fixed=fixed,
                                 normal_force=ph.until.normal_force if ph.until else None,
@@ -489,78 +492,3 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     _add_tractions(cfg, system.extra["recovery"], states)
     return system, states, info
-
-
-def _parameter_name(key: tuple) -> str:
-    """Name of a load parameter in a state's ``load["parameters"]`` (as :func:`_phases` writes it)."""
-    return ".".join(x for x in key if x)
-
-
-class BodyFields:
-    """The body's :class:`app.system.base.FieldSource`: fields from a state's contact reactions and
-    its load parameters (``load["parameters"]``), in the obstacle-rotated reduced DOFs.
-
-    ``response``: ``K' u' = sum_j a_j f'_j + B^T r`` with the rotated unit loads ``f'_j`` and the
-    reactions at the contact DOFs (already in the node frames, sign +1); ``to_function``: ``u = R u'``
-    on the kept DOFs and the prescribed motions (translation + linearised rotation about the origin,
-    as the parameters hold them) on the prescribed curves.
-    """
-
-    def __init__(self, cfg: GmshBody, ops: BodyOperators, flex, gaps: np.ndarray):
-        d = ops.field_data
-        self.cfg, self.ops, self.flex = cfg, ops, flex
-        self.V = d["V"]
-        comm = self.V.mesh.comm
-        x = d["dof_x"]
-        ext = np.concatenate([-x.min(axis=0), x.max(axis=0)]) if len(x) else np.full(4, -np.inf)
-        ext_all = np.empty(4)
-        comm.Allreduce(ext, ext_all, op=MPI.MAX)                                              # MPI collective
-        self.length_scale = float(np.max(ext_all[2:] + ext_all[:2]))      # the body's bounding-box size
-        tvec, nvec = cfg.obstacle.frame()
-        n = len(ops.contact_xy)
-        self.contact_xy = ops.contact_xy
-        self.tangent = np.tile(tvec, (n, 1))      # one straight obstacle: every node has its frame
-        self.normal = np.tile(nvec, (n, 1))
-        self.gaps = gaps
-        self.W = flex.W
-        self.obstacle = {"point": [float(v) for v in cfg.obstacle.point], "normal": [float(v) for v in nvec]}
-        self._index = {_parameter_name(k): j for k, j in ops.params.items()}
-
-    def von_mises(self, u):
-        from app.system.stress import von_mises
-        return von_mises(u, self.ops.field_data["mu"], self.ops.field_data["lambda"], self.cfg.plane)
-
-    def _parameters(self, load: dict | None) -> np.ndarray:
-        a = np.zeros(len(self._index))
-        for name, val in ((load or {}).get("parameters") or {}).items():
-            a[self._index[name]] = float(val)
-        return a
-
-    def response(self, load: dict | None, r: np.ndarray) -> PETSc.Vec:
-        a = self._parameters(load)
-        return self.flex.response([(a[j], self.ops.loads[j]) for j in np.flatnonzero(a)], r)
-
-    def to_function(self, u: PETSc.Vec, load: dict | None):
-        import dolfinx.fem
-        d = self.ops.field_data
-        a = self._parameters(load)
-        w = u.duplicate()
-        try:
-            self.ops.R.mult(u, w)                     # node frames -> x/y
-            f = dolfinx.fem.Function(self.V, name="displacement")
-            f.x.array[:] = 0.0
-            f.x.array[d["kept_local"]] = w.getArray(readonly=True)
-        finally:
-            w.destroy()
-        bs = self.V.dofmap.index_map_bs
-        for name, comps in d["prescribed"].items():
-            t = {kind: a[self._index[_parameter_name(("motion", name, kind))]]
-                 for kind in ("tx", "ty", "rz") if ("motion", name, kind) in self.ops.params}
-            for c, loc in comps.items():
-                xy = d["dof_x"][loc // bs]
-                val = t.get("tx" if c == 0 else "ty", 0.0)
-                if "rz" in t:                              # u = theta (-y, x), linearised
-                    val = val + t["rz"] * (-xy[:, 1] if c == 0 else xy[:, 0])
-                f.x.array[loc] = val
-        f.x.scatter_forward()
-        return f
