@@ -68,7 +68,11 @@ class BodyOperators:
     mass_kind: str = "consistent"
     degree: int = 1
     field_data: dict | None = None            # what BodyFields needs (space, prescribed DOFs, materials)
-    _M: PETSc.Mat | None = field(default=None, repr=False)
+
+    @property
+    def size(self) -> float:
+        """The body's bounding-box size (largest extent of its nodes over all ranks)."""
+        return self.deepest[2]
 
     def mass(self) -> PETSc.Mat:
         """Reduced, rotated mass matrix (assembled on first use; the caller owns the copy it gets)."""
@@ -407,9 +411,9 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     if len(ops.left_out):
         gl = (np.array(cfg.obstacle.point) - ops.left_out) @ nvec
         i = int(np.argmin(gl))
-        g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.deepest[2] else 0.0
+        g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.size else 0.0
         w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
-             f"left out of the contact set (not kept out of the obstacle), e.g. {_point(ops.left_out[i], ops.deepest[2])} "
+             f"left out of the contact set (not kept out of the obstacle), e.g. {_point(ops.left_out[i], ops.size)} "
              f"with initial gap {g:.3g}")
         log.warning("%s", w)
         stages.warnings.append(w)

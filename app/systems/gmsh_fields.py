@@ -4,7 +4,6 @@ from a state's contact reactions and its load parameters, for the field outputs
 from __future__ import annotations
 
 import numpy as np
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.systems.gmsh_schema import GmshBody
@@ -31,12 +30,7 @@ class BodyFields:
         d = ops.field_data
         self.cfg, self.ops, self.flex = cfg, ops, flex
         self.V = d["V"]
-        comm = self.V.mesh.comm
-        x = d["dof_x"]
-        ext = np.concatenate([-x.min(axis=0), x.max(axis=0)]) if len(x) else np.full(4, -np.inf)
-        ext_all = np.empty(4)
-        comm.Allreduce(ext, ext_all, op=MPI.MAX)                                              # MPI collective
-        self.length_scale = float(np.max(ext_all[2:] + ext_all[:2]))      # the body's bounding-box size
+        self.length_scale = ops.size                  # the body's bounding-box size
         tvec, nvec = cfg.obstacle.frame()
         n = len(ops.contact_xy)
         self.contact_xy = ops.contact_xy
