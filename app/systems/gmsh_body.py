@@ -37,13 +37,9 @@ from app.system.base import ContactNode, System
 from app.systems.contact_traction import ContactRecovery, contact_recovery
 from app.systems.gmsh_fields import BodyFields, parameter_name
 from app.systems.gmsh_schema import GmshBody
+from app.systems.units import CONTINUUM_UNITS as UNITS
 
 log = logging.getLogger(__name__)
-
-UNITS = {"mm-N-MPa-tonne-s": {"length": "mm", "force": "N", "stress": "MPa", "stiffness": "N/mm", "mass": "tonne",
-                               "density": "tonne/mm^3", "time": "s", "lambda2": "1/s^2", "mu": "1"},
-         "m-N-Pa-kg-s": {"length": "m", "force": "N", "stress": "Pa", "stiffness": "N/m", "mass": "kg",
-                         "density": "kg/m^3", "time": "s", "lambda2": "1/s^2", "mu": "1"}}
 
 
 class BodyError(Exception):
