@@ -101,17 +101,14 @@ class BodyOperators:
             obj.destroy()
 
 
-def _lame(E: float, nu: float, plane: str) -> tuple[float, float]:
-    from app.system.elasticity import lame_parameters
-    return lame_parameters(E, nu, plane)
-
-
 def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperators:
     """Mesh, assemble, reduce and rotate (MPI collective)."""
     import dolfinx.fem
     import dolfinx.fem.petsc
     import ufl
 
+    from app.system.elasticity import lame_parameters
+    from app.system.stress import strain, stress
     from app.systems.gmsh_mesh import read_mesh
     with stages("mesh (gmsh)"):
         mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm)
@@ -134,7 +131,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     for name, tag in tag_of_surface.items():
         cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
         mat = cfg.material_of(name)
-        mu_v, lam_v = _lame(mat.E, mat.nu, cfg.plane)
+        mu_v, lam_v = lame_parameters(mat.E, mat.nu, cfg.plane)
         mu_f.x.array[cells] = mu_v
         lam_f.x.array[cells] = lam_v
         rho_f.x.array[cells] = mat.density
@@ -143,14 +140,8 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.thickness))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
 
-    def eps(w):
-        return ufl.sym(ufl.grad(w))
-
-    def sigma(w):
-        return 2.0 * mu_f * eps(w) + lam_f * ufl.tr(eps(w)) * ufl.Identity(2)
-
     with stages("assemble stiffness"):
-        stiff = t * ufl.inner(sigma(u), eps(v)) * ufl.dx
+        stiff = t * ufl.inner(stress(u, mu_f, lam_f), strain(v)) * ufl.dx
         if cfg.foundation is not None:       # weak elastic foundation (a floating body)
             stiff = stiff + dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.foundation)) * t * ufl.inner(u, v) * ufl.dx
         a = dolfinx.fem.form(stiff)
