@@ -42,6 +42,10 @@ from app.systems.units import CONTINUUM_UNITS as UNITS
 log = logging.getLogger(__name__)
 
 
+SINGULAR = ("the stiffness is singular: the prescribed curves do not fix every rigid motion of the body: prescribe "
+            "a curve or give system.foundation (a weak elastic foundation)")
+
+
 class BodyError(Exception):
     """A problem of the body found while building it (one line; the CLI exits with status 2)."""
 
@@ -357,8 +361,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         try:
             flex = contact_flexibility(ops.K, zero, zero, dofs, signs)          # MPI collective
         except PETSc.Error:
-            raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
-                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)") from None
+            raise BodyError(SINGULAR) from None
         # A (nearly) singular K gives a huge or indefinite flexibility: W k is O(1 ... 1e4) for a held
         # body (k the largest diagonal entry of K), O(1/eps) for a floating one.
         diag = ops.K.getDiagonal()
@@ -366,8 +369,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         diag.destroy()
         if (not np.all(np.isfinite(flex.W)) or np.linalg.eigvalsh(flex.W).min() <= 0
                 or np.abs(flex.W).max() * kmax > 1e10):
-            raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
-                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)")
+            raise BodyError(SINGULAR)
         U0 = _contact_columns(flex, ops.loads, ops.K)
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
     gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
