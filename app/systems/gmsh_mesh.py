@@ -33,11 +33,19 @@ class ModelInfo:
     bbox: tuple[float, float, float, float] = field(default=(0.0, 0.0, 0.0, 0.0))   # xmin, ymin, xmax, ymax
 
 
+def gmsh_is_initialized(gmsh) -> bool:
+    """Whether the gmsh API is initialized (gmsh 4.8 has no ``gmsh.isInitialized``)."""
+    try:
+        # Options are only populated between initialize() and finalize();
+        # after finalize() the call raises.
+        return bool(gmsh.option.getString("General.BuildInfo"))
+    except Exception:
+        return False
+
+
 def gmsh_initialize():
     """The gmsh module, initialised (quietly); returns (gmsh, initialised_here)."""
     import gmsh
-
-    from app.systems.block_mesh import gmsh_is_initialized
     here = False
     if not gmsh_is_initialized(gmsh):
         gmsh.initialize()
