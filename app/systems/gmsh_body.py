@@ -35,7 +35,7 @@ from app.loading.program import ProgramPhase, run_program
 from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.contact_traction import ContactRecovery, contact_recovery
-from app.systems.gmsh_fields import BodyFields, parameter_name
+from app.systems.gmsh_fields import BodyFields, FieldData, parameter_name
 from app.systems.gmsh_schema import GmshBody
 from app.systems.units import CONTINUUM_UNITS as UNITS
 
@@ -67,7 +67,7 @@ class BodyOperators:
     mass_form: object = None
     mass_kind: str = "consistent"
     degree: int = 1
-    field_data: dict | None = None            # what BodyFields needs (space, prescribed DOFs, materials)
+    field_data: FieldData | None = None       # what BodyFields needs (space, prescribed DOFs, materials)
 
     @property
     def size(self) -> float:
@@ -299,8 +299,8 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
                          contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
                          deepest=deepest, left_out=left_out,
                          mass_form=m, mass_kind=cfg.mass, degree=cfg.degree,
-                         field_data={"V": V, "prescribed": presc, "kept_local": kept_local, "dof_x": dof_x,
-                                     "mu": mu_f, "lambda": lam_f})
+                         field_data=FieldData(V=V, prescribed=presc, kept_local=kept_local, dof_x=dof_x, mu=mu_f,
+                                              lmbda=lam_f))
 
 
 def _point(xy, size: float) -> str:

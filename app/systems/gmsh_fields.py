@@ -3,10 +3,23 @@ from a state's contact reactions and its load parameters, for the field outputs
 (app/outputs/fields.py). The operators it uses are built by :func:`app.systems.gmsh_body.body_operators`."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from petsc4py import PETSc
 
 from app.systems.gmsh_schema import GmshBody
+
+
+@dataclass
+class FieldData:
+    """What :class:`BodyFields` needs of the assembly (app/systems/gmsh_body.py ``body_operators``)."""
+    V: object                                     # the displacement space (vector Lagrange)
+    prescribed: dict[str, dict[int, np.ndarray]]  # curve -> component -> local unrolled DOFs (incl. ghosts)
+    kept_local: np.ndarray                        # local unrolled indices of the owned kept DOFs, reduced order
+    dof_x: np.ndarray                             # (local DOF blocks, 2) coordinates
+    mu: object                                    # Lamé parameters per cell (DG0 functions)
+    lmbda: object
 
 
 def parameter_name(key: tuple) -> str:
@@ -27,9 +40,8 @@ class BodyFields:
     """
 
     def __init__(self, cfg: GmshBody, ops, flex, gaps: np.ndarray):
-        d = ops.field_data
         self.cfg, self.ops, self.flex = cfg, ops, flex
-        self.V = d["V"]
+        self.V = ops.field_data.V
         self.length_scale = ops.size                  # the body's bounding-box size
         tvec, nvec = cfg.obstacle.frame()
         n = len(ops.contact_xy)
@@ -43,7 +55,7 @@ class BodyFields:
 
     def von_mises(self, u):
         from app.system.stress import von_mises
-        return von_mises(u, self.ops.field_data["mu"], self.ops.field_data["lambda"], self.cfg.plane)
+        return von_mises(u, self.ops.field_data.mu, self.ops.field_data.lmbda, self.cfg.plane)
 
     def _parameters(self, load: dict | None) -> np.ndarray:
         a = np.zeros(len(self._index))
@@ -64,15 +76,15 @@ class BodyFields:
             self.ops.R.mult(u, w)                     # node frames -> x/y
             f = dolfinx.fem.Function(self.V, name="displacement")
             f.x.array[:] = 0.0
-            f.x.array[d["kept_local"]] = w.getArray(readonly=True)
+            f.x.array[d.kept_local] = w.getArray(readonly=True)
         finally:
             w.destroy()
         bs = self.V.dofmap.index_map_bs
-        for name, comps in d["prescribed"].items():
+        for name, comps in d.prescribed.items():
             t = {kind: a[self._index[parameter_name(("motion", name, kind))]]
                  for kind in ("tx", "ty", "rz") if ("motion", name, kind) in self.ops.params}
             for c, loc in comps.items():
-                xy = d["dof_x"][loc // bs]
+                xy = d.dof_x[loc // bs]
                 val = t.get("tx" if c == 0 else "ty", 0.0)
                 if "rz" in t:                              # u = theta (-y, x), linearised
                     val = val + t["rz"] * (-xy[:, 1] if c == 0 else xy[:, 0])
