@@ -1,5 +1,5 @@
 """In-plane stress of 2D linear elasticity (UFL): the stiffness forms (app/system/elasticity.py,
-app/systems/gmsh_body.py) and the von Mises stress of the field outputs."""
+app/systems/gmsh_operators.py) and the von Mises stress of the field outputs."""
 from __future__ import annotations
 
 

@@ -1,6 +1,6 @@
 """The Gmsh body's :class:`app.system.base.FieldSource` (``system.type: gmsh``): displacement fields
 from a state's contact reactions and its load parameters, for the field outputs
-(app/outputs/fields.py). The operators it uses are built by :func:`app.systems.gmsh_body.body_operators`."""
+(app/outputs/fields.py). The operators it uses are built by :func:`app.systems.gmsh_operators.body_operators`."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -13,7 +13,7 @@ from app.systems.gmsh_schema import GmshBody
 
 @dataclass
 class FieldData:
-    """What :class:`BodyFields` needs of the assembly (app/systems/gmsh_body.py ``body_operators``)."""
+    """What :class:`BodyFields` needs of the assembly (app/systems/gmsh_operators.py ``body_operators``)."""
     V: object                                     # the displacement space (vector Lagrange)
     prescribed: dict[str, dict[int, np.ndarray]]  # curve -> component -> local unrolled DOFs (incl. ghosts)
     kept_local: np.ndarray                        # local unrolled indices of the owned kept DOFs, reduced order
@@ -36,7 +36,7 @@ class BodyFields:
     reactions at the contact DOFs (already in the node frames, sign +1); ``to_function``: ``u = R u'``
     on the kept DOFs and the prescribed motions (translation + linearised rotation about the origin,
     as the parameters hold them) on the prescribed curves. ``ops`` is the body's
-    :class:`app.systems.gmsh_body.BodyOperators`, ``flex`` its contact flexibility.
+    :class:`app.systems.gmsh_operators.BodyOperators`, ``flex`` its contact flexibility.
     """
 
     def __init__(self, cfg: GmshBody, ops, flex, gaps: np.ndarray):
