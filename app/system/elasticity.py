@@ -26,6 +26,7 @@ from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from app.system.stress import strain, stress
 from app.systems.block_mesh import AB, CD
 
 __all__ = ["BlockOperators", "block_operators", "lame_parameters"]
@@ -246,13 +247,7 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     rho = dolfinx.fem.Constant(mesh, PETSc.ScalarType(density))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
 
-    def epsilon(w):
-        return ufl.sym(ufl.grad(w))
-
-    def sigma(w):
-        return 2.0 * mu * epsilon(w) + lmbda * ufl.tr(epsilon(w)) * ufl.Identity(len(w))
-
-    a = dolfinx.fem.form(t * ufl.inner(sigma(u), epsilon(v)) * ufl.dx)
+    a = dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx)
     m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx)
 
     # Dirichlet (CD) dofs: local block indices, owned and ghost (remote=True

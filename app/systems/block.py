@@ -27,13 +27,9 @@ from app.progress import Progress
 from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.block_schema import Block
+from app.systems.units import CONTINUUM_UNITS as UNITS
 
 log = logging.getLogger(__name__)
-
-UNITS = {"mm-N-MPa-tonne-s": {"length": "mm", "force": "N", "stress": "MPa", "stiffness": "N/mm", "mass": "tonne",
-                               "density": "tonne/mm^3", "time": "s", "lambda2": "1/s^2", "mu": "1"},
-         "m-N-Pa-kg-s": {"length": "m", "force": "N", "stress": "Pa", "stiffness": "N/m", "mass": "kg",
-                         "density": "kg/m^3", "time": "s", "lambda2": "1/s^2", "mu": "1"}}
 
 
 def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s"):

@@ -36,6 +36,7 @@ from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 
 from app.systems import mesh_arrays
+from app.systems.gmsh_mesh import GMSH_LINE, GMSH_TRIANGLE, gmsh_initialize
 
 __all__ = ["AB", "CD", "LATERAL", "CELLS", "PATTERNS", "DEFAULT_CACHE_DIR", "block_mesh",
            "structured_triangulation", "mesh_file_name"]
@@ -82,9 +83,6 @@ def mesh_cache_path(name: str, install_dir: pathlib.Path | None = None) -> pathl
 
 # Bump when the generated meshes change, so that stale cache files are not reused.
 _GENERATOR_VERSION = 1
-
-# Gmsh element types
-_GMSH_LINE, _GMSH_TRIANGLE = 1, 2
 
 
 def structured_triangulation(length: float, height: float, nx: int, ny: int,
@@ -158,16 +156,6 @@ def mesh_file_name(length: float, height: float, nx: int, ny: int, pattern: str,
     return f"block_{readable}_{length:g}x{height:g}_{digest}.npz"
 
 
-def gmsh_is_initialized(gmsh) -> bool:
-    """Whether the gmsh API is initialized (gmsh 4.8 has no ``gmsh.isInitialized``)."""
-    try:
-        # Options are only populated between initialize() and finalize();
-        # after finalize() the call raises.
-        return bool(gmsh.option.getString("General.BuildInfo"))
-    except Exception:
-        return False
-
-
 def _add_structured_model(gmsh, length: float, height: float, nx: int, ny: int, pattern: str) -> None:
     """Fill the current (empty) gmsh model with a discrete structured mesh."""
     x, cells = structured_triangulation(length, height, nx, ny, pattern)
@@ -181,7 +169,7 @@ def _add_structured_model(gmsh, length: float, height: float, nx: int, ny: int, 
     # All nodes live on the surface; gmsh node tags are 1..num_nodes
     coords = np.column_stack([x, np.zeros(num_nodes)])
     gmsh.model.mesh.addNodes(2, 1, np.arange(1, num_nodes + 1), coords.ravel())
-    gmsh.model.mesh.addElementsByType(1, _GMSH_TRIANGLE, np.arange(1, cells.shape[0] + 1),
+    gmsh.model.mesh.addElementsByType(1, GMSH_TRIANGLE, np.arange(1, cells.shape[0] + 1),
                                       (cells + 1).ravel())
 
     # Boundary edges (node index 0-based on the (nx+1) x (ny+1) grid)
@@ -192,7 +180,7 @@ def _add_structured_model(gmsh, length: float, height: float, nx: int, ny: int, 
     next_tag = cells.shape[0] + 1
     for curve, chain in ((1, bottom), (2, top), (3, left), (4, right)):
         edges = np.column_stack([chain[:-1], chain[1:]]) + 1
-        gmsh.model.mesh.addElementsByType(curve, _GMSH_LINE,
+        gmsh.model.mesh.addElementsByType(curve, GMSH_LINE,
                                           np.arange(next_tag, next_tag + edges.shape[0]), edges.ravel())
         next_tag += edges.shape[0]
 
@@ -240,15 +228,10 @@ def _generate(length: float, height: float, nx: int, ny: int, pattern: str,
               mesh_size: float | None) -> mesh_arrays.MeshArrays:
     """Build the block's gmsh model, write it to a temporary ``.msh``, read it back into a fresh
     model and extract the arrays ``model_to_mesh`` distributes (rank-0 only; imports gmsh)."""
-    import gmsh
-    initialized_here = False
-    if not gmsh_is_initialized(gmsh):
-        gmsh.initialize()
-        initialized_here = True
+    gmsh, initialized_here = gmsh_initialize()
     previous = gmsh.model.getCurrent() if not initialized_here else None
     names = []
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
         names.append(f"block_build_{uuid.uuid4().hex[:8]}")
         gmsh.model.add(names[-1])
         if pattern == "unstructured":

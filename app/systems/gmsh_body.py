@@ -1,28 +1,18 @@
-"""``system.type: gmsh``: operators of a 2D body from a Gmsh file, the obstacle frames, the
-loading program (app/loading/program.py).
+"""``system.type: gmsh``: the System of a 2D body from a Gmsh file and its loading program
+(app/loading/program.py).
 
-Operators (DOLFINx): K and M of plane stress/strain linear elasticity with a material per
-physical surface (DG0 coefficients), reduced to the DOFs not prescribed by the program
-(``prescribed`` curves, per component). Reduced numbering as in app/system/elasticity.py: each
-rank keeps its owned DOFs that are not prescribed, in ascending order.
-
-Load parameters (unit right-hand sides of the reduced system, ``-K_kD u_D`` for prescribed
-motions, assembled loads for the others): per prescribed curve its translations (x, y as
-prescribed) and, with both components, a rotation about the origin (``u = theta (-y, x)``; a
-rotation about a point p adds the translation ``theta (p_y, -p_x)``); per loaded curve the two
-components of a uniform traction and of a total force; gravity (x, y).
-
-Obstacle frames: the contact DOFs are rotated into the obstacle's tangent t and outward normal n
-(``u = t u_T + n u_N`` at every contact node): ``K' = R^T K R``, ``M' = R^T M R`` and loads
-``R^T f`` with R orthogonal and block-diagonal, so the stability code sees plain DOF pairs in the
-paper's axes (DESIGN.md section 1). For axis-aligned obstacles R has entries 0 and +-1 and the
-rotation is exact. Initial gaps ``g0 = (p - x) . n`` from the geometry (p the obstacle's point).
+:func:`build` takes the body's reduced, obstacle-rotated operators (app/systems/gmsh_operators.py:
+K, the mass, the load parameters, the contact DOFs in the obstacle frames), factorises K for the
+contact flexibility and the contact responses ``U0`` of the unit load parameters, and checks the
+initial position against the obstacle; :func:`path` turns the program's phases into load
+parameter increments and runs them (app/loading/program.py); the contact tractions of every
+state are recovered from the nodal reactions (app/systems/contact_traction.py). The body's
+displacement fields (ParaView files, screenshots) are in app/systems/gmsh_fields.py.
 """
 from __future__ import annotations
 
 import logging
 import pathlib
-from dataclasses import dataclass, field
 
 import numpy as np
 from mpi4py import MPI
@@ -33,299 +23,21 @@ from app.loading.program import ProgramPhase, run_program
 from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.contact_traction import ContactRecovery, contact_recovery
+from app.systems.gmsh_fields import BodyFields, parameter_name
+from app.systems.gmsh_operators import BodyError, body_operators
 from app.systems.gmsh_schema import GmshBody
+from app.systems.units import CONTINUUM_UNITS as UNITS
 
 log = logging.getLogger(__name__)
 
-UNITS = {"mm-N-MPa-tonne-s": {"length": "mm", "force": "N", "stress": "MPa", "stiffness": "N/mm", "mass": "tonne",
-                               "density": "tonne/mm^3", "time": "s", "lambda2": "1/s^2", "mu": "1"},
-         "m-N-Pa-kg-s": {"length": "m", "force": "N", "stress": "Pa", "stiffness": "N/m", "mass": "kg",
-                         "density": "kg/m^3", "time": "s", "lambda2": "1/s^2", "mu": "1"}}
 
-
-class BodyError(Exception):
-    """A problem of the body found while building it (one line; the CLI exits with status 2)."""
-
-
-@dataclass
-class BodyOperators:
-    """Reduced, obstacle-rotated operators of the body and its load parameters."""
-    K: PETSc.Mat
-    R: PETSc.Mat
-    kept: PETSc.IS
-    loads: list[PETSc.Vec]                    # one reduced, rotated right-hand side per parameter
-    params: dict[tuple, int]                  # (kind, curve, component) -> index
-    contact_dofs: np.ndarray                  # (n, 2) reduced DOFs (u_T, u_N) of the contact nodes
-    contact_xy: np.ndarray                    # (n, 2) coordinates
-    contact_edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))   # (m, 2, 2) facet ends
-    # (smallest clearance (p - x).n of any node, that node, body size, fraction of the nodes beyond the line)
-    deepest: tuple = (np.inf, (0.0, 0.0), 1.0, 0.0)
-    left_out: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))   # contact-curve nodes with one prescribed component
-    mass_form: object = None
-    mass_kind: str = "consistent"
-    degree: int = 1
-    field_data: dict | None = None            # what BodyFields needs (space, prescribed DOFs, materials)
-    _M: PETSc.Mat | None = field(default=None, repr=False)
-
-    def mass(self) -> PETSc.Mat:
-        """Reduced, rotated mass matrix (assembled on first use; the caller owns the copy it gets)."""
-        import dolfinx.fem.petsc
-        M_full = dolfinx.fem.petsc.assemble_matrix(self.mass_form)
-        try:
-            M_full.assemble()
-            if self.mass_kind == "lumped":
-                # P1: row sums. P2: row sums vanish at the vertices (singular M), so the HRZ lumping:
-                # the diagonal scaled to keep each element's mass, for affine P2 triangles the
-                # constant factor 30/19 (element diagonal: A/30 per vertex, 8A/45 per mid-side node)
-                if self.degree == 2:
-                    d = M_full.getDiagonal()
-                    d.scale(30.0 / 19.0)
-                else:
-                    d = M_full.getRowSum()
-                M_full.zeroEntries()
-                M_full.setDiagonal(d)
-                d.destroy()
-            M = M_full.createSubMatrix(self.kept, self.kept)
-        finally:
-            M_full.destroy()
-        try:
-            return M.PtAP(self.R)
-        finally:
-            M.destroy()
-
-    def destroy(self) -> None:
-        for obj in (self.K, self.R, self.kept, *self.loads):
-            obj.destroy()
-
-
-def _lame(E: float, nu: float, plane: str) -> tuple[float, float]:
-    from app.system.elasticity import lame_parameters
-    return lame_parameters(E, nu, plane)
-
-
-def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperators:
-    """Mesh, assemble, reduce and rotate (MPI collective)."""
-    import dolfinx.fem
-    import dolfinx.fem.petsc
-    import ufl
-
-    from app.systems.gmsh_mesh import read_mesh
-    with stages("mesh (gmsh)"):
-        mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm)
-    fdim = 1
-    tag_of_curve = {nm: t for (d, nm), t in names.items() if d == 1}
-    tag_of_surface = {nm: t for (d, nm), t in names.items() if d == 2}
-
-    def facets(curve: str) -> np.ndarray:
-        return facet_tags.indices[facet_tags.values == tag_of_curve[curve]]
-
-    V = dolfinx.fem.VectorFunctionSpace(mesh, ("CG", cfg.degree))
-    bs = V.dofmap.index_map_bs
-    im = V.dofmap.index_map
-    n_owned = im.size_local * bs
-    owned_start = im.local_range[0] * bs
-
-    # Materials per physical surface (DG0)
-    Q = dolfinx.fem.FunctionSpace(mesh, ("DG", 0))
-    mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
-    for name, tag in tag_of_surface.items():
-        cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
-        mat = cfg.material_of(name)
-        mu_v, lam_v = _lame(mat.E, mat.nu, cfg.plane)
-        mu_f.x.array[cells] = mu_v
-        lam_f.x.array[cells] = lam_v
-        rho_f.x.array[cells] = mat.density
-    for f in (mu_f, lam_f, rho_f):
-        f.x.scatter_forward()
-    t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.thickness))
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-
-    def eps(w):
-        return ufl.sym(ufl.grad(w))
-
-    def sigma(w):
-        return 2.0 * mu_f * eps(w) + lam_f * ufl.tr(eps(w)) * ufl.Identity(2)
-
-    with stages("assemble stiffness"):
-        stiff = t * ufl.inner(sigma(u), eps(v)) * ufl.dx
-        if cfg.foundation is not None:       # weak elastic foundation (a floating body)
-            stiff = stiff + dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.foundation)) * t * ufl.inner(u, v) * ufl.dx
-        a = dolfinx.fem.form(stiff)
-        m = dolfinx.fem.form(rho_f * t * ufl.inner(u, v) * ufl.dx)
-        K_full = dolfinx.fem.petsc.assemble_matrix(a)
-        K_full.assemble()
-
-    # Prescribed DOFs (local unrolled indices incl. ghosts), per curve and component
-    dof_x = V.tabulate_dof_coordinates()[:, :2]
-    presc: dict[str, dict[int, np.ndarray]] = {}
-    is_d = np.zeros(n_owned, dtype=bool)
-    owner = {}
-    for name, comps in cfg.prescribed.items():
-        blocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(name))
-        presc[name] = {}
-        for c in (0, 1):
-            if "xy"[c] in comps:
-                loc = (blocks * bs + c).astype(np.int32)
-                presc[name][c] = loc
-                own = loc[loc < n_owned]
-                clash = [d for d in own if d in owner]
-                if comm.allreduce(len(clash), op=MPI.SUM):       # MPI collective
-                    raise BodyError(f"system.prescribed: the curves '{name}' and '{owner.get(clash[0], '?') if clash else '?'}' "
-                                    "share nodes: prescribe one motion per node (merge them into one physical curve)")
-                owner.update({int(d): name for d in own})
-                is_d[own] = True
-    kept_local = np.flatnonzero(~is_d).astype(np.int32)
-    offset = comm.exscan(kept_local.size) or 0                     # MPI collective
-    reduced = np.full(n_owned, -1, dtype=np.int64)
-    reduced[kept_local] = offset + np.arange(kept_local.size)
-    kept = PETSc.IS().createGeneral((owned_start + kept_local).astype(PETSc.IntType), comm=comm)
-    K = K_full.createSubMatrix(kept, kept)
-
-    # Load parameters
-    params: dict[tuple, int] = {}
-    raw: list[np.ndarray] = []               # reduced (unrotated) right-hand sides, local part
-    u_D, Ku_D = K_full.createVecs()
-    try:
-        for name, comp_dofs in presc.items():
-            modes = [("tx", {0: 1.0}), ("ty", {1: 1.0})]
-            if len(comp_dofs) == 2:
-                modes.append(("rz", None))
-            for kind, vals in modes:
-                if vals is not None and next(iter(vals)) not in comp_dofs:
-                    continue
-                u_D.zeroEntries()
-                arr = u_D.getArray()
-                for c, loc in comp_dofs.items():
-                    own = loc[loc < n_owned]
-                    if vals is None:      # rotation about the origin: u = (-y, x)
-                        arr[own] = -dof_x[own // bs, 1] if c == 0 else dof_x[own // bs, 0]
-                    else:
-                        arr[own] = vals.get(c, 0.0)
-                del arr
-                K_full.mult(u_D, Ku_D)
-                params[("motion", name, kind)] = len(raw)
-                raw.append(-Ku_D.getArray(readonly=True)[kept_local].copy())
-    finally:
-        u_D.destroy()
-        Ku_D.destroy()
-    loaded = sorted({nm for ph in cfg.program for kind in ("traction", "force") for nm in getattr(ph, kind)})
-    ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
-
-    def assemble(expr) -> np.ndarray:
-        b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr))
-        try:
-            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            return b.getArray(readonly=True)[kept_local].copy()
-        finally:
-            b.destroy()
-
-    for name in loaded:
-        tag = tag_of_curve[name]
-        one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
-        length = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ds(tag))), op=MPI.SUM)
-        for c, kind in ((0, "x"), (1, "y")):
-            e = ufl.as_vector([1.0, 0.0]) if c == 0 else ufl.as_vector([0.0, 1.0])
-            base = assemble(ufl.inner(e, v) * ds(tag))
-            params[("traction", name, kind)] = len(raw)
-            raw.append(cfg.thickness * base)
-            params[("force", name, kind)] = len(raw)
-            raw.append(base / length)
-    if any(ph.gravity is not None for ph in cfg.program):
-        for c, kind in ((0, "x"), (1, "y")):
-            e = ufl.as_vector([1.0, 0.0]) if c == 0 else ufl.as_vector([0.0, 1.0])
-            params[("gravity", "", kind)] = len(raw)
-            raw.append(assemble(rho_f * t * ufl.inner(e, v) * ufl.dx))
-    K_full.destroy()
-
-    # Contact nodes: owned, not prescribed, on the contact curve; gathered and sorted along t
-    edges = _contact_edges(mesh, facets(cfg.contact), comm)                       # MPI collective
-    # the whole body must start on its side of the obstacle line (not only the contact curve)
-    tvec, nvec = cfg.obstacle.frame()
-    clear = (np.array(cfg.obstacle.point) - dof_x) @ nvec
-    i = int(np.argmin(clear)) if len(clear) else 0
-    mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
-    deepest = min(comm.allgather(mine), key=lambda c: c[0])                     # MPI collective
-    box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
-                                  else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
-    lo, hi = box[:, :2].min(axis=0), box[:, 2:].max(axis=0)
-    body = float(np.max(hi - lo))
-    owned_clear = clear[:im.size_local]
-    beyond = comm.allreduce(int(np.sum(owned_clear < -1e-10 * body)), op=MPI.SUM)    # MPI collective
-    total = comm.allreduce(int(owned_clear.size), op=MPI.SUM)                        # MPI collective
-    deepest = (*deepest, body, beyond / max(total, 1))
-    cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
-    cblocks = cblocks[cblocks < im.size_local]
-    keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
-    half = keep ^ ((reduced[cblocks * bs] >= 0) | (reduced[cblocks * bs + 1] >= 0))   # one component prescribed
-    left_out = np.concatenate([g.reshape(-1, 2) for g in comm.allgather(dof_x[cblocks[half]])])   # MPI collective
-    cblocks = cblocks[keep]
-    local = (dof_x[cblocks], reduced[cblocks * bs], reduced[cblocks * bs + 1])
-    gathered = comm.allgather(local)                                # MPI collective
-    xy = np.concatenate([g[0] for g in gathered]).reshape(-1, 2)
-    dx_ = np.concatenate([g[1] for g in gathered])
-    dy_ = np.concatenate([g[2] for g in gathered])
-    if len(dx_) == 0:
-        raise BodyError(f"system.contact = '{cfg.contact}': no free node on it (all its nodes are prescribed)")
-    s = (xy - np.array(cfg.obstacle.point)) @ tvec
-    order = np.lexsort((xy[:, 1], xy[:, 0], s))
-    xy, dx_, dy_ = xy[order], dx_[order], dy_[order]
-
-    # Rotation R: u_old = R u_new, identity except [[t_x, n_x], [t_y, n_y]] at contact nodes
-    R = PETSc.Mat().createAIJ(K.getSizes(), nnz=(2, 0), comm=comm)
-    R.setUp()
-    r0, r1 = R.getOwnershipRange()
-    contact_rows = {}
-    for ix, iy in zip(dx_, dy_):
-        if r0 <= ix < r1:
-            contact_rows[int(ix)] = int(iy)
-    for i in range(r0, r1):
-        if i in contact_rows:
-            iy = contact_rows[i]
-            R.setValues([i, iy], [i, iy], [[tvec[0], nvec[0]], [tvec[1], nvec[1]]])
-    cy = set(contact_rows.values())
-    for i in range(r0, r1):
-        if i not in contact_rows and i not in cy:
-            R.setValue(i, i, 1.0)
-    R.assemble()
-    Kr = K.PtAP(R)
-    K.destroy()
-    loads = []
-    for vals in raw:
-        f = Kr.createVecLeft()
-        f.setArray(vals)
-        g = Kr.createVecLeft()
-        R.multTranspose(f, g)
-        f.destroy()
-        loads.append(g)
-    return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
-                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
-                         deepest=deepest, left_out=left_out,
-                         mass_form=m, mass_kind=cfg.mass, degree=cfg.degree,
-                         field_data={"V": V, "prescribed": presc, "kept_local": kept_local, "dof_x": dof_x,
-                                     "mu": mu_f, "lambda": lam_f})
+SINGULAR = ("the stiffness is singular: the prescribed curves do not fix every rigid motion of the body: prescribe "
+            "a curve or give system.foundation (a weak elastic foundation)")
 
 
 def _point(xy, size: float) -> str:
     """``(x, y)`` for messages, coordinates at round-off of the body's size shown as 0."""
     return "(" + ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, xy)) + ")"
-
-
-def _contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
-    """End points of every facet of the contact curve, gathered on every rank, each once
-    (MPI collective). The mesh is affine, so a P2 mid-side node is the mean of its ends."""
-    top = mesh.topology
-    top.create_connectivity(1, 0)
-    top.create_connectivity(2, 0)
-    c2v = top.connectivity(2, 0).array.reshape(-1, 3)
-    geo_of_vertex = np.empty(int(c2v.max()) + 1 if c2v.size else 0, dtype=np.int64)
-    geo_of_vertex[c2v.ravel()] = mesh.geometry.dofmap.array.reshape(-1, 3)[:len(c2v)].ravel()   # affine P1 geometry
-    f2v = top.connectivity(1, 0)
-    verts = np.array([f2v.links(f) for f in facet_ids], dtype=np.int64).reshape(-1, 2)
-    ends = mesh.geometry.x[geo_of_vertex[verts.ravel()], :2].reshape(-1, 2, 2)
-    allends = np.concatenate([e.reshape(-1, 2, 2) for e in comm.allgather(ends)])      # MPI collective
-    key = np.round(np.sort(allends.reshape(-1, 4), axis=1), 12)
-    _, first = np.unique(key, axis=0, return_index=True)
-    return allends[np.sort(first)]
 
 
 def _contact_columns(flex, loads: list[PETSc.Vec], K: PETSc.Mat) -> np.ndarray:
@@ -363,8 +75,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         try:
             flex = contact_flexibility(ops.K, zero, zero, dofs, signs)          # MPI collective
         except PETSc.Error:
-            raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
-                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)") from None
+            raise BodyError(SINGULAR) from None
         # A (nearly) singular K gives a huge or indefinite flexibility: W k is O(1 ... 1e4) for a held
         # body (k the largest diagonal entry of K), O(1/eps) for a floating one.
         diag = ops.K.getDiagonal()
@@ -372,8 +83,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         diag.destroy()
         if (not np.all(np.isfinite(flex.W)) or np.linalg.eigvalsh(flex.W).min() <= 0
                 or np.abs(flex.W).max() * kmax > 1e10):
-            raise BodyError("the stiffness is singular: the prescribed curves do not fix every rigid motion of the "
-                            "body: prescribe a curve or give system.foundation (a weak elastic foundation)")
+            raise BodyError(SINGULAR)
         U0 = _contact_columns(flex, ops.loads, ops.K)
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
     gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
@@ -404,9 +114,9 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     if len(ops.left_out):
         gl = (np.array(cfg.obstacle.point) - ops.left_out) @ nvec
         i = int(np.argmin(gl))
-        g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.deepest[2] else 0.0
+        g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.size else 0.0
         w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
-             f"left out of the contact set (not kept out of the obstacle), e.g. {_point(ops.left_out[i], ops.deepest[2])} "
+             f"left out of the contact set (not kept out of the obstacle), e.g. {_point(ops.left_out[i], ops.size)} "
              f"with initial gap {g:.3g}")
         log.warning("%s", w)
         stages.warnings.append(w)
@@ -440,7 +150,7 @@ def _phases(cfg: GmshBody, params: dict) -> list[ProgramPhase]:
         names = {v: k for k, v in params.items()}
 
         def describe(a: np.ndarray, names=names) -> dict:
-            return {"parameters": {_parameter_name(names[j]): float(a[j]) for j in range(len(a)) if a[j] != 0}}
+            return {"parameters": {parameter_name(names[j]): float(a[j]) for j in range(len(a)) if a[j] != 0}}
 
         out.append(ProgramPhase(name=ph.name or f"phase {i}", steps=ph.steps, da=da, fixed=fixed,
                                 normal_force=ph.until.normal_force if ph.until else None,
@@ -489,78 +199,3 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     _add_tractions(cfg, system.extra["recovery"], states)
     return system, states, info
-
-
-def _parameter_name(key: tuple) -> str:
-    """Name of a load parameter in a state's ``load["parameters"]`` (as :func:`_phases` writes it)."""
-    return ".".join(x for x in key if x)
-
-
-class BodyFields:
-    """The body's :class:`app.system.base.FieldSource`: fields from a state's contact reactions and
-    its load parameters (``load["parameters"]``), in the obstacle-rotated reduced DOFs.
-
-    ``response``: ``K' u' = sum_j a_j f'_j + B^T r`` with the rotated unit loads ``f'_j`` and the
-    reactions at the contact DOFs (already in the node frames, sign +1); ``to_function``: ``u = R u'``
-    on the kept DOFs and the prescribed motions (translation + linearised rotation about the origin,
-    as the parameters hold them) on the prescribed curves.
-    """
-
-    def __init__(self, cfg: GmshBody, ops: BodyOperators, flex, gaps: np.ndarray):
-        d = ops.field_data
-        self.cfg, self.ops, self.flex = cfg, ops, flex
-        self.V = d["V"]
-        comm = self.V.mesh.comm
-        x = d["dof_x"]
-        ext = np.concatenate([-x.min(axis=0), x.max(axis=0)]) if len(x) else np.full(4, -np.inf)
-        ext_all = np.empty(4)
-        comm.Allreduce(ext, ext_all, op=MPI.MAX)                                              # MPI collective
-        self.length_scale = float(np.max(ext_all[2:] + ext_all[:2]))      # the body's bounding-box size
-        tvec, nvec = cfg.obstacle.frame()
-        n = len(ops.contact_xy)
-        self.contact_xy = ops.contact_xy
-        self.tangent = np.tile(tvec, (n, 1))      # one straight obstacle: every node has its frame
-        self.normal = np.tile(nvec, (n, 1))
-        self.gaps = gaps
-        self.W = flex.W
-        self.obstacle = {"point": [float(v) for v in cfg.obstacle.point], "normal": [float(v) for v in nvec]}
-        self._index = {_parameter_name(k): j for k, j in ops.params.items()}
-
-    def von_mises(self, u):
-        from app.system.stress import von_mises
-        return von_mises(u, self.ops.field_data["mu"], self.ops.field_data["lambda"], self.cfg.plane)
-
-    def _parameters(self, load: dict | None) -> np.ndarray:
-        a = np.zeros(len(self._index))
-        for name, val in ((load or {}).get("parameters") or {}).items():
-            a[self._index[name]] = float(val)
-        return a
-
-    def response(self, load: dict | None, r: np.ndarray) -> PETSc.Vec:
-        a = self._parameters(load)
-        return self.flex.response([(a[j], self.ops.loads[j]) for j in np.flatnonzero(a)], r)
-
-    def to_function(self, u: PETSc.Vec, load: dict | None):
-        import dolfinx.fem
-        d = self.ops.field_data
-        a = self._parameters(load)
-        w = u.duplicate()
-        try:
-            self.ops.R.mult(u, w)                     # node frames -> x/y
-            f = dolfinx.fem.Function(self.V, name="displacement")
-            f.x.array[:] = 0.0
-            f.x.array[d["kept_local"]] = w.getArray(readonly=True)
-        finally:
-            w.destroy()
-        bs = self.V.dofmap.index_map_bs
-        for name, comps in d["prescribed"].items():
-            t = {kind: a[self._index[_parameter_name(("motion", name, kind))]]
-                 for kind in ("tx", "ty", "rz") if ("motion", name, kind) in self.ops.params}
-            for c, loc in comps.items():
-                xy = d["dof_x"][loc // bs]
-                val = t.get("tx" if c == 0 else "ty", 0.0)
-                if "rz" in t:                              # u = theta (-y, x), linearised
-                    val = val + t["rz"] * (-xy[:, 1] if c == 0 else xy[:, 0])
-                f.x.array[loc] = val
-        f.x.scatter_forward()
-        return f

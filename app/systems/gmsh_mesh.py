@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.systems.schema import SystemPathError
+from app.systems.schema import SystemPathError, file_version
 
 GMSH_LINE, GMSH_TRIANGLE = 1, 2
 _INFO_CACHE: dict[tuple, "ModelInfo"] = {}
@@ -33,11 +33,19 @@ class ModelInfo:
     bbox: tuple[float, float, float, float] = field(default=(0.0, 0.0, 0.0, 0.0))   # xmin, ymin, xmax, ymax
 
 
+def gmsh_is_initialized(gmsh) -> bool:
+    """Whether the gmsh API is initialized (gmsh 4.8 has no ``gmsh.isInitialized``)."""
+    try:
+        # Options are only populated between initialize() and finalize();
+        # after finalize() the call raises.
+        return bool(gmsh.option.getString("General.BuildInfo"))
+    except Exception:
+        return False
+
+
 def gmsh_initialize():
     """The gmsh module, initialised (quietly); returns (gmsh, initialised_here)."""
     import gmsh
-
-    from app.systems.block_mesh import gmsh_is_initialized
     here = False
     if not gmsh_is_initialized(gmsh):
         gmsh.initialize()
@@ -133,8 +141,7 @@ def check_model(gmsh, value: str) -> ModelInfo:
 
 def model_info(path: pathlib.Path, value: str) -> ModelInfo:
     """Open and check a model file (cached per file version); raises :class:`SystemPathError`."""
-    st = path.stat()
-    key = (str(path), st.st_mtime_ns, st.st_size)
+    key = file_version(path)
     if key in _INFO_CACHE:
         return _INFO_CACHE[key]
     if path.suffix.lower() not in (".geo", ".msh"):
@@ -161,11 +168,13 @@ def model_info(path: pathlib.Path, value: str) -> ModelInfo:
 def read_mesh(path: pathlib.Path, comm):
     """Distributed DOLFINx mesh with cell and facet tags from the model file (MPI collective).
 
-    Rank 0 opens the file with gmsh; ``model_to_mesh`` distributes it. Returns
-    ``(mesh, cell_tags, facet_tags, names)`` with ``names[(dim, name)] = tag``.
+    Rank 0 opens the file with gmsh and extracts the arrays ``model_to_mesh`` would;
+    :func:`app.systems.mesh_arrays.build` distributes them as ``model_to_mesh`` does (the other
+    ranks do not import gmsh). Returns ``(mesh, cell_tags, facet_tags, names)`` with
+    ``names[(dim, name)] = tag``.
     """
-    import dolfinx.io.gmshio
-    error, names, here = None, None, False
+    from app.systems import mesh_arrays
+    error, names, arrays, here = None, None, None, False
     gmsh = None
     if comm.rank == 0:
         try:
@@ -173,22 +182,17 @@ def read_mesh(path: pathlib.Path, comm):
             open_model(gmsh, path, str(path))
             check_model(gmsh, str(path))
             names = {(d, gmsh.model.getPhysicalName(d, t) or str(t)): t for d, t in gmsh.model.getPhysicalGroups()}
+            arrays = mesh_arrays.extract(gmsh)
         except Exception as err:   # noqa: BLE001 - re-raised on every rank below
             error = str(err)
+        finally:
+            if gmsh is not None:
+                gmsh.model.remove()
+                if here:
+                    gmsh.finalize()
     error = comm.bcast(error, root=0)                      # MPI collective
     if error is not None:
-        if comm.rank == 0 and gmsh is not None:
-            gmsh.model.remove()
-            if here:
-                gmsh.finalize()
         raise RuntimeError(f"reading {path.name}: {error}")
-    try:
-        mesh, cell_tags, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None,
-                                                                       comm, 0, gdim=2)
-    finally:
-        if comm.rank == 0:
-            gmsh.model.remove()
-            if here:
-                gmsh.finalize()
+    mesh, cell_tags, facet_tags = mesh_arrays.build(comm, arrays, 0, gdim=2)     # MPI collective
     names = comm.bcast(names, root=0)                      # MPI collective
     return mesh, cell_tags, facet_tags, names

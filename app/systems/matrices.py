@@ -25,11 +25,7 @@ from app.loading.state import EquilibriumState
 from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.matrices_schema import Matrices
-
-UNITS = {"mm-N-MPa-tonne-s": {"length": "mm", "force": "N", "stiffness": "N/mm", "mass": "tonne",
-                               "time": "s", "lambda2": "1/s^2", "mu": "1"},
-         "m-N-Pa-kg-s": {"length": "m", "force": "N", "stiffness": "N/m", "mass": "kg",
-                         "time": "s", "lambda2": "1/s^2", "mu": "1"}}
+from app.systems.units import DISCRETE_UNITS as UNITS
 
 
 def petsc_from_csr(A, comm: MPI.Comm) -> PETSc.Mat:

@@ -24,18 +24,21 @@ from typing import Annotated, Any, Literal, Optional, Union
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from app.systems.schema import Finite, NonNegFloat, StrictModel, SystemPathError, no_field_outputs, resolve_file
+from app.systems.schema import (
+    Finite,
+    NonNegFloat,
+    StrictModel,
+    SystemPathError,
+    file_version,
+    no_field_outputs,
+    resolve_file,
+)
 
 _MATRIX_CACHE: dict[tuple, Any] = {}
 _VECTOR_CACHE: dict[tuple, np.ndarray] = {}
 _MM = (".mtx", ".mm")
 SYMMETRY_RTOL = 1e-10          # |K - K^T| <= SYMMETRY_RTOL * max |K|
 DYNAMIC_ANALYSES = ("necessary", "sufficient", "mceip_lambda2")
-
-
-def _key(path: pathlib.Path) -> tuple:
-    st = path.stat()
-    return (str(path), st.st_mtime_ns, st.st_size)
 
 
 def _petsc_load(path: pathlib.Path, kind: str):
@@ -56,25 +59,35 @@ def _petsc_load(path: pathlib.Path, kind: str):
         viewer.destroy()
 
 
+def _load(path: pathlib.Path, kind: str):
+    """Contents of a matrix or vector file, by its suffix: Matrix Market (``.mtx``, ``.mm``; may be
+    sparse), NumPy ``.npy``, anything else PETSc binary. Reader errors propagate."""
+    suffix = path.suffix.lower()
+    if suffix in _MM:
+        import scipy.io
+        return scipy.io.mmread(str(path))
+    if suffix == ".npy":
+        return np.load(str(path), allow_pickle=False)
+    return _petsc_load(path, kind)
+
+
+def _reason(err: Exception) -> str:
+    """A reader's error on one line, for the user's message."""
+    return f"{type(err).__name__}: {' '.join(str(err).split())[:120]}"
+
+
 def read_matrix(key: str, value: str, path: pathlib.Path):
     """Sparse CSR copy of a matrix file (cached per file version). Raises :class:`SystemPathError`."""
     import scipy.sparse as sp
-    k = _key(path)
+    k = file_version(path)
     if k in _MATRIX_CACHE:
         return _MATRIX_CACHE[k]
     suffix = path.suffix.lower()
     try:
-        if suffix in _MM:
-            import scipy.io
-            A = scipy.io.mmread(str(path))
-        elif suffix == ".npy":
-            A = np.load(str(path), allow_pickle=False)
-        else:
-            A = _petsc_load(path, "matrix")
+        A = _load(path, "matrix")
     except Exception as err:   # noqa: BLE001 - any reader failure is the user's file
         kind = "Matrix Market" if suffix in _MM else "NumPy .npy" if suffix == ".npy" else "PETSc binary"
-        raise SystemPathError(key, value, f"cannot read {path.name} as a {kind} matrix "
-                              f"({type(err).__name__}: {' '.join(str(err).split())[:120]}); formats: "
+        raise SystemPathError(key, value, f"cannot read {path.name} as a {kind} matrix ({_reason(err)}); formats: "
                               ".mtx/.mm Matrix Market, .npy NumPy, anything else PETSc binary") from None
     if np.iscomplexobj(A.data if sp.issparse(A) else A):
         raise SystemPathError(key, value, f"{path.name}: complex entries; a real matrix is needed")
@@ -94,24 +107,15 @@ def read_vector(key: str, value: Any, path: Optional[pathlib.Path]) -> np.ndarra
     """A force vector: inline list, or a Matrix Market / .npy / PETSc binary file (cached)."""
     if path is None:
         return np.asarray(value, dtype=float)
-    k = _key(path)
+    import scipy.sparse as sp
+    k = file_version(path)
     if k in _VECTOR_CACHE:
         return _VECTOR_CACHE[k]
-    suffix = path.suffix.lower()
     try:
-        if suffix in _MM:
-            import scipy.io
-            import scipy.sparse as sp
-            v = scipy.io.mmread(str(path))
-            v = v.toarray() if sp.issparse(v) else np.asarray(v)
-        elif suffix == ".npy":
-            v = np.load(str(path), allow_pickle=False)
-        else:
-            v = _petsc_load(path, "vector")
+        v = _load(path, "vector")
+        v = v.toarray() if sp.issparse(v) else np.asarray(v)
     except Exception as err:   # noqa: BLE001
-        raise SystemPathError(key, value, f"cannot read {path.name} as a vector "
-                              f"({type(err).__name__}: {' '.join(str(err).split())[:120]})") from None
-    v = np.asarray(v)
+        raise SystemPathError(key, value, f"cannot read {path.name} as a vector ({_reason(err)})") from None
     if v.ndim == 2 and 1 in v.shape:
         v = v.ravel()
     if v.ndim != 1 or np.iscomplexobj(v) or not np.all(np.isfinite(v)):
@@ -173,13 +177,13 @@ class Matrices(StrictModel):
     state: Optional[StaticState] = Field(None, description="the reactions of one equilibrium state (analyses only)")
     forces: Optional[Annotated[list[ForcePhase], Field(min_length=1, max_length=1000)]] = Field(
         None, description="or: phases of applied forces (a loading path)")
+    description: str = Field("", description="a text for results.json and the summary")
 
     def load_states(self) -> tuple[int, str]:
         """(equilibrium states, the key that sets them) for the pre-flight (app/preflight.py)."""
         if self.forces is None:
             return 1, "system.state"
         return 1 + sum(ph.steps for ph in self.forces), "system.forces[].steps"
-    description: str = Field("", description="a text for results.json and the summary")
 
     @field_validator("K", "M", mode="before")
     @classmethod

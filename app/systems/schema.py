@@ -33,6 +33,12 @@ def base_dir(info: ValidationInfo | None) -> pathlib.Path:
     return pathlib.Path(ctx.get("base_dir") or ".")
 
 
+def file_version(path: pathlib.Path) -> tuple:
+    """Cache key of a file's current version: (path, modification time in ns, size)."""
+    st = path.stat()
+    return (str(path), st.st_mtime_ns, st.st_size)
+
+
 def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.Path:
     """Absolute path of an existing, readable file named in the scene (relative to the scene file)."""
     if not isinstance(value, str) or not value.strip():
