@@ -456,3 +456,17 @@ Physical Surface("soft") = {1}; Physical Surface("hard") = {2};
         delta = 3.0 / (1.5 * 10) * (8 / 2.0 + 12 / 10.0)
         assert all(n["status"] == "free" for n in top)
         assert [n["u_N"] + 100.0 for n in top] == pytest.approx([-delta] * len(top), rel=1e-9)
+
+
+def test_validating_a_gmsh_scene_loads_neither_dolfinx_nor_petsc():
+    """Validation reads the user's file with gmsh only (the registry's rule): DOLFINx and PETSc
+    are loaded by the run, not by ``load_scene`` / ``validate`` (it used to load both through an
+    import of the block mesher)."""
+    import subprocess
+    import sys
+    code = ("import sys, app; app.load_scene('app/scenes/gmsh/block.yaml'); "
+            "print(sorted(m for m in ('dolfinx', 'petsc4py') if m in sys.modules))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       cwd=pathlib.Path(__file__).resolve().parents[1])
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "[]", p.stdout
