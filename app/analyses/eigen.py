@@ -10,7 +10,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils import combine, diag_scale, gather_vec
+from app.analyses.pencils import combine, diag_scale, gather_vec, sym_part
 from app.config import EigSettings
 from app.linalg import configure_direct
 
@@ -56,14 +56,6 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
             configure_direct(st.getKSP(), mumps=True if n >= MUMPS_MIN_DOFS else None)
             how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
     return eps, how
-
-
-def _sym(A: PETSc.Mat) -> PETSc.Mat:
-    At = A.copy()
-    At.transpose()
-    At.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    At.scale(0.5)
-    return At
 
 
 def _below(A: PETSc.Mat, sigma: float) -> int:
@@ -176,7 +168,7 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
     below the spectrum by an LDL^T inertia count, warm-started from ``hint`` (issue 14: 2-3x
     fewer operations than Krylov-Schur on the smallest eigenvalue, same value); plain
     Krylov-Schur if that fails."""
-    At = _sym(A)
+    At = sym_part(A)
     try:
         if At.getSize()[0] > settings.dense_limit:
             lam = _min_sym_eig_sinvert(At, settings, hint)

@@ -29,7 +29,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils import diag_scale
+from app.analyses.pencils import diag_scale, sym_part
 from app.linalg import configure_direct
 
 PROVEN = "proven"
@@ -43,14 +43,6 @@ def certificate(method: str, interval: tuple[float, float], status: str, seconds
     when every solution in it is listed (none, here)."""
     return {"method": method, "interval": [float(interval[0]), float(interval[1])], "status": status,
             "gap": gap, "seconds": round(float(seconds), 4), "detail": detail or {}}
-
-
-def _sym(A: PETSc.Mat) -> PETSc.Mat:
-    S = A.copy()
-    S.transpose()
-    S.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    S.scale(0.5)
-    return S
 
 
 def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
@@ -93,7 +85,7 @@ def proven_upper_bound(Ks: PETSc.Mat, Ms: PETSc.Mat, start: float, steps: int = 
     ``[0, guess]`` when ``guess`` (e.g. 1.05 x the previous classification's bound) is proven
     first. Returns ``(T, detail)``; ``T = start`` when no smaller one is proven."""
     t0 = time.perf_counter()
-    SK, SM = _sym(Ks), _sym(Ms)
+    SK, SM = sym_part(Ks), sym_part(Ms)
     structure = axpy_structure(SK, SM)
     shift = 1e-10 * diag_scale(SK)      # relative safety margin for rounding in the factorisation
     counts = 0

@@ -120,6 +120,16 @@ def combine(A0: PETSc.Mat, A1: PETSc.Mat, mu: float) -> PETSc.Mat:
     return A
 
 
+def sym_part(A: PETSc.Mat) -> PETSc.Mat:
+    """New matrix ``(A + A^T) / 2``, the symmetric part used by (19) and the lambda^2 bounds
+    (the caller destroys it)."""
+    S = A.copy()
+    S.transpose()
+    S.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    S.scale(0.5)
+    return S
+
+
 def diag_scale(A: PETSc.Mat) -> float:
     """Largest diagonal entry in magnitude (the infinity norm if the diagonal is zero): the
     unit-free scale that tolerances are relative to."""
