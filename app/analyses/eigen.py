@@ -10,6 +10,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
+from app.analyses.lambda2_bounds import inertia_negative_or_zero
 from app.analyses.pencils import combine, diag_scale, gather_vec, sym_part
 from app.config import EigSettings
 from app.linalg import configure_direct
@@ -61,7 +62,6 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
 def _below(A: PETSc.Mat, sigma: float) -> int:
     """Number of eigenvalues of the symmetric ``A`` at or below ``sigma`` (LDL^T inertia count of
     ``A - sigma I``; Sylvester's law of inertia)."""
-    from app.analyses.lambda2_bounds import inertia_negative_or_zero
     C = A.copy()
     try:
         C.shift(-sigma)

@@ -30,7 +30,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.pencils import diag_scale, sym_part
-from app.linalg import configure_direct
+from app.linalg import lu
 
 PROVEN = "proven"
 
@@ -51,18 +51,13 @@ def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
     evidence (``C`` positive definite): for an indefinite ``C`` PETSc's own serial factorisation
     reports counts that depend on the ordering (not the true inertia). ``ordering``: for PETSc's
     own factorisation (e.g. ``"qmd"``), default its own."""
-    ksp = PETSc.KSP().create(C.getComm())
     try:
-        ksp.setOperators(C)
-        configure_direct(ksp, factor="cholesky", inertia=True, ordering=ordering)   # MUMPS (in parallel) reports the inertia
-        pc = ksp.getPC()
-        ksp.setUp()
-        neg, zero, _ = pc.getFactorMatrix().getInertia()
+        # MUMPS (in parallel) reports the inertia
+        with lu(C, factor="cholesky", mumps=None, inertia=True, ordering=ordering) as ksp:
+            neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
         return int(neg) + int(zero)
     except PETSc.Error:
         return 1
-    finally:
-        ksp.destroy()
 
 
 def _same_pattern(A: PETSc.Mat, B: PETSc.Mat) -> bool:
