@@ -12,7 +12,7 @@ from petsc4py import PETSc
 
 from app.analyses.mcp_results import McpSolution
 from app.config import McpSettings
-from app.linalg import configure_direct
+from app.linalg import configure_direct, lu_solver
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
 MAX_LIFT_FACTORS = 16   # factorisations of A_ff(t) kept per problem (lifts at a t already seen reuse them)
@@ -251,10 +251,11 @@ class BorderedMcp:
         A0ff, A1ff = self._free_blocks()
         Aff = A0ff.copy()
         Aff.axpy(t, A1ff, structure=self._ff_structure)
-        ksp = PETSc.KSP().create(self.comm)
-        ksp.setOperators(Aff)
-        configure_direct(ksp)
-        ksp.setUp()
+        try:
+            ksp = lu_solver(Aff, mumps=None)
+        except BaseException:
+            Aff.destroy()
+            raise
         if len(self._lifts) >= MAX_LIFT_FACTORS:
             old = next(iter(self._lifts))
             for obj in self._lifts.pop(old):
