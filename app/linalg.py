@@ -54,20 +54,18 @@ def configure_direct(ksp: PETSc.KSP, *, factor: Factor = "lu", mumps: Optional[b
 
 
 def lu_solver(A: PETSc.Mat, *, factor: Factor = "lu", mumps: Optional[bool] = True,
-              inertia: bool = False, ordering: Optional[str] = None, setup: bool = True) -> PETSc.KSP:
+              inertia: bool = False, ordering: Optional[str] = None) -> PETSc.KSP:
     """A KSP on ``A``'s communicator that solves with the factors of ``A`` (MPI collective).
 
     Defaults to a MUMPS LU factorisation (``mumps=None``: MUMPS only in parallel, see
-    :func:`configure_direct`; ``inertia``, ``ordering`` likewise); the factorisation happens here
-    when ``setup`` (default). The
+    :func:`configure_direct`; ``inertia``, ``ordering`` likewise) and factorises it here. The
     caller owns the KSP and must ``destroy()`` it; :func:`lu` is the context-manager form.
     """
     ksp = PETSc.KSP().create(A.getComm())
     try:
         ksp.setOperators(A)
         configure_direct(ksp, factor=factor, mumps=mumps, inertia=inertia, ordering=ordering)
-        if setup:
-            ksp.setUp()
+        ksp.setUp()
     except BaseException:
         ksp.destroy()
         raise
