@@ -14,6 +14,7 @@ import numpy as np
 from app.analyses import eigen
 from app.analyses import lambda2_bounds as l2b
 from app.analyses import lambda2_exact as l2x
+from app.analyses.certify import certificate
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import (
     combine,
@@ -35,7 +36,7 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: di
     if s == 0:
         d = no_slip()
         d["certified"] = True
-        d["certificate"] = l2b.certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0)
+        d["certificate"] = certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0)
     else:
         K0, K1 = p.K()
         M0, M1 = p.M()
@@ -50,7 +51,7 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: di
                     "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
                             "which proves that (12)-(14) has no solution"}}
                 d["certified"] = True
-                d["certificate"] = l2b.certificate(
+                d["certificate"] = certificate(
                     "sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19)",
                     (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
                     {"min_eig_K_sym": nec["min_eig_K_sym"], "min_eig_M_sym": nec["min_eig_M_sym"]}, gap=0.0)
@@ -87,7 +88,7 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start:
                     "note": "no search needed: " + how,
                     "necessary_condition": nec, "lambda2_upper_bound": T, "upper_bound": bound},
          "certified": True}
-    d["certificate"] = l2b.certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
+    d["certificate"] = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
                                        {**detail, "T": T, "eigen_decomposition_seconds": round(dc.seconds, 4)}, gap=0.0)
     return d
 
@@ -140,7 +141,7 @@ def _lambda2_search(p: StatePencils, scene: Scene, K0, K1, M0, M1, nec: dict, mu
                            "ill-conditioned one(s) found (not proven)")
         hi = upper if np.isfinite(upper) else np.inf
         d["certified"] = False
-        d["certificate"] = l2b.certificate(
+        d["certificate"] = certificate(
             bound["method"] if np.isfinite(upper) else "none",
             (hi, np.inf) if np.isfinite(hi) else (0.0, 0.0),
             ("proven: no solution with lambda^2 in the interval; " if np.isfinite(hi) else "") +

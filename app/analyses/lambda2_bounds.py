@@ -1,5 +1,5 @@
-"""What can be proven cheaply about MCEIP-lambda^2 (12)-(14) on the full-size pencil, and the
-``certificate`` block of its results.
+"""What can be proven cheaply about MCEIP-lambda^2 (12)-(14) on the full-size pencil (its
+``certificate`` block is built by :func:`app.analyses.certify.certificate`, as MCEIP-mu's).
 
 Sign argument (the paper's (19), generalised): at a solution ``x^T y = x_Ts^T y_Ts = 0``, so
 ``x^T (K* + t M*) x = 0`` with ``t = lambda^2``. Hence no solution has a ``t`` at which the
@@ -33,16 +33,6 @@ from app.analyses.pencils import diag_scale, sym_part
 from app.linalg import lu
 
 PROVEN = "proven"
-
-
-def certificate(method: str, interval: tuple[float, float], status: str, seconds: float,
-                detail: dict | None = None, gap: float | None = None) -> dict:
-    """The ``certificate`` block (same fields as MCEIP-mu's: method, interval, status, gap, seconds, detail).
-
-    ``interval``: the range of lambda^2 the status speaks about; ``status`` is ``"proven"`` only
-    when every solution in it is listed (none, here)."""
-    return {"method": method, "interval": [float(interval[0]), float(interval[1])], "status": status,
-            "gap": gap, "seconds": round(float(seconds), 4), "detail": detail or {}}
 
 
 def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
