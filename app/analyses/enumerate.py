@@ -201,8 +201,7 @@ def enumerate_patterns(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, t_min: 
 
 
 def enumerate_mceip(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, max_slip: int,
-                    tol: float = 1e-9, pairs: list[tuple[int, int]] | None = None,
-                    t_max: float = np.inf) -> list[dict]:
+                    pairs: list[tuple[int, int]] | None = None) -> list[dict]:
     """All solutions of ``(A0 + t A1) x = y, y_f = 0, 0 <= x_c ⊥ y_c >= 0, t >= 0`` (dense).
 
     Returns dicts with ``value``, ``x_Ts`` (sum 1), ``pattern`` (``slip`` exactly on the support
@@ -218,5 +217,5 @@ def enumerate_mceip(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, max_slip: 
     cpos = {int(c): k for k, c in enumerate(comp)}
     cpairs = [(cpos[a], cpos[b]) for a, b in (pairs or [])]
     with one_blas_thread():
-        sols = enumerate_patterns(A0, A1, comp, t_max=t_max, pairs=cpairs)
+        sols = enumerate_patterns(A0, A1, comp, pairs=cpairs)
     return [d.as_dict(comp) for d in sols]
