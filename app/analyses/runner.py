@@ -211,8 +211,7 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
     """
     if s == 0:
         return {**no_slip(), "certified": True,
-                "certificate": {"method": "no slip nodes (x_Ts is empty)", "interval": [0.0, float("inf")],
-                                "status": "proven", "gap": 0.0, "seconds": 0.0, "detail": {}}}
+                "certificate": certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), "proven", 0.0, gap=0.0)}
     method = scene.settings.mceip_mu_method
     if method == "condensed":
         # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
@@ -231,8 +230,7 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
     d = rep.as_dict()
     d["method"] = method
     d["certified"] = False
-    d["certificate"] = {"method": "none", "interval": [0.0, 0.0], "status": "not attempted (full-size SNES VI search)",
-                        "gap": None, "seconds": 0.0, "detail": {}}
+    d["certificate"] = certificate("none", (0.0, 0.0), "not attempted (full-size SNES VI search)", 0.0)
     for sol in d["solutions"]:
         sol["certified"] = False
     if method == "full" and keep_modes(scene):
