@@ -58,15 +58,23 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: di
     return d
 
 
+def _rayleigh_bound(nec: dict) -> float | None:
+    """``-min eig sym K* / min eig sym M*`` (widened by 1e-6): ``x^T (lambda^2 M* + K*) x = x^T y = 0``
+    at a solution bounds lambda^2 by it when sym M*(mu) is PD (and sym K*(mu) is not); else None."""
+    if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
+        return -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+    return None
+
+
 def _lambda2_proof(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict | None:
     """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
     (app/analyses/lambda2_exact.py), or None when that proof does not apply or does not succeed."""
-    if not (nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0):
+    rayleigh = _rayleigh_bound(nec)
+    if rayleigh is None:
         return None
     dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
     if dc is None:
         return None
-    rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
     proven, T, detail = l2x.prove_no_solution(dc, p.cls, mu, rayleigh)
     comm = p.system.comm
     if comm.size > 1:
@@ -100,8 +108,8 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start
     # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD; an LDL^T inertia
     # count of sym K* + T sym M* proves a smaller bound T (lambda2_bounds.py).
     upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
-    if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
-        rayleigh = -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+    rayleigh = _rayleigh_bound(nec)
+    if rayleigh is not None:
         hints = warm_hints(p.system, mu)
         prev = hints.get("lambda2_bound")
         upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh, guess=None if prev is None else 1.05 * prev)
