@@ -10,9 +10,12 @@ choice of factor package and its MUMPS controls exist once.
   calls ``destroy()`` (or uses :func:`lu` as a context manager, which does).
 
 No option is written to PETSc's global options database.
+
+:func:`one_blas_thread` limits the dense (numpy/LAPACK) work around it to one BLAS thread.
 """
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Literal, Optional
@@ -70,6 +73,24 @@ def lu_solver(A: PETSc.Mat, *, factor: Factor = "lu", mumps: Optional[bool] = Tr
         ksp.destroy()
         raise
     return ksp
+
+
+_CONTROLLER: list = []
+
+
+def one_blas_thread():
+    """Context: one BLAS thread around small batched dense work (OpenBLAS threads make stacks
+    of 20 x 20 solves 10-20x slower on this kind of machine, and the contact increments' dense
+    2n x 2n LU factorisations 2-3x slower); all threads again afterwards. The BLAS libraries are
+    inspected once per process (``threadpool_limits`` scans every loaded library on each call:
+    2-4 ms, issue 14)."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:              # pragma: no cover - threadpoolctl is a dependency
+        return contextlib.nullcontext()
+    if not _CONTROLLER:
+        _CONTROLLER.append(ThreadpoolController())
+    return _CONTROLLER[0].limit(limits=1, user_api="blas")
 
 
 @contextmanager

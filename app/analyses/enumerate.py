@@ -19,12 +19,13 @@ tolerances relative to the pencil's scale.
 """
 from __future__ import annotations
 
-import contextlib
 import itertools
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+
+from app.linalg import one_blas_thread
 
 
 class TooManySlipNodes(Exception):
@@ -38,23 +39,6 @@ RESOLVE_TOL = 1e-9
 RESIDUAL_TOL = 1e-8
 #: Elements (m * n_R^2) per LAPACK batch (bounds memory at s = 20: about 40 MB per batch).
 BATCH_ELEMENTS = 2_000_000
-
-
-_CONTROLLER: list = []
-
-
-def one_blas_thread():
-    """Context: one BLAS thread around small batched dense work (OpenBLAS threads make stacks
-    of 20 x 20 solves 10-20x slower on this kind of machine); all threads again afterwards.
-    The BLAS libraries are inspected once per process (``threadpool_limits`` scans every loaded
-    library on each call: 2-4 ms, issue 14)."""
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:              # pragma: no cover - threadpoolctl is a dependency
-        return contextlib.nullcontext()
-    if not _CONTROLLER:
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
 
 
 @dataclass
