@@ -11,6 +11,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.analyses.mcp_results import McpSolution
+from app.analyses.pencils import axpy_structure
 from app.config import McpSettings
 from app.linalg import configure_direct, lu_solver
 
@@ -235,7 +236,6 @@ class BorderedMcp:
     def _free_blocks(self):
         """``A0_ff``, ``A1_ff`` (free rows and columns), built once for the lifts."""
         if self._ff is None:
-            from app.analyses.lambda2_bounds import axpy_structure
             A0ff = self.A0.createSubMatrix(self.is_f, self.is_f)
             A1ff = self.A1.createSubMatrix(self.is_f, self.is_f)
             self._ff = (A0ff, A1ff)

@@ -25,11 +25,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from mpi4py import MPI
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils import diag_scale, sym_part
+from app.analyses.pencils import axpy_structure, diag_scale, sym_part
 from app.linalg import lu
 
 PROVEN = "proven"
@@ -48,19 +47,6 @@ def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
         return int(neg) + int(zero)
     except PETSc.Error:
         return 1
-
-
-def _same_pattern(A: PETSc.Mat, B: PETSc.Mat) -> bool:
-    """Same sparsity pattern on this rank (then ``axpy`` can skip the pattern merge)."""
-    ia, ja, _ = A.getValuesCSR()
-    ib, jb, _ = B.getValuesCSR()
-    return len(ia) == len(ib) and len(ja) == len(jb) and bool(np.all(ia == ib) and np.all(ja == jb))
-
-
-def axpy_structure(A: PETSc.Mat, B: PETSc.Mat) -> int:
-    """The cheapest ``Mat.Structure`` valid for ``A.axpy(a, B)`` (decided on every rank alike)."""
-    same = A.getComm().tompi4py().allreduce(_same_pattern(A, B), op=MPI.LAND)   # MPI collective
-    return PETSc.Mat.Structure.SAME_NONZERO_PATTERN if same else PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
 
 
 def proven_upper_bound(Ks: PETSc.Mat, Ms: PETSc.Mat, start: float, steps: int = 6,
