@@ -18,6 +18,16 @@ from app.linalg import configure_direct
 MUMPS_MIN_DOFS = 20_000     # from this size on, shift-and-invert factorises with MUMPS even on one rank
 
 
+def _shift_invert(eps: SLEPc.EPS, sigma: float) -> PETSc.KSP:
+    """Shift-and-invert spectral transformation about ``sigma``, eigenvalues nearest it first;
+    returns the ST's KSP (the caller makes it a direct solve)."""
+    st = eps.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    eps.setTarget(sigma)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+    return st.getKSP()
+
+
 def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> tuple[SLEPc.EPS, str]:
     n = A.getSize()[0]
     eps = SLEPc.EPS().create(A.getComm())
@@ -33,11 +43,7 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
         if B is not None and not hermitian:
             # LAPACK's generalised reordering (tgexc) fails on these pencils; work on the
             # standard problem of shift-and-invert about 0 instead: K*^-1 M* x = (1/theta) x.
-            st = eps.getST()
-            st.setType(SLEPc.ST.Type.SINVERT)
-            eps.setTarget(0.0)
-            eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-            configure_direct(st.getKSP())
+            configure_direct(_shift_invert(eps, 0.0))
             how += " (shift-and-invert about 0)"
     else:
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
@@ -48,13 +54,9 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
             eps.setWhichEigenpairs(SLEPc.EPS.Which.SMALLEST_REAL)
             how = f"SLEPc krylovschur, {nev} smallest"
         else:
-            st = eps.getST()
-            st.setType(SLEPc.ST.Type.SINVERT)
-            eps.setTarget(0.0)
-            eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
             # large serial pencils: MUMPS factorises 2-4x faster than PETSc's own LU (100k DOFs:
             # 0.9-1.7 s against 3.3-3.7 s, issue 14); small ones keep PETSc's (faster there)
-            configure_direct(st.getKSP(), mumps=True if n >= MUMPS_MIN_DOFS else None)
+            configure_direct(_shift_invert(eps, 0.0), mumps=True if n >= MUMPS_MIN_DOFS else None)
             how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
     return eps, how
 
@@ -101,15 +103,10 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
         # in about half the work of SLEPc's default 16 (issue 14; the answer is checked by inertia)
         eps.setDimensions(nev=1, ncv=min(NEAREST_NCV, At.getSize()[0]))
         eps.setTolerances(tol=settings.tol, max_it=settings.max_it)
-        st = eps.getST()
-        st.setType(SLEPc.ST.Type.SINVERT)
-        eps.setTarget(sigma)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        configure_direct(st.getKSP(), factor="cholesky" if At.getComm().getSize() == 1 else "lu",
-                         ordering=_ordering(At))
+        ksp = configure_direct(_shift_invert(eps, sigma),
+                               factor="cholesky" if At.getComm().getSize() == 1 else "lu", ordering=_ordering(At))
         if shift_below:
             eps.setUp()
-            ksp = st.getKSP()
             ksp.setUp()
             neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
             if neg + zero > 0:
