@@ -38,7 +38,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.enumerate import PatternSolution, enumerate_patterns, one_blas_thread, pencil_scale
+from app.analyses.enumerate import PatternSolution, enumerate_patterns, pencil_scale
+from app.linalg import one_blas_thread
 
 
 def certificate(method: str, interval: tuple[float, float], status: str, seconds: float | None,
