@@ -92,12 +92,11 @@ class BorderedMcp:
         if self.dense:
             self.dense_rows = np.repeat(np.arange(len(self.Ib) - 1), np.diff(self.Ib))
         self.one_rank = self.comm.size == 1
-        # Work objects kept for every run (vectors, bounds, one SNES per method; see solve()).
+        # Work objects kept for every run (vectors, bounds; the SNES is one per run, see solve()).
         self.X = self.J.createVecRight()
         self.xl, self.xu = self.X.duplicate(), self.X.duplicate()
-        self._snes: dict[str, PETSc.SNES] = {}
         self._lifts: dict[float, tuple] = {}      # t -> (KSP, A_ff(t)): one factorisation per t
-        self._ff = None                           # (A0_ff, A1_ff, A0_fc-free rows) built on first lift
+        self._ff = None                           # (A0_ff, A1_ff), built on the first lift
         self.history: list[float] = []
         self.stagnation = 0                        # iterations without progress that stop a run (0: off)
 
@@ -166,10 +165,7 @@ class BorderedMcp:
         return PETSc.SNES.ConvergedReason.ITERATING
 
     def _solver(self, method: str, settings: McpSettings) -> PETSc.SNES:
-        """A SNES of ``method`` for one run (destroyed by :meth:`solve`)."""
-        snes = self._snes.get(method)
-        if snes is not None:
-            return snes
+        """A new SNES of ``method`` for one run (destroyed by :meth:`solve`)."""
         snes = PETSc.SNES().create(self.comm)
         snes.setType(method)
         if method == RSLS and settings.rsls_linesearch != "bt":
@@ -189,7 +185,6 @@ class BorderedMcp:
         snes.setConvergenceTest(self._converged, args=(settings,))
         # serial: minimum-degree ordering (3x less fill than nd with the dense border), tiny pivot shift
         configure_direct(snes.getKSP(), shift=1e-14, ordering="qmd")
-        self._snes[method] = snes
         return snes
 
     # -- one SNES VI run ---------------------------------------------------------------------
@@ -227,7 +222,6 @@ class BorderedMcp:
             # One SNES per run: reusing it across runs crashed (memory corruption) after a run
             # that ended in a PETSc error on small dense problems, so it is not kept.
             snes.destroy()
-            del self._snes[method]
         z = X.getArray(readonly=True).copy()
         if not self.one_rank:
             z = np.concatenate(self.comm.allgather(z))                 # MPI collective
@@ -380,8 +374,6 @@ class BorderedMcp:
                            pattern_residual=pres, pattern_verified=bool(verified))
 
     def destroy(self) -> None:
-        for snes in self._snes.values():
-            snes.destroy()
         for pair in self._lifts.values():
             for obj in pair:
                 obj.destroy()
@@ -389,4 +381,4 @@ class BorderedMcp:
             obj.destroy()
         for obj in (self.J, self.F, self.v, self.y0, self.y1, self.is_f, self.X, self.xl, self.xu):
             obj.destroy()
-        self._snes, self._lifts, self._ff = {}, {}, None
+        self._lifts, self._ff = {}, None
