@@ -9,9 +9,10 @@ choice of factor package and its MUMPS controls exist once.
 - :func:`lu_solver` creates, configures and sets up a KSP for a matrix; the caller owns it and
   calls ``destroy()`` (or uses :func:`lu` as a context manager, which does).
 
-No option is written to PETSc's global options database.
+Also here: :func:`set_linesearch` (a SNES line search through a private options prefix, removed
+at once) and :func:`one_blas_thread` (one BLAS thread around dense numpy/LAPACK work).
 
-:func:`one_blas_thread` limits the dense (numpy/LAPACK) work around it to one BLAS thread.
+No option is left in PETSc's global options database.
 """
 from __future__ import annotations
 
@@ -54,6 +55,19 @@ def configure_direct(ksp: PETSc.KSP, *, factor: Factor = "lu", mumps: Optional[b
         if ordering is not None:
             pc.setFactorOrdering(ordering)
     return ksp
+
+
+def set_linesearch(snes: PETSc.SNES, kind: str, prefix: str) -> None:
+    """Give ``snes`` the line search ``kind`` (e.g. ``"basic"``: full Newton steps). petsc4py 3.18
+    has no SNESLineSearch object, so this goes through the options database under the SNES's own
+    private ``prefix``, and the option is removed at once (nothing is left in the database)."""
+    snes.setOptionsPrefix(prefix)
+    opts = PETSc.Options()
+    opts.setValue(f"{prefix}snes_linesearch_type", kind)
+    try:
+        snes.setFromOptions()
+    finally:
+        opts.delValue(f"{prefix}snes_linesearch_type")
 
 
 def lu_solver(A: PETSc.Mat, *, factor: Factor = "lu", mumps: Optional[bool] = True,

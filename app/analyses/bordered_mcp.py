@@ -13,7 +13,7 @@ from petsc4py import PETSc
 from app.analyses.mcp_results import McpSolution
 from app.analyses.pencils import axpy_structure
 from app.config import McpSettings
-from app.linalg import configure_direct, lu_solver
+from app.linalg import configure_direct, lu_solver, set_linesearch
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
 MAX_LIFT_FACTORS = 16   # factorisations of A_ff(t) kept per problem (lifts at a t already seen reuse them)
@@ -169,14 +169,7 @@ class BorderedMcp:
         snes = PETSc.SNES().create(self.comm)
         snes.setType(method)
         if method == RSLS and settings.rsls_linesearch != "bt":
-            # petsc4py 3.18 has no SNESLineSearch object: set it through a private options prefix
-            snes.setOptionsPrefix("mcp_rsls_")
-            opts = PETSc.Options()
-            opts.setValue("mcp_rsls_snes_linesearch_type", settings.rsls_linesearch)
-            try:
-                snes.setFromOptions()
-            finally:
-                opts.delValue("mcp_rsls_snes_linesearch_type")   # leave nothing in the global database
+            set_linesearch(snes, settings.rsls_linesearch, "mcp_rsls_")
         snes.setFunction(self.residual, self.F)
         snes.setJacobian(self.jacobian, self.J)
         snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=settings.stol, max_it=settings.max_it)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
-from app.linalg import configure_direct, one_blas_thread
+from app.linalg import configure_direct, one_blas_thread, set_linesearch
 
 
 @dataclass
@@ -115,14 +115,7 @@ class FrictionalContact:
         try:
             snes.setType(method)
             if linesearch != "bt":
-                # petsc4py 3.18 has no SNESLineSearch object: a private options prefix, removed at once
-                snes.setOptionsPrefix("contact_inc_")
-                opts = PETSc.Options()
-                opts.setValue("contact_inc_snes_linesearch_type", linesearch)
-                try:
-                    snes.setFromOptions()
-                finally:
-                    opts.delValue("contact_inc_snes_linesearch_type")
+                set_linesearch(snes, linesearch, "contact_inc_")
             snes.setFunction(self._residual, F)
             snes.setJacobian(self._jacobian, self.J)
             snes.setVariableBounds(lo, hi)
