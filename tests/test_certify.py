@@ -48,6 +48,12 @@ def _random_pencil(seed, n_slip, n_stick, n_free, n_int, mu):
     return A0, A1
 
 
+def _pd_plus_pencil(rng, s, a1_scale=3.0):
+    """``A0 = B B^T + s I`` (positive definite), ``A1`` a random ``s x s`` times ``a1_scale``."""
+    B = rng.normal(size=(s, s))
+    return B @ B.T + s * np.eye(s), a1_scale * rng.normal(size=(s, s))
+
+
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, 2**31 - 1), st.integers(1, 9), st.integers(0, 2), st.integers(0, 2), st.integers(0, 4),
        st.floats(0.3, 4.0), st.floats(2.0, 60.0))
@@ -74,11 +80,7 @@ def test_certified_set_with_zero_nodes_equals_enumeration(seed):
 
 def test_dense_random_strip_larger_s():
     """s = 12 dense random pencils: SCIP's set (given the search's candidates) equals enumeration's."""
-    rng = np.random.default_rng(11)
-    s = 12
-    B = rng.normal(size=(s, s))
-    A0 = B @ B.T + s * np.eye(s)
-    A1 = 3 * rng.normal(size=(s, s))
+    A0, A1 = _pd_plus_pencil(np.random.default_rng(11), 12)
     ref = _check(A0, A1, 10.0, modes=((0, True),))
     assert ref      # the case is not trivial
 
@@ -87,9 +89,7 @@ def test_lower_bound_is_a_bound_and_proves_absence():
     rng = np.random.default_rng(2)
     for _ in range(20):
         s = int(rng.integers(2, 9))
-        B = rng.normal(size=(s, s))
-        A0 = B @ B.T + s * np.eye(s)
-        A1 = rng.normal(size=(s, s))
+        A0, A1 = _pd_plus_pencil(rng, s, a1_scale=1.0)
         lb, _ = copositivity_bound(A0, A1, 1e3)
         sols = enumerate_patterns(A0, A1, np.arange(s))
         assert all(p.value >= lb * (1 - 1e-12) for p in sols)
@@ -101,22 +101,14 @@ def test_lower_bound_is_a_bound_and_proves_absence():
 
 
 def test_budget_turns_into_not_proven():
-    rng = np.random.default_rng(4)
-    s = 30
-    B = rng.normal(size=(s, s))
-    A0 = B @ B.T + s * np.eye(s)
-    A1 = 3 * rng.normal(size=(s, s))
+    A0, A1 = _pd_plus_pencil(np.random.default_rng(4), 30)
     cert = certify_mu(A0, A1, 1e4, seconds=1e-3, enumerate_max=0)
     assert not cert.proven and cert.status.startswith("not proven within")
 
 
 def test_scale_invariance():
     """Units: scaling the pencil changes neither the certified values nor the patterns."""
-    rng = np.random.default_rng(7)
-    s = 7
-    B = rng.normal(size=(s, s))
-    A0 = B @ B.T + s * np.eye(s)
-    A1 = 3 * rng.normal(size=(s, s))
+    A0, A1 = _pd_plus_pencil(np.random.default_rng(7), 7)
     a = certify_mu(A0, A1, 30.0, enumerate_max=0)
     b = certify_mu(1e6 * A0, 1e6 * A1, 30.0, enumerate_max=0)
     assert a.proven and b.proven and _key(a.solutions) == _key(b.solutions)

@@ -7,7 +7,6 @@ sufficient-condition eigenvalues, and every MCEIP-mu / MCEIP-lambda^2 value, mod
 pattern. Values must agree to 1e-8 (relative, absolute below 1), patterns and classifications
 exactly. Not timed: the speed targets live in benchmarks/ (``make bench``).
 """
-import copy
 import json
 import pathlib
 
@@ -67,7 +66,6 @@ def _compare(ref, got, path, bad):
 @pytest.mark.skipif(not REFERENCE.exists(), reason="reference answers missing")
 def test_default_study_answers_unchanged():
     scene = yaml.safe_load(default_scene_path().read_text())
-    scene = copy.deepcopy(scene)
     scene.pop("outputs", None)
     got = answers(run_scene(scene)["states"])
     ref = json.loads(REFERENCE.read_text())

@@ -3,18 +3,10 @@ system (DESIGN.md section 4), where every solution is known in closed form (Tabl
 import numpy as np
 import pytest
 from conftest import run_scene
-from petsc4py import PETSc
 from test_two_particles import CASES, PHI, K, M, analytic_lambda2, scene
 
 from app.analyses.lambda2_bounds import inertia_negative_or_zero, proven_upper_bound
-
-
-def _aij(A: np.ndarray) -> PETSc.Mat:
-    n = A.shape[0]
-    m = PETSc.Mat().createAIJ((n, n), nnz=n, comm=PETSc.COMM_SELF)
-    m.setValues(np.arange(n, dtype=PETSc.IntType), np.arange(n, dtype=PETSc.IntType), A)
-    m.assemble()
-    return m
+from app.analyses.state_pencils import seq_aij
 
 
 @pytest.mark.parametrize("signs,mu,count", CASES)
@@ -48,7 +40,7 @@ def test_certificate_and_bound(signs, mu, count):
 
 def test_inertia_count_and_bound_on_a_known_pencil():
     """sym K + T sym M PD exactly for T > 3 (K = diag(-3, 1), M = I): the proven bound brackets 3."""
-    Km, Mm = _aij(np.diag([-3.0, 1.0])), _aij(np.eye(2))
+    Km, Mm = seq_aij(np.diag([-3.0, 1.0])), seq_aij(np.eye(2))
     try:
         assert inertia_negative_or_zero(Km) == 1
         assert inertia_negative_or_zero(Mm) == 0

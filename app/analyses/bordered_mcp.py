@@ -11,8 +11,9 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.analyses.mcp_results import McpSolution
+from app.analyses.pencils import axpy_structure
 from app.config import McpSettings
-from app.linalg import configure_direct
+from app.linalg import configure_direct, lu_solver, set_linesearch
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
 MAX_LIFT_FACTORS = 16   # factorisations of A_ff(t) kept per problem (lifts at a t already seen reuse them)
@@ -91,12 +92,11 @@ class BorderedMcp:
         if self.dense:
             self.dense_rows = np.repeat(np.arange(len(self.Ib) - 1), np.diff(self.Ib))
         self.one_rank = self.comm.size == 1
-        # Work objects kept for every run (vectors, bounds, one SNES per method; see solve()).
+        # Work objects kept for every run (vectors, bounds; the SNES is one per run, see solve()).
         self.X = self.J.createVecRight()
         self.xl, self.xu = self.X.duplicate(), self.X.duplicate()
-        self._snes: dict[str, PETSc.SNES] = {}
         self._lifts: dict[float, tuple] = {}      # t -> (KSP, A_ff(t)): one factorisation per t
-        self._ff = None                           # (A0_ff, A1_ff, A0_fc-free rows) built on first lift
+        self._ff = None                           # (A0_ff, A1_ff), built on the first lift
         self.history: list[float] = []
         self.stagnation = 0                        # iterations without progress that stop a run (0: off)
 
@@ -165,21 +165,11 @@ class BorderedMcp:
         return PETSc.SNES.ConvergedReason.ITERATING
 
     def _solver(self, method: str, settings: McpSettings) -> PETSc.SNES:
-        """A SNES of ``method`` for one run (destroyed by :meth:`solve`)."""
-        snes = self._snes.get(method)
-        if snes is not None:
-            return snes
+        """A new SNES of ``method`` for one run (destroyed by :meth:`solve`)."""
         snes = PETSc.SNES().create(self.comm)
         snes.setType(method)
         if method == RSLS and settings.rsls_linesearch != "bt":
-            # petsc4py 3.18 has no SNESLineSearch object: set it through a private options prefix
-            snes.setOptionsPrefix("mcp_rsls_")
-            opts = PETSc.Options()
-            opts.setValue("mcp_rsls_snes_linesearch_type", settings.rsls_linesearch)
-            try:
-                snes.setFromOptions()
-            finally:
-                opts.delValue("mcp_rsls_snes_linesearch_type")   # leave nothing in the global database
+            set_linesearch(snes, settings.rsls_linesearch, "mcp_rsls_")
         snes.setFunction(self.residual, self.F)
         snes.setJacobian(self.jacobian, self.J)
         snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=settings.stol, max_it=settings.max_it)
@@ -188,7 +178,6 @@ class BorderedMcp:
         snes.setConvergenceTest(self._converged, args=(settings,))
         # serial: minimum-degree ordering (3x less fill than nd with the dense border), tiny pivot shift
         configure_direct(snes.getKSP(), shift=1e-14, ordering="qmd")
-        self._snes[method] = snes
         return snes
 
     # -- one SNES VI run ---------------------------------------------------------------------
@@ -226,7 +215,6 @@ class BorderedMcp:
             # One SNES per run: reusing it across runs crashed (memory corruption) after a run
             # that ended in a PETSc error on small dense problems, so it is not kept.
             snes.destroy()
-            del self._snes[method]
         z = X.getArray(readonly=True).copy()
         if not self.one_rank:
             z = np.concatenate(self.comm.allgather(z))                 # MPI collective
@@ -235,7 +223,6 @@ class BorderedMcp:
     def _free_blocks(self):
         """``A0_ff``, ``A1_ff`` (free rows and columns), built once for the lifts."""
         if self._ff is None:
-            from app.analyses.lambda2_bounds import axpy_structure
             A0ff = self.A0.createSubMatrix(self.is_f, self.is_f)
             A1ff = self.A1.createSubMatrix(self.is_f, self.is_f)
             self._ff = (A0ff, A1ff)
@@ -251,10 +238,11 @@ class BorderedMcp:
         A0ff, A1ff = self._free_blocks()
         Aff = A0ff.copy()
         Aff.axpy(t, A1ff, structure=self._ff_structure)
-        ksp = PETSc.KSP().create(self.comm)
-        ksp.setOperators(Aff)
-        configure_direct(ksp)
-        ksp.setUp()
+        try:
+            ksp = lu_solver(Aff, mumps=None)
+        except BaseException:
+            Aff.destroy()
+            raise
         if len(self._lifts) >= MAX_LIFT_FACTORS:
             old = next(iter(self._lifts))
             for obj in self._lifts.pop(old):
@@ -379,8 +367,6 @@ class BorderedMcp:
                            pattern_residual=pres, pattern_verified=bool(verified))
 
     def destroy(self) -> None:
-        for snes in self._snes.values():
-            snes.destroy()
         for pair in self._lifts.values():
             for obj in pair:
                 obj.destroy()
@@ -388,4 +374,4 @@ class BorderedMcp:
             obj.destroy()
         for obj in (self.J, self.F, self.v, self.y0, self.y1, self.is_f, self.X, self.xl, self.xu):
             obj.destroy()
-        self._snes, self._lifts, self._ff = {}, {}, None
+        self._lifts, self._ff = {}, None

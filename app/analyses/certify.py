@@ -38,7 +38,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.enumerate import PatternSolution, enumerate_patterns, one_blas_thread, pencil_scale
+from app.analyses.enumerate import PatternSolution, enumerate_patterns, pencil_scale
+from app.linalg import one_blas_thread
+
+
+def certificate(method: str, interval: tuple[float, float], status: str, seconds: float | None,
+                detail: dict | None = None, gap: float | None = None) -> dict:
+    """The ``certificate`` block of an MCEIP result (mu or lambda^2; fields method, interval,
+    status, gap, seconds, detail). ``interval``: the range of the eigenvalue the status speaks
+    about; ``status`` is ``"proven"`` only when every solution in it is listed; ``seconds``
+    ``None`` when not timed."""
+    return {"method": method, "interval": [float(interval[0]), float(interval[1])], "status": status,
+            "gap": gap, "seconds": None if seconds is None else round(float(seconds), 4), "detail": detail or {}}
 
 
 @dataclass
@@ -55,9 +66,7 @@ class Certificate:
     detail: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
-        return {"method": self.method, "interval": [float(self.interval[0]), float(self.interval[1])],
-                "status": self.status, "gap": self.gap, "seconds": round(self.seconds, 4),
-                "detail": self.detail}
+        return certificate(self.method, self.interval, self.status, self.seconds, self.detail, self.gap)
 
 
 # --- certified lower bound (sign argument) ------------------------------------------------------
@@ -388,8 +397,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                  f"; proven only that none lies below {cert.lower_bound:.6g}"
     d: dict = {"solutions": sols, "result": result, "certified": proven,
                "certificate": (cert.as_dict() if cert is not None else
-                               {"method": "none", "interval": [0.0, 0.0], "status": "not attempted",
-                                "gap": None, "seconds": 0.0, "detail": {}}),
+                               certificate("none", (0.0, 0.0), "not attempted", 0.0)),
                "search": {"method": "dense semismooth Newton (min-function), batched over starts",
                           "attempts": rep.starts, "converged": rep.converged,
                           "rejected_by_exact_check": rep.rejected, "seconds": round(rep.seconds, 4),

@@ -56,6 +56,19 @@ class DenseSearchReport:
                  "a search, not a proof")
 
 
+def _start_rows(xs: list[np.ndarray], labels: list[str], mu0s: list[float],
+                pairs: list[tuple[int, int]]) -> tuple[list[np.ndarray], list[str]]:
+    """The start vectors ``xs`` (one half of each split tangential rate only, normalised to
+    ``e^T x = 1``) with every ``mu0``: one ``(len(xs), s + 1)`` block of rows ``(x, mu0)`` per
+    ``mu0``, and their labels."""
+    X = np.array(xs)
+    for a, b in pairs:          # start with one half of each split tangential rate only
+        X[:, b] = np.where(X[:, a] > 0, 0.0, X[:, b])
+    X = X / np.maximum(X.sum(axis=1, keepdims=True), 1e-300)
+    rows = [np.hstack([X, np.full((len(X), 1), m)]) for m in mu0s]
+    return rows, [f"{l}, mu0={m:.6g}" for m in mu0s for l in labels]
+
+
 def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]],
             zero_one: bool = True) -> tuple[np.ndarray, list[str]]:
     """Start rows ``(x, mu)``, each with every ``mu0``: uniform ``x``, ``x`` on one unknown and
@@ -68,13 +81,8 @@ def _starts(s: int, mu0s: list[float], pairs: list[tuple[int, int]],
         for i in range(s):
             xs.append(1.0 - np.eye(s)[i])
             labels.append(f"x zero on unknown {i}")
-    X = np.array(xs)
-    for a, b in pairs:          # start with one half of each split tangential rate only
-        X[:, b] = np.where(X[:, a] > 0, 0.0, X[:, b])
-    X = X / np.maximum(X.sum(axis=1, keepdims=True), 1e-300)
-    Z = np.concatenate([np.hstack([X, np.full((len(X), 1), m)]) for m in mu0s])
-    lab = [f"{l}, mu0={m:.6g}" for m in mu0s for l in labels]
-    return Z, lab
+    rows, lab = _start_rows(xs, labels, mu0s, pairs)
+    return np.concatenate(rows), lab
 
 
 def _reduced_starts(a0: np.ndarray, a1: np.ndarray, mu0s: list[float], pairs: list[tuple[int, int]],
@@ -90,12 +98,7 @@ def _reduced_starts(a0: np.ndarray, a1: np.ndarray, mu0s: list[float], pairs: li
     for i in picks:
         xs.append(np.eye(s)[i])
         labels.append(f"x on unknown {i}")
-    X = np.array(xs)
-    for a, b in pairs:
-        X[:, b] = np.where(X[:, a] > 0, 0.0, X[:, b])
-    X = X / np.maximum(X.sum(axis=1, keepdims=True), 1e-300)
-    rows = [np.hstack([X, np.full((len(X), 1), m)]) for m in mu0s]
-    lab = [f"{l}, mu0={m:.6g}" for m in mu0s for l in labels]
+    rows, lab = _start_rows(xs, labels, mu0s, pairs)
     try:
         w, V = scipy.linalg.eig(a0, -a1)
     except (np.linalg.LinAlgError, ValueError):

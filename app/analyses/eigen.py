@@ -10,11 +10,22 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils import combine, diag_scale, gather_vec
+from app.analyses.lambda2_bounds import inertia_negative_or_zero
+from app.analyses.pencils import combine, diag_scale, gather_vec, sym_part
 from app.config import EigSettings
 from app.linalg import configure_direct
 
 MUMPS_MIN_DOFS = 20_000     # from this size on, shift-and-invert factorises with MUMPS even on one rank
+
+
+def _shift_invert(eps: SLEPc.EPS, sigma: float) -> PETSc.KSP:
+    """Shift-and-invert spectral transformation about ``sigma``, eigenvalues nearest it first;
+    returns the ST's KSP (the caller makes it a direct solve)."""
+    st = eps.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    eps.setTarget(sigma)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+    return st.getKSP()
 
 
 def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> tuple[SLEPc.EPS, str]:
@@ -32,11 +43,7 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
         if B is not None and not hermitian:
             # LAPACK's generalised reordering (tgexc) fails on these pencils; work on the
             # standard problem of shift-and-invert about 0 instead: K*^-1 M* x = (1/theta) x.
-            st = eps.getST()
-            st.setType(SLEPc.ST.Type.SINVERT)
-            eps.setTarget(0.0)
-            eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-            configure_direct(st.getKSP())
+            configure_direct(_shift_invert(eps, 0.0))
             how += " (shift-and-invert about 0)"
     else:
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
@@ -47,29 +54,16 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
             eps.setWhichEigenpairs(SLEPc.EPS.Which.SMALLEST_REAL)
             how = f"SLEPc krylovschur, {nev} smallest"
         else:
-            st = eps.getST()
-            st.setType(SLEPc.ST.Type.SINVERT)
-            eps.setTarget(0.0)
-            eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
             # large serial pencils: MUMPS factorises 2-4x faster than PETSc's own LU (100k DOFs:
             # 0.9-1.7 s against 3.3-3.7 s, issue 14); small ones keep PETSc's (faster there)
-            configure_direct(st.getKSP(), mumps=True if n >= MUMPS_MIN_DOFS else None)
+            configure_direct(_shift_invert(eps, 0.0), mumps=True if n >= MUMPS_MIN_DOFS else None)
             how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
     return eps, how
-
-
-def _sym(A: PETSc.Mat) -> PETSc.Mat:
-    At = A.copy()
-    At.transpose()
-    At.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    At.scale(0.5)
-    return At
 
 
 def _below(A: PETSc.Mat, sigma: float) -> int:
     """Number of eigenvalues of the symmetric ``A`` at or below ``sigma`` (LDL^T inertia count of
     ``A - sigma I``; Sylvester's law of inertia)."""
-    from app.analyses.lambda2_bounds import inertia_negative_or_zero
     C = A.copy()
     try:
         C.shift(-sigma)
@@ -109,15 +103,10 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
         # in about half the work of SLEPc's default 16 (issue 14; the answer is checked by inertia)
         eps.setDimensions(nev=1, ncv=min(NEAREST_NCV, At.getSize()[0]))
         eps.setTolerances(tol=settings.tol, max_it=settings.max_it)
-        st = eps.getST()
-        st.setType(SLEPc.ST.Type.SINVERT)
-        eps.setTarget(sigma)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        configure_direct(st.getKSP(), factor="cholesky" if At.getComm().getSize() == 1 else "lu",
-                         ordering=_ordering(At))
+        ksp = configure_direct(_shift_invert(eps, sigma),
+                               factor="cholesky" if At.getComm().getSize() == 1 else "lu", ordering=_ordering(At))
         if shift_below:
             eps.setUp()
-            ksp = st.getKSP()
             ksp.setUp()
             neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
             if neg + zero > 0:
@@ -176,7 +165,7 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
     below the spectrum by an LDL^T inertia count, warm-started from ``hint`` (issue 14: 2-3x
     fewer operations than Krylov-Schur on the smallest eigenvalue, same value); plain
     Krylov-Schur if that fails."""
-    At = _sym(A)
+    At = sym_part(A)
     try:
         if At.getSize()[0] > settings.dense_limit:
             lam = _min_sym_eig_sinvert(At, settings, hint)

@@ -19,12 +19,13 @@ tolerances relative to the pencil's scale.
 """
 from __future__ import annotations
 
-import contextlib
 import itertools
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+
+from app.linalg import one_blas_thread
 
 
 class TooManySlipNodes(Exception):
@@ -38,23 +39,6 @@ RESOLVE_TOL = 1e-9
 RESIDUAL_TOL = 1e-8
 #: Elements (m * n_R^2) per LAPACK batch (bounds memory at s = 20: about 40 MB per batch).
 BATCH_ELEMENTS = 2_000_000
-
-
-_CONTROLLER: list = []
-
-
-def one_blas_thread():
-    """Context: one BLAS thread around small batched dense work (OpenBLAS threads make stacks
-    of 20 x 20 solves 10-20x slower on this kind of machine); all threads again afterwards.
-    The BLAS libraries are inspected once per process (``threadpool_limits`` scans every loaded
-    library on each call: 2-4 ms, issue 14)."""
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:              # pragma: no cover - threadpoolctl is a dependency
-        return contextlib.nullcontext()
-    if not _CONTROLLER:
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
 
 
 @dataclass
@@ -201,8 +185,7 @@ def enumerate_patterns(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, t_min: 
 
 
 def enumerate_mceip(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, max_slip: int,
-                    tol: float = 1e-9, pairs: list[tuple[int, int]] | None = None,
-                    t_max: float = np.inf) -> list[dict]:
+                    pairs: list[tuple[int, int]] | None = None) -> list[dict]:
     """All solutions of ``(A0 + t A1) x = y, y_f = 0, 0 <= x_c ⊥ y_c >= 0, t >= 0`` (dense).
 
     Returns dicts with ``value``, ``x_Ts`` (sum 1), ``pattern`` (``slip`` exactly on the support
@@ -218,5 +201,5 @@ def enumerate_mceip(A0: np.ndarray, A1: np.ndarray, comp: np.ndarray, max_slip: 
     cpos = {int(c): k for k, c in enumerate(comp)}
     cpairs = [(cpos[a], cpos[b]) for a, b in (pairs or [])]
     with one_blas_thread():
-        sols = enumerate_patterns(A0, A1, comp, t_max=t_max, pairs=cpairs)
+        sols = enumerate_patterns(A0, A1, comp, pairs=cpairs)
     return [d.as_dict(comp) for d in sols]

@@ -1,5 +1,5 @@
-"""What can be proven cheaply about MCEIP-lambda^2 (12)-(14) on the full-size pencil, and the
-``certificate`` block of its results.
+"""What can be proven cheaply about MCEIP-lambda^2 (12)-(14) on the full-size pencil (its
+``certificate`` block is built by :func:`app.analyses.certify.certificate`, as MCEIP-mu's).
 
 Sign argument (the paper's (19), generalised): at a solution ``x^T y = x_Ts^T y_Ts = 0``, so
 ``x^T (K* + t M*) x = 0`` with ``t = lambda^2``. Hence no solution has a ``t`` at which the
@@ -25,32 +25,13 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from mpi4py import MPI
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils import diag_scale
-from app.linalg import configure_direct
+from app.analyses.pencils import axpy_structure, diag_scale, sym_part
+from app.linalg import lu
 
 PROVEN = "proven"
-
-
-def certificate(method: str, interval: tuple[float, float], status: str, seconds: float,
-                detail: dict | None = None, gap: float | None = None) -> dict:
-    """The ``certificate`` block (same fields as MCEIP-mu's: method, interval, status, gap, seconds, detail).
-
-    ``interval``: the range of lambda^2 the status speaks about; ``status`` is ``"proven"`` only
-    when every solution in it is listed (none, here)."""
-    return {"method": method, "interval": [float(interval[0]), float(interval[1])], "status": status,
-            "gap": gap, "seconds": round(float(seconds), 4), "detail": detail or {}}
-
-
-def _sym(A: PETSc.Mat) -> PETSc.Mat:
-    S = A.copy()
-    S.transpose()
-    S.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    S.scale(0.5)
-    return S
 
 
 def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
@@ -59,31 +40,13 @@ def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
     evidence (``C`` positive definite): for an indefinite ``C`` PETSc's own serial factorisation
     reports counts that depend on the ordering (not the true inertia). ``ordering``: for PETSc's
     own factorisation (e.g. ``"qmd"``), default its own."""
-    ksp = PETSc.KSP().create(C.getComm())
     try:
-        ksp.setOperators(C)
-        configure_direct(ksp, factor="cholesky", inertia=True, ordering=ordering)   # MUMPS (in parallel) reports the inertia
-        pc = ksp.getPC()
-        ksp.setUp()
-        neg, zero, _ = pc.getFactorMatrix().getInertia()
+        # MUMPS (in parallel) reports the inertia
+        with lu(C, factor="cholesky", mumps=None, inertia=True, ordering=ordering) as ksp:
+            neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
         return int(neg) + int(zero)
     except PETSc.Error:
         return 1
-    finally:
-        ksp.destroy()
-
-
-def _same_pattern(A: PETSc.Mat, B: PETSc.Mat) -> bool:
-    """Same sparsity pattern on this rank (then ``axpy`` can skip the pattern merge)."""
-    ia, ja, _ = A.getValuesCSR()
-    ib, jb, _ = B.getValuesCSR()
-    return len(ia) == len(ib) and len(ja) == len(jb) and bool(np.all(ia == ib) and np.all(ja == jb))
-
-
-def axpy_structure(A: PETSc.Mat, B: PETSc.Mat) -> int:
-    """The cheapest ``Mat.Structure`` valid for ``A.axpy(a, B)`` (decided on every rank alike)."""
-    same = A.getComm().tompi4py().allreduce(_same_pattern(A, B), op=MPI.LAND)   # MPI collective
-    return PETSc.Mat.Structure.SAME_NONZERO_PATTERN if same else PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
 
 
 def proven_upper_bound(Ks: PETSc.Mat, Ms: PETSc.Mat, start: float, steps: int = 6,
@@ -93,7 +56,7 @@ def proven_upper_bound(Ks: PETSc.Mat, Ms: PETSc.Mat, start: float, steps: int = 
     ``[0, guess]`` when ``guess`` (e.g. 1.05 x the previous classification's bound) is proven
     first. Returns ``(T, detail)``; ``T = start`` when no smaller one is proven."""
     t0 = time.perf_counter()
-    SK, SM = _sym(Ks), _sym(Ms)
+    SK, SM = sym_part(Ks), sym_part(Ms)
     structure = axpy_structure(SK, SM)
     shift = 1e-10 * diag_scale(SK)      # relative safety margin for rounding in the factorisation
     counts = 0

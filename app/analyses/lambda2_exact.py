@@ -41,6 +41,8 @@ import scipy.linalg
 
 from app.analyses.certify import in_pd_plus_nn
 from app.analyses.classify import FREE, Classification
+from app.analyses.pencils import dense
+from app.analyses.state_pencils import per_system
 
 #: relative margin of the PD + NN tests (rounding of the eliminations, pencil scaled to unit diagonal)
 MARGIN = 1e-8
@@ -85,23 +87,19 @@ _SYSTEMS: dict[int, tuple[weakref.ref, DynamicContact | None]] = {}
 def dynamic_contact(system, max_dofs: int) -> DynamicContact | None:
     """The system's :class:`DynamicContact`, built on first use (MPI collective: dense copies of
     K and M on every rank); None above ``max_dofs`` or when ``(K, M)`` is not SPD."""
-    from app.analyses.pencils import dense
-    for key in [k for k, (ref, _) in _SYSTEMS.items() if ref() is None]:
-        del _SYSTEMS[key]
-    ref, dc = _SYSTEMS.get(id(system), (None, None))
-    if ref is not None and ref() is system:
-        return dc
-    dc = None
-    if system.n_dofs <= max_dofs:
-        K, M = dense(system.K), dense(system.mass())                  # MPI collective
-        dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
-        signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
-        try:
-            dc = DynamicContact.from_dense(K, M, dofs, signs)
-        except (np.linalg.LinAlgError, ValueError):
-            dc = None
-    _SYSTEMS[id(system)] = (weakref.ref(system), dc)
-    return dc
+    return per_system(_SYSTEMS, system, lambda: _build(system, max_dofs))
+
+
+def _build(system, max_dofs: int) -> DynamicContact | None:
+    if system.n_dofs > max_dofs:
+        return None
+    K, M = dense(system.K), dense(system.mass())                  # MPI collective
+    dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
+    signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
+    try:
+        return DynamicContact.from_dense(K, M, dofs, signs)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
 
 
 class _Reduction:

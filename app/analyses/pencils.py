@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.analyses.classify import FREE, SLIP, STICK, ZERO, Classification
@@ -118,6 +119,29 @@ def combine(A0: PETSc.Mat, A1: PETSc.Mat, mu: float) -> PETSc.Mat:
     A = A0.copy()
     A.axpy(mu, A1, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
     return A
+
+
+def _same_pattern(A: PETSc.Mat, B: PETSc.Mat) -> bool:
+    """Same sparsity pattern on this rank (then ``axpy`` can skip the pattern merge)."""
+    ia, ja, _ = A.getValuesCSR()
+    ib, jb, _ = B.getValuesCSR()
+    return len(ia) == len(ib) and len(ja) == len(jb) and bool(np.all(ia == ib) and np.all(ja == jb))
+
+
+def axpy_structure(A: PETSc.Mat, B: PETSc.Mat) -> int:
+    """The cheapest ``Mat.Structure`` valid for ``A.axpy(a, B)`` (decided on every rank alike)."""
+    same = A.getComm().tompi4py().allreduce(_same_pattern(A, B), op=MPI.LAND)   # MPI collective
+    return PETSc.Mat.Structure.SAME_NONZERO_PATTERN if same else PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
+
+
+def sym_part(A: PETSc.Mat) -> PETSc.Mat:
+    """New matrix ``(A + A^T) / 2``, the symmetric part used by (19) and the lambda^2 bounds
+    (the caller destroys it)."""
+    S = A.copy()
+    S.transpose()
+    S.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    S.scale(0.5)
+    return S
 
 
 def diag_scale(A: PETSc.Mat) -> float:

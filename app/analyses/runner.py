@@ -10,8 +10,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.analyses import eigen
-from app.analyses import lambda2_bounds as l2b
-from app.analyses.certify import condensed_mu_result, mu_cap
+from app.analyses.certify import certificate, condensed_mu_result, mu_cap
 from app.analyses.classify import ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.lambda2_analysis import mceip_lambda2
@@ -212,8 +211,7 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
     """
     if s == 0:
         return {**no_slip(), "certified": True,
-                "certificate": {"method": "no slip nodes (x_Ts is empty)", "interval": [0.0, float("inf")],
-                                "status": "proven", "gap": 0.0, "seconds": 0.0, "detail": {}}}
+                "certificate": certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), "proven", 0.0, gap=0.0)}
     method = scene.settings.mceip_mu_method
     if method == "condensed":
         # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
@@ -232,8 +230,7 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
     d = rep.as_dict()
     d["method"] = method
     d["certified"] = False
-    d["certificate"] = {"method": "none", "interval": [0.0, 0.0], "status": "not attempted (full-size SNES VI search)",
-                        "gap": None, "seconds": 0.0, "detail": {}}
+    d["certificate"] = certificate("none", (0.0, 0.0), "not attempted (full-size SNES VI search)", 0.0)
     for sol in d["solutions"]:
         sol["certified"] = False
     if method == "full" and keep_modes(scene):
@@ -276,9 +273,9 @@ def _enumeration_certificate(sols: list[dict]) -> dict:
     """``certified``/``certificate`` of a finished exhaustive enumeration: every support was solved."""
     for x in sols:
         x["certified"] = True
-    return {"certified": True, "certificate": {"method": "exhaustive enumeration (24)-(26), batched LAPACK",
-                                               "interval": [0.0, float("inf")], "status": "proven", "gap": 0.0,
-                                               "seconds": None, "detail": {"solutions": len(sols)}}}
+    return {"certified": True, "certificate": certificate("exhaustive enumeration (24)-(26), batched LAPACK",
+                                                          (0.0, np.inf), "proven", None,
+                                                          {"solutions": len(sols)}, gap=0.0)}
 
 
 # --- states with zero-reaction nodes (paper's set Z, general rate conditions (9)) --------------
@@ -357,7 +354,7 @@ def _analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) 
             with system.stages("MCEIP-lambda2 (12)-(14)"):
                 out["mceip_lambda2"] = search(Ks, Ms, sp, "lambda2", tau)
             out["mceip_lambda2"]["mu"] = mu_l
-            out["mceip_lambda2"].update(certified=False, certificate=l2b.certificate(
+            out["mceip_lambda2"].update(certified=False, certificate=certificate(
                 "none (zero-reaction nodes: dense SNES VI search only)", (0.0, 0.0),
                 "not proven: searched by SNES VI", 0.0))
     if "enumerate" in scene.analyses:

@@ -8,6 +8,7 @@ classification to the next along the path (shifts only: every answer is verified
 from __future__ import annotations
 
 import weakref
+from typing import Any, Callable
 
 import numpy as np
 from petsc4py import PETSc
@@ -93,19 +94,26 @@ class StatePencils:
             self._space.destroy()
 
 
+def per_system(cache: dict, system: System, make: Callable[[], Any]) -> Any:
+    """``cache``'s value for ``system``, made by ``make()`` on first use. Keyed by the system's
+    identity (a ``System`` is an unhashable dataclass) with a weak reference, so entries of
+    systems that no longer exist are dropped (and a recycled ``id`` is not mistaken for them)."""
+    for key in [k for k, (ref, _) in cache.items() if ref() is None]:
+        del cache[key]
+    ref, value = cache.get(id(system), (None, None))
+    if ref is None or ref() is not system:
+        value = make()
+        cache[id(system)] = (weakref.ref(system), value)
+    return value
+
+
 _WARM: dict[int, tuple[weakref.ref, dict]] = {}
 
 
 def warm_hints(system: System, mu: float) -> dict:
     """Eigenvalues of the previous classification along the path (per system and mu): shifts
     for the next one's eigen solves (they only speed them up; every answer is verified)."""
-    for key in [k for k, (ref, _) in _WARM.items() if ref() is None]:
-        del _WARM[key]
-    ref, hints = _WARM.get(id(system), (None, None))
-    if ref is None or ref() is not system:
-        hints = {}
-        _WARM[id(system)] = (weakref.ref(system), hints)
-    return hints.setdefault(float(mu), {})
+    return per_system(_WARM, system, dict).setdefault(float(mu), {})
 
 
 def keep_modes(scene: Scene) -> bool:

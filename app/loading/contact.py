@@ -22,18 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
-from app.linalg import configure_direct
-
-_BLAS: list = []
-
-
-def _one_blas_thread():
-    """One BLAS thread around an increment: its dense 2n x 2n LU factorisations are 2-3x faster
-    single-threaded on this size (issue 14); the sparse factorisation of K keeps all threads."""
-    if not _BLAS:
-        from threadpoolctl import ThreadpoolController
-        _BLAS.append(ThreadpoolController())      # inspected once: it scans the loaded libraries
-    return _BLAS[0].limit(limits=1, user_api="blas")
+from app.linalg import configure_direct, one_blas_thread, set_linesearch
 
 
 @dataclass
@@ -126,14 +115,7 @@ class FrictionalContact:
         try:
             snes.setType(method)
             if linesearch != "bt":
-                # petsc4py 3.18 has no SNESLineSearch object: a private options prefix, removed at once
-                snes.setOptionsPrefix("contact_inc_")
-                opts = PETSc.Options()
-                opts.setValue("contact_inc_snes_linesearch_type", linesearch)
-                try:
-                    snes.setFromOptions()
-                finally:
-                    opts.delValue("contact_inc_snes_linesearch_type")
+                set_linesearch(snes, linesearch, "contact_inc_")
             snes.setFunction(self._residual, F)
             snes.setJacobian(self._jacobian, self.J)
             snes.setVariableBounds(lo, hi)
@@ -170,7 +152,7 @@ class FrictionalContact:
         z0 = np.concatenate([g_prev, np.zeros(n)])
         best = None
         for method, linesearch in ATTEMPTS:
-            with _one_blas_thread():
+            with one_blas_thread():      # dense 2n x 2n LUs: 2-3x faster single-threaded (issue 14)
                 z, reason, its = self._snes(method, z0, 1e-14 * scale, linesearch)
             viol = self.violation(z, scale) if np.all(np.isfinite(z)) else np.inf
             if best is None or viol < best[1]:

@@ -120,7 +120,7 @@ def _scale_for_force(solver, U0, G, a0, ph: ProgramPhase, u_prev, homogeneous: b
 
 
 def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc: np.ndarray, mu: float,
-                classify_rtol: float, progress, length_unit: str = "mm"):
+                classify_rtol: float, progress):
     """Equilibrium states of the whole program; returns (states, path_info)."""
     n = U0.shape[0] // 2
     G = np.zeros(2 * n)
