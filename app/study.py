@@ -11,9 +11,9 @@ import time
 from mpi4py import MPI
 
 from app.analyses.classify import classify
-from app.analyses.enumerate import one_blas_thread
 from app.analyses.runner import analyse_condensed_distributed, analyse_state
 from app.config import Scene
+from app.linalg import one_blas_thread
 from app.progress import Progress
 from app.stages import Stages
 from app.systems import get as system_type
