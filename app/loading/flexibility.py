@@ -18,6 +18,16 @@ from petsc4py import PETSc
 from app.linalg import lu_solver
 
 
+def contact_entries(v: PETSc.Vec, dofs: np.ndarray, signs: np.ndarray) -> np.ndarray:
+    """Paper-axis contact entries ``signs * v[dofs]`` of a distributed vector, replicated on every
+    rank (MPI collective: each entry comes from its owner)."""
+    r0, r1 = v.getOwnershipRange()
+    mine = (dofs >= r0) & (dofs < r1)
+    local = np.zeros(len(dofs))
+    local[mine] = v.getArray(readonly=True)[dofs[mine] - r0]
+    return signs * v.getComm().tompi4py().allreduce(local, op=MPI.SUM)     # MPI collective
+
+
 @dataclass
 class ContactFlexibility:
     """Contact flexibility in the paper's axes, order (T_0, N_0, T_1, N_1, ...)."""
@@ -34,6 +44,16 @@ class ContactFlexibility:
         """Schur complement of K onto the contact DOFs: W^-1 (symmetrised), computed once."""
         S = np.linalg.inv(self.W)
         return 0.5 * (S + S.T)
+
+    def contact_response(self, b: PETSc.Vec) -> np.ndarray:
+        """Paper-axis contact displacements ``B K^-1 b`` with zero reactions (one solve with the
+        factorised K; MPI collective)."""
+        x = b.duplicate()
+        try:
+            self.ksp.solve(b, x)
+            return contact_entries(x, self.dofs, self.signs)
+        finally:
+            x.destroy()
 
     def field(self, gx: float, gy: float, r: np.ndarray) -> PETSc.Vec:
         """Reduced displacement solving K u = gx f_x + gy f_y + B^T (signs * r) (one solve)."""

@@ -175,13 +175,8 @@ class _FieldMaker:
 
     def _contact_values(self, vec) -> np.ndarray:
         """Contact displacements of a system vector in paper axes (T0, N0, T1, ...), replicated."""
-        r0, r1 = vec.getOwnershipRange()
-        arr = vec.getArray(readonly=True)
-        dofs = self.dofs
-        mine = (dofs >= r0) & (dofs < r1)
-        local = np.zeros(len(dofs))
-        local[mine] = arr[dofs[mine] - r0]
-        return self.signs * self.comm.allreduce(local)                           # MPI collective
+        from app.loading.flexibility import contact_entries
+        return contact_entries(vec, self.dofs, self.signs)                 # MPI collective
 
     def mode(self, entry: dict, problem: str, sol: dict) -> tuple[np.ndarray | None, str]:
         """Mode displacement (N, 2) on rank 0, normalised to max |v| = 1, and how it was built."""

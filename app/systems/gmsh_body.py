@@ -40,21 +40,9 @@ def _point(xy, size: float) -> str:
     return "(" + ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, xy)) + ")"
 
 
-def _contact_columns(flex, loads: list[PETSc.Vec], K: PETSc.Mat) -> np.ndarray:
+def _contact_columns(flex, loads: list[PETSc.Vec]) -> np.ndarray:
     """U0: paper-axis contact displacements of every unit load parameter (one solve each, collective)."""
-    comm = K.getComm().tompi4py()
-    x = K.createVecRight()
-    r0, r1 = x.getOwnershipRange()
-    mine = (flex.dofs >= r0) & (flex.dofs < r1)
-    cols = []
-    try:
-        for b in loads:
-            flex.ksp.solve(b, x)
-            local = np.zeros(len(flex.dofs))
-            local[mine] = x.getArray(readonly=True)[flex.dofs[mine] - r0]
-            cols.append(flex.signs * comm.allreduce(local, op=MPI.SUM))   # MPI collective
-    finally:
-        x.destroy()
+    cols = [flex.contact_response(b) for b in loads]
     return np.column_stack(cols) if cols else np.zeros((len(flex.dofs), 0))
 
 
@@ -84,7 +72,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         if (not np.all(np.isfinite(flex.W)) or np.linalg.eigvalsh(flex.W).min() <= 0
                 or np.abs(flex.W).max() * kmax > 1e10):
             raise BodyError(SINGULAR)
-        U0 = _contact_columns(flex, ops.loads, ops.K)
+        U0 = _contact_columns(flex, ops.loads)
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
     gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
     gaps[np.abs(gaps) <= 1e-10 * size] = 0.0
