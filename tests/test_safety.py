@@ -197,6 +197,20 @@ def test_two_concurrent_runs_to_one_folder_one_is_refused(tmp_path):
     _no_litter(tmp_path)
 
 
+def test_a_users_file_named_like_the_lock_is_kept(tmp_path):
+    """A file ``.out.lock`` the app did not create (a user's own) is locked during the run but
+    neither written nor removed; the run's own lock file is removed as before."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(TP)
+    users = tmp_path / ".out.lock"
+    users.write_text("my notes\n")
+    users.chmod(0o444)
+    assert run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q").returncode == 0
+    assert users.read_text() == "my notes\n" and (tmp_path / "out" / "results.json").exists()
+    assert run_cli("run", str(scene), "-o", str(tmp_path / "out2"), "-q").returncode == 0
+    assert not (tmp_path / ".out2.lock").exists()
+
+
 def test_a_held_lock_refuses_the_run_and_the_sweep(tmp_path):
     from app.outputs.folder import FolderLock
     scene = tmp_path / "s.yaml"

@@ -120,24 +120,45 @@ def folder_of(lock_path: pathlib.Path) -> pathlib.Path:
 
 
 class FolderLock:
-    """An exclusive ``flock`` on ``.NAME.lock`` beside a folder (refuses a second concurrent run)."""
+    """An exclusive ``flock`` on ``.NAME.lock`` beside a folder (refuses a second concurrent run).
+
+    The lock file is removed at the end only by the run that created it: a file of that name
+    that was already there (a user's own, or one left by a killed run) is locked but kept."""
 
     def __init__(self, folder: pathlib.Path):
         self.path = folder.parent / f".{folder.name}.lock"
         self._fd: int | None = None
+        self._created = False
+
+    def _open(self) -> tuple[int | None, bool, str | None]:
+        """(fd, created by this call, problem): create the lock file, or open the one already there."""
+        cloexec = getattr(os, "O_CLOEXEC", 0)
+        try:
+            return os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL | cloexec, 0o666), True, None
+        except FileExistsError:
+            pass
+        except OSError as err:
+            return None, False, (f"cannot write the output folder {folder_of(self.path)}: cannot create the lock "
+                                 f"file {self.path}: {err.strerror or err}")
+        try:       # read-only, non-blocking: never written, and a FIFO of that name cannot hang the run
+            return os.open(self.path, os.O_RDONLY | os.O_NONBLOCK | cloexec), False, None
+        except FileNotFoundError:                # removed meanwhile by a finishing run: try again
+            return None, False, None
+        except OSError as err:
+            return None, False, f"cannot open the lock file {self.path}: {err.strerror or err}"
 
     def acquire(self) -> str | None:
         """None on success, else the one-line problem."""
         for _ in range(3):
-            try:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
-            except OSError as err:
-                return (f"cannot write the output folder {folder_of(self.path)}: cannot create the lock file "
-                        f"{self.path}: {err.strerror or err}")
+            fd, created, problem = self._open()
+            if problem is not None:
+                return problem
+            if fd is None:
+                continue
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError as err:
-                os.close(fd)
+                os.close(fd)       # (a file this call created is kept: the run holding it now owns it)
                 if err.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
                     return (f"another run is writing to {folder_of(self.path)} (lock {self.path} "
                             f"is held): wait for it to finish or choose another folder with -o")
@@ -147,17 +168,18 @@ class FolderLock:
             except OSError:
                 same = False
             if same:
-                self._fd = fd
+                self._fd, self._created = fd, created
                 return None
             os.close(fd)
         return f"cannot lock {self.path}: it keeps being replaced"
 
     def release(self) -> None:
         if self._fd is not None:
-            try:
-                os.unlink(self.path)
-            except OSError:
-                pass
+            if self._created:
+                try:
+                    os.unlink(self.path)
+                except OSError:
+                    pass
             os.close(self._fd)
             self._fd = None
 
