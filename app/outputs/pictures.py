@@ -12,6 +12,7 @@ import logging
 import os
 import pathlib
 import sys
+import tempfile
 import time
 
 from app.outputs.select import select_states
@@ -119,7 +120,7 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     from app.outputs.screenshots import job_of, resolution_arg
     t0 = time.perf_counter()
     shots_cfg = cfg.get("screenshots") or {}
-    job = outdir / f".pictures-job-{os.getpid()}.json"
+    job = None
     running, out = [], {}
     try:
         with _survive("plots and screenshots", notes):
@@ -129,7 +130,11 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
                 _remove_old(outdir / "screenshots", ("*.png",))
             data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
                           progress)
-            job.write_text(json.dumps({**data, "plots_dir": str(outdir / "plots")}))
+            # a new file of this run's own (exclusive create), removed below
+            fd, name = tempfile.mkstemp(dir=outdir, prefix=".pictures-job-", suffix=".json")
+            job = pathlib.Path(name)
+            with os.fdopen(fd, "w") as f:
+                json.dump({**data, "plots_dir": str(outdir / "plots")}, f)
             for stage, kind, want, arg in ((PICTURE_STAGES[1], "screenshots", want_shots, resolution_arg(shots_cfg)),
                                            (PICTURE_STAGES[0], "plots", want_plots, "")):
                 if want:
@@ -144,7 +149,8 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     finally:
         for _, child in running:
             child.close()
-        job.unlink(missing_ok=True)
+        if job is not None:
+            job.unlink(missing_ok=True)
     log.info("plots and screenshots: %.2f s after the run (drawn at the same time by two processes)",
              time.perf_counter() - t0)
     return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
