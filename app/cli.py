@@ -1,4 +1,4 @@
-"""Command line: ``python -m app run|validate`` (also the ``contact-divergence`` console script).
+"""Command line: ``python -m app run|validate|render|check`` (also the ``contact-divergence`` console script).
 
 Exit status: 0 success, 2 a user mistake (bad scene file, unwritable output folder, a folder
 holding other files, a scene over the resource limits), 3 the study ran but some states failed
@@ -37,6 +37,7 @@ examples:
   python -m app run scene.yaml -o out/      # results in out/results.json and out/steps.csv
   mpirun -n 2 python -m app run scene.yaml  # same numbers, in parallel
   python -m app validate scene.yaml         # check a scene file without running it
+  python -m app check out/                  # re-verify the MCEIP-mu proofs stored in out/proofs
   mpirun -n 4 python -m app run sweep.yaml --ranks-per-case 2   # a scene with a 'sweep' section:
                                             # its cases farmed out to groups of 2 ranks
 exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json),
@@ -80,6 +81,13 @@ def _parser() -> argparse.ArgumentParser:
                          description="Check a scene file without running it (exit status 0 ok, 2 bad "
                                      "input); then run it with: python -m app run SCENE")
     val.add_argument("scene", help="scene YAML file")
+    chk = sub.add_parser("check", help="re-verify the MCEIP-mu proofs stored in a results folder",
+                         description="Re-run the independent proof checker on every proof stored in a "
+                                     "results folder (proofs/state_<k>.npz: the condensed pencil and its proof "
+                                     "log) and compare what it accepts with what results.json claims.",
+                         epilog="exit status: 0 every claim re-verified, 1 a claim was not, 2 bad input")
+    chk.add_argument("results", help="results folder (the one holding results.json and proofs/)")
+    chk.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
     return p
 
 
@@ -112,6 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "render":
         from app.outputs.render import render_main
         return _guarded(render_main, args)
+    if args.command == "check":
+        return _check(args)
     return _guarded(_main, args)
 
 
@@ -139,6 +149,34 @@ def _guarded(fn, args) -> int:
         raise
     except Exception:
         return _unexpected()
+
+
+def _check(args) -> int:
+    """``python -m app check RESULTS``: every stored proof re-verified by the checker."""
+    import json
+    import zipfile
+
+    from app.outputs.proofs import check_folder
+    folder = pathlib.Path(args.results)
+    if not (folder / "results.json").is_file():
+        return _fail(f"{folder}: no results.json (give the folder a run wrote)")
+    try:
+        checks = check_folder(folder)
+    except (OSError, ValueError, KeyError, json.JSONDecodeError, zipfile.BadZipFile) as err:
+        return _fail(f"{folder}: cannot read the stored proofs: {type(err).__name__}: {err}")
+    bad = [c for c in checks if not c.ok]
+    if not args.quiet:
+        for c in checks:
+            claims = f"onset {'re-verified' if c.onset_accepted else 'REJECTED' if c.onset_claimed else 'not claimed'}, " \
+                     f"list {'re-verified' if c.all_accepted else 'REJECTED' if c.all_claimed else 'not claimed'}"
+            extra = "" if c.values_match else ", values differ from results.json"
+            print(f"state {c.state} (s = {c.s}): {claims}{extra}" + (f" ({'; '.join(c.errors)})" if not c.ok else ""))
+    if not checks:
+        print(f"{folder}: no stored proofs (proofs/ is empty or absent)")
+        return 0
+    print(f"{folder}: {len(checks) - len(bad)} of {len(checks)} stored proofs re-verified"
+          + ("" if not bad else f"; {len(bad)} rejected"))
+    return 1 if bad else 0
 
 
 def _unexpected() -> int:

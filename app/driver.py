@@ -34,11 +34,13 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
         results = run_study(scene, comm, progress, outdir=outdir)
         if comm.rank == 0:
             from app.outputs.pictures import draw_after_run  # plots, screenshots, report (if asked)
+            from app.outputs.proofs import write_proofs
             from app.outputs.results import write_results
             if extra:
                 results.update(extra)
+            proofs = write_proofs(results, outdir)      # before the drawing drops the in-memory pencils
             results = draw_after_run(results, outdir, progress)
-            write_results(results, outdir)
+            write_results(results, outdir, proofs_written=bool(proofs))
     return results
 
 

@@ -40,13 +40,19 @@ class McpSettings(Strict):
     rsls_linesearch: Literal["bt", "basic", "l2", "cp"] = "bt"
     # a SNES VI run whose residual has not halved in this many iterations is stopped as failed (0: off)
     stagnation_its: Annotated[int, Field(ge=0, le=10000)] = 10
-    # Certificates for the condensed MCEIP-mu (app/analyses/certify.py, DESIGN.md section 7):
-    # every critical mu up to the cap is proven; the cap is mu_cap, or mu_cap_factor x the scene's mu.
+    # Proofs for the condensed MCEIP-mu (app/analyses/mceip_mu, docs/proofs.md): the onset and every
+    # critical mu up to the cap; the cap is mu_cap, or mu_cap_factor x the scene's mu.
     certify: bool = True
     mu_cap: Optional[PosFloat] = None
     mu_cap_factor: PosFloat = 10.0
-    certify_seconds: PosFloat = 60.0            # per-state budget: an unfinished proof says so
-    certify_enumerate_max: Annotated[int, Field(ge=0, le=20)] = 12   # enumeration up to here, SCIP above
+    certify_seconds: PosFloat = 60.0            # per-state budget: an unfinished proof says what it proved
+    # floating-point enumeration of every support gives the proof's candidates up to here, the search above
+    certify_enumerate_max: Annotated[int, Field(ge=0, le=20)] = 12
+    certify_all_max: Annotated[int, Field(ge=0, le=1000)] = Field(
+        22, description="the complete list of critical mu below the cap is proven up to this many slip nodes "
+                        "(the onset at any size)")
+    certify_all_seconds: PosFloat = Field(
+        2.0, description="budget per state for the complete list once the onset is proven [s]")
     # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
     # prove "no solution" up to this many DOFs (app/analyses/lambda2_exact.py); SNES VI search otherwise
     lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500
@@ -56,8 +62,8 @@ class McpSettings(Strict):
     # large condensed problems (100k-DOF studies, issue 14): above search_full_max slip nodes the search
     # runs a reduced start set (uniform x and x on search_one_node spread unknowns with every t0, the
     # all-slip eigenvectors, the previous classification's solutions within a chain of warm_chain
-    # classifications along the path) and SCIP gets certify_seconds_large (0: not started) instead of
-    # certify_seconds; an unfinished proof says "not proven within N s"
+    # classifications along the path) and the proof gets certify_seconds_large instead of
+    # certify_seconds; an unfinished proof says what it proved
     search_full_max: Annotated[int, Field(ge=0, le=100_000)] = Field(
         40, description="condensed MCEIP-mu: above this many slip nodes, the reduced search and certify_seconds_large")
     search_one_node: Annotated[int, Field(ge=2, le=100_000)] = Field(
@@ -65,7 +71,7 @@ class McpSettings(Strict):
     warm_chain: Annotated[int, Field(ge=1, le=100_000)] = Field(
         8, description="classifications per warm-started chain along the path (one rank per chain)")
     certify_seconds_large: NonNegFloat = Field(
-        0.25, description="SCIP budget per state above search_full_max slip nodes [s] (0: not started)")
+        5.0, description="proof budget per state above search_full_max slip nodes [s]")
 
 
 class EigSettings(Strict):

@@ -189,7 +189,7 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
             c = b + h
             slope = (red.at(c)[1] - Qb) / (c - b)
             La, Lb = Sa + Qb - h * slope, Sb + Qb
-        if in_pd_plus_nn(La, MARGIN) and in_pd_plus_nn(Lb, MARGIN):
+        if in_pd_plus_nn(La) and in_pd_plus_nn(Lb):
             proven_count += 1
         elif level < depth:
             m = 0.5 * (a + b)

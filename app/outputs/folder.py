@@ -29,7 +29,7 @@ FORMAT_VERSION = 1
 MARKER = ".contact-divergence.json"
 # Top-level names the app writes into a results folder (``render`` may add some after the run).
 APP_ENTRIES = frozenset({"results.json", "steps.csv", "report.md", "plots", "screenshots", "paraview", "fields",
-                         "levels", "refinement.csv", "refinement.json", "refinement.md", "refinement.png",
+                         "proofs", "levels", "refinement.csv", "refinement.json", "refinement.md", "refinement.png",
                          "refinement.svg"})
 
 

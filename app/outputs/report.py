@@ -105,7 +105,8 @@ def _solutions(a: dict | None, key: str = "solutions") -> str:
     if a.get("not_applicable"):
         return "n/a"
     sols = a.get(key) or []
-    word = "proven" if a.get("certified") else "found (not proven)"
+    word = "proven" if a.get("certified") else \
+        "onset proven" if (a.get("onset") or {}).get("proven") else "found (not proven)"
     if not sols:
         return f"none ({word})"
     return f"{word}: " + ", ".join(f"{_fmt(s['value'])} ({''.join('S' if p == 'slip' else '-' for p in s.get('pattern', []))})"

@@ -7,12 +7,21 @@ from app.study_result import StudyResult
 
 
 def proof_word(analysis: dict) -> str:
-    """``proven`` when the analysis carries ``certified: true`` (app/analyses/certify.py), else
-    ``found (not proven)``; the certificate's interval is named when there is one."""
+    """What is proven about an analysis: ``proven on [0, cap]`` when ``certified`` (the checker
+    accepted every claim), ``onset proven; list ...`` when only the MCEIP-mu onset is, else
+    ``found (not proven)`` with the proven lower bound when there is one."""
     if analysis.get("certified"):
         iv = (analysis.get("certificate") or {}).get("interval")
         iv = [float(v) for v in iv] if iv else iv     # an infinite end is written as a string in results.json
         return f"proven on [{iv[0]:.6g}, {iv[1]:.6g}]" if iv and iv[1] > iv[0] else "proven"
+    onset = analysis.get("onset") or {}
+    if onset.get("proven"):
+        cap = (analysis.get("certificate") or {}).get("cap")
+        where = f" below {float(cap):.6g}" if cap is not None else ""
+        return f"onset proven; list of values{where} not proven"
+    lb = ((analysis.get("certificate") or {}).get("detail") or {}).get("lower_bound")
+    if lb:
+        return f"found (not proven; proven: none below {float(lb):.6g})"
     return "found (not proven)"
 
 

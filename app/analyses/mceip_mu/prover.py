@@ -1,0 +1,382 @@
+"""Branch and bound that proves the condensed MCEIP-mu (21)-(23) and writes the proof log.
+
+A node ``(U, [a, b])`` stands for "every solution whose support lies in ``U`` and whose mu lies in
+``[a, b]``". It is closed by one of the tests of :mod:`app.analyses.mceip_mu.checker`:
+
+* ``cop``: the sign argument, ``sym(D A_UU)`` strictly copositive at ``a`` and ``b``, with ``D = I``
+  or the diagonal ``z / x`` of the right and left eigenvectors of ``A_UU`` at an end (a
+  Perron-like scaling that keeps the asymmetry of the pencil; it proves the onset of the 100k-DOF
+  block's all-slip states where no symmetric test can);
+* ``bisect``: the interval is halved;
+* ``drop``: the supports in ``U`` are those in some ``U \\ {i}`` plus ``U`` itself, whose exact
+  support problem (25)-(26) becomes a ``leaf``: every real eigenvalue of ``A_UU(mu)`` in
+  ``[a, b]`` gets a Krawczyk window (one verified eigenpair, decided as solution or not), and the
+  rest of ``[a, b]`` is proven free of eigenvalues (nonsingular on sub-intervals).
+
+Two claims, in this order: the **onset** (no solution in ``[0, L]``, and a verified solution just
+above ``L``; or none below the cap), then **every solution in [0, cap]** (roots tiling
+``[0, cap]``). The floating-point candidates (search or enumeration) only guide the tree; every
+claim is what :func:`app.analyses.mceip_mu.checker.check_log` accepts.
+"""
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from app.analyses.mceip_mu import checker as ck
+from app.linalg import one_blas_thread
+
+#: relative half-width of the window around a verified eigenvalue (the accuracy of a proven value)
+WINDOW_REL = 1e-9
+#: relative interval width below which a node (small U) is split by supports instead of bisected
+BISECT_REL = 0.25
+#: a node whose U is larger than this is not split by supports (fan-out |U|): it stays open
+DROP_MAX = 22
+
+
+@dataclass
+class Found:
+    """A verified solution: exact support ``U``, window witness and enclosure."""
+    U: tuple[int, ...]
+    mu: float
+    h: float
+    x: np.ndarray
+    enc: tuple[float, float]
+    min_x: float
+    min_y: float
+    verdict: str
+
+
+@dataclass
+class Tree:
+    """The nodes built so far, with the memo ``(U, a, b) -> id``."""
+    nodes: list[ck.Node] = field(default_factory=list)
+    memo: dict = field(default_factory=dict)
+
+    def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open") -> tuple[ck.Node, bool]:
+        key = (U, a, b, kind == "leaf-pending")      # a leaf and the drop node of the same U differ
+        if key in self.memo:
+            return self.nodes[self.memo[key]], False
+        n = ck.Node(len(self.nodes), list(U), float(a), float(b), kind)
+        self.nodes.append(n)
+        self.memo[key] = n.id
+        return n, True
+
+
+class Prover:
+    """The proof of one pencil (scaled exactly by a power of two)."""
+
+    def __init__(self, A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), deadline: float = math.inf):
+        A0 = np.asarray(A0, dtype=float)
+        A1 = np.asarray(A1, dtype=float)
+        self.s = A0.shape[0]
+        diag = np.abs(np.diag(A0))
+        ref = float(np.max(diag)) if np.max(diag, initial=0.0) > 0 else float(np.max(np.abs(A0), initial=1.0))
+        self.scale_exp = int(math.frexp(ref)[1]) if ref > 0 and math.isfinite(ref) else 0
+        self.a0, self.a1 = ck.scaled(A0, A1, self.scale_exp)
+        self.cap = float(cap)
+        self.pairs = [tuple(sorted((int(a), int(b)))) for a, b in pairs]
+        self.tree = Tree()
+        self.deadline = deadline
+        self.found: dict[tuple, Found] = {}
+        self.ill: list[Found] = []
+        self.leaf_cache: dict = {}
+
+    # --- tests ------------------------------------------------------------------------------
+
+    def _dvectors(self, U: np.ndarray, a: float, b: float) -> list[np.ndarray]:
+        """Candidate diagonals: ``I`` and ``z / x`` at each end (when both vectors are positive)."""
+        out = [np.ones(len(U))]
+        for mu in (b, a) if a != b else (b,):
+            A = self.a0[np.ix_(U, U)] + mu * self.a1[np.ix_(U, U)]
+            try:
+                w, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+            except (np.linalg.LinAlgError, ValueError):
+                continue
+            if not np.all(np.isfinite(w)):
+                continue
+            j = int(np.argmin(w.real))
+            if abs(w[j].imag) > 1e-12 * max(1.0, abs(w[j].real)):
+                continue
+            x, z = vr[:, j].real, vl[:, j].real
+            x = x * np.sign(np.sum(x))
+            z = z * np.sign(np.sum(z))
+            if np.all(x > 0) and np.all(z > 0):
+                d = z / x
+                d = d / math.exp(float(np.mean(np.log(d))))
+                if np.all(np.isfinite(d)) and np.max(d) / np.min(d) < 1e12:
+                    out.append(d)
+        return out
+
+    def _try_cop(self, n: ck.Node) -> bool:
+        U = np.asarray(n.U, dtype=np.int64)
+        one = np.ones(len(U))
+        for theta in (0.0, 1.0):
+            if ck.closes_subsets(self.a0, self.a1, U, n.a, n.b, one, theta):
+                n.kind, n.d, n.theta = "cop", [1.0] * len(U), theta
+                return True
+        for d in self._dvectors(U, n.a, n.b)[1:]:
+            for theta in (0.0, 1.0, 0.5):
+                if ck.closes_subsets(self.a0, self.a1, U, n.a, n.b, d, theta):
+                    n.kind, n.d, n.theta = "cop", [float(v) for v in d], theta
+                    return True
+        return False
+
+    def _eigen(self, U: np.ndarray) -> list[tuple[float, np.ndarray]]:
+        """Real eigenpairs ``(mu, x)`` of ``(A0 + mu A1)[U, U] x = 0`` (floating point)."""
+        key = tuple(U)
+        if key in self.leaf_cache:
+            return self.leaf_cache[key]
+        s0, s1 = self.a0[np.ix_(U, U)], self.a1[np.ix_(U, U)]
+        try:
+            w, V = scipy.linalg.eig(s0, -s1)
+        except (np.linalg.LinAlgError, ValueError):
+            w, V = np.array([]), np.zeros((len(U), 0))
+        out = []
+        for j in range(len(w)):
+            if not np.isfinite(w[j]) or abs(w[j].imag) > 1e-7 * max(1.0, abs(w[j].real)):
+                continue
+            mu = float(w[j].real)
+            x = V[:, j].real.copy()
+            # polish: the null vector of A(mu) by one inverse-iteration step
+            A = s0 + mu * s1
+            try:
+                _, _, Vh = np.linalg.svd(A)
+                x = Vh[-1]
+            except np.linalg.LinAlgError:
+                pass
+            out.append((mu, x))
+        out.sort(key=lambda t: t[0])
+        self.leaf_cache[key] = out
+        return out
+
+    def _leaf(self, n: ck.Node) -> bool:
+        """Exact support ``U`` on ``[a, b]``: windows around its real eigenvalues, gaps between."""
+        U = np.asarray(n.U, dtype=np.int64)
+        n.kind = "leaf"
+        if not ck._allowed(n.U, self.pairs):
+            n.kind = "pair"
+            return True
+        a, b = n.a, n.b
+        pieces: list[tuple[float, float]] = []
+        eig = [(mu, x) for mu, x in self._eigen(U) if a - 1e-6 * max(1.0, abs(mu)) <= mu <= b + 1e-6 * max(1.0, abs(mu))]
+        mus = [mu for mu, _ in eig]
+        for j, (mu, x) in enumerate(eig):
+            h = WINDOW_REL * max(abs(mu), 1e-3)
+            near = [abs(mu - m) for k, m in enumerate(mus) if k != j]
+            if near and min(near) < 4 * h:
+                h = 0.25 * min(near)
+            win = None
+            for _ in range(3):
+                if h <= 0:
+                    break
+                res = ck.verify_window(self.a0, self.a1, U, mu, x, h, self.cap)
+                if res.ok:
+                    win = res
+                    break
+                h *= 0.1
+            if win is None:
+                n.kind = "open"
+                return False
+            n.windows.append({"mu": mu, "h": h, "x": [float(v) for v in x]})
+            pieces.append((win.mu_lo, win.mu_hi))
+            if win.verdict in ("solution", "ill-conditioned"):
+                f = Found(tuple(n.U), mu, h, x.copy(), (win.enc_lo, win.enc_hi), win.min_x, win.min_y, win.verdict)
+                if win.verdict == "solution":
+                    self.found[(f.U, round(win.enc_lo, 12))] = f
+                else:
+                    self.ill.append(f)
+        # the rest of [a, b]: intervals on which A_UU(mu) is nonsingular (the checker redoes this)
+        if ck.cover_nonsingular(self.a0, self.a1, U, a, b, pieces, deadline=self.deadline):
+            return True
+        n.kind = "open"
+        return False
+
+    # --- the search --------------------------------------------------------------------------
+
+    def explore(self, root: ck.Node, stop_below: float | None = None) -> list[ck.Node]:
+        """Close every node under ``root`` (best first: lowest ``a``). Returns the nodes left open
+        (deadline or undecidable). ``stop_below``: for the onset, abandon as soon as a solution
+        with mu at or below it is found (the caller restarts with a lower target)."""
+        heap = [(n.a, n.id) for n in self._open_under([root])]
+        left: list[ck.Node] = []
+        queued = {i for _, i in heap}
+        while heap:
+            _, i = heapq.heappop(heap)
+            n = self.tree.nodes[i]
+            if time.perf_counter() > self.deadline:
+                left.append(n)
+                left += [self.tree.nodes[j] for _, j in heap]
+                break
+            if n.kind != "open":
+                continue
+            if self._try_cop(n):
+                continue
+            width = n.b - n.a
+            kids: list[ck.Node] = []
+            if width > BISECT_REL * max(abs(n.b), 1e-3) or len(n.U) > DROP_MAX:
+                m = 0.5 * (n.a + n.b)
+                if not (n.a < m < n.b) or width <= 1e-14 * max(abs(n.b), 1e-3):
+                    left.append(n)       # undecidable in double precision at this width
+                    continue
+                c1, _ = self.tree.add(tuple(n.U), n.a, m)
+                c2, _ = self.tree.add(tuple(n.U), m, n.b)
+                n.kind, n.children = "bisect", [c1.id, c2.id]
+                kids = [c1, c2]
+            else:
+                leaf, new = self.tree.add(tuple(n.U), n.a, n.b, "leaf-pending")
+                if new:
+                    leaf.kind = "open"
+                    if not self._leaf(leaf):
+                        left.append(leaf)
+                kids_ids = [leaf.id]
+                if len(n.U) > 1:
+                    for i in n.U:
+                        c, _ = self.tree.add(tuple(j for j in n.U if j != i), n.a, n.b)
+                        kids_ids.append(c.id)
+                        kids.append(c)
+                n.kind, n.children = "drop", kids_ids
+                if stop_below is not None and any(f.enc[0] <= stop_below for f in self.found.values()):
+                    return [n]
+            for c in self._open_under(kids):
+                if c.id not in queued:
+                    queued.add(c.id)
+                    heapq.heappush(heap, (c.a, c.id))
+        return left
+
+    def _open_under(self, kids: list[ck.Node]) -> list[ck.Node]:
+        """The open nodes among ``kids`` and under them (a memoised child may have been split by
+        an earlier, abandoned exploration and still hold open nodes)."""
+        out, stack, seen = [], list(kids), set()
+        while stack:
+            c = stack.pop()
+            if c.id in seen:
+                continue
+            seen.add(c.id)
+            if c.kind == "open":
+                out.append(c)
+            else:
+                stack.extend(self.tree.nodes[j] for j in c.children)
+        return out
+
+    def log(self, onset_root, onset_below, all_roots, witness: Found | None) -> ck.ProofLog:
+        w = None if witness is None else {"U": list(witness.U), "mu": witness.mu, "h": witness.h,
+                                          "x": [float(v) for v in witness.x]}
+        return ck.ProofLog(self.s, self.cap, self.scale_exp, [list(p) for p in self.pairs], self.tree.nodes,
+                           onset_root, onset_below, all_roots, w)
+
+
+@dataclass
+class ProofOutcome:
+    """What the prover built (to be accepted by the checker): the log and the open nodes."""
+    log: ck.ProofLog
+    found: list[Found]
+    ill: list[Found]
+    onset_done: bool
+    all_done: bool
+    all_proven_to: float            # every solution in [0, all_proven_to] is listed (if the checker agrees)
+    nodes: int
+    seconds: float
+
+
+def _seed_candidates(P: Prover, candidates) -> None:
+    """Verify the search's candidate solutions (support, mu, x) as leaves of their own support."""
+    for U, mu, x in candidates:
+        U = tuple(sorted(int(i) for i in U))
+        if not U or not (0.0 <= mu <= P.cap * (1 + 1e-9)):
+            continue
+        Ua = np.asarray(U, dtype=np.int64)
+        h = WINDOW_REL * max(abs(mu), 1e-3)
+        xs = np.asarray(x, dtype=float)
+        if len(xs) == P.s:
+            xs = xs[Ua]
+        res = ck.verify_window(P.a0, P.a1, Ua, float(mu), xs, h, P.cap)
+        if res.ok and res.verdict == "solution":
+            P.found[(U, round(res.enc_lo, 12))] = Found(U, float(mu), h, xs.copy(), (res.enc_lo, res.enc_hi),
+                                                       res.min_x, res.min_y, res.verdict)
+
+
+def _bound(P: Prover, hi: float) -> tuple[int | None, float | None]:
+    """A fallback claim when the onset is not proven: the largest ``L`` (bisection) with the
+    sign argument on all supports closing ``[0, L]`` in one node."""
+    all_idx = tuple(range(P.s))
+    best = None
+    lo, up = 0.0, hi
+    for _ in range(40):
+        m = up if best is None and lo == 0.0 and up == hi else 0.5 * (lo + up)
+        n, _ = P.tree.add(all_idx, 0.0, m)
+        if n.kind == "cop" or (n.kind == "open" and P._try_cop(n)):
+            best, lo = n, m
+            if m >= hi:
+                break
+        else:
+            up = m
+        if up - lo <= 1e-6 * max(up, 1e-3):
+            break
+    return (best.id, best.b) if best is not None else (None, None)
+
+
+def prove(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), candidates=(), seconds: float = 60.0,
+          want_all: bool = True, all_seconds: float | None = None) -> ProofOutcome:
+    """Build the proof of the onset and (``want_all``) of every solution in ``[0, cap]``.
+
+    ``candidates``: ``(support indices, mu, x)`` from a search (they only guide the proof)."""
+    with one_blas_thread():
+        return _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds)
+
+
+def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds) -> ProofOutcome:
+    t0 = time.perf_counter()
+    P = Prover(A0, A1, cap, pairs, deadline=t0 + seconds)
+    all_idx = tuple(range(P.s))
+    _seed_candidates(P, candidates)
+    onset_root = onset_below = None
+    witness = None
+    onset_done = False
+    for _ in range(50):        # restarts when the tree finds a solution below the target
+        below = sorted(P.found.values(), key=lambda f: f.enc[0])
+        witness = below[0] if below else None
+        target = P.cap if witness is None else float(np.nextafter(min(witness.enc[0], witness.mu - witness.h),
+                                                                   -np.inf))
+        if target < 0:
+            target = 0.0
+        root, _ = P.tree.add(all_idx, 0.0, target)
+        left = P.explore(root, stop_below=target)
+        newer = [f for f in P.found.values() if f.enc[0] <= target]
+        if newer and (witness is None or min(f.enc[0] for f in newer) < witness.enc[0]):
+            continue
+        onset_root, onset_below = root.id, target
+        onset_done = not left
+        break
+    bound_root, bound = None, None
+    if not onset_done:
+        bound_root, bound = _bound(P, onset_below if onset_below is not None else P.cap)
+    all_roots: list[int] = []
+    all_done = False
+    proven_to = onset_below if onset_done and onset_below is not None else 0.0
+    if want_all and onset_done:
+        all_roots = [onset_root]
+        if onset_below < P.cap:
+            if all_seconds is not None:
+                P.deadline = min(P.deadline, time.perf_counter() + all_seconds)
+            root2, _ = P.tree.add(all_idx, onset_below, P.cap)
+            all_roots.append(root2.id)
+            left = P.explore(root2)
+            all_done = not left
+            proven_to = P.cap if all_done else min(n.a for n in left)
+            if not all_done:
+                all_roots = []          # an unfinished list is not logged (the checker would reject it)
+        else:
+            all_done = True
+            proven_to = P.cap
+    log = P.log(onset_root if onset_done else None, onset_below if onset_done else None, all_roots,
+                witness if onset_done else None)
+    log.bound_root, log.bound = bound_root, bound
+    log.prune()
+    return ProofOutcome(log, sorted(P.found.values(), key=lambda f: f.enc[0]), P.ill, onset_done, all_done,
+                        proven_to, len(P.tree.nodes), time.perf_counter() - t0)
