@@ -16,14 +16,15 @@ from typing import TYPE_CHECKING, Any
 
 from app.version import __version__  # noqa: F401 - ``app.__version__``, printed by ``python -m app --version``
 
-__all__ = ["CriticalMu", "MceipResult", "MceipSolution", "NecessaryResult", "Node", "Scene", "SceneError",
-           "StateResult", "StudyResult", "SufficientResult", "load_scene", "run_study"]
+__all__ = ["CriticalMu", "MceipResult", "MceipSolution", "MuProof", "NecessaryResult", "Node", "Scene", "SceneError",
+           "StateResult", "StudyResult", "SufficientResult", "load_scene", "mceip_mu", "run_study"]
 
 if TYPE_CHECKING:
     from app.api import (
         CriticalMu,
         MceipResult,
         MceipSolution,
+        MuProof,
         NecessaryResult,
         Node,
         Scene,
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
         StudyResult,
         SufficientResult,
         load_scene,
+        mceip_mu,
         run_study,
     )
 

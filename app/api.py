@@ -34,8 +34,29 @@ from app.study_result import (
     SufficientResult,
 )
 
-__all__ = ["CriticalMu", "MceipResult", "MceipSolution", "NecessaryResult", "Node", "Scene", "SceneError",
-           "StateResult", "StudyResult", "SufficientResult", "load_scene", "run_study"]
+__all__ = ["CriticalMu", "MceipResult", "MceipSolution", "MuProof", "NecessaryResult", "Node", "Scene", "SceneError",
+           "StateResult", "StudyResult", "SufficientResult", "load_scene", "mceip_mu", "run_study"]
+
+
+def mceip_mu(A0, A1, cap: float, pairs=None, seconds: float = 60.0, want_all: bool = True) -> "MuProof":
+    """Proven critical friction coefficients of a condensed pencil ``A0 + mu A1`` (eqs. (21)-(23)).
+
+    For pencils from other codes: the same prover and independent checker the studies use
+    (:mod:`app.analyses.mceip_mu`, docs/proofs.md). ``pairs``: index pairs that may not both slip
+    (zero-reaction nodes). Returns a :class:`MuProof`: ``onset`` and ``all`` claims (each
+    ``proven`` only when the checker accepted it), the solutions with proven enclosures, the
+    proof log (``log.to_json()``) and timings.
+    """
+    from app.analyses.mceip_mu import mceip_mu as _mceip_mu
+    return _mceip_mu(A0, A1, cap, pairs=pairs, seconds=seconds, want_all=want_all)
+
+
+def __getattr__(name: str):
+    """``MuProof``, imported on first use."""
+    if name == "MuProof":
+        from app.analyses.mceip_mu import MuProof
+        return MuProof
+    raise AttributeError(f"module 'app.api' has no attribute {name!r}")
 
 
 def load_scene(scene: str | pathlib.Path | Mapping[str, Any]) -> Scene:

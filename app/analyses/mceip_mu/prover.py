@@ -356,6 +356,9 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds) -> Pr
     bound_root, bound = None, None
     if not onset_done:
         bound_root, bound = _bound(P, onset_below if onset_below is not None else P.cap)
+        if bound is not None and bound >= P.cap:      # the sign argument alone: none below the cap
+            onset_root, onset_below, onset_done, witness = bound_root, P.cap, True, None
+            bound_root = bound = None
     all_roots: list[int] = []
     all_done = False
     proven_to = onset_below if onset_done and onset_below is not None else 0.0
