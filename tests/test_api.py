@@ -40,7 +40,10 @@ EVIDENCE = {"search", "result", "found_by", "found_count", "iterations", "residu
 ADDED_KEYS = {"format_version", "certified", "certificate", "ill_conditioned", "margin_y_stick",
               "pattern_verified", "pattern_residual", "newton_residual", "complementarity", "min_x_Ts",
               "min_y_Ts",
-              "limits", "max_states", "max_dofs", "max_contact_nodes", "max_memory_gb"}   # scene_config.settings.limits
+              "limits", "max_states", "max_dofs", "max_contact_nodes", "max_memory_gb",   # scene_config.settings.limits
+              # the proven MCEIP-mu (issue 18): the two claims, proven enclosures and margins, new settings
+              "onset", "complete", "enclosure", "proven_min_x_Ts", "proven_margin_y_stick", "certify_all_max",
+              "certify_all_seconds"}
 
 TWO_PARTICLES = """\
 name: two-particles
@@ -171,7 +174,8 @@ def test_block_results_json_keys_unchanged_and_api_matches_cli(tmp_path):
         return {k for k in keys if not set(k.replace("[]", "").split(".")) & EVIDENCE}
     assert answers(old_keys) - answers(new_keys) == set(), "keys missing from results.json"
     added = {k for k in answers(new_keys) - answers(old_keys)
-             if not k.startswith("scene_config.") and ".certificate." not in k}   # the schema's echo; a proof's record
+             if not k.startswith("scene_config.") and ".certificate." not in k    # the schema's echo; a proof's record
+             and ".mceip_mu.onset." not in k and ".mceip_mu.complete." not in k}  # the two claims' records
     assert {k.rsplit(".", 1)[-1] for k in added} <= ADDED_KEYS, sorted(added)
     assert cli["format_version"] == FORMAT_VERSION
 
