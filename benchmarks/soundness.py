@@ -824,7 +824,7 @@ def judge(truth: Truth, onset_status, onset_value, all_status, values) -> dict:
 # =================================================================================================
 
 def section_soundness(n: int = 10_000, prover: str = "auto", base_seed: int = 2026, show: int = 8,
-                      seconds: float = 60.0) -> dict:
+                      seconds: float = 60.0, start: int = 0) -> dict:
     from threadpoolctl import threadpool_limits
     name, prove = get_prover(prover)
     say(f"\n== soundness: {n} random pencils (s = 1-10, kinds {', '.join(KINDS)}) against exhaustive "
@@ -837,7 +837,7 @@ def section_soundness(n: int = 10_000, prover: str = "auto", base_seed: int = 20
     examples: list[str] = []
     unknown: list[str] = []
     with threadpool_limits(1):
-        for i in range(n):
+        for i in range(start, start + n):
             t0 = time.perf_counter()
             p = make_pencil(i, base_seed)
             t1 = time.perf_counter()
@@ -942,12 +942,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--n", type=int, default=10_000, help="number of random pencils (default 10000)")
     ap.add_argument("--quick", action="store_true", help="300 pencils, dense series up to s = 30")
     ap.add_argument("--prover", default="auto", choices=["auto", *PROVERS])
-    ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--seed", type=int, default=2026, help="base seed: pencil i is make_pencil(i, seed)")
+    ap.add_argument("--start", type=int, default=0, help="index of the first pencil (to re-run one: --start i --n 1)")
     ap.add_argument("--no-dense", action="store_true", help="skip the dense random series")
     ap.add_argument("--limit", type=float, default=60.0, help="time limit of one dense proof (s)")
     args = ap.parse_args(argv)
     n = 300 if args.quick else args.n
-    out = {"soundness": section_soundness(n, args.prover, args.seed)}
+    out = {"soundness": section_soundness(n, args.prover, args.seed, start=args.start)}
     if not args.no_dense:
         out["dense"] = section_dense(args.prover, args.limit, [10, 20, 30] if args.quick else None)
     return out
