@@ -62,7 +62,20 @@ within 1e-9, disjoint or nested supports); ``at_cap`` (mu* = cap, a power of two
 (a stick margin y = 2^-30 relative); ``miss_x`` / ``miss_y`` (the same with the sign flipped:
 planted near-solutions that are not solutions).
 
-    .venv/bin/python benchmarks/soundness.py [--quick | --n N] [--prover auto|mceip_mu|certify|certify-scip]
+Provers go through one adapter ``prove(A0, A1, cap, pairs) -> (onset_status, onset_value,
+all_status, values)``, statuses "proven" / "not proven" / "ill-conditioned": ``mceip_mu`` (the
+new engine, ``app.mceip_mu``: ``r.onset.proven``, ``r.onset.value``, ``r.all.proven``,
+``r.all.values``, ``r.ill_conditioned``), ``certify`` (today's ``certify_mu`` as the app calls
+it: copositivity bound, enumeration up to s = 14, SCIP above) and ``certify-scip`` (SCIP forced,
+``enumerate_max = 0``, as tests/test_certify.py does). For certify_mu a proven certificate
+listing an ill-conditioned solution is "ill-conditioned"; it proves both claims at once.
+``auto`` takes ``mceip_mu`` when the app has it.
+
+The dense series (:func:`section_dense`): onset proof time on ``A0 = B B^T + s I``,
+``A1 = 3 N(0, 1)``, cap 10, at s = 10, 20, 30, ... until the first s not proven within 60 s.
+
+    .venv/bin/python benchmarks/soundness.py [--quick | --n N] [--start I]
+        [--prover auto|mceip_mu|certify|certify-scip] [--no-dense] [--limit SECONDS]
 """
 from __future__ import annotations
 
