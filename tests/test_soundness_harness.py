@@ -68,6 +68,17 @@ def test_planted_solutions_are_found(kind):
     assert n >= 8
 
 
+def test_floating_step_agrees_with_exact_on_every_support():
+    """The truth's clear floating decisions against exact/ball arithmetic on every support."""
+    kinds = ["dense", "condensed", "sparse", "zero", "interior", "close", "small_x", "miss_y"]
+    for i, kind in enumerate(kinds):
+        p = make_pencil(100 + i, kind=kind, s=3 + i % 3)
+        a = ground_truth(p.A0, p.A1, p.cap, p.pairs)
+        b = ground_truth(p.A0, p.A1, p.cap, p.pairs, exact_all=True)
+        assert a.known and b.known
+        assert [(round(m, 9), sup) for m, sup, _ in a.solutions] == [(round(m, 9), sup) for m, sup, _ in b.solutions]
+
+
 def test_seed_394604_false_proof_is_caught():
     """tests/test_certify.py's explicit example: SCIP said "proven, no solution" on this pencil."""
     rng = np.random.default_rng(394604)
