@@ -67,7 +67,9 @@ all_status, values)``, statuses "proven" / "not proven" / "ill-conditioned": ``m
 new engine, ``app.mceip_mu``: ``r.onset.proven``, ``r.onset.value``, ``r.all.proven``,
 ``r.all.values``, ``r.ill_conditioned``), ``certify`` (today's ``certify_mu`` as the app calls
 it: copositivity bound, enumeration up to s = 14, SCIP above) and ``certify-scip`` (SCIP forced,
-``enumerate_max = 0``, as tests/test_certify.py does). For certify_mu a proven certificate
+``enumerate_max = 0``, as tests/test_certify.py does) and ``app-result`` (the state's MCEIP-mu
+result as the app reports it: ``condensed_mu_result``, search + certificate, the values it keeps
+below the cap). For certify_mu a proven certificate
 listing an ill-conditioned solution is "ill-conditioned"; it proves both claims at once.
 ``auto`` takes ``mceip_mu`` when the app has it.
 
@@ -75,7 +77,7 @@ The dense series (:func:`section_dense`): onset proof time on ``A0 = B B^T + s I
 ``A1 = 3 N(0, 1)``, cap 10, at s = 10, 20, 30, ... until the first s not proven within 60 s.
 
     .venv/bin/python benchmarks/soundness.py [--quick | --n N] [--start I]
-        [--prover auto|mceip_mu|certify|certify-scip] [--no-dense] [--limit SECONDS]
+        [--prover auto|mceip_mu|certify|certify-scip|app-result] [--no-dense] [--limit SECONDS]
 """
 from __future__ import annotations
 
@@ -794,7 +796,21 @@ def _certify(enumerate_max):
     return prove
 
 
-PROVERS = {"mceip_mu": _prove_mceip_mu, "certify": _certify(None), "certify-scip": _certify(0)}
+def _prove_app_result(A0, A1, cap, pairs, seconds=None):
+    """The state-level MCEIP-mu result as the app reports it today (search + certificate,
+    ``condensed_mu_result``: the values it lists below the cap, its ``certified`` flag)."""
+    from app.analyses.certify import condensed_mu_result
+    from app.config import McpSettings
+    st = McpSettings() if seconds is None else McpSettings(certify_seconds=seconds, certify_seconds_large=seconds)
+    d = condensed_mu_result(A0, A1, cap, st, pairs=pairs or None)
+    vals = sorted(float(x["value"]) for x in d["solutions"] if x["value"] <= cap)
+    ill = bool(d["certificate"].get("ill_conditioned"))
+    status = "ill-conditioned" if (d["certified"] and ill) else ("proven" if d["certified"] else "not proven")
+    return status, d["certificate"].get("onset"), status, vals
+
+
+PROVERS = {"mceip_mu": _prove_mceip_mu, "certify": _certify(None), "certify-scip": _certify(0),
+           "app-result": _prove_app_result}
 
 
 def get_prover(name: str = "auto"):
