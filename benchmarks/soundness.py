@@ -57,7 +57,8 @@ contact system condensed, as tests/test_certify.py), ``zero`` (split tangential 
 zero-reaction nodes with their pairs, as app/analyses/pencils.py builds them) and planted ones:
 a solution (mu*, v*, y*) is put in by rewriting one column of A1 (or of A0 at mu* = 0) so that
 ``A(mu*) v* = y*`` holds in exact rational arithmetic - ``interior``; ``close`` (two values
-within 1e-9, disjoint or nested supports); ``at_cap`` (mu* = cap, a power of two, exact);
+within 1e-9, disjoint or nested supports); ``double`` (one support whose pencil has two real
+roots within 1e-9, the first with a positive null vector, the second with a mixed one); ``at_cap`` (mu* = cap, a power of two, exact);
 ``at_zero`` (mu* = 0, exact); ``small_x`` (min x_P / max x_P = 2^-30 ~ 9.3e-10); ``small_y``
 (a stick margin y = 2^-30 relative); ``miss_x`` / ``miss_y`` (the same with the sign flipped:
 planted near-solutions that are not solutions).
@@ -84,6 +85,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import itertools
+import math
 import os
 import pathlib
 import sys
@@ -554,7 +556,7 @@ class Pencil:
 
 KINDS = {  # kind: weight
     "dense": 14, "condensed": 14, "sparse": 8, "contact": 8, "zero": 14,
-    "interior": 6, "close": 7, "at_cap": 6, "at_zero": 5, "small_x": 6, "small_y": 6, "miss_x": 3, "miss_y": 3,
+    "interior": 6, "close": 7, "double": 5, "at_cap": 6, "at_zero": 5, "small_x": 6, "small_y": 6, "miss_x": 3, "miss_y": 3,
 }
 
 
@@ -686,7 +688,7 @@ def _planted(rng, s, kind):
         y[P] = 0.0
         return y
 
-    if s < 2 and kind in ("small_x", "miss_x", "small_y", "miss_y", "close"):
+    if s < 2 and kind in ("small_x", "miss_x", "small_y", "miss_y", "close", "double"):
         kind = "interior"
     if kind in ("interior", "small_x", "small_y", "miss_x", "miss_y"):
         mu = float(rng.uniform(0.05, 0.95) * cap)
@@ -723,6 +725,23 @@ def _planted(rng, s, kind):
         ex2 = plant(A0, A1, mu2, v2, y2, c2)
         planted += [{"mu": mu1, "support": tuple(P1), "solution": True, "exact": ex1, "v": v1},
                     {"mu": mu2, "support": tuple(P2), "solution": True, "exact": ex2, "v": v2}]
+    elif kind == "double":
+        # one support with two real roots within 1e-9: A0[P,P] = V diag(m, m + d) V^T, A1[P,P] = -I;
+        # the root m has the positive null vector (cos th, sin th), m + d a mixed one
+        P = sorted(rng.choice(s, size=2, replace=False).tolist())
+        th = float(rng.uniform(0.25, 1.3))
+        m = float(rng.uniform(0.1, 0.9) * cap)
+        d = float(rng.uniform(1e-11, 1e-9))
+        V = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+        A0[np.ix_(P, P)] = V @ np.diag([m, m + d]) @ V.T
+        A1[np.ix_(P, P)] = -np.eye(2)
+        v1 = V[:, 0]
+        for j in (j for j in range(s) if j not in P):
+            target = float(rng.uniform(0.05, 1.0)) * sc
+            rest = target - A0[j, P] @ v1 - m * A1[j, P[1]] * v1[1]
+            A1[j, P[0]] = rest / (m * v1[0])
+        planted += [{"mu": m, "support": tuple(P), "solution": True, "exact": False, "v": v1},
+                    {"mu": m + d, "support": tuple(P), "solution": False, "exact": False, "v": V[:, 1]}]
     elif kind == "at_cap":
         cap = float(2.0 ** int(rng.integers(-1, 6)))
         P = support(1)
@@ -864,7 +883,8 @@ def section_soundness(n: int = 10_000, prover: str = "auto", base_seed: int = 20
         f"enumeration with exact re-checks; prover: {name} ==")
     counts = dict.fromkeys(("pencils", "proven_onset", "proven_all", "not_proven", "ill_conditioned",
                             "false_onset", "false_all", "false_proofs", "unknown_truth", "labelled_disagree",
-                            "truth_exact_supports", "truth_supports", "planted_missed"), 0)
+                            "truth_exact_supports", "truth_supports", "planted_missed",
+                            "planted_nonsolution_listed"), 0)
     by_kind: dict = {}
     t_truth = t_prove = t_gen = 0.0
     examples: list[str] = []
@@ -898,9 +918,14 @@ def section_soundness(n: int = 10_000, prover: str = "auto", base_seed: int = 20
             c["truth_exact_supports"] += tr.exact_supports
             c["truth_supports"] += tr.supports
             for pl in p.planted:
-                if tr.known and pl["solution"] and pl["mu"] <= p.cap and not any(
+                if not tr.known:
+                    continue
+                if pl["solution"] and pl["mu"] <= p.cap and not any(
                         abs(mu - pl["mu"]) <= 1e-9 * max(1, pl["mu"]) and sup == pl["support"] for mu, sup, _ in tr.solutions):
                     c["planted_missed"] += 1
+                if not pl["solution"] and any(abs(mu - pl["mu"]) <= 1e-13 * max(1, pl["mu"]) and sup == pl["support"]
+                                              for mu, sup, _ in tr.solutions):
+                    c["planted_nonsolution_listed"] += 1
             k = by_kind.setdefault(p.kind, {"n": 0, "false": 0, "unknown": 0, "exact": 0})
             k["n"] += 1
             k["exact"] += tr.exact_supports > 0
@@ -931,7 +956,8 @@ def section_soundness(n: int = 10_000, prover: str = "auto", base_seed: int = 20
         f"labelled not proven / ill-conditioned but disagreeing: {c['labelled_disagree']}; "
         f"unknown truth: {c['unknown_truth']}")
     say(f"truth: {c['truth_supports']} supports, {c['truth_exact_supports']} re-decided in exact/ball arithmetic; "
-        f"planted solutions missed by the truth: {c['planted_missed']}")
+        f"planted solutions missed by the truth: {c['planted_missed']}, planted near-misses listed by it: "
+        f"{c['planted_nonsolution_listed']}")
     say(f"time: truth {t_truth:.1f} s, prover {t_prove:.1f} s, pencil generation {t_gen:.1f} s")
     say("by kind (pencils / with exact re-checks / false proofs / unknown): " + ", ".join(
         f"{k} {v['n']}/{v['exact']}/{v['false']}/{v['unknown']}" for k, v in sorted(by_kind.items())))
