@@ -116,3 +116,24 @@ def test_pencils_are_reproducible():
         a, b = make_pencil(i), make_pencil(i)
         assert a.kind == b.kind and a.cap == b.cap and a.pairs == b.pairs
         assert np.array_equal(a.A0, b.A0) and np.array_equal(a.A1, b.A1)
+
+
+def test_adapters_read_the_new_engine_api(monkeypatch):
+    """The ``mceip_mu`` adapter maps ``app.mceip_mu``'s result (a stand-in here) to the statuses."""
+    from types import SimpleNamespace
+
+    import app
+    from benchmarks.soundness import get_prover
+
+    def fake(A0, A1, cap, pairs=None):
+        return SimpleNamespace(onset=SimpleNamespace(proven=True, value=1.5),
+                               all=SimpleNamespace(proven=False, values=[2.0, 1.5]), ill_conditioned=False)
+
+    monkeypatch.setattr(app, "mceip_mu", fake, raising=False)
+    name, prove = get_prover("auto")
+    assert name == "mceip_mu"
+    assert prove(np.eye(2), np.eye(2), 3.0, []) == ("proven", 1.5, "not proven", [1.5, 2.0])
+    monkeypatch.setattr(app, "mceip_mu", lambda *a, **k: SimpleNamespace(
+        onset=SimpleNamespace(proven=True, value=None), all=SimpleNamespace(proven=True, values=[]),
+        ill_conditioned=True), raising=False)
+    assert prove(np.eye(2), np.eye(2), 3.0, []) == ("ill-conditioned", None, "ill-conditioned", [])
