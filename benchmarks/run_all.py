@@ -12,6 +12,10 @@ output/bench/latest.json and output/bench/latest.md:
   enumeration the MCP search against exhaustive enumeration at s = 8..16 slip nodes
   certify     proven MCEIP-mu (onset and every mu <= cap) at s = 8..120 against exhaustive
               enumeration where it runs, with the search's recall (benchmarks/certify_bench.py)
+  soundness   MCEIP-mu provers on 10,000 random pencils (s = 1-10, zero-node pairs, near-degenerate
+              ones) against exhaustive enumeration with exact re-checks: false proofs (must be 0),
+              not proven, ill-conditioned, unknown truth; onset proof time of dense random pencils at
+              s = 10, 20, 30, ... (benchmarks/soundness.py)
   siconos     the app's contact increments and MCEIP-mu MCP runs against Siconos numerics
               (fc2d solvers, NCP Newton solvers) on the same problems (skipped with the reason
               when python3-siconos is not installed)
@@ -49,7 +53,8 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
 PY = sys.executable
-SECTIONS = ("speed", "scaling", "condensed", "enumeration", "certify", "siconos", "tolerances", "mpi", "targets")
+SECTIONS = ("speed", "scaling", "condensed", "enumeration", "certify", "soundness", "siconos", "tolerances", "mpi",
+            "targets")
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1", PYTHONPATH=str(ROOT))
 
@@ -665,6 +670,10 @@ def main() -> None:
         from benchmarks.certify_bench import section_certify
         results["certify"] = section_certify([8, 12] if args.quick else [8, 12, 16, 20, 30, 60, 120],
                                              enum_max=12 if args.quick else 16)
+    if "soundness" in only:
+        from benchmarks.soundness import section_dense, section_soundness
+        results["soundness"] = {"random": section_soundness(300 if args.quick else 10_000),
+                                "dense": section_dense(s_values=[10, 20, 30] if args.quick else None)}
     if "siconos" in only:
         results["siconos"] = section_siconos(sic)
     if "tolerances" in only:
@@ -721,6 +730,13 @@ def summary(res: dict) -> str:
         lines.append("certified MCEIP-mu: " + ", ".join(
             f"s={r['s']} {r['kind']} {r['t_certify']:.2f} s ({r['status']})" for r in rows)
             + f"; largest s within a minute: {res['certify']['largest_s_within_60s']}")
+    if "soundness" in res:
+        r, d = res["soundness"]["random"], res["soundness"]["dense"]
+        c = r["counts"]
+        lines.append(f"soundness ({r['prover']}): {c['pencils']} random pencils, FALSE PROOFS {c['false_proofs']}, "
+                     f"proven onset {c['proven_onset']}, proven all {c['proven_all']}, not proven {c['not_proven']}, "
+                     f"ill-conditioned {c['ill_conditioned']}, unknown truth {c['unknown_truth']}; dense random "
+                     f"pencils: largest s with the onset proven within 60 s: {d['largest_s']}")
     if "siconos" in res:
         s = res["siconos"]
         if "skipped" in s:
