@@ -17,7 +17,7 @@ same result.
 from __future__ import annotations
 
 import pathlib
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from mpi4py import MPI
 
@@ -33,6 +33,9 @@ from app.study_result import (
     StudyResult,
     SufficientResult,
 )
+
+if TYPE_CHECKING:
+    from app.analyses.mceip_mu import MuProof
 
 __all__ = ["CriticalMu", "MceipResult", "MceipSolution", "MuProof", "NecessaryResult", "Node", "Scene", "SceneError",
            "StateResult", "StudyResult", "SufficientResult", "load_scene", "mceip_mu", "run_study"]

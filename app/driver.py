@@ -38,9 +38,9 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
             from app.outputs.results import write_results
             if extra:
                 results.update(extra)
-            proofs = write_proofs(results, outdir)      # before the drawing drops the in-memory pencils
+            write_proofs(results, outdir)      # before the drawing drops the in-memory pencils
             results = draw_after_run(results, outdir, progress)
-            write_results(results, outdir, proofs_written=bool(proofs))
+            write_results(results, outdir)
     return results
 
 

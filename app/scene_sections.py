@@ -51,8 +51,12 @@ class McpSettings(Strict):
     certify_all_max: Annotated[int, Field(ge=0, le=1000)] = Field(
         22, description="the complete list of critical mu below the cap is proven up to this many slip nodes "
                         "(the onset at any size)")
+    certify_all_nodes: Annotated[int, Field(ge=0, le=10_000_000)] = Field(
+        3000, description="budget per state for the complete list once the onset is proven, in proof-tree "
+                          "nodes (deterministic: the same answer on any machine)")
     certify_all_seconds: PosFloat = Field(
-        2.0, description="budget per state for the complete list once the onset is proven [s]")
+        30.0, description="time limit per state for the complete list [s] (a safety limit; certify_all_nodes "
+                          "is the budget)")
     # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
     # prove "no solution" up to this many DOFs (app/analyses/lambda2_exact.py); SNES VI search otherwise
     lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500

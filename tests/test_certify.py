@@ -79,7 +79,7 @@ def test_closed_form_two_by_two():
 def test_proven_claims_equal_enumeration(seed, n_slip, n_stick, n_free, n_int, mu, cap):
     A0, A1 = _random_pencil(seed, n_slip, n_stick, n_free, n_int, mu)
     r = mceip_mu(A0, A1, cap, seconds=60)
-    vals = _agrees(r, A0, A1, cap)
+    _agrees(r, A0, A1, cap)
     assert r.onset.proven, r.onset.status
     if A0.shape[0] <= 4:
         assert r.all.proven, r.all.status

@@ -359,7 +359,8 @@ def test_a_scene_without_outputs_draws_nothing(tmp_path):
     out = tmp_path / "out"
     p = run_cli("run", str(_write_scene(tmp_path, data)), "-o", str(out), "-q")
     assert p.returncode == 0, p.stderr
-    assert sorted(f.name for f in out.iterdir()) == [".contact-divergence.json", "results.json", "steps.csv"]
+    # results and the MCEIP-mu proofs (data, re-checked by ``python -m app check``), no pictures
+    assert sorted(f.name for f in out.iterdir()) == [".contact-divergence.json", "proofs", "results.json", "steps.csv"]
     res = json.loads((out / "results.json").read_text())
     names = {s["name"] for s in res["stages"]}
     assert not names & {"fields (ParaView files, screenshot data)", "plots (matplotlib)", "screenshots (pyvista)",
@@ -368,7 +369,7 @@ def test_a_scene_without_outputs_draws_nothing(tmp_path):
     # and render has nothing to draw
     p = run_cli("render", str(out))
     assert p.returncode == 0 and "nothing to draw" in p.stdout
-    assert sorted(f.name for f in out.iterdir()) == [".contact-divergence.json", "results.json", "steps.csv"]
+    assert sorted(f.name for f in out.iterdir()) == [".contact-divergence.json", "proofs", "results.json", "steps.csv"]
 
 
 def test_two_particles_plots_and_report(tmp_path):

@@ -112,7 +112,8 @@ def test_overwrite_replaces_only_the_apps_own_folder(tmp_path):
     assert run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite").returncode == 0
     assert json.loads((out / "results.json").read_text())["scene"] == "tp"
     _no_litter(tmp_path)
-    assert json.loads((out / ".contact-divergence.json").read_text())["entries"] == ["results.json", "steps.csv"]
+    assert json.loads((out / ".contact-divergence.json").read_text())["entries"] == \
+        ["proofs", "results.json", "steps.csv"]
     # a user file added to the app's folder makes it "other": never replaced again
     (out / "notes.txt").write_text("mine")
     before = _snapshot(out)

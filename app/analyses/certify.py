@@ -88,7 +88,8 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
             guide = [(np.flatnonzero(p.support), p.value, p.x) for p in cands if p.value <= cap * (1 + 1e-9)]
             proof = mceip_mu(A0, A1, cap, pairs=pairs, candidates=guide,
                              seconds=settings.certify_seconds_large if large else settings.certify_seconds,
-                             want_all=s <= settings.certify_all_max, all_seconds=settings.certify_all_seconds)
+                             want_all=s <= settings.certify_all_max, all_seconds=settings.certify_all_seconds,
+                             all_nodes=settings.certify_all_nodes)
     return _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings)
 
 
@@ -98,7 +99,9 @@ def _solution_dict(value, x, support, comp, a0, a1) -> dict:
     stick = y[~support]
     return {"value": float(value), "x_Ts": [float(v) for v in x[comp]],
             "pattern": ["slip" if b else "stick" for b in support],
-            "residual": float(np.linalg.norm(y[support]) / max(np.linalg.norm(x), 1e-300)),
+            # relative to the pencil's size at this mu (what rounding can resolve there)
+            "residual": float(np.linalg.norm(y[support]) / max(np.linalg.norm(x) * (np.linalg.norm(a0, 2) + abs(value)
+                                                                                  * np.linalg.norm(a1, 2)), 1e-300)),
             "complementarity": float(np.max(np.abs(x * y), initial=0.0)),
             "min_x_Ts": float(np.min(x[support]) / max(np.max(x), 1e-300)) if support.any() else 0.0,
             "min_y_Ts": float(np.min(y)) if len(y) else 0.0,
@@ -130,6 +133,15 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
         if proof is not None and p.value <= cap and (proof.all.proven or p.value <= proof.lower_bound):
             continue          # not confirmed by the proof: below a proven bound it is no solution
         d = p.as_dict(comp)
+        sup = np.flatnonzero(p.support)
+        if len(sup) and p.value > 0:     # a found value: Newton-polished on its support (residual evidence)
+            from app.analyses.mceip_mu.prover import _polish
+            mu, xs = _polish(a0[np.ix_(sup, sup)], a1[np.ix_(sup, sup)], p.value, p.x[sup])
+            x = np.zeros(len(p.x))
+            x[sup] = xs / np.sum(xs)
+            if np.isfinite(mu) and np.all(x[sup] > 0) and abs(mu - p.value) <= 1e-6 * max(1.0, abs(p.value)):
+                d.update({k: v for k, v in _solution_dict(mu, x, p.support, comp, a0, a1).items()
+                          if k not in ("margin_y_stick",)})
         c = found_by.get((round(p.value, 9), tuple(p.support)))
         d.update({"certified": False, "iterations": c.iterations if c else 0,
                   "found_by": c.found_by[:8] if c else ["floating-point enumeration (24)-(26)"],
@@ -157,7 +169,8 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
         if a.proven:
             result += f"; proven complete: {len(a.values)} critical value(s) in [0, {cap:.6g}]"
         elif s_all_attempted(proof, settings):
-            result += f"; list {a.status} (budget certify_all_seconds = {settings.certify_all_seconds:g} s)"
+            result += (f"; list {a.status} (budget certify_all_nodes = {settings.certify_all_nodes} tree nodes, "
+                       f"certify_all_seconds = {settings.certify_all_seconds:g} s)")
         else:
             result += f"; list not attempted (s = {proof.s} > certify_all_max = {settings.certify_all_max})"
         if above:
@@ -166,7 +179,7 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
         status = "proven" if certified else ("onset proven; list " + ("ill-conditioned" if proof.ill_conditioned
                                                                        else "not proven")
                                              if o.proven else ("ill-conditioned" if proof.ill_conditioned
-                                                               else f"not proven within budget"))
+                                                               else "not proven within budget"))
         cert = certificate(proof.method, (0.0, cap) if certified else a.interval, status, proof.seconds,
                            {"s": proof.s, "cap": float(cap), "nodes": proof.nodes, "lower_bound": proof.lower_bound,
                             "check_seconds": round(proof.check_seconds, 4), "candidates": proof.candidates,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.outputs.results import file_mode
+from app.outputs.results import file_mode  # one-way: results.py does not import this module
 
 FOLDER = "proofs"
 

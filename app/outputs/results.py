@@ -96,13 +96,11 @@ def steps_csv(results: dict) -> str:
     return buf.getvalue()
 
 
-def write_results(results: dict, outdir: pathlib.Path, proofs_written: bool = False) -> list[pathlib.Path]:
-    """Write steps.csv, the MCEIP-mu proofs (proofs/, unless ``proofs_written``), then results.json
-    (last: its presence marks a complete run)."""
-    from app.outputs.proofs import write_proofs
+def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Write steps.csv then results.json (last: its presence marks a complete run). The MCEIP-mu
+    proofs (app/outputs/proofs.py) are written before, while the results still hold the pencils."""
     outdir.mkdir(parents=True, exist_ok=True)
     atomic_write(outdir / "steps.csv", steps_csv(results))
-    written = [] if proofs_written else write_proofs(results, outdir)
     doc = {"format_version": FORMAT_VERSION, **json_clean(results)}
     atomic_write(outdir / "results.json", json.dumps(doc, indent=1))
-    return [outdir / "steps.csv", *written, outdir / "results.json"]
+    return [outdir / "steps.csv", outdir / "results.json"]

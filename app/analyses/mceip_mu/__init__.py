@@ -85,7 +85,7 @@ def _candidates(a0: np.ndarray, a1: np.ndarray, cap: float, pairs, search_kw: di
 
 def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: float = 60.0,
              want_all: bool = True, candidates=None, search: dict | None = None,
-             all_seconds: float | None = None) -> MuProof:
+             all_seconds: float | None = None, onset_nodes: int = 20000, all_nodes: int = 4000) -> MuProof:
     """Proven critical friction coefficients of the condensed pencil ``A0 + mu A1`` (s x s).
 
     Parameters
@@ -103,8 +103,11 @@ def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: fl
     want_all
         Also prove the complete list in ``[0, cap]`` (else the onset only).
     all_seconds
-        Budget of the complete-list claim once the onset is proven (``None``: what is left of
+        Time limit of the complete-list claim once the onset is proven (``None``: what is left of
         ``seconds``).
+    onset_nodes, all_nodes
+        Budgets in tree nodes of the two claims (deterministic, unlike time: the same answer on
+        any machine).
     candidates
         Optional ``(support indices, mu, x)`` from another search (guidance only).
     search
@@ -124,13 +127,12 @@ def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: fl
     if not (np.isfinite(cap) and cap > 0):
         raise ValueError(f"cap must be a positive finite number, got {cap!r}")
     pairs = [tuple(int(i) for i in p) for p in (pairs or [])]
-    s = A0.shape[0]
     with one_blas_thread():
         t0 = time.perf_counter()
         cands = list(candidates) if candidates is not None else _candidates(A0, A1, cap, pairs, search)
         out = prover.prove(A0, A1, cap, pairs=pairs, candidates=cands,
                            seconds=max(seconds - (time.perf_counter() - t0), 0.0), want_all=want_all,
-                           all_seconds=all_seconds)
+                           all_seconds=all_seconds, onset_nodes=onset_nodes, all_nodes=all_nodes)
         t1 = time.perf_counter()
         rep = checker.check_log(A0, A1, out.log)
         t_check = time.perf_counter() - t1

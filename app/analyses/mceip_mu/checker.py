@@ -204,8 +204,28 @@ class Window:
     min_y: float = np.nan       # proven lower bound of min y off P (inf if P is everything)
 
 
+def structural_zeros(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, pairs) -> np.ndarray:
+    """Rows ``j`` off ``P`` whose ``y_j`` vanishes at every eigenpair of ``P``, by an exact identity
+    of the split pencil of a zero-reaction node (pair ``(a, b)``, normal rate ``N``): when
+    ``A0[b] = -A0[a]``, ``A1[b] = A1[a] = A0[N]`` and ``A1[N] = 0`` entrywise (exact float
+    equality), ``y_b = -y_a + 2 mu y_N``, zero when ``a`` and ``N`` are in ``P``."""
+    inP = set(int(i) for i in P)
+    out = []
+    for a, b in pairs:
+        for i, j in ((a, b), (b, a)):
+            if i not in inP or j in inP:
+                continue
+            if not (np.array_equal(a0[j], -a0[i]) and np.array_equal(a1[j], a1[i])):
+                continue
+            for n in inP:
+                if n != i and np.array_equal(a1[i], a0[n]) and not np.any(a1[n]):
+                    out.append(j)
+                    break
+    return np.array(sorted(set(out)), dtype=np.int64)
+
+
 def verify_window(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, mu: float, x: np.ndarray, h: float,
-                  cap: float | None = None) -> Window:
+                  cap: float | None = None, pairs=()) -> Window:
     """Prove that support ``P`` has exactly one eigenvalue in ``[mu - h, mu + h]`` and decide its
     signs. ``x``: approximate eigenvector on ``P`` (any scaling); ``cap``: the claim's upper end
     (an enclosure straddling 0 or ``cap`` is ``ill-conditioned``)."""
@@ -281,8 +301,9 @@ def verify_window(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, mu: float, x: n
     xr = _up(Kr[:p] + U_ROUND * np.abs(xc), 2)
     xmin = float(np.min(xc - xr))
     xmax_up = float(np.max(np.abs(xc) + xr))
-    # y off P over the enclosure: A(mu)[Q, P] x, mu in [e_lo, e_hi], x in [xc +- xr]
-    Q = np.setdiff1d(np.arange(s), P)
+    # y off P over the enclosure: A(mu)[Q, P] x, mu in [e_lo, e_hi], x in [xc +- xr]; rows that
+    # vanish by an exact identity of the pencil (structural_zeros) satisfy y >= 0 as y = 0
+    Q = np.setdiff1d(np.setdiff1d(np.arange(s), P), structural_zeros(a0, a1, P, pairs))
     ymin = np.inf
     ymax_any_neg = False
     if len(Q):
@@ -318,7 +339,8 @@ class Node:
     """One node of the proof tree: supports in ``U`` (indices into the slip nodes), mu in ``[a, b]``.
 
     ``kind``: ``"cop"`` (sign argument, witness ``d``, ``theta``), ``"bisect"`` (children on
-    ``[a, m]`` and ``[m, b]``), ``"drop"`` (children ``U \\ {i}`` for every ``i`` plus the leaf of
+    ``[a, m]`` and ``[m, b]``), ``"pairsplit"`` (children ``U \\ {a}`` and ``U \\ {b}`` for a pair
+    ``(a, b)`` inside ``U``), ``"drop"`` (children ``U \\ {i}`` for every ``i`` plus the leaf of
     the exact support ``U``), ``"leaf"`` (exact support ``U``: ``windows`` each with one verified
     eigenpair; the checker proves the rest of ``[a, b]`` free of eigenvalues itself), ``"pair"`` (no allowed support: ``U`` holds
     both halves of a pair, only as a leaf), ``"open"`` (not closed: the proof is unfinished)."""
@@ -435,7 +457,7 @@ def check_node(a0, a1, node: Node, pairs, cap: float) -> tuple[bool, list, int, 
             return True, [], 0, ""
         pieces, sols, ill = [], [], 0
         for w in node.windows:
-            res = verify_window(a0, a1, U, float(w["mu"]), np.asarray(w["x"], float), float(w["h"]), cap)
+            res = verify_window(a0, a1, U, float(w["mu"]), np.asarray(w["x"], float), float(w["h"]), cap, pairs)
             if not res.ok:
                 return False, [], 0, f"window at mu = {w['mu']} not verified"
             pieces.append((res.mu_lo, res.mu_hi))
@@ -533,7 +555,7 @@ def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
                 memo[j] = (False, [], 0)
                 errors.append(f"node {j} missing")
                 continue
-            if n.kind in ("bisect", "drop"):
+            if n.kind in ("bisect", "drop", "pairsplit"):
                 ok, why = _children_cover(n, byid, pairs)
                 sols, ill = [], 0
                 for c in n.children:
@@ -569,7 +591,8 @@ def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
             elif log.onset_witness is not None:
                 w = log.onset_witness
                 U = np.asarray(sorted(int(i) for i in w["U"]), dtype=np.int64)
-                res = verify_window(a0, a1, U, float(w["mu"]), np.asarray(w["x"], float), float(w["h"]), log.cap)
+                res = verify_window(a0, a1, U, float(w["mu"]), np.asarray(w["x"], float), float(w["h"]), log.cap,
+                                    pairs)
                 if res.ok and res.verdict == "solution" and _allowed(list(U), pairs) \
                         and res.enc_lo > log.onset_below:
                     onset_ok, onset = True, (float(log.onset_below), float(res.enc_hi))
@@ -621,6 +644,15 @@ def _children_cover(n: Node, byid: dict, pairs) -> tuple[bool, str]:
         k1, k2 = kids
         ok = k1.U == n.U and k2.U == n.U and k1.a <= n.a and k2.b >= n.b and k1.b >= k2.a
         return ok, "" if ok else "bisection children do not cover the node"
+    if n.kind == "pairsplit":
+        # (a, b) a pair inside U: the allowed supports in U lie in U \ {a} or in U \ {b}
+        if len(kids) != 2 or not all(k.a <= n.a and k.b >= n.b for k in kids):
+            return False, "pair split needs two children on the node's interval"
+        for a, b in pairs:
+            if a in n.U and b in n.U and sorted(kids[0].U) == sorted(set(n.U) - {a}) \
+                    and sorted(kids[1].U) == sorted(set(n.U) - {b}):
+                return True, ""
+        return False, "pair split children are not U minus either half of a pair"
     # drop: every U \ {i} on an interval containing [a, b], and the exact-support leaf of U
     need = set(n.U) if len(n.U) > 1 else set()     # U \ {i} is empty for |U| = 1: nothing to cover
     leaf = False

@@ -83,6 +83,7 @@ class Prover:
         self.pairs = [tuple(sorted((int(a), int(b)))) for a, b in pairs]
         self.tree = Tree()
         self.deadline = deadline
+        self.max_nodes = math.inf        # a budget in nodes: answers independent of the machine's speed
         self.found: dict[tuple, Found] = {}
         self.ill: list[Found] = []
         self.leaf_cache: dict = {}
@@ -141,15 +142,7 @@ class Prover:
         for j in range(len(w)):
             if not np.isfinite(w[j]) or abs(w[j].imag) > 1e-7 * max(1.0, abs(w[j].real)):
                 continue
-            mu = float(w[j].real)
-            x = V[:, j].real.copy()
-            # polish: the null vector of A(mu) by one inverse-iteration step
-            A = s0 + mu * s1
-            try:
-                _, _, Vh = np.linalg.svd(A)
-                x = Vh[-1]
-            except np.linalg.LinAlgError:
-                pass
+            mu, x = _polish(s0, s1, float(w[j].real), V[:, j].real.copy())
             out.append((mu, x))
         out.sort(key=lambda t: t[0])
         self.leaf_cache[key] = out
@@ -175,7 +168,7 @@ class Prover:
             for _ in range(3):
                 if h <= 0:
                     break
-                res = ck.verify_window(self.a0, self.a1, U, mu, x, h, self.cap)
+                res = ck.verify_window(self.a0, self.a1, U, mu, x, h, self.cap, self.pairs)
                 if res.ok:
                     win = res
                     break
@@ -209,11 +202,22 @@ class Prover:
         while heap:
             _, i = heapq.heappop(heap)
             n = self.tree.nodes[i]
-            if time.perf_counter() > self.deadline:
+            if time.perf_counter() > self.deadline or len(self.tree.nodes) > self.max_nodes:
                 left.append(n)
                 left += [self.tree.nodes[j] for _, j in heap]
                 break
             if n.kind != "open":
+                continue
+            pair = next(((a, b) for a, b in self.pairs if a in n.U and b in n.U), None)
+            if pair is not None:
+                # no allowed support holds both halves: the supports in U are those in U \ {a} or U \ {b}
+                c1, _ = self.tree.add(tuple(j for j in n.U if j != pair[0]), n.a, n.b)
+                c2, _ = self.tree.add(tuple(j for j in n.U if j != pair[1]), n.a, n.b)
+                n.kind, n.children = "pairsplit", [c1.id, c2.id]
+                for c in self._open_under([c1, c2]):
+                    if c.id not in queued:
+                        queued.add(c.id)
+                        heapq.heappush(heap, (c.a, c.id))
                 continue
             if self._try_cop(n):
                 continue
@@ -271,6 +275,32 @@ class Prover:
                            onset_root, onset_below, all_roots, w)
 
 
+def _polish(s0: np.ndarray, s1: np.ndarray, mu: float, x: np.ndarray, steps: int = 2) -> tuple[float, np.ndarray]:
+    """Newton steps on ``[A(mu) x ; x_k - 1] = 0`` from an eigenpair of LAPACK (tighter windows)."""
+    p = len(x)
+    try:
+        _, _, Vh = np.linalg.svd(s0 + mu * s1)
+        x = Vh[-1]
+    except np.linalg.LinAlgError:
+        pass
+    k = int(np.argmax(np.abs(x)))
+    x = x / x[k]
+    for _ in range(steps):
+        J = np.zeros((p + 1, p + 1))
+        J[:p, :p] = s0 + mu * s1
+        J[:p, p] = s1 @ x
+        J[p, k] = 1.0
+        F = np.append((s0 + mu * s1) @ x, x[k] - 1.0)
+        try:
+            dz = np.linalg.solve(J, -F)
+        except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(dz)):
+            break
+        x, mu = x + dz[:p], mu + float(dz[p])
+    return mu, x
+
+
 @dataclass
 class ProofOutcome:
     """What the prover built (to be accepted by the checker): the log and the open nodes."""
@@ -295,7 +325,8 @@ def _seed_candidates(P: Prover, candidates) -> None:
         xs = np.asarray(x, dtype=float)
         if len(xs) == P.s:
             xs = xs[Ua]
-        res = ck.verify_window(P.a0, P.a1, Ua, float(mu), xs, h, P.cap)
+        mu, xs = _polish(P.a0[np.ix_(Ua, Ua)], P.a1[np.ix_(Ua, Ua)], float(mu), xs)
+        res = ck.verify_window(P.a0, P.a1, Ua, float(mu), xs, h, P.cap, P.pairs)
         if res.ok and res.verdict == "solution":
             P.found[(U, round(res.enc_lo, 12))] = Found(U, float(mu), h, xs.copy(), (res.enc_lo, res.enc_hi),
                                                        res.min_x, res.min_y, res.verdict)
@@ -322,17 +353,22 @@ def _bound(P: Prover, hi: float) -> tuple[int | None, float | None]:
 
 
 def prove(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), candidates=(), seconds: float = 60.0,
-          want_all: bool = True, all_seconds: float | None = None) -> ProofOutcome:
+          want_all: bool = True, all_seconds: float | None = None, onset_nodes: int = 20000,
+          all_nodes: int = 4000) -> ProofOutcome:
     """Build the proof of the onset and (``want_all``) of every solution in ``[0, cap]``.
 
-    ``candidates``: ``(support indices, mu, x)`` from a search (they only guide the proof)."""
+    ``candidates``: ``(support indices, mu, x)`` from a search (they only guide the proof).
+    Budgets: ``onset_nodes`` and ``all_nodes`` tree nodes for the two claims (deterministic: the
+    same answer on any machine and any number of ranks), ``seconds`` and ``all_seconds`` as a
+    safety limit in time."""
     with one_blas_thread():
-        return _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds)
+        return _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset_nodes, all_nodes)
 
 
-def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds) -> ProofOutcome:
+def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset_nodes, all_nodes) -> ProofOutcome:
     t0 = time.perf_counter()
     P = Prover(A0, A1, cap, pairs, deadline=t0 + seconds)
+    P.max_nodes = onset_nodes
     all_idx = tuple(range(P.s))
     _seed_candidates(P, candidates)
     onset_root = onset_below = None
@@ -367,6 +403,7 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds) -> Pr
         if onset_below < P.cap:
             if all_seconds is not None:
                 P.deadline = min(P.deadline, time.perf_counter() + all_seconds)
+            P.max_nodes = len(P.tree.nodes) + all_nodes
             root2, _ = P.tree.add(all_idx, onset_below, P.cap)
             all_roots.append(root2.id)
             left = P.explore(root2)
