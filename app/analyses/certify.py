@@ -133,15 +133,8 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
         if proof is not None and p.value <= cap and (proof.all.proven or p.value <= proof.lower_bound):
             continue          # not confirmed by the proof: below a proven bound it is no solution
         d = p.as_dict(comp)
-        sup = np.flatnonzero(p.support)
-        if len(sup) and p.value > 0:     # a found value: Newton-polished on its support (residual evidence)
-            from app.analyses.mceip_mu.prover import _polish
-            mu, xs = _polish(a0[np.ix_(sup, sup)], a1[np.ix_(sup, sup)], p.value, p.x[sup])
-            x = np.zeros(len(p.x))
-            x[sup] = xs / np.sum(xs)
-            if np.isfinite(mu) and np.all(x[sup] > 0) and abs(mu - p.value) <= 1e-6 * max(1.0, abs(p.value)):
-                d.update({k: v for k, v in _solution_dict(mu, x, p.support, comp, a0, a1).items()
-                          if k not in ("margin_y_stick",)})
+        # the residual as for the proven ones: relative to the pencil's size at this mu
+        d["residual"] = _solution_dict(p.value, p.x, p.support, comp, a0, a1)["residual"]
         c = found_by.get((round(p.value, 9), tuple(p.support)))
         d.update({"certified": False, "iterations": c.iterations if c else 0,
                   "found_by": c.found_by[:8] if c else ["floating-point enumeration (24)-(26)"],
