@@ -31,7 +31,7 @@ from app.systems import schemas as registered_schemas
 from app.systems.block_schema import Block, Loading  # noqa: F401 - re-exported (app.config.Block)
 from app.systems.particles_schema import TwoParticles  # noqa: F401 - re-exported
 from app.systems.schema import NonNegFloat
-from app.validation import PathError, SceneError, Strict, one_line, show_value
+from app.validation import PathError, ResourcePathError, SceneError, Strict, one_line, show_value
 
 Analysis = Literal["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]
 
@@ -166,6 +166,19 @@ def _system_types() -> str:
     return ", ".join(f"'{t}'" for t in SYSTEM_TYPES)
 
 
+def _limits_of(data: dict) -> Limits | None:
+    """The scene's ``settings.limits``, validated ahead of the system (which reads its files under
+    them); None when absent or invalid (the full validation reports it)."""
+    settings = data.get("settings")
+    raw = settings.get("limits") if isinstance(settings, dict) else None
+    if raw is None:
+        return None
+    try:
+        return Limits.model_validate(raw)
+    except (ValidationError, ValueError, TypeError, RecursionError):
+        return None
+
+
 def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path | None = None) -> Scene:
     """Validate an already loaded YAML document; file paths in it are relative to ``base_dir``
     (the scene file's folder; default the current directory)."""
@@ -175,10 +188,12 @@ def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path |
     if not isinstance(data, dict):
         raise SceneError(f"{source}: (top level) = {show_value(data)}: the scene must be a YAML mapping of keys "
                          f"(name, system, mu, ...), not a {type(data).__name__}")
+    context = {"base_dir": base_dir, "limits": _limits_of(data)}
     try:
-        return Scene.model_validate(data, context={"base_dir": base_dir} if base_dir is not None else None)
+        return Scene.model_validate(data, context=context)
     except ValidationError as err:
-        raise SceneError(f"{source}: {format_error(err)}") from None
+        cause = (err.errors(include_url=False)[0].get("ctx") or {}).get("error")
+        raise SceneError(f"{source}: {format_error(err)}", 4 if isinstance(cause, ResourcePathError) else 2) from None
     except RecursionError:
         raise SceneError(f"{source}: the scene is nested too deeply") from None
 

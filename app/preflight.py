@@ -57,22 +57,9 @@ def estimate(scene: Scene, nx: int | None = None) -> Estimate:
     return Estimate(states=states, dofs=dofs, contact_nodes=contact, memory_bytes=memory)
 
 
-def _physical_memory() -> int | None:
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
 def memory_limit(scene: Scene) -> tuple[float, str]:
     """(bytes, how it was set): ``settings.limits.max_memory_gb``, else 80 % of the machine's RAM."""
-    lim = scene.settings.limits
-    if lim.max_memory_gb is not None:
-        return lim.max_memory_gb * 2**30, f"settings.limits.max_memory_gb = {lim.max_memory_gb}"
-    ram = _physical_memory()
-    if ram is None:
-        return math.inf, "no limit (RAM unknown)"
-    return 0.8 * ram, f"80 % of this machine's RAM ({ram / 2**30:.1f} GiB; set settings.limits.max_memory_gb)"
+    return scene.settings.limits.memory_cap()
 
 
 #: address space mapped before any work: Python, MPI, PETSc, SLEPc, DOLFINx and their libraries

@@ -38,7 +38,8 @@ from typing import Annotated, Any, ClassVar, Literal, Optional
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, resolve_file
+from app.systems.schema import (Finite, PosFloat, ResourcePathError, StrictModel, SystemPathError, base_dir,
+                                context_limits, resolve_file)
 
 Vec2 = tuple[Finite, Finite]
 
@@ -143,7 +144,7 @@ class GmshBody(StrictModel):
         try:
             from app.systems.gmsh_mesh import model_info
             path = resolve_file("", data.get("file"), info)
-            mi = model_info(path, path.name)
+            mi = model_info(path, path.name, context_limits(info), (base_dir(info), path.parent))
             for dim, groups in ((1, mi.curves), (2, mi.surfaces)):
                 alias[dim] = {str(tag): name for name, (tag, _) in groups.items() if str(tag) not in groups}
         except Exception:     # noqa: BLE001 - a bad file is reported by the file validator
@@ -171,15 +172,17 @@ class GmshBody(StrictModel):
         return str(resolve_file("", v, info))
 
     @model_validator(mode="after")
-    def _groups(self) -> "GmshBody":
+    def _groups(self, vinfo: ValidationInfo) -> "GmshBody":
         import pathlib
 
         from app.systems.gmsh_mesh import model_info
-        shown = pathlib.Path(self.file).name
+        path = pathlib.Path(self.file)
+        shown = path.name
         try:
-            info = model_info(pathlib.Path(self.file), shown)
+            info = model_info(path, shown, context_limits(vinfo), (base_dir(vinfo), path.parent))
         except SystemPathError as err:
-            raise SystemPathError("file", shown, err.msg) from None
+            raise ResourcePathError("file", shown, err.msg) if getattr(err, "resource", False) else \
+                SystemPathError("file", shown, err.msg) from None
         curves, surfaces = info.curves, info.surfaces
 
         def curve(key: str, name: str) -> None:
