@@ -75,7 +75,6 @@ def _limits(limits):
 
 def _read(path: pathlib.Path, value: str, limits, roots) -> tuple[ModelInfo, dict]:
     """Check and read ``path`` in the sandbox (cached per file version and limits)."""
-    from app.systems import geo_allowlist, gmsh_sandbox, msh_header
     lim = _limits(limits)
     try:
         key = file_version(path)
@@ -83,10 +82,37 @@ def _read(path: pathlib.Path, value: str, limits, roots) -> tuple[ModelInfo, dic
         raise SystemPathError("file", value, f"cannot read {path.name}: {err.strerror or err}") from None
     if key in _CACHE and (limits is None or _CACHE[key][2] == lim):     # None: as validated
         _CACHE.move_to_end(key)
-        return _CACHE[key][:2]
+        found = _CACHE[key]
+        if isinstance(found[0], SystemPathError):          # a refusal is remembered too: Gmsh runs once
+            raise _refusal(value, found[0].msg, found[0].resource)
+        return found[:2]
+    try:
+        info, arrays = _read_uncached(path, value, lim, roots)
+    except SystemPathError as err:
+        _remember(key, (err, None, lim))
+        raise
+    _remember(key, (info, arrays, lim))
+    return info, arrays
+
+
+def _remember(key: tuple, entry: tuple) -> None:
+    _CACHE[key] = entry
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+
+
+def _refusal(value: str, msg: str, resource: bool = False) -> SystemPathError:
+    """The one-line error on ``file``; ``resource``: a time or memory limit stopped the reading."""
+    err = SystemPathError("file", value, msg)
+    err.resource = resource
+    return err
+
+
+def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInfo, dict]:
+    from app.systems import geo_allowlist, gmsh_sandbox, msh_header
     suffix = path.suffix.lower()
     if suffix not in (".geo", ".msh"):
-        raise SystemPathError("file", value, "allowed: a Gmsh .geo or .msh file")
+        raise _refusal(value, "allowed: a Gmsh .geo or .msh file")
     try:
         if suffix == ".geo":
             geo_allowlist.check_file(path, roots)
@@ -94,20 +120,15 @@ def _read(path: pathlib.Path, value: str, limits, roots) -> tuple[ModelInfo, dic
             msh_header.check(path, path.name, lim.max_nodes, lim.max_elements)
         raw, arrays = gmsh_sandbox.read(path, lim)
     except (geo_allowlist.GeoRefused, msh_header.MshRefused) as err:
-        raise SystemPathError("file", value, str(err)) from None
+        raise _refusal(value, str(err)) from None
     except gmsh_sandbox.SandboxError as err:
-        raise_error = SystemPathError("file", value, str(err))
-        raise_error.resource = err.resource
-        raise raise_error from None
+        raise _refusal(value, str(err), err.resource) from None
     _check_arrays(arrays, raw, value)
     info = ModelInfo(curves={k: (int(t), int(c)) for k, (t, c) in raw["curves"].items()},
                      surfaces={k: (int(t), int(c)) for k, (t, c) in raw["surfaces"].items()},
                      n_nodes=int(raw["n_nodes"]), n_triangles=int(raw["n_triangles"]), bbox=tuple(raw["bbox"]),
                      n_edges=int(raw["n_edges"]), curve_nodes={k: int(v) for k, v in raw["curve_nodes"].items()},
                      names={(int(d), str(n)): int(t) for d, n, t in raw["names"]})
-    _CACHE[key] = (info, arrays, lim)
-    while len(_CACHE) > _CACHE_SIZE:
-        _CACHE.popitem(last=False)
     return info, arrays
 
 
