@@ -250,3 +250,38 @@ def test_mutated_msh_fuzz_never_crashes_this_process(tmp_path):
         outcomes = list(pool.map(one, paths))
     counts = {k: outcomes.count(k) for k in ("ok", "refused", "crash")}
     assert len(outcomes) == 200 and counts["refused"] + counts["crash"] > 50, counts
+
+
+def test_contact_curve_inside_the_body_is_refused(tmp_path):
+    from app.config import SceneError, load_scene
+    geo = BODY.replace('Physical Curve("AB") = {1};', 'Point(5) = {2, 1, 0, 1}; Point(6) = {8, 1, 0, 1};\n'
+                       'Line(5) = {5, 6}; Line{5} In Surface{1};\nPhysical Curve("AB") = {5};\n'
+                       'Physical Curve("bottom") = {1};')
+    with pytest.raises(SceneError, match=r"system.contact = 'AB': .* inside the body"):
+        load_scene(_write(tmp_path, geo))
+
+
+@pytest.mark.parametrize("example, degree", [("block", 1), ("block", 2), ("l_shape", 1), ("incline", 2)])
+def test_validate_sizes_are_the_built_systems_sizes(tmp_path, example, degree):
+    """The pre-flight's DOFs and contact nodes of a gmsh scene (from the mesh, no assembly) are those
+    of the assembled, Dirichlet-reduced system."""
+    import yaml
+    from mpi4py import MPI
+    from conftest import ROOT
+
+    from app import preflight
+    from app.config import load_scene
+    from app.stages import Stages
+    from app.systems import gmsh_body
+    ex = ROOT / "app" / "scenes" / "gmsh"
+    (tmp_path / f"{example}.geo").write_text((ex / f"{example}.geo").read_text())
+    data = yaml.safe_load((ex / f"{example}.yaml").read_text())
+    data["system"]["degree"] = degree
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(data))
+    scene = load_scene(tmp_path / "s.yaml")
+    est = preflight.check(scene)
+    system = gmsh_body.build(scene.system, MPI.COMM_WORLD, Stages())
+    try:
+        assert (est.dofs, est.contact_nodes) == (system.n_dofs, len(system.nodes))
+    finally:
+        system.destroy()

@@ -14,7 +14,8 @@ to exactly one physical surface (elements outside physical groups would be silen
 every curve to at most one physical curve; triangles have positive area and one orientation (a
 mix of orientations or a zero area means inverted or degenerate elements); at most MAX_NODES
 nodes and MAX_ELEMENTS triangles (a .geo's curves are meshed first and counted before its
-surfaces are).
+surfaces are). It also counts, per physical curve, the line elements that are not on the body's
+boundary (the contact curve must lie on it).
 """
 from __future__ import annotations
 
@@ -122,24 +123,32 @@ def check_model(gmsh) -> dict:
     if npos and nneg:
         raise ModelError(f"inverted elements: {min(npos, nneg)} of {len(area2)} triangles are "
                          "oriented opposite to the others")
-    curves, surfaces, curve_nodes = {}, {}, {}
+    # boundary edges of the body: edges of exactly one triangle (keys of sorted vertex pairs)
+    edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    ekeys, ecount = np.unique(edges[:, 0] * len(node_tags) + edges[:, 1], return_counts=True)
+    boundary = ekeys[ecount == 1]
+    curves, surfaces, curve_nodes, inner = {}, {}, {}, {}
     for (dim, tag), name in name_of.items():
-        count, nodes = 0, []
+        count, nodes, segs = 0, [], []
         for ent in model.getEntitiesForPhysicalGroup(dim, tag):
             types, etags, enodes = model.mesh.getElements(dim, ent)
             count += sum(len(t) for t in etags)
             nodes.extend(np.asarray(n).tolist() for n in enodes)
+            segs.extend(np.asarray(n, dtype=np.int64).reshape(-1, 2)[:, :2] for t, n in zip(types, enodes)
+                        if t == GMSH_LINE)
         if dim == 1:
             curves[name] = (int(tag), int(count))
             curve_nodes[name] = int(len(np.unique(np.concatenate(nodes)))) if nodes else 0
+            if segs:                    # line elements of the curve that are no boundary edge
+                seg = np.sort(pos[np.concatenate(segs)], axis=1)
+                inner[name] = int(np.sum(~np.isin(seg[:, 0] * len(node_tags) + seg[:, 1], boundary)))
         elif dim == 2:
             surfaces[name] = (int(tag), int(count))
     if not surfaces:
         raise ModelError("no physical surface: define one (the body and its material)")
-    edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    n_edges = len(np.unique(edges[:, 0] * len(node_tags) + edges[:, 1]))
+    n_edges = len(ekeys)
     bbox = [float(x[:, 0].min()), float(x[:, 1].min()), float(x[:, 0].max()), float(x[:, 1].max())]
-    return {"curves": curves, "surfaces": surfaces, "curve_nodes": curve_nodes, "n_nodes": int(len(node_tags)),
+    return {"curves": curves, "surfaces": surfaces, "curve_nodes": curve_nodes, "inner_segments": inner, "n_nodes": int(len(node_tags)),
             "n_triangles": int(len(area2)), "n_edges": int(n_edges), "bbox": bbox,
             "names": [[int(d), gmsh.model.getPhysicalName(d, t) or str(t), int(t)]
                       for d, t in gmsh.model.getPhysicalGroups()]}

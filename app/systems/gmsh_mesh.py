@@ -36,6 +36,7 @@ class ModelInfo:
     n_edges: int = 0                                              # triangle edges (the P2 mid-side nodes)
     curve_nodes: dict[str, int] = field(default_factory=dict)     # physical curve name -> its vertices
     names: dict[tuple[int, str], int] = field(default_factory=dict)   # (dim, name) -> physical tag
+    inner_segments: dict[str, int] = field(default_factory=dict)   # physical curve -> line elements off the boundary
 
     def dofs(self, degree: int) -> int:
         """DOFs of the whole body (2 per node; P2 adds a node per edge) before any is prescribed."""
@@ -128,7 +129,8 @@ def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInf
                      surfaces={k: (int(t), int(c)) for k, (t, c) in raw["surfaces"].items()},
                      n_nodes=int(raw["n_nodes"]), n_triangles=int(raw["n_triangles"]), bbox=tuple(raw["bbox"]),
                      n_edges=int(raw["n_edges"]), curve_nodes={k: int(v) for k, v in raw["curve_nodes"].items()},
-                     names={(int(d), str(n)): int(t) for d, n, t in raw["names"]})
+                     names={(int(d), str(n)): int(t) for d, n, t in raw["names"]},
+                     inner_segments={k: int(v) for k, v in raw["inner_segments"].items()})
     return info, arrays
 
 
@@ -177,3 +179,26 @@ def read_mesh(path: pathlib.Path, comm, limits=None):
     mesh, cell_tags, facet_tags = mesh_arrays.build(comm, arrays, 0, gdim=2)     # MPI collective
     names = comm.bcast(names, root=0)                      # MPI collective
     return mesh, cell_tags, facet_tags, names
+
+
+def mesh_sizes(path: pathlib.Path, degree: int, prescribed: dict[str, str], contact: str) -> tuple[int, int]:
+    """(DOFs after the Dirichlet reduction, contact nodes) of a body on the file's mesh, counted from
+    the arrays read at validation (no assembly): a node of a prescribed curve loses the prescribed
+    components, P2 adds a node per triangle edge; contact nodes with a prescribed component are
+    left out of the contact set (app/systems/gmsh_operators.py)."""
+    info, arrays = _read(path, path.name, None, None)
+    facets, values = arrays["facets"], arrays["facet_values"]
+    p2 = degree == 2
+
+    def of(curves) -> tuple[set, int]:
+        tags = [info.names[(1, c)] for c in curves if (1, c) in info.names]
+        rows = np.isin(values, tags) if len(values) else np.zeros(0, dtype=bool)
+        return set(np.unique(facets[rows]).tolist()) if rows.any() else set(), int(rows.sum())
+    dofs = 2 * info.n_nodes + (2 * info.n_edges if p2 else 0)
+    fixed_nodes: set = set()
+    for comp in ("x", "y"):
+        nodes, n_facets = of([c for c, comps in prescribed.items() if comp in comps])
+        dofs -= len(nodes) + (n_facets if p2 else 0)
+        fixed_nodes |= nodes
+    cnodes, c_facets = of([contact])
+    return dofs, len(cnodes - fixed_nodes) + (c_facets if p2 else 0)

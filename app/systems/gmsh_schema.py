@@ -133,6 +133,14 @@ class GmshBody(StrictModel):
         """(equilibrium states of the program, the key that sets them) for the pre-flight (app/preflight.py)."""
         return 1 + sum(ph.steps for ph in self.program), "system.program[].steps"
 
+    def file_sizes(self) -> tuple[int, int, str]:
+        """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/preflight.py)."""
+        import pathlib
+
+        from app.systems.gmsh_mesh import mesh_sizes
+        dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, dict(self.prescribed), self.contact)
+        return dofs, contact, "system.file"
+
     @model_validator(mode="before")
     @classmethod
     def _tags_as_names(cls, data: Any, info: ValidationInfo) -> Any:
@@ -193,6 +201,11 @@ class GmshBody(StrictModel):
                 raise SystemPathError(key, name, f"the physical curve '{name}' has no mesh elements")
 
         curve("contact", self.contact)
+        inner = info.inner_segments.get(self.contact, 0)
+        if inner:
+            raise SystemPathError("contact", self.contact, f"{inner} of the {curves[self.contact][1]} segments of the "
+                                  f"physical curve '{self.contact}' lie inside the body, not on its boundary: the "
+                                  "contact curve must be part of the body's boundary")
         for name in self.prescribed:
             curve(f"prescribed.{name}", name)
             if name == self.contact:
