@@ -186,4 +186,9 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             raise UnreachableLoad(str(err)) from None
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     _add_tractions(cfg, system.extra["recovery"], states)
+    from app.sanity import check_body_path  # small-strain validity (warnings, never an error)
+    tvec, nvec = cfg.obstacle.frame()
+    for w in check_body_path(states, system.fields.ops.size, tvec, nvec, UNITS[scene.units]["length"]):
+        log.warning("%s", w)
+        stages.warnings.append(w)
     return system, states, info
