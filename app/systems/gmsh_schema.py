@@ -68,8 +68,8 @@ class Obstacle(StrictModel):
     @field_validator("normal")
     @classmethod
     def _nonzero(cls, v: Vec2) -> Vec2:
-        if math.hypot(*v) == 0:
-            raise ValueError("the normal must be a non-zero vector [nx, ny]")
+        if max(abs(v[0]), abs(v[1])) < 1e-100:
+            raise ValueError("the normal must be a non-zero vector [nx, ny] (components up to 1e-100 count as 0)")
         return v
 
     def frame(self) -> tuple[np.ndarray, np.ndarray]:
@@ -79,6 +79,7 @@ class Obstacle(StrictModel):
             n = np.array([math.sin(a), -math.cos(a)])
         else:
             n = np.array(self.normal, dtype=float)
+            n /= np.max(np.abs(n))              # scaled first: no overflow or underflow in the norm
             n /= np.linalg.norm(n)
         return np.array([-n[1], n[0]]), n
 
@@ -87,7 +88,8 @@ class Motion(StrictModel):
     """Increment of a prescribed curve's displacement during a phase: a rigid translation and an
     optional (linearised) rotation ``rotation_deg`` about ``about``."""
     translation: Vec2 = Field((0.0, 0.0), description="rigid translation increment [length]")
-    rotation_deg: Finite = Field(0.0, description="rotation increment, linearised, counter-clockwise [deg]")
+    rotation_deg: Annotated[float, Field(ge=-3600, le=3600, allow_inf_nan=False)] = Field(
+        0.0, description="rotation increment, linearised, counter-clockwise [deg] (at most ten turns)")
     about: Vec2 = Field((0.0, 0.0), description="centre of the rotation [length]")
 
 

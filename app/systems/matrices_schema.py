@@ -25,6 +25,7 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.systems.schema import (
+    MAGNITUDE_MAX,
     Finite,
     NonNegFloat,
     ResourcePathError,
@@ -76,6 +77,15 @@ def _reason(err: Exception) -> str:
     return f"{type(err).__name__}: {' '.join(str(err).split())[:120]}"
 
 
+def _in_range(key: str, value: Any, path: pathlib.Path, data: np.ndarray, zero_ok: bool = False) -> None:
+    """Entries within the magnitudes the app computes with (1e-100 ... 1e100, as the scene's numbers):
+    beyond, products and sums of entries overflow or underflow double precision."""
+    scale = float(np.max(np.abs(data))) if data.size else 0.0
+    if scale > MAGNITUDE_MAX or (scale < 1 / MAGNITUDE_MAX and not (zero_ok and scale == 0)):
+        raise SystemPathError(key, value, f"{path.name}: largest entry {scale:.3g} in magnitude, outside "
+                              f"{1 / MAGNITUDE_MAX:g} ... {MAGNITUDE_MAX:g}: rescale the units")
+
+
 def read_matrix(key: str, value: str, path: pathlib.Path, limits=None):
     """Sparse CSR copy of a matrix file (cached per file version), its header checked against
     ``limits`` (the scene's ``settings.limits``) first. Raises :class:`SystemPathError`."""
@@ -99,6 +109,7 @@ def read_matrix(key: str, value: str, path: pathlib.Path, limits=None):
                               "non-empty matrix is needed")
     if not np.all(np.isfinite(A.data)):
         raise SystemPathError(key, value, f"{path.name}: entries that are not finite numbers")
+    _in_range(key, value, path, A.data)
     _MATRIX_CACHE[k] = A
     return A
 
@@ -122,6 +133,7 @@ def read_vector(key: str, value: Any, path: Optional[pathlib.Path], limits=None)
         raise SystemPathError(key, value, f"{path.name}: a real vector (one column) of finite numbers is needed, "
                               f"got shape {v.shape}")
     v = v.astype(float)
+    _in_range(key, value, path, v, zero_ok=True)
     _VECTOR_CACHE[k] = v
     return v
 

@@ -14,9 +14,12 @@ from pydantic import Field, ValidationInfo
 
 from app.validation import PathError, ResourcePathError, Strict  # noqa: F401 - ResourcePathError re-exported
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-Finite = Annotated[float, Field(allow_inf_nan=False)]
+#: the largest magnitude of a number in a scene (README "Scene files"): finite, and small enough that
+#: products of a few such numbers (E x displacement x area, ...) stay finite in double precision
+MAGNITUDE_MAX = 1e100
+PosFloat = Annotated[float, Field(gt=0, le=MAGNITUDE_MAX, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0, le=MAGNITUDE_MAX, allow_inf_nan=False)]
+Finite = Annotated[float, Field(ge=-MAGNITUDE_MAX, le=MAGNITUDE_MAX, allow_inf_nan=False)]
 
 
 #: the one strict base model of every scene section (app/validation.py): unknown keys refused,
