@@ -159,6 +159,11 @@ def format_error(err: ValidationError) -> str:
         msg = "allowed: a mapping of keys (key: value, or {key: value, ...})"
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
+    bounds = {"less_than_equal": ("le", "at most"), "greater_than_equal": ("ge", "at least"),
+              "less_than": ("lt", "less than"), "greater_than": ("gt", "greater than")}
+    if e["type"] in bounds and isinstance((e.get("ctx") or {}).get(bounds[e["type"]][0]), (int, float)):
+        # "allowed: at most 1e+100", not pydantic's 101 digits
+        msg = f"allowed: a number {bounds[e['type']][1]} {e['ctx'][bounds[e['type']][0]]:g}"
     return f"{path} = {show_value(value)}: {one_line(msg)}"
 
 

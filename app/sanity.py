@@ -57,20 +57,23 @@ def check_finite(states: Sequence[EquilibriumState]) -> list[str]:
             f"state(s), first state {nonfinite[0]}: the scene's sizes, E or loads are out of range (check the units)"]
 
 
-def check_body_path(states: Sequence[EquilibriumState], size: float, tangent, normal, unit: str = "mm") -> list[str]:
+def check_body_path(states: Sequence[EquilibriumState], size: float, tangent, normal, gaps=None,
+                    unit: str = "mm") -> list[str]:
     """Warnings for a meshed body of any shape (``system.type: gmsh``): finiteness; the nominal strain of
     every prescribed curve's motion relative to the mean contact displacement, and the spread of the
     contact displacements, over the body's size ``size``; the linearised rotations (above 0.1 rad
     a rotation is not small); the penetration into the obstacle. ``tangent``/``normal``: the
-    obstacle's unit vectors (contact displacements are along them)."""
+    obstacle's unit vectors (contact displacements are along them); ``gaps``: the initial gaps
+    (a state's ``u_N`` is its normal displacement minus the gap)."""
     if not states:
         return []
     out = check_finite(states)
     t, n = np.asarray(tangent, dtype=float), np.asarray(normal, dtype=float)
+    g = np.zeros(len(states[0].u_N)) if gaps is None else np.asarray(gaps, dtype=float)
     strain, spread, rotation, pen = [], [], [], []
     for st in states:
         params = st.load.get("parameters", {})
-        uc = (float(np.mean(st.u_T)) * t + float(np.mean(st.u_N)) * n) if len(st.u_T) else np.zeros(2)
+        uc = (float(np.mean(st.u_T)) * t + float(np.mean(st.u_N + g)) * n) if len(st.u_T) else np.zeros(2)
         worst, rot = 0.0, 0.0
         for key, v in params.items():
             if key.startswith("motion.") and key.endswith(".tx"):

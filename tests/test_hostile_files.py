@@ -285,3 +285,43 @@ def test_validate_sizes_are_the_built_systems_sizes(tmp_path, example, degree):
         assert (est.dofs, est.contact_nodes) == (system.n_dofs, len(system.nodes))
     finally:
         system.destroy()
+
+
+@pytest.mark.parametrize("key, value, words", [
+    ("thickness", "true", "a boolean"),
+    ("obstacle", "{point: [0, 0], normal: [1.0e+308, -1.0e+308]}", r"at most 1e\+100"),
+    ("obstacle", "{point: [0, 0], normal: [0, -1.0e-320]}", "non-zero vector"),
+    ("obstacle", "{point: [1.0e+300, 0], normal: [0, -1]}", r"at most 1e\+100"),
+])
+def test_schema_refuses_booleans_and_overflowing_values(tmp_path, key, value, words):
+    from app.config import SceneError, load_scene
+    scene = _write(tmp_path, BODY)
+    scene.write_text(scene.read_text().replace("  material:", f"  {key}: {value}\n  material:"))
+    with pytest.raises(SceneError, match=words):
+        load_scene(scene)
+
+
+@pytest.mark.parametrize("program, words", [
+    ("{steps: 1, displacement: {CD: {translation: [0, -0.01], rotation_deg: 1.0e+10}}}", "at most 3600"),
+    ("{steps: 1, displacement: {CD: {translation: [1.0e+300, 0]}}}", r"at most 1e\+100"),
+    ("{steps: 1, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 1.0e+300}}", r"at most 1e\+100"),
+])
+def test_program_values_in_range(tmp_path, program, words):
+    from app.config import SceneError, load_scene
+    scene = _write(tmp_path, BODY)
+    text = scene.read_text().replace("{steps: 2, displacement: {CD: {translation: [0, -0.01]}}}", program)
+    scene.write_text(text)
+    with pytest.raises(SceneError, match=words):
+        load_scene(scene)
+
+
+def test_large_motion_of_a_gmsh_body_warns(tmp_path):
+    """Small-strain warnings apply to gmsh bodies: a prescribed rotation of 30 degrees."""
+    from conftest import run_scene
+    import yaml
+    _write(tmp_path, BODY)
+    data = yaml.safe_load((tmp_path / "scene.yaml").read_text())
+    data["system"]["file"] = str(tmp_path / "body.geo")
+    data["system"]["program"] = [{"steps": 1, "displacement": {"CD": {"translation": [0, -0.01], "rotation_deg": 30}}}]
+    warnings = run_scene(data)["warnings"]
+    assert any("linearised rotation" in w for w in warnings), warnings

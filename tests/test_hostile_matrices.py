@@ -147,3 +147,20 @@ def test_validate_reports_the_real_sizes_of_a_matrices_scene(tmp_path):
     proc = run_cli("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "30 DOFs, 1 contact nodes" in proc.stdout, proc.stdout
+
+
+@pytest.mark.parametrize("scale", [1e308, 1e-308])
+def test_matrix_entries_out_of_range_refused(tmp_path, scale):
+    scipy.io.mmwrite(str(tmp_path / "K.mtx"), sp.csr_matrix(scale * np.eye(4)))
+    line = _one_line(run_cli("validate", _scene(tmp_path, "K.mtx", analyses=("enumerate",)), cwd=tmp_path))
+    assert "system.K = 'K.mtx'" in line and "rescale the units" in line, line
+
+
+def test_no_free_dof_is_stated_plainly(tmp_path):
+    """Every DOF a stuck contact DOF: no PETSc error code, the plain reason."""
+    scipy.io.mmwrite(str(tmp_path / "K.mtx"), sp.csr_matrix(np.array([[2.0, -1.0], [-1.0, 2.0]])))
+    scipy.io.mmwrite(str(tmp_path / "M.mtx"), sp.identity(2, format="csr"))
+    scene = _scene(tmp_path, "K.mtx", "M.mtx", analyses=("necessary", "sufficient", "mceip_mu"))
+    proc = run_cli("run", scene, "-o", str(tmp_path / "out"), cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "nothing can move: every DOF is fixed or stuck" in proc.stdout and "error code" not in proc.stdout

@@ -188,7 +188,8 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     _add_tractions(cfg, system.extra["recovery"], states)
     from app.sanity import check_body_path  # small-strain validity (warnings, never an error)
     tvec, nvec = cfg.obstacle.frame()
-    for w in check_body_path(states, system.fields.ops.size, tvec, nvec, UNITS[scene.units]["length"]):
+    for w in check_body_path(states, system.fields.ops.size, tvec, nvec, system.extra["gaps"],
+                             UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)
     return system, states, info
