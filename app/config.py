@@ -159,11 +159,11 @@ def format_error(err: ValidationError) -> str:
         msg = "allowed: a mapping of keys (key: value, or {key: value, ...})"
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
-    bounds = {"less_than_equal": ("le", "at most"), "greater_than_equal": ("ge", "at least"),
+    bounds = {"less_than_equal": ("le", "less than or equal to"), "greater_than_equal": ("ge", "greater than or equal to"),
               "less_than": ("lt", "less than"), "greater_than": ("gt", "greater than")}
-    if e["type"] in bounds and isinstance((e.get("ctx") or {}).get(bounds[e["type"]][0]), (int, float)):
-        # "allowed: at most 1e+100", not pydantic's 101 digits
-        msg = f"allowed: a number {bounds[e['type']][1]} {e['ctx'][bounds[e['type']][0]]:g}"
+    limit = (e.get("ctx") or {}).get(bounds[e["type"]][0]) if e["type"] in bounds else None
+    if isinstance(limit, float) and abs(limit) >= 1e16:
+        msg = f"Input should be {bounds[e['type']][1]} {limit:g}"      # 1e+100, not pydantic's 101 digits
     return f"{path} = {show_value(value)}: {one_line(msg)}"
 
 

@@ -47,6 +47,11 @@ def _report(what: str, values: Sequence[float], limit: float, states: Sequence[E
             f"linear elasticity is not valid there (check E, the loads and the units)")
 
 
+def _reports(checks: list, states: Sequence[EquilibriumState]) -> list[str]:
+    """The warnings of the violated ``(what, values, limit, detail)`` checks."""
+    return [m for what, vals, limit, detail in checks if (m := _report(what, vals, limit, states, detail))]
+
+
 def check_finite(states: Sequence[EquilibriumState]) -> list[str]:
     """A warning if some state's contact displacements or reactions are not finite (any system type)."""
     nonfinite = [st.index for st in states
@@ -97,11 +102,7 @@ def check_body_path(states: Sequence[EquilibriumState], size: float, tangent, no
         ("penetration into the obstacle / body size", pen, PENETRATION_LIMIT,
          lambda i: f"max u_N = {pen[i] * size:.4g} {unit}"),
     ]
-    for what, vals, limit, detail in checks:
-        msg = _report(what, vals, limit, states, detail)
-        if msg:
-            out.append(msg)
-    return out
+    return out + _reports(checks, states)
 
 
 def check_block_path(states: Sequence[EquilibriumState], length: float, height: float,
@@ -127,8 +128,4 @@ def check_block_path(states: Sequence[EquilibriumState], length: float, height: 
         ("penetration into the obstacle / body size", pen, PENETRATION_LIMIT,
          lambda i: f"max u_N = {pen[i] * size:.4g} {unit}"),
     ]
-    for what, vals, limit, detail in checks:
-        msg = _report(what, vals, limit, states, detail)
-        if msg:
-            out.append(msg)
-    return out
+    return out + _reports(checks, states)

@@ -38,8 +38,16 @@ from typing import Annotated, Any, ClassVar, Literal, Optional
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from app.systems.schema import (Finite, PosFloat, ResourcePathError, StrictModel, SystemPathError, base_dir,
-                                context_limits, resolve_file)
+from app.systems.schema import (
+    Finite,
+    PosFloat,
+    ResourcePathError,
+    StrictModel,
+    SystemPathError,
+    base_dir,
+    context_limits,
+    resolve_file,
+)
 
 Vec2 = tuple[Finite, Finite]
 
@@ -191,8 +199,9 @@ class GmshBody(StrictModel):
         try:
             info = model_info(path, shown, context_limits(vinfo), (base_dir(vinfo), path.parent))
         except SystemPathError as err:
-            raise ResourcePathError("file", shown, err.msg) if getattr(err, "resource", False) else \
-                SystemPathError("file", shown, err.msg) from None
+            # a time or memory limit stopped Gmsh: exit status 4 (app/config.py)
+            cls = ResourcePathError if getattr(err, "resource", False) else SystemPathError
+            raise cls("file", shown, err.msg) from None
         curves, surfaces = info.curves, info.surfaces
 
         def curve(key: str, name: str) -> None:
