@@ -184,6 +184,12 @@ def _limits_of(data: dict) -> Limits | None:
         return None
 
 
+def scene_context(data: dict, base_dir) -> dict:
+    """The validation context of a scene document: the folder its paths are relative to, and its
+    ``settings.limits`` read ahead (the system reads its files under them)."""
+    return {"base_dir": base_dir, "limits": _limits_of(data)}
+
+
 def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path | None = None) -> Scene:
     """Validate an already loaded YAML document; file paths in it are relative to ``base_dir``
     (the scene file's folder; default the current directory)."""
@@ -193,9 +199,8 @@ def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path |
     if not isinstance(data, dict):
         raise SceneError(f"{source}: (top level) = {show_value(data)}: the scene must be a YAML mapping of keys "
                          f"(name, system, mu, ...), not a {type(data).__name__}")
-    context = {"base_dir": base_dir, "limits": _limits_of(data)}
     try:
-        return Scene.model_validate(data, context=context)
+        return Scene.model_validate(data, context=scene_context(data, base_dir))
     except ValidationError as err:
         cause = (err.errors(include_url=False)[0].get("ctx") or {}).get("error")
         raise SceneError(f"{source}: {format_error(err)}", 4 if isinstance(cause, ResourcePathError) else 2) from None

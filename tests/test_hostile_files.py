@@ -143,18 +143,22 @@ def test_hang_and_resource_cases_end_within_the_limit(tmp_path, settings, geo_ex
     assert words in line and "system.file" in line
 
 
-def test_sandbox_has_no_write_access_outside_its_folder(tmp_path):
-    """Even a write the allowlist would miss is stopped by bubblewrap (when it is usable here)."""
+def test_sandbox_alone_stops_a_write(tmp_path, monkeypatch):
+    """Past the allowlist (called directly here), Gmsh's own SystemCall runs in the child, but bubblewrap
+    leaves it no write access outside the child's folder: the marker stays absent. Without bubblewrap
+    the same file does create it (so the test can fail)."""
+    from app.scene_sections import Limits
     from app.systems import gmsh_sandbox
     if not gmsh_sandbox.bwrap_usable():
         pytest.skip("bubblewrap not usable on this machine")
-    import subprocess
-    import tempfile
-    tmp = pathlib.Path(tempfile.mkdtemp(dir=tmp_path))
+    lim = gmsh_sandbox.SandboxLimits.from_limits(Limits())
     marker = tmp_path / "MARKER"
-    cmd = gmsh_sandbox._bwrap_command(tmp) + ["--", "/bin/sh", "-c", f"touch {marker}; touch {tmp}/inside"]
-    subprocess.run(cmd, capture_output=True, timeout=30)
-    assert not marker.exists() and (tmp / "inside").exists()
+    (tmp_path / "evil.geo").write_text(BODY + f'SystemCall "touch {marker}";\n')
+    gmsh_sandbox.read(tmp_path / "evil.geo", lim)
+    assert not marker.exists()
+    monkeypatch.setitem(gmsh_sandbox._BWRAP, "usable", False)
+    gmsh_sandbox.read(tmp_path / "evil.geo", lim)
+    assert marker.exists()
 
 
 def _msh(tmp_path: pathlib.Path) -> bytes:

@@ -1,6 +1,6 @@
 """The child process that reads a user's Gmsh file (run by app/systems/gmsh_sandbox.py).
 
-Run as a script, ``python -I gmsh_child.py FILE OUTDIR MAX_NODES MAX_ELEMENTS``, inside the
+Run as a script, ``python -I gmsh_child.py FILE OUTDIR MAX_NODES MAX_ELEMENTS MAX_DOFS``, inside the
 sandbox (no write access outside OUTDIR, limits on time and memory): it imports only gmsh and
 numpy, opens FILE (meshing a ``.geo`` in 2D), checks the model and writes into OUTDIR
 
@@ -37,7 +37,7 @@ def _short(err: Exception) -> str:
     return " ".join(str(err).split())[:160] or type(err).__name__
 
 
-def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int) -> None:
+def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_dofs: int) -> None:
     """Load ``path`` into a new gmsh model, meshing a ``.geo`` in 2D within the limits; renumber
     nodes and elements 1..N (model_to_mesh needs it)."""
     gmsh.model.add("user")
@@ -52,8 +52,9 @@ def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int) -> N
                 gmsh.model.mesh.generate(1)
                 n_curve_nodes = len(gmsh.model.mesh.getNodes()[0])
                 if n_curve_nodes > max_nodes:
-                    raise ModelError(f"meshing {path.name}: its curves alone have {n_curve_nodes} nodes, above the "
-                                     f"{max_nodes} that settings.limits.max_dofs allows; use a coarser mesh")
+                    raise ModelError(f"meshing {path.name}: its curves alone have {n_curve_nodes} nodes (2 DOFs each), "
+                                     f"more DOFs than settings.limits.max_dofs = {max_dofs}; use a coarser mesh or "
+                                     "raise the limit")
                 gmsh.model.mesh.generate(2)
             except ModelError:
                 raise
@@ -62,9 +63,9 @@ def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int) -> N
     n_nodes = len(gmsh.model.mesh.getNodes()[0])
     n_tri = sum(len(t) for t in gmsh.model.mesh.getElements(2)[1])
     if n_nodes > max_nodes or n_tri > max_elements:
-        raise ModelError(f"the mesh of {path.name} has {n_nodes} nodes and {n_tri} triangles, above the "
-                         f"{max_nodes} nodes / {max_elements} elements that settings.limits.max_dofs allows; "
-                         "use a coarser mesh or raise the limit")
+        raise ModelError(f"the mesh of {path.name} has {n_nodes} nodes ({2 * n_nodes} DOFs) and {n_tri} triangles, "
+                         f"above the {max_nodes} nodes / {max_elements} triangles that settings.limits.max_dofs = "
+                         f"{max_dofs} allows; use a coarser mesh or raise the limit")
     gmsh.model.mesh.renumberNodes()
     gmsh.model.mesh.renumberElements()
 
@@ -197,13 +198,13 @@ def extract(gmsh) -> dict:
 
 def main(argv: list[str]) -> int:
     path, out = pathlib.Path(argv[0]), pathlib.Path(argv[1])
-    max_nodes, max_elements = int(argv[2]), int(argv[3])
+    max_nodes, max_elements, max_dofs = int(argv[2]), int(argv[3]), int(argv[4])
     import gmsh
     gmsh.initialize([], readConfigFiles=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("General.NumThreads", 1)
     try:
-        open_model(gmsh, path, max_nodes, max_elements)
+        open_model(gmsh, path, max_nodes, max_elements, max_dofs)
         info = check_model(gmsh)
         arrays = extract(gmsh)
     except ModelError as err:

@@ -118,7 +118,7 @@ def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInf
         if suffix == ".geo":
             geo_allowlist.check_file(path, roots)
         else:
-            msh_header.check(path, path.name, lim.max_nodes, lim.max_elements)
+            msh_header.check(path, path.name, lim.max_nodes, lim.max_elements, lim.max_dofs)
         raw, arrays = gmsh_sandbox.read(path, lim)
     except (geo_allowlist.GeoRefused, msh_header.MshRefused) as err:
         raise _refusal(value, str(err)) from None

@@ -58,6 +58,7 @@ class SandboxLimits:
     memory_bytes: int | None
     max_nodes: int
     max_elements: int
+    max_dofs: int           # settings.limits.max_dofs, named in the messages
 
     @classmethod
     def from_limits(cls, limits) -> "SandboxLimits":
@@ -66,7 +67,8 @@ class SandboxLimits:
         # P1: 2 DOFs per node, about 2 triangles per node; P2 has about 4x the DOFs of P1 on the
         # same triangles, so the P1 counts bound both (the exact DOFs are checked by the pre-flight)
         return cls(seconds=float(limits.max_file_seconds), memory_bytes=None if mem == float("inf") else int(mem),
-                   max_nodes=max(limits.max_dofs // 2, 3), max_elements=max(limits.max_dofs, 1))
+                   max_nodes=max(limits.max_dofs // 2, 3), max_elements=max(limits.max_dofs, 1),
+                   max_dofs=limits.max_dofs)
 
 
 def _bwrap_command(tmp: pathlib.Path) -> list[str]:
@@ -130,7 +132,8 @@ def _run(path: pathlib.Path, limits: SandboxLimits, tmp: pathlib.Path) -> tuple[
     name = path.name
     # bytes the child may write: the arrays (about 100 bytes per element) and gmsh's messages
     file_bytes = 64 * 2**20 + 200 * (limits.max_elements + limits.max_nodes)
-    cmd = [sys.executable, "-I", str(CHILD), str(path), str(tmp), str(limits.max_nodes), str(limits.max_elements)]
+    cmd = [sys.executable, "-I", str(CHILD), str(path), str(tmp), str(limits.max_nodes), str(limits.max_elements),
+           str(limits.max_dofs)]
     if bwrap_usable():
         cmd = _bwrap_command(tmp) + ["--"] + cmd
     env = {"HOME": str(tmp), "TMPDIR": str(tmp), "PATH": "/usr/bin:/bin", "LANG": "C.UTF-8",

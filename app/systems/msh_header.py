@@ -101,14 +101,14 @@ def read_header(path: pathlib.Path, name: str) -> MshHeader:
     return MshHeader(version=version, binary=binary, nodes=counts[0], elements=counts[1])
 
 
-def check(path: pathlib.Path, name: str, max_nodes: int, max_elements: int) -> MshHeader:
+def check(path: pathlib.Path, name: str, max_nodes: int, max_elements: int, max_dofs: int) -> MshHeader:
     """:func:`read_header` and the counts against the limits (raises :class:`MshRefused`)."""
     h = read_header(path, name)
     if h.nodes is not None and h.nodes > max_nodes:
-        raise MshRefused(f"{name} declares {h.nodes} nodes, above the {max_nodes} that settings.limits.max_dofs "
-                         "allows; use a coarser mesh or raise the limit")
+        raise MshRefused(f"{name} declares {h.nodes} nodes (2 DOFs each), above the {max_nodes} that "
+                         f"settings.limits.max_dofs = {max_dofs} allows; use a coarser mesh or raise the limit")
     # elements of every dimension: triangles, and the lines and points of the physical groups
     if h.elements is not None and h.elements > 2 * max_elements + 10**5:
         raise MshRefused(f"{name} declares {h.elements} elements, above the {2 * max_elements + 10**5} that "
-                         "settings.limits.max_dofs allows; use a coarser mesh or raise the limit")
+                         f"settings.limits.max_dofs = {max_dofs} allows; use a coarser mesh or raise the limit")
     return h
