@@ -87,10 +87,10 @@ def tokens(text: str, name: str) -> list[Token]:
     """The tokens of a .geo text (comments and blanks dropped), each with its line number."""
     out, line, pos = [], 1, 0
     while pos < len(text):
+        if text.startswith("/*", pos) and text.find("*/", pos + 2) < 0:
+            raise GeoRefused(f"{name} line {line}: a comment /* is never closed")
         m = _TOKEN.match(text, pos)
         if m is None:
-            if text.startswith("/*", pos):
-                raise GeoRefused(f"{name} line {line}: a comment /* is never closed")
             if text[pos] == '"':
                 raise GeoRefused(f"{name} line {line}: a string is never closed")
             raise GeoRefused(f"{name} line {line}: unexpected character {text[pos]!r}")

@@ -94,7 +94,7 @@ def read_header(path: pathlib.Path, name: str) -> MshHeader:
                 max_tag = number
             if number < 0 or max_tag < 0:
                 raise MshRefused(f"{name}: the {label} header gives a negative count")
-            if max_tag > MAX_TAG or max_tag > 1000 * number + 10**6:
+            if v4 and (max_tag > MAX_TAG or max_tag > 1000 * number + 10**6):
                 raise MshRefused(f"{name}: the {label} header declares tags up to {max_tag} for {number} entries: "
                                  f"at most {MAX_TAG} and not far beyond the count (renumber the mesh)")
             counts.append(number)
