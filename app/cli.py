@@ -200,7 +200,7 @@ def _main(args) -> int:
     try:
         scene = load_scene(args.scene or default_scene_path())
     except SceneError as err:
-        return _fail(str(err))
+        return _fail(str(err), err.exit_code)
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:

@@ -31,7 +31,7 @@ from app.systems import schemas as registered_schemas
 from app.systems.block_schema import Block, Loading  # noqa: F401 - re-exported (app.config.Block)
 from app.systems.particles_schema import TwoParticles  # noqa: F401 - re-exported
 from app.systems.schema import NonNegFloat
-from app.validation import PathError, SceneError, Strict, one_line, show_value
+from app.validation import PathError, ResourcePathError, SceneError, Strict, one_line, show_value
 
 Analysis = Literal["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]
 
@@ -159,11 +159,35 @@ def format_error(err: ValidationError) -> str:
         msg = "allowed: a mapping of keys (key: value, or {key: value, ...})"
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
+    bounds = {"less_than_equal": ("le", "less than or equal to"), "greater_than_equal": ("ge", "greater than or equal to"),
+              "less_than": ("lt", "less than"), "greater_than": ("gt", "greater than")}
+    limit = (e.get("ctx") or {}).get(bounds[e["type"]][0]) if e["type"] in bounds else None
+    if isinstance(limit, float) and abs(limit) >= 1e16:
+        msg = f"Input should be {bounds[e['type']][1]} {limit:g}"      # 1e+100, not pydantic's 101 digits
     return f"{path} = {show_value(value)}: {one_line(msg)}"
 
 
 def _system_types() -> str:
     return ", ".join(f"'{t}'" for t in SYSTEM_TYPES)
+
+
+def _limits_of(data: dict) -> Limits | None:
+    """The scene's ``settings.limits``, validated ahead of the system (which reads its files under
+    them); None when absent or invalid (the full validation reports it)."""
+    settings = data.get("settings")
+    raw = settings.get("limits") if isinstance(settings, dict) else None
+    if raw is None:
+        return None
+    try:
+        return Limits.model_validate(raw)
+    except (ValidationError, ValueError, TypeError, RecursionError):
+        return None
+
+
+def scene_context(data: dict, base_dir) -> dict:
+    """The validation context of a scene document: the folder its paths are relative to, and its
+    ``settings.limits`` read ahead (the system reads its files under them)."""
+    return {"base_dir": base_dir, "limits": _limits_of(data)}
 
 
 def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path | None = None) -> Scene:
@@ -176,9 +200,10 @@ def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path |
         raise SceneError(f"{source}: (top level) = {show_value(data)}: the scene must be a YAML mapping of keys "
                          f"(name, system, mu, ...), not a {type(data).__name__}")
     try:
-        return Scene.model_validate(data, context={"base_dir": base_dir} if base_dir is not None else None)
+        return Scene.model_validate(data, context=scene_context(data, base_dir))
     except ValidationError as err:
-        raise SceneError(f"{source}: {format_error(err)}") from None
+        cause = (err.errors(include_url=False)[0].get("ctx") or {}).get("error")
+        raise SceneError(f"{source}: {format_error(err)}", 4 if isinstance(cause, ResourcePathError) else 2) from None
     except RecursionError:
         raise SceneError(f"{source}: the scene is nested too deeply") from None
 

@@ -59,4 +59,5 @@ def exit_status(failures: list) -> int:
 
 def loading_error(source: str, err: BaseException) -> str:
     """The one-line message of an :class:`app.errors.UnreachableLoad` for scene ``source``."""
-    return f"{source}: loading: {err}"
+    key = getattr(err, "key", "loading")
+    return f"{source}: {key}: {err}" if key else f"{source}: {err}"

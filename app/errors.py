@@ -23,4 +23,9 @@ def fail(msg: str, code: int = EXIT_USER) -> int:
 class UnreachableLoad(Exception):
     """The prescribed loading path cannot be followed (e.g. the requested normal force cannot be
     reached): a property of the scene, raised identically on every rank; the driver reports it as
-    one ``error:`` line (exit 2 from a single study, an error row in a sweep)."""
+    one ``error:`` line (exit 2 from a single study, an error row in a sweep). ``key``: the part of
+    the scene the message blames (default ``loading``; None when the message names its key)."""
+
+    def __init__(self, msg: str, key: str | None = "loading"):
+        super().__init__(msg)
+        self.key = key

@@ -33,46 +33,54 @@ class Estimate:
 def estimate(scene: Scene, nx: int | None = None) -> Estimate:
     """Sizes and a rough memory estimate of ``scene`` (``nx``: override of ``system.nx``, ny scaled)."""
     cfg = scene.system
-    if not hasattr(cfg, "mesh_sizes"):     # a system type without a mesh estimate (app/systems/)
-        # sizes known only once the mesh or the matrix files are read: checked by the type's build
-        # (settings.limits.max_dofs); the states of its loading phases are counted here
+    if not hasattr(cfg, "mesh_sizes"):     # a system type sized by its files, or not at all (app/systems/)
         states = cfg.load_states()[0] if hasattr(cfg, "load_states") else 1
-        return Estimate(states=states, dofs=4, contact_nodes=2, memory_bytes=200 * 2**20 + 1500 * 2 * states)
+        if not hasattr(cfg, "file_sizes"):
+            return Estimate(states=states, dofs=4, contact_nodes=2, memory_bytes=200 * 2**20 + 1500 * 2 * states)
+        dofs, contact, _ = cfg.file_sizes()          # from the mesh or matrix file read at validation
+        return Estimate(states=states, dofs=dofs, contact_nodes=contact,
+                        memory_bytes=_memory(scene, dofs, contact, states, getattr(cfg, "degree", 1)))
     if nx is not None:
         cfg = cfg.refined(nx)
     ld = scene.loading
     steps = ld.tangential_max / ld.tangential_step
     states = ld.normal_steps + (int(steps + 1e-9) if steps < 1e18 else 10**18)
     dofs, contact = cfg.mesh_sizes()
+    return Estimate(states=states, dofs=dofs, contact_nodes=contact,
+                    memory_bytes=_memory(scene, dofs, contact, states, cfg.degree))
+
+
+def _memory(scene: Scene, dofs: int, contact: int, states: int, degree: int) -> int:
+    """A rough memory estimate [bytes] of a study of these sizes."""
     # Sparse K (about 18 entries per row in 2D P1, 40 in P2) and its LU factors (2D nested dissection:
     # fill about 30 n log2 n entries), 12 bytes per entry; the contact flexibility (2c)^2 dense,
     # a few copies; the dense reduced pencils up to eig.dense_limit; about 1.5 kB per node and state
     # in the results; 300 MB for Python, PETSc, DOLFINx.
-    per_row = 18 if cfg.degree == 1 else 40
+    per_row = 18 if degree == 1 else 40
     sparse = 12 * dofs * (per_row + 30 * math.log2(max(dofs, 2)))
     dense_w = 4 * 8 * (2 * contact) ** 2
     dense_pencils = 6 * 8 * min(dofs, scene.settings.eig.dense_limit) ** 2
     results = 1500 * contact * states
-    memory = int(300 * 2**20 + sparse + dense_w + dense_pencils + results)
-    return Estimate(states=states, dofs=dofs, contact_nodes=contact, memory_bytes=memory)
+    return int(300 * 2**20 + sparse + dense_w + dense_pencils + results)
 
 
-def _physical_memory() -> int | None:
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):
-        return None
+def _size_key(scene: Scene, nx: int | None) -> tuple[str, object]:
+    """(key, value) that sets the size of the study, named in the pre-flight's refusals."""
+    cfg = scene.system
+    if hasattr(cfg, "file_sizes"):
+        import pathlib
+        key = cfg.file_sizes()[2]
+        return key, pathlib.Path(getattr(cfg, key.split(".")[-1])).name
+    if nx is not None:
+        return "refinement.levels", nx
+    if cfg.pattern == "unstructured":
+        return "system.mesh_size", cfg.mesh_size
+    return "system.nx", cfg.nx
 
 
 def memory_limit(scene: Scene) -> tuple[float, str]:
     """(bytes, how it was set): ``settings.limits.max_memory_gb``, else 80 % of the machine's RAM."""
-    lim = scene.settings.limits
-    if lim.max_memory_gb is not None:
-        return lim.max_memory_gb * 2**30, f"settings.limits.max_memory_gb = {lim.max_memory_gb}"
-    ram = _physical_memory()
-    if ram is None:
-        return math.inf, "no limit (RAM unknown)"
-    return 0.8 * ram, f"80 % of this machine's RAM ({ram / 2**30:.1f} GiB; set settings.limits.max_memory_gb)"
+    return scene.settings.limits.memory_cap()
 
 
 #: address space mapped before any work: Python, MPI, PETSc, SLEPc, DOLFINx and their libraries
@@ -93,7 +101,6 @@ def check(scene: Scene, source: str = "scene") -> Estimate:
     worst = None
     for nx in levels:
         est = estimate(scene, nx)
-        where = "refinement.levels" if nx is not None else None
         if est.states > lim.max_states and hasattr(scene.system, "load_states"):
             key = scene.system.load_states()[1]
             raise SceneError(f"{source}: {key}: {est.states} load states exceed settings.limits.max_states = "
@@ -104,26 +111,25 @@ def check(scene: Scene, source: str = "scene") -> Estimate:
                              f"(normal_steps + tangential_max / tangential_step) exceed "
                              f"settings.limits.max_states = {lim.max_states}; use a larger step or raise the limit")
         if est.dofs > lim.max_dofs:
-            key = where or ("system.mesh_size" if scene.system.pattern == "unstructured" else "system.nx")
-            val = nx if nx is not None else (scene.system.mesh_size if key == "system.mesh_size" else scene.system.nx)
+            key, val = _size_key(scene, nx)
             raise SceneError(f"{source}: {key} = {val}: about {est.dofs} DOFs exceed settings.limits.max_dofs = "
                              f"{lim.max_dofs}; use a coarser mesh or raise the limit")
         if est.contact_nodes > lim.max_contact_nodes:
-            key = where or "system.nx"
-            raise SceneError(f"{source}: {key} = {nx or scene.system.nx}: {est.contact_nodes} contact nodes exceed "
+            key, val = _size_key(scene, nx)
+            raise SceneError(f"{source}: {key} = {val}: {est.contact_nodes} contact nodes exceed "
                              f"settings.limits.max_contact_nodes = {lim.max_contact_nodes}")
         if worst is None or est.memory_bytes > worst.memory_bytes:
             worst = est
     cap, how = memory_limit(scene)
     if worst.memory_bytes > cap:
-        if worst.states > 10 * worst.contact_nodes:
+        if worst.states > 10 * worst.contact_nodes and scene.loading is not None:
             key, val = "loading.tangential_step", scene.loading.tangential_step
+        elif worst.states > 10 * worst.contact_nodes and hasattr(scene.system, "load_states"):
+            key, val = scene.system.load_states()[1], worst.states
         elif scene.refinement is not None:
             key, val = "refinement.levels", max(scene.refinement.levels)
-        elif scene.system.pattern == "unstructured":
-            key, val = "system.mesh_size", scene.system.mesh_size
         else:
-            key, val = "system.nx", scene.system.nx
+            key, val = _size_key(scene, None)
         raise SceneError(f"{source}: {key} = {val}: memory estimate {worst.memory_bytes / 2**30:.3g} GiB "
                          f"({worst.states} states, {worst.dofs} DOFs, {worst.contact_nodes} contact nodes) exceeds "
                          f"{how}; use a coarser mesh or fewer states, or raise settings.limits.max_memory_gb")

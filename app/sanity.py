@@ -47,6 +47,64 @@ def _report(what: str, values: Sequence[float], limit: float, states: Sequence[E
             f"linear elasticity is not valid there (check E, the loads and the units)")
 
 
+def _reports(checks: list, states: Sequence[EquilibriumState]) -> list[str]:
+    """The warnings of the violated ``(what, values, limit, detail)`` checks."""
+    return [m for what, vals, limit, detail in checks if (m := _report(what, vals, limit, states, detail))]
+
+
+def check_finite(states: Sequence[EquilibriumState]) -> list[str]:
+    """A warning if some state's contact displacements or reactions are not finite (any system type)."""
+    nonfinite = [st.index for st in states
+                 if not all(np.all(np.isfinite(a)) for a in (st.u_T, st.u_N, st.r_T, st.r_N))]
+    if not nonfinite:
+        return []
+    return [f"non-finite displacements or reactions (overflow of double precision) at {len(nonfinite)} "
+            f"state(s), first state {nonfinite[0]}: the scene's sizes, E or loads are out of range (check the units)"]
+
+
+def check_body_path(states: Sequence[EquilibriumState], size: float, tangent, normal, gaps=None,
+                    unit: str = "mm") -> list[str]:
+    """Warnings for a meshed body of any shape (``system.type: gmsh``): finiteness; the nominal strain of
+    every prescribed curve's motion relative to the mean contact displacement, and the spread of the
+    contact displacements, over the body's size ``size``; the linearised rotations (above 0.1 rad
+    a rotation is not small); the penetration into the obstacle. ``tangent``/``normal``: the
+    obstacle's unit vectors (contact displacements are along them); ``gaps``: the initial gaps
+    (a state's ``u_N`` is its normal displacement minus the gap)."""
+    if not states:
+        return []
+    out = check_finite(states)
+    t, n = np.asarray(tangent, dtype=float), np.asarray(normal, dtype=float)
+    g = np.zeros(len(states[0].u_N)) if gaps is None else np.asarray(gaps, dtype=float)
+    strain, spread, rotation, pen = [], [], [], []
+    for st in states:
+        params = st.load.get("parameters", {})
+        uc = (float(np.mean(st.u_T)) * t + float(np.mean(st.u_N + g)) * n) if len(st.u_T) else np.zeros(2)
+        worst, rot = 0.0, 0.0
+        for key, v in params.items():
+            if key.startswith("motion.") and key.endswith(".tx"):
+                d = np.array([v, params.get(key[:-3] + ".ty", 0.0)])
+                worst = max(worst, float(np.hypot(*(d - uc))) / size)
+            elif key.startswith("motion.") and key.endswith(".ty") and key[:-3] + ".tx" not in params:
+                worst = max(worst, float(np.hypot(*(np.array([0.0, v]) - uc))) / size)
+            elif key.startswith("motion.") and key.endswith(".rz"):
+                rot = max(rot, abs(float(v)))
+        strain.append(worst)
+        rotation.append(rot)
+        spread.append(float(np.ptp(st.u_T)) / size if len(st.u_T) else 0.0)
+        pen.append(max(float(np.max(st.u_N, initial=0.0)), 0.0) / size)
+    checks = [
+        ("nominal strain (prescribed motion relative to the contact curve / body size)", strain, STRAIN_LIMIT,
+         lambda i: f"{strain[i] * size:.4g} {unit} on a {size:.4g} {unit} body"),
+        ("spread of the tangential contact displacements / body size", spread, STRAIN_LIMIT,
+         lambda i: f"{spread[i] * size:.4g} {unit}"),
+        ("linearised rotation of a prescribed curve [rad]", rotation, STRAIN_LIMIT,
+         lambda i: f"{rotation[i]:.4g} rad"),
+        ("penetration into the obstacle / body size", pen, PENETRATION_LIMIT,
+         lambda i: f"max u_N = {pen[i] * size:.4g} {unit}"),
+    ]
+    return out + _reports(checks, states)
+
+
 def check_block_path(states: Sequence[EquilibriumState], length: float, height: float,
                      unit: str = "mm") -> list[str]:
     """Warnings (possibly none) for the block's loading path; see the module docstring."""
@@ -60,12 +118,7 @@ def check_block_path(states: Sequence[EquilibriumState], length: float, height: 
         normal.append(abs(gy) / height)
         shear.append(abs(gx - float(np.mean(st.u_T))) / height if len(st.u_T) else 0.0)
         pen.append(max(float(np.max(st.u_N, initial=0.0)), 0.0) / size)
-    nonfinite = [st.index for st in states
-                 if not all(np.all(np.isfinite(a)) for a in (st.u_T, st.u_N, st.r_T, st.r_N))]
-    if nonfinite:
-        out.append(f"non-finite displacements or reactions (overflow of double precision) at {len(nonfinite)} "
-                   f"state(s), first state {nonfinite[0]}: the scene's sizes, E or loads are out of range "
-                   f"(check the units)")
+    out.extend(check_finite(states))
     g = lambda i: states[i].load  # noqa: E731
     checks = [
         ("nominal normal strain (CD pressed in / height)", normal, STRAIN_LIMIT,
@@ -75,8 +128,4 @@ def check_block_path(states: Sequence[EquilibriumState], length: float, height: 
         ("penetration into the obstacle / body size", pen, PENETRATION_LIMIT,
          lambda i: f"max u_N = {pen[i] * size:.4g} {unit}"),
     ]
-    for what, vals, limit, detail in checks:
-        msg = _report(what, vals, limit, states, detail)
-        if msg:
-            out.append(msg)
-    return out
+    return out + _reports(checks, states)

@@ -6,6 +6,8 @@ whose validation errors become one line (app/validation.py).
 """
 from __future__ import annotations
 
+import math
+import os
 import re
 from typing import Annotated, Any, Literal, Optional, Union
 
@@ -24,6 +26,18 @@ class Limits(Strict):
         20_000, description="most contact nodes on AB")
     max_memory_gb: Optional[Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]] = Field(
         None, description="largest memory estimate accepted [GiB]; null: 80 % of the machine's RAM")
+    max_file_seconds: Annotated[float, Field(gt=0, le=86400, allow_inf_nan=False)] = Field(
+        60.0, description="most seconds Gmsh may take to read or mesh system.file (in its sandbox)")
+
+    def memory_cap(self) -> tuple[float, str]:
+        """(bytes, how it was set): ``max_memory_gb``, else 80 % of the machine's RAM (inf if unknown)."""
+        if self.max_memory_gb is not None:
+            return self.max_memory_gb * 2**30, f"settings.limits.max_memory_gb = {self.max_memory_gb}"
+        try:
+            ram = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        except (ValueError, OSError, AttributeError):
+            return math.inf, "no limit (RAM unknown)"
+        return 0.8 * ram, f"80 % of this machine's RAM ({ram / 2**30:.1f} GiB; set settings.limits.max_memory_gb)"
 
 
 class McpSettings(Strict):

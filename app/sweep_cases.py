@@ -18,7 +18,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from app.config import Scene, SceneError, format_error
+from app.config import Scene, SceneError, format_error, scene_context
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ def expand(scene: Scene, source: str = "scene", base_dir: str | pathlib.Path | N
         for k, v in values.items():
             _set(data, k, v)
         try:
-            case_scene = Scene.model_validate(data, context={"base_dir": base_dir} if base_dir is not None else None)
+            case_scene = Scene.model_validate(data, context=scene_context(data, base_dir))
         except ValidationError as err:
             raise SceneError(f"{source}: sweep case '{name}': {format_error(err)}") from None
         except RecursionError:

@@ -12,10 +12,12 @@ from pydantic import BaseModel, ConfigDict, model_validator
 
 
 class SceneError(Exception):
-    """A user mistake in a scene file: ``str(err)`` is the one-line message."""
+    """A user mistake in a scene file: ``str(err)`` is the one-line message; ``exit_code`` the CLI's
+    exit status (2, or 4 when a resource limit stopped the reading of a file)."""
 
-    def __init__(self, msg: str):
+    def __init__(self, msg: str, exit_code: int = 2):
         super().__init__(one_line(msg))
+        self.exit_code = exit_code
 
 
 def one_line(text: str) -> str:
@@ -32,6 +34,10 @@ class PathError(ValueError):
     def __init__(self, path: str, value: Any, msg: str):
         super().__init__(msg)
         self.path, self.value, self.msg = path, value, msg
+
+
+class ResourcePathError(PathError):
+    """A :class:`PathError` caused by a resource limit (time, memory): exit status 4."""
 
 
 _REPR = reprlib.Repr()

@@ -27,6 +27,16 @@ def run_cli(*args: str, ranks: int = 1, timeout: float = 600, cwd=None) -> subpr
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd or ROOT)
 
 
+def one_error_line(proc: subprocess.CompletedProcess, code: int = 2) -> str:
+    """The single ``error:`` line of a failed CLI run with exit status ``code`` (and no traceback)."""
+    out = proc.stdout + proc.stderr
+    assert "Traceback" not in out, out
+    assert proc.returncode == code, (proc.returncode, out)
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    return lines[0]
+
+
 @pytest.fixture
 def scene_file(tmp_path):
     def write(text: str, name: str = "scene.yaml") -> pathlib.Path:

@@ -33,7 +33,7 @@ def test_scene_keys_reference_is_generated_from_the_schema():
         for key in model.model_fields:
             assert f"| `{key}` |" in text, key
     assert "| `nx` | integer (>= 1, <= 4096) | `20` |" in text
-    assert "| `mu` | number (>= 0) | **required** |" in text
+    assert "| `mu` | number (>= 0, <= 1e+100) | **required** |" in text   # every number bounded (issue 19)
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)

@@ -11,7 +11,7 @@ from petsc4py import PETSc
 
 from app.analyses import eigen
 from app.analyses.certify import certificate, condensed_mu_result, mu_cap
-from app.analyses.classify import ZERO, Classification, frictionless_reason
+from app.analyses.classify import STICK, ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.lambda2_analysis import mceip_lambda2
 from app.analyses.mcp import search_mceip
@@ -44,6 +44,16 @@ def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int) -> dict
     return out
 
 
+def _nothing_moves(system: System, cls: Classification) -> str | None:
+    """The plain reason when the state leaves no free DOF (every DOF fixed by the system or a stuck
+    contact DOF): the pencils of (16) are empty, nothing can diverge."""
+    stuck = sum(1 for st in cls.status if st == STICK)
+    if stuck and system.n_dofs == 2 * stuck and all(st == STICK for st in cls.status):
+        return (f"not applicable: nothing can move: every DOF is fixed or stuck (all {system.n_dofs} DOFs are "
+                f"the DOFs of {stuck} stuck contact node(s)); no divergence")
+    return None
+
+
 def analyse_state(system: System, cls: Classification, scene: Scene, defer_condensed: bool = False) -> dict:
     """Run the scene's analyses on one classification; returns the ``analyses`` dict of results.json.
 
@@ -52,7 +62,7 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
     ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data) as
     ``{"deferred": true}`` for :func:`analyse_condensed_distributed` (MPI: one rank per classification).
     """
-    na = frictionless_reason(cls, scene.mu)   # mu = 0: K* = K0 is SPD, nothing to compute
+    na = frictionless_reason(cls, scene.mu) or _nothing_moves(system, cls)   # nothing to compute
     if na is not None:
         return {name: {"not_applicable": True, "reason": na} for name in ANALYSES if name in scene.analyses}
     if ZERO in cls.status:

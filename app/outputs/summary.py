@@ -35,6 +35,9 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
         c = first_mu.classification
         lines.append(f"  MCEIP-mu first has a solution at state {first_mu.index} "
                      f"({c['stick']} stick / {c['slip']} slip / {c['free']} free)")
+    if not states:
+        lines.append("  no equilibrium state: nothing to analyse")
+        return "\n".join(lines)
     last = states[-1]
     c = last["classification"]
     lines.append(f"  final state {last['index']}: {c['stick']} stick / {c['slip']} slip / {c['free']} free"

@@ -31,7 +31,7 @@ from app.systems.units import CONTINUUM_UNITS as UNITS
 log = logging.getLogger(__name__)
 
 
-SINGULAR = ("the stiffness is singular: the prescribed curves do not fix every rigid motion of the body: prescribe "
+SINGULAR = ("system.prescribed: the stiffness is singular: the prescribed curves do not fix every rigid motion of the body: prescribe "
             "a curve or give system.foundation (a weak elastic foundation)")
 
 
@@ -169,13 +169,13 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     cfg: GmshBody = scene.system
     try:
         system = build(cfg, comm, stages, scene.units)
-    except BodyError as err:
-        raise UnreachableLoad(str(err)) from None
+    except BodyError as err:          # a property of the body (its messages name their key)
+        raise UnreachableLoad(str(err), key=None) from None
     n, limit = system.n_dofs, scene.settings.limits.max_dofs
     if n > limit:          # the size of a Gmsh body is known only once it is meshed (app/preflight.py)
         system.destroy()
-        raise UnreachableLoad(f"the mesh of system.file has {n} DOFs, above settings.limits.max_dofs = {limit}; "
-                              "use a coarser mesh or raise the limit")
+        raise UnreachableLoad(f"system.file: the mesh has {n} DOFs, above settings.limits.max_dofs = {limit}; "
+                              "use a coarser mesh or raise the limit", key=None)
     flex = system.extra["flexibility"]
     with stages("quasi-static loading"):
         try:
@@ -186,4 +186,10 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             raise UnreachableLoad(str(err)) from None
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     _add_tractions(cfg, system.extra["recovery"], states)
+    from app.sanity import check_body_path  # small-strain validity (warnings, never an error)
+    tvec, nvec = cfg.obstacle.frame()
+    for w in check_body_path(states, system.fields.ops.size, tvec, nvec, system.extra["gaps"],
+                             UNITS[scene.units]["length"]):
+        log.warning("%s", w)
+        stages.warnings.append(w)
     return system, states, info

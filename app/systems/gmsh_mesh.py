@@ -1,18 +1,19 @@
-"""Read a user's 2D Gmsh model (``.geo`` or ``.msh``) with Gmsh's own API, check it, and hand it
-to DOLFINx 0.5.2's :func:`dolfinx.io.gmshio.model_to_mesh` (its ``read_from_msh`` is broken, see
-NOTES.md).
+"""Read a user's 2D Gmsh model (``.geo`` or ``.msh``) as data, never as code in the app's process.
 
-Checks (each a one-line :class:`app.systems.schema.SystemPathError` on the key ``file``): the file
-opens; the mesh is 2D (z = 0) with linear triangles only (no quadrangles: mixed meshes are not
-supported by ``model_to_mesh``); every meshed surface belongs to exactly one physical surface
-(elements outside physical groups would be silently dropped); every curve to at most one
-physical curve; triangles have positive area and one orientation (a mix of orientations or a
-zero area means inverted or degenerate elements). The result of the check is cached per file
-version, so validating a scene and building it open the file once each.
+A ``.geo`` is first checked against the allowlist of app/systems/geo_allowlist.py, a ``.msh``
+against its headers (app/systems/msh_header.py: it must start with ``$MeshFormat``, counts
+within the limits); then Gmsh reads and meshes it in the sandboxed child of
+app/systems/gmsh_sandbox.py, which checks the model (app/systems/gmsh_child.py: 2D, linear
+triangles, physical groups, orientation) and returns its groups, sizes and the arrays DOLFINx
+0.5.2's :func:`dolfinx.io.gmshio.model_to_mesh` would extract (its ``read_from_msh`` is broken,
+see NOTES.md). Every problem is a one-line :class:`app.systems.schema.SystemPathError` on the key
+``file`` (``resource=True`` on the error for the time and memory limits: exit status 4). The result
+is cached per file version, so validating a scene and building it run Gmsh once.
 """
 from __future__ import annotations
 
 import pathlib
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,17 +21,30 @@ import numpy as np
 from app.systems.schema import SystemPathError, file_version
 
 GMSH_LINE, GMSH_TRIANGLE = 1, 2
-_INFO_CACHE: dict[tuple, "ModelInfo"] = {}
+_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()     # file version -> (info, arrays, limits)
+_CACHE_SIZE = 4
 
 
 @dataclass(frozen=True)
 class ModelInfo:
-    """What a scene may refer to in a Gmsh model."""
+    """What a scene may refer to in a Gmsh model, and its sizes."""
     curves: dict[str, tuple[int, int]]        # physical curve name -> (tag, number of line elements)
     surfaces: dict[str, tuple[int, int]]      # physical surface name -> (tag, number of triangles)
     n_nodes: int
     n_triangles: int
     bbox: tuple[float, float, float, float] = field(default=(0.0, 0.0, 0.0, 0.0))   # xmin, ymin, xmax, ymax
+    n_edges: int = 0                                              # triangle edges (the P2 mid-side nodes)
+    curve_nodes: dict[str, int] = field(default_factory=dict)     # physical curve name -> its vertices
+    names: dict[tuple[int, str], int] = field(default_factory=dict)   # (dim, name) -> physical tag
+    inner_segments: dict[str, int] = field(default_factory=dict)   # physical curve -> line elements off the boundary
+
+    def dofs(self, degree: int) -> int:
+        """DOFs of the whole body (2 per node; P2 adds a node per edge) before any is prescribed."""
+        return 2 * (self.n_nodes + (self.n_edges if degree == 2 else 0))
+
+    def contact_nodes(self, curve: str, degree: int) -> int:
+        """Nodes of a physical curve (P2 adds a mid-side node per line element)."""
+        return self.curve_nodes.get(curve, 0) + (self.curves[curve][1] if degree == 2 and curve in self.curves else 0)
 
 
 def gmsh_is_initialized(gmsh) -> bool:
@@ -54,145 +68,137 @@ def gmsh_initialize():
     return gmsh, here
 
 
-def open_model(gmsh, path: pathlib.Path, value: str) -> None:
-    """Load ``path`` into a new current gmsh model, meshing a ``.geo`` in 2D; renumber nodes and
-    elements 1..N (model_to_mesh needs it)."""
-    gmsh.model.add(f"user_{abs(hash(str(path))) % 10**8}")
+def _limits(limits):
+    from app.scene_sections import Limits
+    from app.systems.gmsh_sandbox import SandboxLimits
+    return SandboxLimits.from_limits(limits if limits is not None else Limits())
+
+
+def _read(path: pathlib.Path, value: str, limits, roots) -> tuple[ModelInfo, dict]:
+    """Check and read ``path`` in the sandbox (cached per file version and limits)."""
+    lim = _limits(limits)
     try:
-        gmsh.open(str(path))
-    except Exception as err:        # noqa: BLE001 - the user's file
-        raise SystemPathError("file", value, f"gmsh cannot open {path.name}: {' '.join(str(err).split())[:160]}") from None
-    if path.suffix.lower() == ".geo":
-        types, _, _ = gmsh.model.mesh.getElements(2)
-        if len(types) == 0:
-            try:
-                gmsh.model.mesh.generate(2)
-            except Exception as err:    # noqa: BLE001
-                raise SystemPathError("file", value, f"gmsh cannot mesh {path.name}: "
-                                      f"{' '.join(str(err).split())[:160]}") from None
-    gmsh.model.mesh.renumberNodes()
-    gmsh.model.mesh.renumberElements()
-
-
-def check_model(gmsh, value: str) -> ModelInfo:
-    """Check the current gmsh model (see the module docstring); returns its physical groups."""
-    model = gmsh.model
-    name_of = {}
-    for dim, tag in model.getPhysicalGroups():
-        name_of[(dim, tag)] = model.getPhysicalName(dim, tag) or str(tag)
-    types3, _, _ = model.mesh.getElements(3)
-    if model.getDimension() == 3 or len(types3):
-        raise SystemPathError("file", value, "a 3D model: only 2D bodies (plane stress/strain) are supported")
-    types2, tags2, _ = model.mesh.getElements(2)
-    if len(types2) == 0:
-        raise SystemPathError("file", value, "no 2D elements: the model has no meshed surface")
-    if any(t != GMSH_TRIANGLE for t in types2):
-        names = sorted({model.mesh.getElementProperties(int(t))[0] for t in types2})
-        raise SystemPathError("file", value, f"element types {', '.join(names)}: only linear triangles are supported "
-                              "(no quadrangles, mixed or curved second-order meshes; use degree: 2 for P2 fields)")
-    node_tags, coords, _ = model.mesh.getNodes()
-    x = coords.reshape(-1, 3)
-    scale = max(float(np.max(np.abs(x[:, :2]))), 1e-300)
-    if np.max(np.abs(x[:, 2])) > 1e-12 * scale:
-        raise SystemPathError("file", value, "nodes with z != 0: the body must lie in the plane z = 0")
-    pos = np.empty(int(node_tags.max()) + 1, dtype=np.int64)
-    pos[node_tags.astype(np.int64)] = np.arange(len(node_tags))
-    # Every meshed surface entity in exactly one physical surface; every curve in at most one.
-    for dim in (1, 2):
-        for _, ent in model.getEntities(dim):
-            groups = [name_of[(dim, g)] for g in model.getPhysicalGroupsForEntity(dim, ent)]
-            types, _, _ = model.mesh.getElements(dim, ent)
-            if len(groups) > 1:
-                kind = "surface" if dim == 2 else "curve"
-                raise SystemPathError("file", value, f"{kind} {ent} is in several physical groups "
-                                      f"({', '.join(groups)}): each must be in one")
-            if dim == 2 and len(types) and not groups:
-                raise SystemPathError("file", value, f"surface {ent} is meshed but in no physical surface: "
-                                      "put every surface of the body in a physical surface (its material)")
-    # Orientation and area of every triangle
-    _, conn = model.mesh.getElementsByType(GMSH_TRIANGLE)
-    tri = pos[conn.astype(np.int64).reshape(-1, 3)]
-    p = x[tri, :2]
-    area2 = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
-             - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))
-    amax = float(np.max(np.abs(area2)))
-    if np.any(np.abs(area2) <= 1e-12 * amax):
-        raise SystemPathError("file", value, f"{int(np.sum(np.abs(area2) <= 1e-12 * amax))} degenerate (zero-area) "
-                              "triangles")
-    npos, nneg = int(np.sum(area2 > 0)), int(np.sum(area2 < 0))
-    if npos and nneg:
-        raise SystemPathError("file", value, f"inverted elements: {min(npos, nneg)} of {len(area2)} triangles are "
-                              "oriented opposite to the others")
-    curves, surfaces = {}, {}
-    for (dim, tag), name in name_of.items():
-        count = 0
-        for ent in model.getEntitiesForPhysicalGroup(dim, tag):
-            types, etags, _ = model.mesh.getElements(dim, ent)
-            count += sum(len(t) for t in etags)
-        if dim == 1:
-            curves[name] = (tag, count)
-        elif dim == 2:
-            surfaces[name] = (tag, count)
-    if not surfaces:
-        raise SystemPathError("file", value, "no physical surface: define one (the body and its material)")
-    bbox = (float(x[:, 0].min()), float(x[:, 1].min()), float(x[:, 0].max()), float(x[:, 1].max()))
-    return ModelInfo(curves=curves, surfaces=surfaces, n_nodes=len(node_tags), n_triangles=len(area2), bbox=bbox)
-
-
-def model_info(path: pathlib.Path, value: str) -> ModelInfo:
-    """Open and check a model file (cached per file version); raises :class:`SystemPathError`."""
-    key = file_version(path)
-    if key in _INFO_CACHE:
-        return _INFO_CACHE[key]
-    if path.suffix.lower() not in (".geo", ".msh"):
-        raise SystemPathError("file", value, "allowed: a Gmsh .geo or .msh file")
-    gmsh, here = gmsh_initialize()
-    previous = gmsh.model.getCurrent() if not here else None
+        key = file_version(path)
+    except OSError as err:
+        raise SystemPathError("file", value, f"cannot read {path.name}: {err.strerror or err}") from None
+    if key in _CACHE and (limits is None or _CACHE[key][2] == lim):     # None: as validated
+        _CACHE.move_to_end(key)
+        found = _CACHE[key]
+        if isinstance(found[0], SystemPathError):          # a refusal is remembered too: Gmsh runs once
+            raise _refusal(value, found[0].msg, found[0].resource)
+        return found[:2]
     try:
-        open_model(gmsh, path, value)
-        info = check_model(gmsh, value)
-    except SystemPathError:
+        info, arrays = _read_uncached(path, value, lim, roots)
+    except SystemPathError as err:
+        _remember(key, (err, None, lim))
         raise
-    except Exception as err:     # noqa: BLE001 - gmsh's own errors on a user's file
-        raise SystemPathError("file", value, f"gmsh: {' '.join(str(err).split())[:160]}") from None
-    finally:
-        gmsh.model.remove()
-        if here:
-            gmsh.finalize()
-        elif previous in gmsh.model.list():
-            gmsh.model.setCurrent(previous)
-    _INFO_CACHE[key] = info
-    return info
+    _remember(key, (info, arrays, lim))
+    return info, arrays
 
 
-def read_mesh(path: pathlib.Path, comm):
+def _remember(key: tuple, entry: tuple) -> None:
+    _CACHE[key] = entry
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+
+
+def _refusal(value: str, msg: str, resource: bool = False) -> SystemPathError:
+    """The one-line error on ``file``; ``resource``: a time or memory limit stopped the reading."""
+    err = SystemPathError("file", value, msg)
+    err.resource = resource
+    return err
+
+
+def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInfo, dict]:
+    from app.systems import geo_allowlist, gmsh_sandbox, msh_header
+    suffix = path.suffix.lower()
+    if suffix not in (".geo", ".msh"):
+        raise _refusal(value, "allowed: a Gmsh .geo or .msh file")
+    try:
+        if suffix == ".geo":
+            geo_allowlist.check_file(path, roots)
+        else:
+            msh_header.check(path, path.name, lim.max_nodes, lim.max_elements, lim.max_dofs)
+        raw, arrays = gmsh_sandbox.read(path, lim)
+    except (geo_allowlist.GeoRefused, msh_header.MshRefused) as err:
+        raise _refusal(value, str(err)) from None
+    except gmsh_sandbox.SandboxError as err:
+        raise _refusal(value, str(err), err.resource) from None
+    _check_arrays(arrays, raw, value)
+    info = ModelInfo(curves={k: (int(t), int(c)) for k, (t, c) in raw["curves"].items()},
+                     surfaces={k: (int(t), int(c)) for k, (t, c) in raw["surfaces"].items()},
+                     n_nodes=int(raw["n_nodes"]), n_triangles=int(raw["n_triangles"]), bbox=tuple(raw["bbox"]),
+                     n_edges=int(raw["n_edges"]), curve_nodes={k: int(v) for k, v in raw["curve_nodes"].items()},
+                     names={(int(d), str(n)): int(t) for d, n, t in raw["names"]},
+                     inner_segments={k: int(v) for k, v in raw["inner_segments"].items()})
+    return info, arrays
+
+
+def _check_arrays(arrays: dict, raw: dict, value: str) -> None:
+    """The child's arrays are consistent before DOLFINx sees them (indices within the nodes)."""
+    x, cells = arrays.get("x"), arrays.get("cells")
+    ok = (x is not None and cells is not None and x.ndim == 2 and x.shape[1] == 3 and np.all(np.isfinite(x))
+          and cells.ndim == 2 and cells.size and int(arrays["gmsh_cell"]) == GMSH_TRIANGLE
+          and cells.min() >= 0 and cells.max() < len(x) and len(arrays["cell_values"]) == len(cells))
+    facets = arrays.get("facets")
+    if ok and facets is not None and facets.size:
+        ok = facets.min() >= 0 and facets.max() < len(x) and len(arrays["facet_values"]) == len(facets)
+    if not ok:
+        raise SystemPathError("file", value, "gmsh returned an inconsistent mesh (node numbers out of range)")
+
+
+def model_info(path: pathlib.Path, value: str, limits=None, roots=None) -> ModelInfo:
+    """Check and read a model file (cached per file version); raises :class:`SystemPathError`.
+
+    ``limits``: the scene's ``settings.limits`` (defaults if None); ``roots``: folders a .geo may
+    include files from (default: the .geo's own folder)."""
+    return _read(path, value, limits, roots)[0]
+
+
+def read_mesh(path: pathlib.Path, comm, limits=None):
     """Distributed DOLFINx mesh with cell and facet tags from the model file (MPI collective).
 
-    Rank 0 opens the file with gmsh and extracts the arrays ``model_to_mesh`` would;
-    :func:`app.systems.mesh_arrays.build` distributes them as ``model_to_mesh`` does (the other
-    ranks do not import gmsh). Returns ``(mesh, cell_tags, facet_tags, names)`` with
-    ``names[(dim, name)] = tag``.
+    Rank 0 reads the file in the sandbox (or takes the arrays cached by the validation);
+    :func:`app.systems.mesh_arrays.build` distributes them as ``model_to_mesh`` does. Returns
+    ``(mesh, cell_tags, facet_tags, names)`` with ``names[(dim, name)] = tag``.
     """
     from app.systems import mesh_arrays
-    error, names, arrays, here = None, None, None, False
-    gmsh = None
+    error, names, arrays = None, None, None
     if comm.rank == 0:
         try:
-            gmsh, here = gmsh_initialize()
-            open_model(gmsh, path, str(path))
-            check_model(gmsh, str(path))
-            names = {(d, gmsh.model.getPhysicalName(d, t) or str(t)): t for d, t in gmsh.model.getPhysicalGroups()}
-            arrays = mesh_arrays.extract(gmsh)
-        except Exception as err:   # noqa: BLE001 - re-raised on every rank below
-            error = str(err)
-        finally:
-            if gmsh is not None:
-                gmsh.model.remove()
-                if here:
-                    gmsh.finalize()
+            info, raw = _read(path, str(path), limits, None)
+            names = dict(info.names)
+            arrays = mesh_arrays.MeshArrays(
+                x=raw["x"], cells=raw["cells"], cell_values=raw["cell_values"], gmsh_cell=int(raw["gmsh_cell"]),
+                facets=raw["facets"], facet_values=raw["facet_values"], gmsh_facet=int(raw["gmsh_facet"]))
+        except SystemPathError as err:   # re-raised on every rank below
+            error = err.msg
     error = comm.bcast(error, root=0)                      # MPI collective
     if error is not None:
         raise RuntimeError(f"reading {path.name}: {error}")
     mesh, cell_tags, facet_tags = mesh_arrays.build(comm, arrays, 0, gdim=2)     # MPI collective
     names = comm.bcast(names, root=0)                      # MPI collective
     return mesh, cell_tags, facet_tags, names
+
+
+def mesh_sizes(path: pathlib.Path, degree: int, prescribed: dict[str, str], contact: str) -> tuple[int, int]:
+    """(DOFs after the Dirichlet reduction, contact nodes) of a body on the file's mesh, counted from
+    the arrays read at validation (no assembly): a node of a prescribed curve loses the prescribed
+    components, P2 adds a node per triangle edge; contact nodes with a prescribed component are
+    left out of the contact set (app/systems/gmsh_operators.py)."""
+    info, arrays = _read(path, path.name, None, None)
+    facets, values = arrays["facets"], arrays["facet_values"]
+    p2 = degree == 2
+
+    def of(curves) -> tuple[set, int]:
+        tags = [info.names[(1, c)] for c in curves if (1, c) in info.names]
+        rows = np.isin(values, tags) if len(values) else np.zeros(0, dtype=bool)
+        return set(np.unique(facets[rows]).tolist()) if rows.any() else set(), int(rows.sum())
+    dofs = 2 * info.n_nodes + (2 * info.n_edges if p2 else 0)
+    fixed_nodes: set = set()
+    for comp in ("x", "y"):
+        nodes, n_facets = of([c for c, comps in prescribed.items() if comp in comps])
+        dofs -= len(nodes) + (n_facets if p2 else 0)
+        fixed_nodes |= nodes
+    cnodes, c_facets = of([contact])
+    return dofs, len(cnodes - fixed_nodes) + (c_facets if p2 else 0)

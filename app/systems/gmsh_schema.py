@@ -38,7 +38,16 @@ from typing import Annotated, Any, ClassVar, Literal, Optional
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from app.systems.schema import Finite, PosFloat, StrictModel, SystemPathError, resolve_file
+from app.systems.schema import (
+    Finite,
+    PosFloat,
+    ResourcePathError,
+    StrictModel,
+    SystemPathError,
+    base_dir,
+    context_limits,
+    resolve_file,
+)
 
 Vec2 = tuple[Finite, Finite]
 
@@ -67,8 +76,8 @@ class Obstacle(StrictModel):
     @field_validator("normal")
     @classmethod
     def _nonzero(cls, v: Vec2) -> Vec2:
-        if math.hypot(*v) == 0:
-            raise ValueError("the normal must be a non-zero vector [nx, ny]")
+        if max(abs(v[0]), abs(v[1])) < 1e-100:
+            raise ValueError("the normal must be a non-zero vector [nx, ny] (components up to 1e-100 count as 0)")
         return v
 
     def frame(self) -> tuple[np.ndarray, np.ndarray]:
@@ -78,6 +87,7 @@ class Obstacle(StrictModel):
             n = np.array([math.sin(a), -math.cos(a)])
         else:
             n = np.array(self.normal, dtype=float)
+            n /= np.max(np.abs(n))              # scaled first: no overflow or underflow in the norm
             n /= np.linalg.norm(n)
         return np.array([-n[1], n[0]]), n
 
@@ -86,7 +96,8 @@ class Motion(StrictModel):
     """Increment of a prescribed curve's displacement during a phase: a rigid translation and an
     optional (linearised) rotation ``rotation_deg`` about ``about``."""
     translation: Vec2 = Field((0.0, 0.0), description="rigid translation increment [length]")
-    rotation_deg: Finite = Field(0.0, description="rotation increment, linearised, counter-clockwise [deg]")
+    rotation_deg: Annotated[float, Field(ge=-3600, le=3600, allow_inf_nan=False)] = Field(
+        0.0, description="rotation increment, linearised, counter-clockwise [deg] (at most ten turns)")
     about: Vec2 = Field((0.0, 0.0), description="centre of the rotation [length]")
 
 
@@ -132,6 +143,14 @@ class GmshBody(StrictModel):
         """(equilibrium states of the program, the key that sets them) for the pre-flight (app/preflight.py)."""
         return 1 + sum(ph.steps for ph in self.program), "system.program[].steps"
 
+    def file_sizes(self) -> tuple[int, int, str]:
+        """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/preflight.py)."""
+        import pathlib
+
+        from app.systems.gmsh_mesh import mesh_sizes
+        dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, dict(self.prescribed), self.contact)
+        return dofs, contact, "system.file"
+
     @model_validator(mode="before")
     @classmethod
     def _tags_as_names(cls, data: Any, info: ValidationInfo) -> Any:
@@ -143,7 +162,7 @@ class GmshBody(StrictModel):
         try:
             from app.systems.gmsh_mesh import model_info
             path = resolve_file("", data.get("file"), info)
-            mi = model_info(path, path.name)
+            mi = model_info(path, path.name, context_limits(info), (base_dir(info), path.parent))
             for dim, groups in ((1, mi.curves), (2, mi.surfaces)):
                 alias[dim] = {str(tag): name for name, (tag, _) in groups.items() if str(tag) not in groups}
         except Exception:     # noqa: BLE001 - a bad file is reported by the file validator
@@ -171,15 +190,18 @@ class GmshBody(StrictModel):
         return str(resolve_file("", v, info))
 
     @model_validator(mode="after")
-    def _groups(self) -> "GmshBody":
+    def _groups(self, vinfo: ValidationInfo) -> "GmshBody":
         import pathlib
 
         from app.systems.gmsh_mesh import model_info
-        shown = pathlib.Path(self.file).name
+        path = pathlib.Path(self.file)
+        shown = path.name
         try:
-            info = model_info(pathlib.Path(self.file), shown)
+            info = model_info(path, shown, context_limits(vinfo), (base_dir(vinfo), path.parent))
         except SystemPathError as err:
-            raise SystemPathError("file", shown, err.msg) from None
+            # a time or memory limit stopped Gmsh: exit status 4 (app/config.py)
+            cls = ResourcePathError if getattr(err, "resource", False) else SystemPathError
+            raise cls("file", shown, err.msg) from None
         curves, surfaces = info.curves, info.surfaces
 
         def curve(key: str, name: str) -> None:
@@ -190,6 +212,11 @@ class GmshBody(StrictModel):
                 raise SystemPathError(key, name, f"the physical curve '{name}' has no mesh elements")
 
         curve("contact", self.contact)
+        inner = info.inner_segments.get(self.contact, 0)
+        if inner:
+            raise SystemPathError("contact", self.contact, f"{inner} of the {curves[self.contact][1]} segments of the "
+                                  f"physical curve '{self.contact}' lie inside the body, not on its boundary: the "
+                                  "contact curve must be part of the body's boundary")
         for name in self.prescribed:
             curve(f"prescribed.{name}", name)
             if name == self.contact:

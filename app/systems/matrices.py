@@ -15,6 +15,8 @@ the quantity Signorini is written in) so that free nodes have ``u_N < 0``.
 """
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -26,6 +28,8 @@ from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.matrices_schema import Matrices
 from app.systems.units import DISCRETE_UNITS as UNITS
+
+log = logging.getLogger(__name__)
 
 
 def petsc_from_csr(A, comm: MPI.Comm) -> PETSc.Mat:
@@ -145,4 +149,8 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             bar.close()
         finally:
             solver.destroy()
+    from app.sanity import check_finite  # no length scale here: finiteness only (warnings, never an error)
+    for w in check_finite(states):
+        log.warning("%s", w)
+        stages.warnings.append(w)
     return system, states, {"end": end, "phases": len(cfg.forces), "steps": total_steps, "failure": failure}

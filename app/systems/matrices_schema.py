@@ -25,10 +25,13 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.systems.schema import (
+    MAGNITUDE_MAX,
     Finite,
     NonNegFloat,
+    ResourcePathError,
     StrictModel,
     SystemPathError,
+    context_limits,
     file_version,
     no_field_outputs,
     resolve_file,
@@ -41,34 +44,32 @@ SYMMETRY_RTOL = 1e-10          # |K - K^T| <= SYMMETRY_RTOL * max |K|
 DYNAMIC_ANALYSES = ("necessary", "sufficient", "mceip_lambda2")
 
 
-def _petsc_load(path: pathlib.Path, kind: str):
-    from petsc4py import PETSc
-    viewer = PETSc.Viewer().createBinary(str(path), mode="r", comm=PETSc.COMM_SELF)
-    obj = PETSc.Mat() if kind == "matrix" else PETSc.Vec()
-    try:
-        obj.load(viewer)
-        if kind == "matrix":
-            import scipy.sparse as sp
-            if obj.getType() not in ("seqaij", "aij"):
-                obj.convert("seqaij")
-            indptr, indices, values = obj.getValuesCSR()
-            return sp.csr_matrix((values.real.astype(float), indices, indptr), shape=obj.getSize())
-        return obj.getArray().real.astype(float).copy()
-    finally:
-        obj.destroy()
-        viewer.destroy()
-
-
-def _load(path: pathlib.Path, kind: str):
+def _load(path: pathlib.Path, kind: str, limits=None):
     """Contents of a matrix or vector file, by its suffix: Matrix Market (``.mtx``, ``.mm``; may be
-    sparse), NumPy ``.npy``, anything else PETSc binary. Reader errors propagate."""
+    sparse), NumPy ``.npy``, anything else PETSc binary (read without PETSc: its ``.info`` sidecar
+    is ignored). The header is checked against ``limits`` first (app/systems/matrix_files.py)."""
+    from app.scene_sections import Limits
+    from app.systems import matrix_files
+    limits = limits if limits is not None else Limits()
+    cap, how = limits.memory_cap()
+    matrix_files.check_header(matrix_files.header(path, kind), path, limits.max_dofs, cap, how)
     suffix = path.suffix.lower()
     if suffix in _MM:
         import scipy.io
         return scipy.io.mmread(str(path))
     if suffix == ".npy":
         return np.load(str(path), allow_pickle=False)
-    return _petsc_load(path, kind)
+    return matrix_files.read_petsc(path, kind)
+
+
+def _refuse(key: str, value: Any, path: pathlib.Path, err: Exception, what: str):
+    """The one-line error of a file that cannot be read: a limit (exit 4 for memory) or the reader's reason."""
+    from app.systems.matrix_files import MatrixFileError, kind_of
+    if isinstance(err, MatrixFileError):
+        cls = ResourcePathError if err.resource else SystemPathError
+        return cls(key, value, str(err) if path.name in str(err) else f"{path.name}: {err}")
+    return SystemPathError(key, value, f"cannot read {path.name} as a {kind_of(path)} {what} ({_reason(err)}); "
+                           "formats: .mtx/.mm Matrix Market, .npy NumPy, anything else PETSc binary")
 
 
 def _reason(err: Exception) -> str:
@@ -76,19 +77,28 @@ def _reason(err: Exception) -> str:
     return f"{type(err).__name__}: {' '.join(str(err).split())[:120]}"
 
 
-def read_matrix(key: str, value: str, path: pathlib.Path):
-    """Sparse CSR copy of a matrix file (cached per file version). Raises :class:`SystemPathError`."""
+def _in_range(key: str, value: Any, path: pathlib.Path, data: np.ndarray, zero_ok: bool = False) -> None:
+    """Entries within the magnitudes the app computes with (1e-100 ... 1e100, as the scene's numbers):
+    beyond, products and sums of entries overflow or underflow double precision."""
+    scale = float(np.max(np.abs(data))) if data.size else 0.0
+    if scale > MAGNITUDE_MAX or (scale < 1 / MAGNITUDE_MAX and not (zero_ok and scale == 0)):
+        raise SystemPathError(key, value, f"{path.name}: largest entry {scale:.3g} in magnitude, outside "
+                              f"{1 / MAGNITUDE_MAX:g} ... {MAGNITUDE_MAX:g}: rescale the units")
+
+
+def read_matrix(key: str, value: str, path: pathlib.Path, limits=None):
+    """Sparse CSR copy of a matrix file (cached per file version), its header checked against
+    ``limits`` (the scene's ``settings.limits``) first. Raises :class:`SystemPathError`."""
     import scipy.sparse as sp
     k = file_version(path)
     if k in _MATRIX_CACHE:
         return _MATRIX_CACHE[k]
-    suffix = path.suffix.lower()
     try:
-        A = _load(path, "matrix")
+        A = _load(path, "matrix", limits)
+        if not sp.issparse(A) and np.ndim(A) != 2:
+            raise ValueError(f"an array of {np.ndim(A)} dimensions: a matrix has 2")
     except Exception as err:   # noqa: BLE001 - any reader failure is the user's file
-        kind = "Matrix Market" if suffix in _MM else "NumPy .npy" if suffix == ".npy" else "PETSc binary"
-        raise SystemPathError(key, value, f"cannot read {path.name} as a {kind} matrix ({_reason(err)}); formats: "
-                              ".mtx/.mm Matrix Market, .npy NumPy, anything else PETSc binary") from None
+        raise _refuse(key, value, path, err, "matrix") from None
     if np.iscomplexobj(A.data if sp.issparse(A) else A):
         raise SystemPathError(key, value, f"{path.name}: complex entries; a real matrix is needed")
     A = sp.csr_matrix(A, dtype=float)
@@ -99,11 +109,12 @@ def read_matrix(key: str, value: str, path: pathlib.Path):
                               "non-empty matrix is needed")
     if not np.all(np.isfinite(A.data)):
         raise SystemPathError(key, value, f"{path.name}: entries that are not finite numbers")
+    _in_range(key, value, path, A.data)
     _MATRIX_CACHE[k] = A
     return A
 
 
-def read_vector(key: str, value: Any, path: Optional[pathlib.Path]) -> np.ndarray:
+def read_vector(key: str, value: Any, path: Optional[pathlib.Path], limits=None) -> np.ndarray:
     """A force vector: inline list, or a Matrix Market / .npy / PETSc binary file (cached)."""
     if path is None:
         return np.asarray(value, dtype=float)
@@ -112,16 +123,17 @@ def read_vector(key: str, value: Any, path: Optional[pathlib.Path]) -> np.ndarra
     if k in _VECTOR_CACHE:
         return _VECTOR_CACHE[k]
     try:
-        v = _load(path, "vector")
+        v = _load(path, "vector", limits)
         v = v.toarray() if sp.issparse(v) else np.asarray(v)
     except Exception as err:   # noqa: BLE001
-        raise SystemPathError(key, value, f"cannot read {path.name} as a vector ({_reason(err)})") from None
+        raise _refuse(key, value, path, err, "vector") from None
     if v.ndim == 2 and 1 in v.shape:
         v = v.ravel()
     if v.ndim != 1 or np.iscomplexobj(v) or not np.all(np.isfinite(v)):
         raise SystemPathError(key, value, f"{path.name}: a real vector (one column) of finite numbers is needed, "
                               f"got shape {v.shape}")
     v = v.astype(float)
+    _in_range(key, value, path, v, zero_ok=True)
     _VECTOR_CACHE[k] = v
     return v
 
@@ -135,7 +147,9 @@ class ForcePhase(StrictModel):
     @classmethod
     def _force(cls, v: Any, info: ValidationInfo) -> Any:
         if isinstance(v, str):
-            return str(resolve_file("", v, info))
+            path = resolve_file("", v, info)
+            read_vector("", v, path, context_limits(info))     # header checked against the limits, then read
+            return str(path)
         if not isinstance(v, (list, tuple)) or not v:
             raise ValueError("allowed: a vector file path (relative to the scene file) or a list of numbers, "
                              "one per DOF")
@@ -185,13 +199,17 @@ class Matrices(StrictModel):
             return 1, "system.state"
         return 1 + sum(ph.steps for ph in self.forces), "system.forces[].steps"
 
+    def file_sizes(self) -> tuple[int, int, str]:
+        """(DOFs, contact nodes, the key that sets them) from K (read at validation) for the pre-flight."""
+        return self.stiffness().shape[0], len(self.contact), "system.K"
+
     @field_validator("K", "M", mode="before")
     @classmethod
     def _file(cls, v: Any, info: ValidationInfo) -> Any:
         if v is None:
             return v
         path = resolve_file("", v, info)
-        read_matrix("", v, path)           # read and checked now: errors at validation
+        read_matrix("", v, path, context_limits(info))     # read and checked now: errors at validation
         return str(path)
 
     @field_validator("contact", mode="before")
@@ -222,16 +240,11 @@ class Matrices(StrictModel):
             i, j = np.unravel_index(int(np.argmax(diff.toarray())) if n <= 4000 else 0, (n, n))
             raise SystemPathError("K", pathlib.Path(self.K).name, f"not symmetric: |K - K^T| up to {worst:.3g} (e.g. at "
                                   f"[{i}, {j}]), more than {SYMMETRY_RTOL:g} x max |K| = {scale:.3g}")
-        d = K.diagonal()
-        if np.any(d <= 0):
-            i = int(np.argmin(d))
-            raise SystemPathError("K", pathlib.Path(self.K).name, f"not positive definite: diagonal entry K[{i}, {i}] = {d[i]:.6g} <= 0")
-        if n <= 2000:
-            try:
-                np.linalg.cholesky(K.toarray())
-            except np.linalg.LinAlgError:
-                raise SystemPathError("K", pathlib.Path(self.K).name, "not positive definite (Cholesky fails): fix all rigid-body "
-                                      "motions by Dirichlet conditions before exporting K") from None
+        from app.systems.spd import not_spd
+        why = not_spd(K)
+        if why:
+            raise SystemPathError("K", pathlib.Path(self.K).name, f"not positive definite: {why}; fix every rigid-body "
+                                  "motion by Dirichlet conditions (remove their rows and columns) before exporting K")
         if self.M is not None:
             M = self.mass()
             if M.shape != K.shape:
@@ -239,6 +252,10 @@ class Matrices(StrictModel):
             mdiff = abs(M - M.T)
             if mdiff.nnz and float(mdiff.max()) > SYMMETRY_RTOL * float(abs(M).max()):
                 raise SystemPathError("M", pathlib.Path(self.M).name, "not symmetric")
+            why = not_spd(M)
+            if why:
+                raise SystemPathError("M", pathlib.Path(self.M).name, f"not positive definite: {why}; a mass matrix "
+                                      "has positive eigenvalues (kinetic energy) on the DOFs of K")
         nc = len(self.contact)
         for key in ("gaps", "positions"):
             vals = getattr(self, key)

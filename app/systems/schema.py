@@ -10,18 +10,21 @@ from __future__ import annotations
 import pathlib
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo
+from pydantic import Field, ValidationInfo
 
-from app.validation import PathError
+from app.validation import PathError, ResourcePathError, Strict  # noqa: F401 - ResourcePathError re-exported
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-Finite = Annotated[float, Field(allow_inf_nan=False)]
+#: the largest magnitude of a number in a scene (README "Scene files"): finite, and small enough that
+#: products of a few such numbers (E x displacement x area, ...) stay finite in double precision
+MAGNITUDE_MAX = 1e100
+PosFloat = Annotated[float, Field(gt=0, le=MAGNITUDE_MAX, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0, le=MAGNITUDE_MAX, allow_inf_nan=False)]
+Finite = Annotated[float, Field(ge=-MAGNITUDE_MAX, le=MAGNITUDE_MAX, allow_inf_nan=False)]
 
 
-class StrictModel(BaseModel):
-    """Frozen pydantic model that forbids unknown keys (as every scene section)."""
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+#: the one strict base model of every scene section (app/validation.py): unknown keys refused,
+#: booleans never taken for numbers
+StrictModel = Strict
 
 
 SystemPathError = PathError      # the name the system schemas use
@@ -31,6 +34,12 @@ def base_dir(info: ValidationInfo | None) -> pathlib.Path:
     """Folder that relative file paths of the scene are resolved against."""
     ctx = getattr(info, "context", None) or {}
     return pathlib.Path(ctx.get("base_dir") or ".")
+
+
+def context_limits(info: ValidationInfo | None):
+    """The scene's ``settings.limits`` passed in the validation context (None: the defaults)."""
+    ctx = getattr(info, "context", None) or {}
+    return ctx.get("limits")
 
 
 def file_version(path: pathlib.Path) -> tuple:
