@@ -71,7 +71,8 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     bar.close()
     if deferred:   # the condensed MCEIP-mu of every classification, one rank each under MPI
         with one_blas_thread():
-            failed = analyse_condensed_distributed(system, scene, [(c, a) for c, a, _ in deferred], comm)
+            failed = analyse_condensed_distributed(system, scene, [(c, a) for c, a, _ in deferred], comm,
+                                                   progress)
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, cache) if inspect is not None else None
     outputs_record = None
