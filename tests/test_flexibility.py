@@ -1,7 +1,9 @@
-"""The contact flexibility W = B K^-1 B^T by chunked sparse block solves (app/loading/flexibility.py).
+"""The contact flexibility W = B K^-1 B^T (app/loading/flexibility.py, app/loading/mumps_inverse.py).
 
-W from :func:`flexibility_matsolve` against the signed contact block of the dense inverse of K,
-for chunks that do and do not divide the number of contact DOFs, and the same W on 2 ranks.
+W from MUMPS's entries of the inverse (:func:`flexibility_inverse`, one rank) and from chunked
+sparse block solves (:func:`flexibility_matsolve`, chunks that do and do not divide the number
+of contact DOFs) against the signed contact block of the dense inverse of K; the factor still
+solves correctly afterwards; the same W on 2 ranks.
 """
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.linalg import lu
-from app.loading.flexibility import chunk_columns, flexibility_matsolve
+from app.loading.flexibility import chunk_columns, contact_flexibility, flexibility_inverse, flexibility_matsolve
 from app.system.elasticity import block_operators
 from app.systems.block_mesh import block_mesh
 
@@ -51,6 +53,29 @@ def test_w_equals_contact_block_of_inverse(columns):
     assert W is not None
     assert W.shape == (len(dofs), len(dofs))
     np.testing.assert_allclose(W, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="dense reference is serial")
+def test_w_from_inverse_entries_and_later_solves():
+    ops, dofs, signs = _block(8, 4)
+    N = ops.K.getSize()[0]
+    Kd = ops.K.getValues(np.arange(N, dtype=PETSc.IntType), np.arange(N, dtype=PETSc.IntType))
+    Kinv = np.linalg.inv(Kd)
+    ref = signs[:, None] * Kinv[np.ix_(dofs, dofs)] * signs[None, :]
+    order = np.random.default_rng(0).permutation(len(dofs))          # rows in any order
+    with lu(ops.K) as ksp:
+        W = flexibility_inverse(ksp, dofs[order], signs[order])
+        assert W is not None
+        np.testing.assert_allclose(W, ref[np.ix_(order, order)], rtol=0, atol=1e-12 * np.abs(ref).max())
+        x = ops.load_x.duplicate()
+        ksp.solve(ops.load_x, x)                                     # an ordinary solve afterwards
+        np.testing.assert_allclose(x.getArray(), Kinv @ ops.load_x.getArray(), rtol=1e-10,
+                                   atol=1e-12 * np.abs(x.getArray()).max())
+        x.destroy()
+    with contact_flexibility(ops.K, ops.load_x, ops.load_y, dofs, signs) as flex:
+        np.testing.assert_allclose(flex.W, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+        np.testing.assert_allclose(flex.u0x, signs * (Kinv @ ops.load_x.getArray())[dofs], rtol=1e-10,
+                                   atol=1e-12 * np.abs(flex.u0x).max())
 
 
 _SCRIPT = textwrap.dedent("""

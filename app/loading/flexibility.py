@@ -1,9 +1,10 @@
 """Factor K once per study and build the contact flexibility W = B K^-1 B^T (DESIGN.md section 3).
 
 For linear elasticity K does not change along the loading, so one sparse LU factorisation
-(MUMPS) gives, by block solves with the 2n unit right-hand sides (:func:`flexibility_matsolve`),
-the flexibility of the n contact nodes and, by two more solves, the contact displacements caused
-by a unit motion of the loaded side. Every quasi-static increment
+(MUMPS) gives the flexibility of the n contact nodes, the 2n x 2n contact block of K^-1
+(:func:`flexibility_inverse`: MUMPS's selected entries of the inverse; where that is not
+available, :func:`flexibility_matsolve`: block solves with the 2n unit right-hand sides), and,
+by two more solves, the contact displacements caused by a unit motion of the loaded side. Every quasi-static increment
 is then a small dense complementarity problem, and the contact Schur complement W^-1 feeds the
 exact condensation of MCEIP-mu.
 """
@@ -95,6 +96,19 @@ class ContactFlexibility:
         self.destroy()
 
 
+def flexibility_inverse(ksp: PETSc.KSP, dofs: np.ndarray, signs: np.ndarray) -> np.ndarray | None:
+    """W = B K^-1 B^T as the signed contact block of K^-1, computed by MUMPS from its factors
+    (:func:`app.loading.mumps_inverse.inverse_block`); None when the factor cannot (MPI collective)."""
+    from app.loading.mumps_inverse import inverse_block
+    try:
+        block = inverse_block(ksp.getPC().getFactorMatrix(), dofs)
+    except PETSc.Error:
+        block = None
+    if not ksp.getComm().tompi4py().allreduce(block is not None, op=MPI.LAND):   # MPI collective
+        return None
+    return signs[:, None] * block * signs[None, :]
+
+
 #: bytes of one chunk's dense solution block (N x columns doubles); bounds the W build's memory
 CHUNK_BYTES = 100 * 2**20
 
@@ -181,7 +195,9 @@ def _flexibility(ksp: PETSc.KSP, K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.
 
     try:
         n2 = len(dofs)
-        W = flexibility_matsolve(ksp, K, dofs, signs)
+        W = flexibility_inverse(ksp, dofs, signs)
+        if W is None:
+            W = flexibility_matsolve(ksp, K, dofs, signs)
         if W is None:                     # a factor without sparse block solves: one solve per column
             W = np.zeros((n2, n2))
             r0, r1 = b.getOwnershipRange()
