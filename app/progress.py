@@ -121,6 +121,7 @@ class _Tasks:
                 self._emit()
 
     def line(self, end: str = "") -> str:
+        """The progress line now (``end``: the closing words of the last line, no estimate then)."""
         now = time.perf_counter()
         n, cost = self._done() if self._done is not None else (self.n, self.cost)
         n = min(max(n, self.n), self.total)
