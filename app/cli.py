@@ -213,8 +213,10 @@ def _main(args) -> int:
         return _fail(str(err))
     if args.command == "validate":
         if comm.rank == 0:
+            timing = preflight.describe_time(scene, estimate)
             print(f"{args.scene}: ok: scene '{scene.name}', system {scene.system.type}, mu = {scene.mu}, "
-                  f"analyses: {', '.join(scene.analyses)}; {estimate.describe()[len('pre-flight: '):]}")
+                  f"analyses: {', '.join(scene.analyses)}; {estimate.describe()[len('pre-flight: '):]}"
+                  + (f"; {timing}" if timing else ""))
         return 0
 
     from app.logs import setup_logging

@@ -7,7 +7,6 @@ the key to change. The limits are the scene's ``settings.limits`` (README, "Reso
 from __future__ import annotations
 
 import logging
-import math
 import os
 import resource
 from dataclasses import dataclass
@@ -51,17 +50,12 @@ def estimate(scene: Scene, nx: int | None = None) -> Estimate:
 
 
 def _memory(scene: Scene, dofs: int, contact: int, states: int, degree: int) -> int:
-    """A rough memory estimate [bytes] of a study of these sizes."""
-    # Sparse K (about 18 entries per row in 2D P1, 40 in P2) and its LU factors (2D nested dissection:
-    # fill about 30 n log2 n entries), 12 bytes per entry; the contact flexibility (2c)^2 dense,
-    # a few copies; the dense reduced pencils up to eig.dense_limit; about 1.5 kB per node and state
-    # in the results; 300 MB for Python, PETSc, DOLFINx.
-    per_row = 18 if degree == 1 else 40
-    sparse = 12 * dofs * (per_row + 30 * math.log2(max(dofs, 2)))
-    dense_w = 4 * 8 * (2 * contact) ** 2
-    dense_pencils = 6 * 8 * min(dofs, scene.settings.eig.dense_limit) ** 2
-    results = 1500 * contact * states
-    return int(300 * 2**20 + sparse + dense_w + dense_pencils + results)
+    """The memory estimate [bytes] of a study of these sizes: the libraries; the sparse work per
+    DOF; the W build's chunk; the contact flexibility (2c)^2 dense, a few copies; the dense
+    reduced pencils up to eig.dense_limit; about 1.5 kB per node and state in the results."""
+    return int(BASE_RESIDENT + per_dof_bytes(degree) * dofs + w_build_bytes(dofs, 2 * contact)
+               + 4 * 8 * (2 * contact) ** 2 + 6 * 8 * min(dofs, scene.settings.eig.dense_limit) ** 2
+               + 1500 * contact * states)
 
 
 def _size_key(scene: Scene, nx: int | None) -> tuple[str, object]:
@@ -76,6 +70,32 @@ def _size_key(scene: Scene, nx: int | None) -> tuple[str, object]:
     if cfg.pattern == "unstructured":
         return "system.mesh_size", cfg.mesh_size
     return "system.nx", cfg.nx
+
+
+#: resident memory of Python, MPI, PETSc, SLEPc, DOLFINx and gmsh before the study's own data
+BASE_RESIDENT = 250 * 2**20
+
+
+def per_dof_bytes(degree: int) -> float:
+    """Resident bytes per DOF of the sparse work: mesh, function spaces, K and M, the LU factors
+    of K (MUMPS). Fitted to serial peaks of crossed P1 block studies (benchmarks/estimates.py:
+    0.27 GiB at 6.4k DOFs, 0.59 at 101k, 0.90 at 206k, ... 2.5 at 1.0M); P2 rows hold about twice
+    as many entries, and its factors fill more (scaled, not fitted)."""
+    return 2700.0 if degree == 1 else 6000.0
+
+
+def w_build_bytes(dofs: int, columns: int) -> int:
+    """The dense solution chunk of the contact flexibility build and MUMPS's copy of it
+    (app/loading/flexibility.py)."""
+    from app.loading.flexibility import chunk_columns
+    return 2 * 8 * dofs * chunk_columns(dofs, columns)
+
+
+def _physical_memory() -> int | None:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
 
 
 def memory_limit(scene: Scene) -> tuple[float, str]:
@@ -172,3 +192,37 @@ def check_disk(scene: Scene, est: Estimate, folder, shown=None) -> str | None:
         return (f"not enough free space for the results in {shown or path}: about {need / 2**20:.0f} MiB needed, "
                 f"{free / 2**20:.0f} MiB free")
     return None
+
+
+#: analyses the time model covers (the others are named as not counted)
+TIMED_ANALYSES = ("mceip_mu",)
+
+
+def time_estimate(scene: Scene, est: Estimate) -> float | None:
+    """Seconds a serial run of ``scene`` takes on one idle core of the kind measured: start-up,
+    mesh + assembly + factorisation + W, the loading increments and MCEIP-mu at every
+    classification. None for a system without a mesh-size estimate.
+
+    A model fitted to CPU times of the paper's block study (crossed P1, ``analyses: [mceip_mu]``)
+    at 6.4k, 25k, 101k and 403k DOFs (benchmarks/estimates.py; 2-core machine, the stage times
+    scaled by the process's CPU / wall ratio); each term is within a factor 1.4 of those runs.
+    The other analyses (necessary, sufficient, MCEIP-lambda^2, enumeration) are not counted."""
+    if not hasattr(scene.system, "mesh_sizes"):
+        return None
+    x, c = est.dofs / 1e5, est.contact_nodes / 225.0
+    start = 1.5 + 1.9 * x ** 0.5                       # imports, form compilation, writing results
+    build = 3.36 * x ** 1.25                           # mesh, K, its LU factors and W = B K^-1 B^T
+    increment = 1.12e-3 + 2.67e-3 * c ** 3             # one SNES VI increment: dense 2c x 2c LUs
+    mceip = 10.34 * c + 10.16 * c ** 3                 # classifications ~ c, dense work ~ s^3
+    return start + build + est.states * increment + mceip
+
+
+def describe_time(scene: Scene, est: Estimate) -> str | None:
+    """The time estimate as printed by ``validate``, saying what it covers; None without one."""
+    t = time_estimate(scene, est)
+    if t is None:
+        return None
+    left = [a for a in scene.analyses if a not in TIMED_ANALYSES]
+    size = f"{t:.0f} s" if t < 120 else f"{t / 60:.0f} min"
+    return (f"time estimate about {size} on 1 rank of an idle core (a model fitted to measured block "
+            f"studies, taking all {est.states} states" + (f"; not counting {', '.join(left)}" if left else "") + ")")

@@ -13,6 +13,7 @@ from mpi4py import MPI
 from app.analyses.classify import classify
 from app.analyses.runner import analyse_condensed_distributed, analyse_state
 from app.config import Scene
+from app.library_warnings import describe, explained, merged
 from app.linalg import one_blas_thread
 from app.progress import Progress
 from app.stages import Stages
@@ -31,7 +32,18 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     """
     t_start = time.perf_counter()
     stages = Stages()
-    progress = progress or Progress(enabled=False)
+    with explained() as caught:
+        results = _run(scene, comm, stages, progress or Progress(enabled=False), inspect, outdir, t_start)
+    # each rank saw the warnings of its own share of the work (MPI collective)
+    library = merged(comm.allgather(caught.as_list()))
+    if library:
+        results["library_warnings"] = library
+        results["warnings"] += [describe(r) for r in library if not r["explanation"]]
+    return results
+
+
+def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float) -> dict:
+    """The body of :func:`run_study` (library warnings are caught around it)."""
     # the system type's own module (app/systems/) builds the system and runs its loading path
     system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
 
@@ -71,7 +83,8 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     bar.close()
     if deferred:   # the condensed MCEIP-mu of every classification, one rank each under MPI
         with one_blas_thread():
-            failed = analyse_condensed_distributed(system, scene, [(c, a) for c, a, _ in deferred], comm)
+            failed = analyse_condensed_distributed(system, scene, [(c, a) for c, a, _ in deferred], comm,
+                                                   progress)
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, cache) if inspect is not None else None
     outputs_record = None

@@ -63,7 +63,6 @@ class FrictionalContact:
         P[1::2, :n] = -np.eye(n)
         P[0::2, n:] = np.eye(n)
         self.KP = self.Kc @ P
-        self.P = P
         self.base = np.zeros(2 * n)
         self.J = PETSc.Mat().createDense((2 * n, 2 * n), comm=PETSc.COMM_SELF)
         self.J.setUp()
@@ -90,17 +89,16 @@ class FrictionalContact:
         rT, p = r[0::2], -r[1::2]
         w = rT - z[n:]
         dT, dN = self.KP[0::2], self.KP[1::2]
-        Jd = np.zeros((2 * n, 2 * n))
+        b = mu * np.maximum(p, 0.0)
+        stick = (-b < w) & (w < b)                     # F = c d
+        slip = ~stick & (p > 0)                        # F = r_T -/+ mu p; otherwise no pressure: F = r_T
+        Jd = Pm.getDenseArray()                        # the dense matrix's own storage
         Jd[:n] = -dN
-        for i in range(n):
-            b = mu * max(p[i], 0.0)
-            if -b < w[i] < b:                          # stick: F = c d
-                Jd[n + i, n + i] = 1.0
-            elif p[i] > 0:                             # slip: F = r_T -/+ mu p
-                Jd[n + i] = dT[i] + (mu if w[i] >= b else -mu) * dN[i]
-            else:                                      # no pressure: F = r_T
-                Jd[n + i] = dT[i]
-        Pm.setValues(range(2 * n), range(2 * n), Jd)
+        Jd[n:] = dT
+        Jd[n:][slip] += np.where(w[slip] >= b[slip], mu, -mu)[:, None] * dN[slip]
+        Jd[n:][stick] = 0.0
+        i = np.flatnonzero(stick)
+        Jd[n + i, n + i] = 1.0
         Pm.assemble()
 
     def _snes(self, method: str, z0: np.ndarray, atol: float, linesearch: str = "bt") -> tuple[np.ndarray, int, int]:
@@ -142,18 +140,29 @@ class FrictionalContact:
              np.max(np.where(np.abs(d) > 1e-12 * dscale, np.abs(rT + mu * p * np.sign(d)), 0.0)) / scale]
         return float(max(0.0, *v))
 
-    def solve(self, u0: np.ndarray, u_T_prev: np.ndarray, g_prev: np.ndarray) -> IncrementResult:
-        """Equilibrium for the contact displacements ``u0`` caused by the load with r = 0."""
+    def solve(self, u0: np.ndarray, u_T_prev: np.ndarray, g_prev: np.ndarray,
+              d_prev: np.ndarray | None = None) -> IncrementResult:
+        """Equilibrium for the contact displacements ``u0`` caused by the load with r = 0.
+
+        The Newton iteration starts from the previous gaps ``g_prev`` and slip increments
+        ``d_prev`` (the previous increment's ``slip_increment``; zero when None): along a steady
+        loading the nodes that slid keep sliding by about the same amount, so the start is
+        near the new active set."""
+        # the dense 2n x 2n work (LU factorisations, products with Kc) is 2-3x faster on one BLAS
+        # thread on this kind of machine (issue 14)
+        with one_blas_thread():
+            return self._solve(u0, u_T_prev, g_prev, d_prev)
+
+    def _solve(self, u0, u_T_prev, g_prev, d_prev) -> IncrementResult:
         n = self.n
         u_fixed = np.zeros(2 * n)
         u_fixed[0::2] = u_T_prev
         self.base = self.Kc @ (u_fixed - u0)
         scale = max(float(np.max(np.abs(self.base))), 1e-300)
-        z0 = np.concatenate([g_prev, np.zeros(n)])
+        z0 = np.concatenate([g_prev, np.zeros(n) if d_prev is None else d_prev])
         best = None
         for method, linesearch in ATTEMPTS:
-            with one_blas_thread():      # dense 2n x 2n LUs: 2-3x faster single-threaded (issue 14)
-                z, reason, its = self._snes(method, z0, 1e-14 * scale, linesearch)
+            z, reason, its = self._snes(method, z0, 1e-14 * scale, linesearch)
             viol = self.violation(z, scale) if np.all(np.isfinite(z)) else np.inf
             if best is None or viol < best[1]:
                 best = (z, viol, its, method if linesearch == "bt" else f"{method} ({linesearch} line search)")
@@ -167,7 +176,9 @@ class FrictionalContact:
             raise ContactSolveError(f"SNES VI did not solve the contact increment (violation {viol:.3g}, tried "
                                     f"{', '.join(m + ('' if ls == 'bt' else ' + ' + ls) for m, ls in ATTEMPTS)}){hint}")
         z[:n] = np.maximum(z[:n], 0.0)
-        u_c = self.P @ z + u_fixed
+        u_c = u_fixed                                  # u_c = P z + u_fixed: u_T += d, u_N = -g
+        u_c[0::2] += z[n:]
+        u_c[1::2] = -z[:n]
         r = self._reactions(z) * self.kscale
         return IncrementResult(u_T=u_c[0::2], u_N=u_c[1::2], r_T=r[0::2], r_N=r[1::2],
                                slip_increment=z[n:], iterations=its, method=method, violation=viol)

@@ -1,8 +1,10 @@
 """Factor K once per study and build the contact flexibility W = B K^-1 B^T (DESIGN.md section 3).
 
 For linear elasticity K does not change along the loading, so one sparse LU factorisation
-(MUMPS) gives, by 2n solves, the flexibility of the n contact nodes and, by two more, the
-contact displacements caused by a unit motion of the loaded side. Every quasi-static increment
+(MUMPS) gives the flexibility of the n contact nodes, the 2n x 2n contact block of K^-1
+(:func:`flexibility_inverse`: MUMPS's selected entries of the inverse; where that is not
+available, :func:`flexibility_matsolve`: block solves with the 2n unit right-hand sides), and,
+by two more solves, the contact displacements caused by a unit motion of the loaded side. Every quasi-static increment
 is then a small dense complementarity problem, and the contact Schur complement W^-1 feeds the
 exact condensation of MCEIP-mu.
 """
@@ -94,39 +96,72 @@ class ContactFlexibility:
         self.destroy()
 
 
-def _flexibility_block_solves(ksp: PETSc.KSP, K: PETSc.Mat, dofs: np.ndarray,
-                              signs: np.ndarray) -> np.ndarray | None:
-    """W from the LU factors by blocks of right-hand sides (MatMatSolve: several times faster than
-    one solve per contact DOF). Returns None when the factor does not support it (MPI collective)."""
+def flexibility_inverse(ksp: PETSc.KSP, dofs: np.ndarray, signs: np.ndarray) -> np.ndarray | None:
+    """W = B K^-1 B^T as the signed contact block of K^-1, computed by MUMPS from its factors
+    (:func:`app.loading.mumps_inverse.inverse_block`); None when the factor cannot (MPI collective)."""
+    from app.loading.mumps_inverse import inverse_block
+    try:
+        block = inverse_block(ksp.getPC().getFactorMatrix(), dofs)
+    except PETSc.Error:
+        block = None
+    if not ksp.getComm().tompi4py().allreduce(block is not None, op=MPI.LAND):   # MPI collective
+        return None
+    return signs[:, None] * block * signs[None, :]
+
+
+#: bytes of one chunk's dense solution block (N x columns doubles); bounds the W build's memory
+CHUNK_BYTES = 100 * 2**20
+
+
+def chunk_columns(n_rows: int, n_cols: int, chunk_bytes: int = CHUNK_BYTES) -> int:
+    """Right-hand sides per :func:`flexibility_matsolve` chunk: as many as fit in ``chunk_bytes``
+    of an ``n_rows``-row dense block of doubles, at least 1, at most ``n_cols``."""
+    return int(max(1, min(n_cols, chunk_bytes // (8 * max(n_rows, 1)))))
+
+
+def flexibility_matsolve(ksp: PETSc.KSP, K: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
+                         chunk_bytes: int = CHUNK_BYTES) -> np.ndarray | None:
+    """W = B K^-1 B^T from the LU factors by chunks of right-hand sides (MPI collective).
+
+    Each chunk is one ``MatMatSolve`` of the factor with a sparse B^T (an AIJ matrix of the
+    chunk's columns held on rank 0, passed as its ``MATTRANSPOSEVIRTUAL``: MUMPS's sparse
+    right-hand sides, whose forward elimination skips the zero rows) into a distributed dense
+    solution of ``chunk_columns`` columns. Every rank keeps the rows of W it owns; one allreduce
+    assembles W on all ranks. Returns None when the factor cannot solve a sparse block (a factor
+    package other than MUMPS)."""
     comm = K.getComm().tompi4py()
     N = K.getSize()[0]
     r0, r1 = K.getOwnershipRange()
     n2 = len(dofs)
     mine = np.flatnonzero((dofs >= r0) & (dofs < r1))
-    block = int(max(1, min(128, 12_500_000 // max(N, 1))))    # at most ~100 MB per dense block
+    host = comm.rank == 0
+    nb = chunk_columns(N, n2, chunk_bytes)
     W = np.zeros((n2, n2))
+    ok = True
     try:
         F = ksp.getPC().getFactorMatrix()
-        for c0 in range(0, n2, block):
-            cols = np.arange(c0, min(c0 + block, n2))
-            B = PETSc.Mat().createDense(((r1 - r0, N), (PETSc.DECIDE, len(cols))), comm=K.getComm())
-            B.setUp()
-            rhs = B.getDenseArray()
-            rhs[:] = 0.0
-            hit = mine[(mine >= cols[0]) & (mine <= cols[-1])]
-            rhs[dofs[hit] - r0, hit - c0] = signs[hit]
-            B.assemble()
-            X = B.duplicate()
+        for c0 in range(0, n2, nb):
+            m = min(nb, n2 - c0)
+            # MUMPS reads the sparse right-hand sides on its host: rank 0 holds every row and column
+            Bt = PETSc.Mat().createAIJ(((m if host else 0, m), (N if host else 0, N)), nnz=1, comm=K.getComm())
+            Bv = X = None
             try:
-                F.matSolve(B, X)
-                W[np.ix_(mine, cols)] = signs[mine, None] * X.getDenseArray()[dofs[mine] - r0, :]
+                if host:
+                    rows = np.arange(m + 1, dtype=PETSc.IntType)
+                    Bt.setValuesCSR(rows, dofs[c0:c0 + m].astype(PETSc.IntType), signs[c0:c0 + m])
+                Bt.assemble()
+                Bv = PETSc.Mat().createTranspose(Bt)
+                X = PETSc.Mat().createDense(((r1 - r0, N), (PETSc.DECIDE, m)), comm=K.getComm())
+                X.setUp()
+                X.assemble()
+                F.matSolve(Bv, X)
+                W[mine, c0:c0 + m] = signs[mine, None] * X.getDenseArray()[dofs[mine] - r0, :]
             finally:
-                B.destroy()
-                X.destroy()
+                for obj in (Bt, Bv, X):
+                    if obj is not None:
+                        obj.destroy()
     except PETSc.Error:
         ok = False
-    else:
-        ok = True
     if not comm.allreduce(ok, op=MPI.LAND):                   # MPI collective
         return None
     return comm.allreduce(W, op=MPI.SUM)                      # MPI collective: each row from its owner
@@ -160,8 +195,10 @@ def _flexibility(ksp: PETSc.KSP, K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.
 
     try:
         n2 = len(dofs)
-        W = _flexibility_block_solves(ksp, K, dofs, signs)
-        if W is None:                     # no factor matrix with MatMatSolve: one solve per column
+        W = flexibility_inverse(ksp, dofs, signs)
+        if W is None:
+            W = flexibility_matsolve(ksp, K, dofs, signs)
+        if W is None:                     # a factor without sparse block solves: one solve per column
             W = np.zeros((n2, n2))
             r0, r1 = b.getOwnershipRange()
             for j, dof in enumerate(dofs):

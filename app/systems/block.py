@@ -132,15 +132,16 @@ def _loading(scene: Scene, flex, n: int, stages: Stages, progress: Progress):
         end = f"tangential_max = {ld.tangential_max} {UNITS[scene.units]['length']} reached"
         nsteps = int(np.floor(ld.tangential_max / ld.tangential_step + 1e-9))
         bar = progress.bar(nsteps, "loading")
+        d = None                  # each drag increment starts from the previous one's slip
         for k in range(1, nsteps + 1):
             gx = -ld.tangential_step * k
             try:
-                inc = solver.solve(flex.u0x * gx + flex.u0y * gy, uT, g)
+                inc = solver.solve(flex.u0x * gx + flex.u0y * gy, uT, g, d)
             except ContactSolveError as err:
                 end = f"contact solve failed at CD u_x = {gx}: {err}"
                 failure = {"state": len(states), "analysis": "contact increment", "reason": end}
                 break
-            uT, g = inc.u_T, -inc.u_N
+            uT, g, d = inc.u_T, -inc.u_N, inc.slip_increment
             st = _state(len(states), "tangential", gx, gy, inc, {})
             states.append(st)
             bar.update(1)

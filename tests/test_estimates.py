@@ -1,0 +1,48 @@
+"""The pre-flight estimates (app/preflight.py) against measured runs, and what ``validate`` prints.
+
+The measured figures are serial runs of the paper's block study (``analyses: [mceip_mu]``) by
+benchmarks/estimates.py on this project's 2-core machine (peak resident memory; CPU seconds);
+the 1M-DOF peak is issue 22's measurement. The estimates must stay within a factor 2 of them.
+"""
+from __future__ import annotations
+
+import pytest
+import yaml
+from conftest import run_cli
+
+from app.config import default_scene_path, parse_scene
+from app.preflight import describe_time, estimate, time_estimate
+
+#: nx, measured peak resident memory (GiB), measured CPU seconds (None: not measured)
+MEASURED = [(56, 0.226, 4.7), (112, 0.311, 8.4), (224, 0.588, 25.8), (448, 1.321, None), (708, 2.51, None)]
+
+
+def _scene(nx: int, analyses=("mceip_mu",)):
+    data = yaml.safe_load(default_scene_path().read_text())
+    data.pop("outputs", None)
+    data["analyses"] = list(analyses)
+    data["system"].update(nx=nx, ny=nx // 2)
+    return parse_scene(data)
+
+
+@pytest.mark.parametrize("nx, peak_gib, cpu_s", MEASURED)
+def test_estimates_within_a_factor_2_of_measured(nx, peak_gib, cpu_s):
+    scene = _scene(nx)
+    est = estimate(scene)
+    assert 0.5 <= est.memory_bytes / 2**30 / peak_gib <= 2.0
+    if cpu_s is not None:
+        assert 0.5 <= time_estimate(scene, est) / cpu_s <= 2.0
+
+
+def test_time_estimate_says_what_it_does_not_count():
+    scene = _scene(40, analyses=("necessary", "mceip_mu", "sufficient"))
+    text = describe_time(scene, estimate(scene))
+    assert text.startswith("time estimate about ") and "not counting necessary, sufficient" in text
+    assert "not counting" not in describe_time(_scene(40), estimate(_scene(40)))
+
+
+def test_validate_prints_the_time_estimate(scene_file):
+    path = scene_file("name: v\nsystem: {type: block, nx: 30, ny: 15}\nmu: 1.1\nanalyses: [mceip_mu]\n")
+    proc = run_cli("validate", str(path), timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "memory estimate" in proc.stdout and "time estimate about" in proc.stdout

@@ -1,0 +1,73 @@
+"""Library warnings inside a study are caught and explained (app/library_warnings.py), never raw.
+
+- a numpy overflow in an app function is recorded with that function, counted once per kind,
+  logged as a WARNING when unknown and at INFO when known (the det overflow of the dense
+  MCEIP-mu Newton step), and nothing escapes even when warnings are errors outside;
+- the default study raises no library warning at all (under RuntimeWarning-as-error).
+"""
+from __future__ import annotations
+
+import logging
+import warnings
+
+import numpy as np
+import pytest
+import yaml
+from mpi4py import MPI
+
+from app.library_warnings import describe, explained, merged
+
+
+def _overflow_twice():
+    big = np.array([1e308])
+    return big * 10.0, big * 10.0
+
+
+def test_unknown_warning_is_named_by_its_app_function(caplog):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                  # nothing may escape the block
+        with caplog.at_level(logging.INFO, logger="app.library_warnings"), explained() as rec:
+            _overflow_twice()
+            _overflow_twice()
+    (r,) = rec.as_list()
+    assert r["category"] == "RuntimeWarning" and "overflow" in r["message"]
+    assert r["where"].endswith("(_overflow_twice)") and "test_library_warnings.py:" in r["where"]
+    assert r["count"] == 4 and r["explanation"] is None
+    logged = [x for x in caplog.records if x.name == "app.library_warnings"]
+    assert len(logged) == 1 and logged[0].levelno == logging.WARNING      # once, when first seen
+    assert "_overflow_twice" in logged[0].getMessage() and "please report" in logged[0].getMessage()
+
+
+def test_det_overflow_of_newton_step_is_explained(caplog):
+    from app.analyses import dense_mcp
+    J = np.stack([1e3 * np.eye(150), np.eye(150)])
+    J[1, 5, :] = 0.0                       # singular: the solve fails, the determinant test runs
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with caplog.at_level(logging.INFO, logger="app.library_warnings"), explained() as rec:
+            dense_mcp._newton_steps(J, np.ones((2, 150)))
+    if not rec.as_list():
+        pytest.skip("the Newton step no longer computes a determinant that overflows")
+    (r,) = rec.as_list()
+    assert r["message"] == "overflow encountered in det" and r["explanation"]
+    assert [x.levelno for x in caplog.records if x.name == "app.library_warnings"] == [logging.INFO]
+    assert "answers unaffected" in describe(r)
+
+
+def test_merged_sums_counts_over_ranks():
+    a = {"category": "RuntimeWarning", "message": "m", "where": "w", "count": 2, "explanation": None}
+    b = dict(a, count=3)
+    c = dict(a, message="other", count=1)
+    assert [(r["message"], r["count"]) for r in merged([[a], [b, c]])] == [("m", 5), ("other", 1)]
+
+
+def test_default_study_raises_no_library_warning():
+    from app.config import default_scene_path, parse_scene
+    from app.study import run_study
+    data = yaml.safe_load(default_scene_path().read_text())
+    data.pop("outputs", None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        res = run_study(parse_scene(data), MPI.COMM_WORLD)
+    assert "library_warnings" not in res, res.get("library_warnings")
+    assert res["warnings"] == []

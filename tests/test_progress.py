@@ -1,0 +1,101 @@
+"""Progress of the MCEIP-mu stage (app/progress.py ``Progress.tasks``, hooked in app/analyses/runner.py).
+
+A study whose per-classification MCEIP-mu is made slow (it sleeps) must still print a progress
+line at least every 5 s, naming the classifications done, the s running now, the last result and
+the time left; the estimate itself is checked on its own.
+"""
+from __future__ import annotations
+
+import io
+import time
+from types import SimpleNamespace
+
+import pytest
+import yaml
+
+import app.analyses.runner as runner
+from app.config import default_scene_path, parse_scene
+from app.progress import Progress, time_left
+from app.study import run_study
+
+
+class _Recorder(io.StringIO):
+    """A non-terminal stream that records when each line was written."""
+
+    def __init__(self):
+        super().__init__()
+        self.lines: list[tuple[float, str]] = []
+
+    def write(self, text: str) -> int:
+        for line in text.splitlines():
+            self.lines.append((time.perf_counter(), line))
+        return len(text)
+
+    def isatty(self) -> bool:
+        return False
+
+
+def test_time_left_from_the_rate_so_far():
+    assert time_left(10.0, 0.0, 100.0) is None                  # nothing done: no estimate
+    assert time_left(10.0, 25.0, 100.0) == pytest.approx(30.0)  # 25 cost units in 10 s, 75 left
+    assert time_left(10.0, 100.0, 100.0) == 0.0
+
+
+def test_a_long_task_repeats_its_line():
+    rec = _Recorder()
+    with Progress(enabled=True, comm=SimpleNamespace(rank=0), stream=rec, interval=0.3).tasks(
+            3, "work", unit="job", total_cost=30.0) as tasks:
+        tasks.start("job A")
+        time.sleep(1.2)
+        tasks.finish("job A ok", 10.0)
+    texts = [t for _, t in rec.lines]
+    running = [t for t in texts if "now job A" in t]
+    assert len(running) >= 2, texts                               # written while the job ran
+    assert running[0].startswith("work: 0/3 jobs (0%)")
+    assert texts[-1].startswith("work: 1/3 jobs") and texts[-1].endswith(", done")
+    assert "last job A ok" in texts[-1]
+
+
+def test_quiet_progress_writes_nothing():
+    rec = _Recorder()
+    with Progress(enabled=False, comm=SimpleNamespace(rank=0), stream=rec).tasks(2, "work") as tasks:
+        tasks.start("a")
+        tasks.finish("a", 1.0)
+    assert rec.lines == []
+
+
+def test_slow_mceip_mu_prints_a_line_at_least_every_5_s(monkeypatch):
+    data = yaml.safe_load(default_scene_path().read_text())
+    data.pop("outputs", None)
+    data.update(analyses=["mceip_mu"])
+    data["loading"].update(tangential_max=3.0)
+    scene = parse_scene(data)
+    real, calls = runner._mceip_mu, []
+
+    def slow(*args, **kwargs):
+        if kwargs.get("replicated", True) is False:      # the MCEIP-mu stage (not the s = 0 states)
+            calls.append(1)
+            if len(calls) <= 2:
+                time.sleep(6.5)                  # each longer than the 5 s interval
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(runner, "_mceip_mu", slow)
+    rec = _Recorder()
+    t0 = time.perf_counter()
+    from mpi4py import MPI
+    res = run_study(scene, MPI.COMM_WORLD, Progress(enabled=True, comm=SimpleNamespace(rank=0), stream=rec))
+    total = res["distinct_classifications"]
+    lines = [(t, x) for t, x in rec.lines if x.startswith("MCEIP-mu:")]
+    assert len(calls) >= 3 and lines
+    stamps = [t for t, _ in lines]
+    first = min(t for t, x in rec.lines if x.startswith("analyses:"))   # the stage starts after the analyses bar
+    gaps = [b - a for a, b in zip([first] + stamps, stamps)]
+    assert max(gaps) <= 5.0 + 1.0, gaps              # the thread looks every second
+    assert stamps[-1] - t0 >= 13.0                   # the slow calls did run inside the stage
+    running = [x for _, x in lines if "now s = " in x]
+    assert running, [x for _, x in lines]
+    assert any("last s = " in x and ("proven" in x) for _, x in lines)
+    assert any("left (estimate)" in x for _, x in lines)
+    n_deferred = len(calls)
+    assert lines[-1][1].startswith(f"MCEIP-mu: {n_deferred}/{n_deferred} classifications (100%)")
+    assert lines[-1][1].endswith(", done") and n_deferred <= total
