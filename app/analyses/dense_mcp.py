@@ -134,8 +134,9 @@ def _newton_steps(J: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.linalg.solve(J, b[:, :, None])[:, :, 0]
     except np.linalg.LinAlgError:
         pass
-    # an exactly zero pivot of the LU factorisation makes the determinant exactly zero
-    sing = ~(np.abs(np.linalg.det(J)) > 0)
+    # an exactly zero pivot of the LU factorisation makes the determinant's sign exactly zero
+    # (slogdet: the same test without the overflow of det on large stacks)
+    sing = np.linalg.slogdet(J)[0] == 0
     d = np.empty(b.shape)
     if sing.all() or len(J) == 1:
         return _lstsq_batched(J, b)
