@@ -89,7 +89,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
             proof = mceip_mu(A0, A1, cap, pairs=pairs, candidates=guide,
                              seconds=settings.certify_seconds_large if large else settings.certify_seconds,
                              want_all=s <= settings.certify_all_max, all_seconds=settings.certify_all_seconds,
-                             all_nodes=settings.certify_all_nodes)
+                             all_nodes=settings.certify_all_nodes, onset_nodes=settings.certify_onset_nodes)
     return _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings)
 
 

@@ -58,8 +58,8 @@ class Tree:
     nodes: list[ck.Node] = field(default_factory=list)
     memo: dict = field(default_factory=dict)
 
-    def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open") -> tuple[ck.Node, bool]:
-        key = (U, a, b, kind == "leaf-pending")      # a leaf and the drop node of the same U differ
+    def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open", tag: str = "") -> tuple[ck.Node, bool]:
+        key = (U, a, b, kind == "leaf-pending", tag)  # a leaf and the drop node of the same U differ
         if key in self.memo:
             return self.nodes[self.memo[key]], False
         n = ck.Node(len(self.nodes), list(U), float(a), float(b), kind)
@@ -338,10 +338,10 @@ def _bound(P: Prover, hi: float) -> tuple[int | None, float | None]:
     all_idx = tuple(range(P.s))
     best = None
     lo, up = 0.0, hi
-    for _ in range(40):
-        m = up if best is None and lo == 0.0 and up == hi else 0.5 * (lo + up)
-        n, _ = P.tree.add(all_idx, 0.0, m)
-        if n.kind == "cop" or (n.kind == "open" and P._try_cop(n)):
+    for it in range(40):
+        m = hi if it == 0 else 0.5 * (lo + up)
+        n, new = P.tree.add(all_idx, 0.0, m, tag="bound")     # its own nodes: not those of the onset tree
+        if n.kind == "cop" or (new and P._try_cop(n)):
             best, lo = n, m
             if m >= hi:
                 break
