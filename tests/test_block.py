@@ -157,9 +157,8 @@ def test_mu_values_do_not_depend_on_E(paper):
         assert ma["certified"] == mb["certified"]
         if ma["onset"]["value"] is not None:
             assert ma["onset"]["value"] == pytest.approx(mb["onset"]["value"], rel=1e-8)
-        cap = ma["certificate"]["cap"]
-        va = [x["value"] for x in ma["solutions"] if x["value"] <= cap and x["certified"]]
-        vb = [x["value"] for x in mb["solutions"] if x["value"] <= cap and x["certified"]]
+        va = [x["value"] for x in ma["solutions"] if x["certified"]]
+        vb = [x["value"] for x in mb["solutions"] if x["certified"]]
         assert va == pytest.approx(vb, rel=1e-8)
         # the same forces
         assert b["load"]["normal_resultant"] == pytest.approx(a["load"]["normal_resultant"], rel=1e-8)
@@ -255,7 +254,7 @@ def test_paper_study_is_certified(paper):
             listed += 1
             assert m["certificate"]["status"] == "proven"
             for x in m["solutions"]:
-                assert x["certified"] == (x["value"] <= m["certificate"]["cap"])
+                assert x["certified"] == (x["value"] <= m["certificate"].get("cap", np.inf))
         else:
             assert not any(x["certified"] for x in m["solutions"])
     assert listed >= len(paper["states"]) // 2

@@ -124,7 +124,7 @@ def _wait_busy(proc, seconds=3.0):
 def test_interrupted_first_run_leaves_no_results_folder(tmp_path, sig):
     out = tmp_path / "out"
     proc = _start(out)
-    _wait_busy(proc)
+    _wait_busy(proc, 2.0)          # the default study runs about 3 s: well inside it
     os.killpg(proc.pid, sig)
     proc.wait(timeout=60)
     assert proc.returncode != 0

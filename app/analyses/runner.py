@@ -269,6 +269,9 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
     """
     if s == 0:
         return {**no_slip(), "certified": True,
+                "onset": {"proven": True, "status": "proven: no slip node, no critical mu", "value": None,
+                          "enclosure": None},
+                "complete": {"proven": True, "status": "proven: no slip node", "interval": [0.0, np.inf], "count": 0},
                 "certificate": certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), "proven", 0.0, gap=0.0)}
     method = scene.settings.mceip_mu_method
     if method == "condensed":
