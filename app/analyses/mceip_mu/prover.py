@@ -332,6 +332,22 @@ def _seed_candidates(P: Prover, candidates) -> None:
                                                        res.min_x, res.min_y, res.verdict)
 
 
+def _onset_target(P: Prover, w: Found) -> float:
+    """The end ``L`` of "no solution in [0, L]" below the witness: ``WINDOW_REL`` below its
+    enclosure, or a wider gap (up to 1e-6 relative) when the sign argument on every support
+    cannot resolve the narrow one. Near an all-slip onset ``sym(D A(mu))`` is PD with a smallest
+    eigenvalue about proportional to the distance to the onset, which must exceed the rounding
+    bound of the verified Cholesky (about ``s^2 u``): at s = 180 that needs about 1e-8."""
+    top = float(np.nextafter(min(w.enc[0], w.mu - w.h), -np.inf))
+    all_idx = np.arange(P.s)
+    for rel in (0.0, 1e-8, 1e-7, 1e-6):
+        L = top if rel == 0.0 else float(w.enc[0] * (1.0 - rel))
+        for d in P._dvectors(all_idx, L, L):
+            if any(ck.copositive_at(P.a0, P.a1, L, d, th) for th in (0.0, 1.0)):
+                return L
+    return top
+
+
 def _bound(P: Prover, hi: float) -> tuple[int | None, float | None]:
     """A fallback claim when the onset is not proven: the largest ``L`` (bisection) with the
     sign argument on all supports closing ``[0, L]`` in one node."""
@@ -377,8 +393,7 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset
     for _ in range(50):        # restarts when the tree finds a solution below the target
         below = sorted(P.found.values(), key=lambda f: f.enc[0])
         witness = below[0] if below else None
-        target = P.cap if witness is None else float(np.nextafter(min(witness.enc[0], witness.mu - witness.h),
-                                                                   -np.inf))
+        target = P.cap if witness is None else _onset_target(P, witness)
         if target < 0:
             target = 0.0
         root, _ = P.tree.add(all_idx, 0.0, target)
