@@ -223,3 +223,20 @@ def test_block_states_onset_proven(pattern):
         assert r.onset.proven, (p.label, r.onset.status)
         _agrees(r, p.A0, p.A1, cap)
     assert probs.pencils
+
+
+def test_proof_files_never_replace_an_existing_file(tmp_path):
+    """proofs/state_<k>.npz is created exclusively: a file of that name (not this run's) is kept."""
+    from app.outputs.proofs import write_proofs
+    A0, A1 = np.eye(2), np.array([[-1.0, 0.2], [0.1, -0.5]])
+    r = mceip_mu(A0, A1, 10.0)
+    results = {"states": [{"index": 3, "analyses": {"mceip_mu": {"_proof": {"A0": A0, "A1": A1,
+                                                                           "log": r.log.to_json()}}}}]}
+    (tmp_path / "proofs").mkdir()
+    (tmp_path / "proofs" / "state_3.npz").write_bytes(b"a user's file")
+    with pytest.raises(FileExistsError):
+        write_proofs(results, tmp_path)
+    assert (tmp_path / "proofs" / "state_3.npz").read_bytes() == b"a user's file"
+    fresh = tmp_path / "fresh"
+    fresh.mkdir()
+    assert [p.name for p in write_proofs(results, fresh)] == ["state_3.npz"]

@@ -320,3 +320,26 @@ def test_large_motion_of_a_gmsh_body_warns(tmp_path):
     data["system"]["program"] = [{"steps": 1, "displacement": {"CD": {"translation": [0, -0.01], "rotation_deg": 30}}}]
     warnings = run_scene(data)["warnings"]
     assert any("linearised rotation" in w for w in warnings), warnings
+
+
+def test_sandbox_removes_only_its_own_folder(tmp_path, monkeypatch):
+    """The child's working folder is one the app made (mkdtemp) and the only thing it removes:
+    the scene's folder and a user's folders in the temporary area are left as they were."""
+    from app.scene_sections import Limits
+    from app.systems import gmsh_sandbox
+    tmpdir = tmp_path / "tmp"
+    tmpdir.mkdir()
+    (tmpdir / "app-gmsh-users-own").mkdir()               # a user's folder named like the app's
+    (tmpdir / "app-gmsh-users-own" / "keep.txt").write_text("mine")
+    monkeypatch.setenv("TMPDIR", str(tmpdir))
+    import tempfile
+    monkeypatch.setattr(tempfile, "tempdir", None)        # tempfile reads TMPDIR again
+    scene = tmp_path / "scene"
+    scene.mkdir()
+    (scene / "body.geo").write_text(BODY)
+    (scene / "notes.txt").write_text("mine")
+    before = sorted(p.name for p in scene.iterdir())
+    gmsh_sandbox.read(scene / "body.geo", gmsh_sandbox.SandboxLimits.from_limits(Limits()))
+    assert sorted(p.name for p in scene.iterdir()) == before
+    assert sorted(p.name for p in tmpdir.iterdir()) == ["app-gmsh-users-own"]
+    assert (tmpdir / "app-gmsh-users-own" / "keep.txt").read_text() == "mine"
