@@ -93,15 +93,16 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     return _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings)
 
 
-def _solution_dict(value, x, support, comp, a0, a1) -> dict:
-    """The results.json entry of one solution (paper axes: x on the slip nodes, sum 1)."""
+def _solution_dict(value, x, support, comp, a0, a1, norms: tuple[float, float]) -> dict:
+    """The results.json entry of one solution (paper axes: x on the slip nodes, sum 1);
+    ``norms``: the 2-norms of ``a0`` and ``a1`` (the residual is relative to the pencil at mu)."""
     y = (a0 + value * a1) @ x
     stick = y[~support]
     return {"value": float(value), "x_Ts": [float(v) for v in x[comp]],
             "pattern": ["slip" if b else "stick" for b in support],
             # relative to the pencil's size at this mu (what rounding can resolve there)
-            "residual": float(np.linalg.norm(y[support]) / max(np.linalg.norm(x) * (np.linalg.norm(a0, 2) + abs(value)
-                                                                                  * np.linalg.norm(a1, 2)), 1e-300)),
+            "residual": float(np.linalg.norm(y[support]) / max(np.linalg.norm(x) * (norms[0] + abs(value) * norms[1]),
+                                                                1e-300)),
             "complementarity": float(np.max(np.abs(x * y), initial=0.0)),
             "min_x_Ts": float(np.min(x[support]) / max(np.max(x), 1e-300)) if support.any() else 0.0,
             "min_y_Ts": float(np.min(y)) if len(y) else 0.0,
@@ -112,11 +113,12 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
     from app.analyses.enumerate import pencil_scale
     sc = pencil_scale(A0)
     a0, a1 = A0 / sc, A1 / sc
+    norms = (float(np.linalg.norm(a0, 2)), float(np.linalg.norm(a1, 2)))     # once: an SVD each
     sols: list[dict] = []
     keys: list[tuple] = []
     if proof is not None:
         for p in proof.solutions:
-            d = _solution_dict(p.value, p.x, p.support, comp, a0, a1)
+            d = _solution_dict(p.value, p.x, p.support, comp, a0, a1, norms)
             d.update({"enclosure": [float(p.enclosure[0]), float(p.enclosure[1])],
                       "proven_min_x_Ts": float(p.min_x),
                       "proven_margin_y_stick": float(p.min_y) if np.isfinite(p.min_y) else None,
@@ -134,7 +136,7 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
             continue          # not confirmed by the proof: below a proven bound it is no solution
         d = p.as_dict(comp)
         # the residual as for the proven ones: relative to the pencil's size at this mu
-        d["residual"] = _solution_dict(p.value, p.x, p.support, comp, a0, a1)["residual"]
+        d["residual"] = _solution_dict(p.value, p.x, p.support, comp, a0, a1, norms)["residual"]
         c = found_by.get((round(p.value, 9), tuple(p.support)))
         d.update({"certified": False, "iterations": c.iterations if c else 0,
                   "found_by": c.found_by[:8] if c else ["floating-point enumeration (24)-(26)"],
@@ -161,7 +163,7 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
             result = f"onset {o.status}"
         if a.proven:
             result += f"; proven complete: {len(a.values)} critical value(s) in [0, {cap:.6g}]"
-        elif s_all_attempted(proof, settings):
+        elif proof.s <= settings.certify_all_max:
             result += (f"; list {a.status} (budget certify_all_nodes = {settings.certify_all_nodes} tree nodes, "
                        f"certify_all_seconds = {settings.certify_all_seconds:g} s)")
         else:
@@ -169,10 +171,12 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
         if above:
             result += f"; {above} more found above the cap (not proven)"
         certified = bool(proof.certified)
-        status = "proven" if certified else ("onset proven; list " + ("ill-conditioned" if proof.ill_conditioned
-                                                                       else "not proven")
-                                             if o.proven else ("ill-conditioned" if proof.ill_conditioned
-                                                               else "not proven within budget"))
+        if certified:
+            status = "proven"
+        elif o.proven:
+            status = "onset proven; list " + ("ill-conditioned" if proof.ill_conditioned else "not proven")
+        else:
+            status = "ill-conditioned" if proof.ill_conditioned else "not proven within budget"
         cert = certificate(proof.method, (0.0, cap) if certified else a.interval, status, proof.seconds,
                            {"s": proof.s, "cap": float(cap), "nodes": proof.nodes, "lower_bound": proof.lower_bound,
                             "check_seconds": round(proof.check_seconds, 4), "candidates": proof.candidates,
@@ -198,7 +202,3 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
                          "log": proof.log.to_json(), "pairs": [list(p) for p in proof.log.pairs]}
     return out
 
-
-def s_all_attempted(proof, settings) -> bool:
-    """Whether the complete-list claim was attempted for this pencil."""
-    return proof.s <= settings.certify_all_max

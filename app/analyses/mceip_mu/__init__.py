@@ -143,20 +143,16 @@ def _result(A0, A1, cap, out: prover.ProofOutcome, rep: checker.CheckReport, n_c
             t_check: float) -> MuProof:
     s = A0.shape[0]
     proven_keys = {(tuple(u), round(lo, 12)) for u, lo, hi in rep.solutions}
-    sols = []
-    for f in out.found:
+    def solution(f: prover.Found, proven: bool, ill: bool) -> Solution:
         sup = np.zeros(s, dtype=bool)
         sup[list(f.U)] = True
         x = np.zeros(s)
         x[list(f.U)] = f.x / np.sum(f.x)
-        ok = rep.all_ok and (tuple(f.U), round(f.enc[0], 12)) in proven_keys
-        sols.append(Solution(f.mu, f.enc, sup, x, f.min_x, f.min_y, bool(ok)))
-    for f in out.ill:
-        sup = np.zeros(s, dtype=bool)
-        sup[list(f.U)] = True
-        x = np.zeros(s)
-        x[list(f.U)] = f.x / np.sum(f.x)
-        sols.append(Solution(f.mu, f.enc, sup, x, f.min_x, f.min_y, False, True))
+        return Solution(f.mu, f.enc, sup, x, f.min_x, f.min_y, proven, ill)
+
+    sols = [solution(f, bool(rep.all_ok and (tuple(f.U), round(f.enc[0], 12)) in proven_keys), False)
+            for f in out.found]
+    sols += [solution(f, False, True) for f in out.ill]
     sols.sort(key=lambda p: p.value)
     lb = rep.lower_bound
     if rep.onset_ok:

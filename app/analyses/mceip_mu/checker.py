@@ -46,6 +46,7 @@ docs/proofs.md.
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -476,7 +477,6 @@ def cover_nonsingular(a0, a1, U: np.ndarray, a: float, b: float, windows: list[t
                       rounds: int = 60, deadline: float | None = None) -> bool:
     """``[a, b]`` minus the ``windows`` is covered by intervals on which ``A_UU(mu)`` is proven
     nonsingular (batched tests, failed pieces halved, at most ``rounds`` times)."""
-    import time
     todo = []
     reach = a
     for lo, hi in sorted(windows):

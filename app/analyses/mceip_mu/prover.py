@@ -309,7 +309,6 @@ class ProofOutcome:
     ill: list[Found]
     onset_done: bool
     all_done: bool
-    all_proven_to: float            # every solution in [0, all_proven_to] is listed (if the checker agrees)
     nodes: int
     seconds: float
 
@@ -412,7 +411,6 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset
             bound_root = bound = None
     all_roots: list[int] = []
     all_done = False
-    proven_to = onset_below if onset_done and onset_below is not None else 0.0
     if want_all and onset_done:
         all_roots = [onset_root]
         if onset_below < P.cap:
@@ -423,15 +421,13 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset
             all_roots.append(root2.id)
             left = P.explore(root2)
             all_done = not left
-            proven_to = P.cap if all_done else min(n.a for n in left)
             if not all_done:
                 all_roots = []          # an unfinished list is not logged (the checker would reject it)
         else:
             all_done = True
-            proven_to = P.cap
     log = P.log(onset_root if onset_done else None, onset_below if onset_done else None, all_roots,
                 witness if onset_done else None)
     log.bound_root, log.bound = bound_root, bound
     log.prune()
     return ProofOutcome(log, sorted(P.found.values(), key=lambda f: f.enc[0]), P.ill, onset_done, all_done,
-                        proven_to, len(P.tree.nodes), time.perf_counter() - t0)
+                        len(P.tree.nodes), time.perf_counter() - t0)
