@@ -66,10 +66,10 @@ class McpSettings(Strict):
         22, description="the complete list of critical mu below the cap is proven up to this many slip nodes "
                         "(the onset at any size)")
     certify_onset_nodes: Annotated[int, Field(ge=1, le=10_000_000)] = Field(
-        4000, description="budget per state for the onset proof, in proof-tree nodes (an unfinished proof says "
+        20000, description="budget per state for the onset proof, in proof-tree nodes (an unfinished proof says "
                           "what it proved: no critical mu below a bound)")
     certify_all_nodes: Annotated[int, Field(ge=0, le=10_000_000)] = Field(
-        1000, description="budget per state for the complete list once the onset is proven, in proof-tree "
+        5000, description="budget per state for the complete list once the onset is proven, in proof-tree "
                           "nodes (deterministic: the same answer on any machine)")
     certify_all_seconds: PosFloat = Field(
         30.0, description="time limit per state for the complete list [s] (a safety limit; certify_all_nodes "

@@ -167,8 +167,9 @@ def test_checker_accepts_the_log_and_rejects_tampering():
     cops = [n for n in good["nodes"] if n["kind"] == "cop" and any(v != 1.0 for v in n["d"])] or \
         [n for n in good["nodes"] if n["kind"] == "cop"]
     wins = [n for n in good["nodes"] if n.get("windows")]
-    drops = [n for n in good["nodes"] if n["kind"] == "drop"]
-    assert cops and wins and drops
+    branches = [n for n in good["nodes"] if n["kind"] == "branch"]
+    farkas = [n for n in good["nodes"] if n["kind"] == "farkas" and len(n.get("F", [])) < len(n["U"])]
+    assert cops and wins and branches and farkas
 
     def widen_cop(log):                 # a closed node claims a much wider interval
         for n in log["nodes"]:
@@ -180,10 +181,27 @@ def test_checker_accepts_the_log_and_rejects_tampering():
             if n["id"] == wins[0]["id"]:
                 n["windows"][0]["mu"] *= 1.01
 
-    def cut_child(log):                 # a drop node loses a child
+    def cut_child(log):                 # a branch node loses a child
         for n in log["nodes"]:
-            if n["id"] == drops[0]["id"]:
+            if n["id"] == branches[0]["id"]:
                 n["children"] = n["children"][:-1]
+
+    def force_more(log):                # a branch child claims a larger forced set than it may
+        kid = branches[0]["children"][0]
+        for n in log["nodes"]:
+            if n["id"] == kid:
+                n["F"] = sorted(set(n.get("F", [])) | set(n["U"][:1]))
+
+    def farkas_sign(log):               # a Farkas vector positive off the forced set
+        for n in log["nodes"]:
+            if n["id"] == farkas[0]["id"]:
+                i = next(j for j in range(len(n["w"])) if j not in n.get("F", []))
+                n["w"][i] = abs(n["w"][i]) + 1.0
+
+    def family_as_leaf(log):            # a family closed as if it were one exact support
+        for n in log["nodes"]:
+            if n["id"] == farkas[0]["id"]:
+                n["kind"], n["windows"], n["pieces"] = "leaf", [], []
 
     def shrink_root_support(log):       # the root no longer holds every support
         for n in log["nodes"]:
@@ -195,7 +213,8 @@ def test_checker_accepts_the_log_and_rejects_tampering():
             if n.get("windows"):
                 n["windows"] = []
 
-    for edit in (widen_cop, move_window, cut_child, shrink_root_support, drop_solution_window):
+    for edit in (widen_cop, move_window, cut_child, force_more, farkas_sign, family_as_leaf,
+                 shrink_root_support, drop_solution_window):
         assert rejected(edit), edit.__name__
 
 

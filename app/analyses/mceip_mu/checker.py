@@ -27,8 +27,12 @@ with every rounding error of the floating-point arithmetic bounded:
   ``A(mu)`` is affine in mu and the strictly copositive matrices form a convex cone, so the test
   at both ends of ``[a, b]`` closes the whole interval (:func:`closes_subsets`).
 * **Nonsingularity on an interval** (:func:`nonsingular_on`): with ``R ~ A(m)^-1``, every
-  ``A(mu)``, ``|mu - m| <= h``, is nonsingular when ``||I - R A(mu)||_inf < 1`` over the box
-  (Banach lemma): then no support ``P`` solution has its mu in the interval.
+  ``A(mu)``, ``|mu - m| <= h``, is nonsingular when ``||I - R A(m)||_inf + h ||R A1||_inf < 1``
+  (Banach lemma; both products bounded rigorously): then no support ``P`` solution has its mu
+  in the interval.
+* **Farkas vectors** (:func:`farkas_closes`): a vector ``w``, nonpositive off a forced set ``F``,
+  with ``(A(mu)^T w)_U > 0`` at both ends of ``[a, b]`` excludes every solution whose support
+  lies between ``F`` and ``U`` there (the linear relaxation of that family is infeasible).
 * **Isolated eigenpairs** (:func:`verify_window`): Krawczyk's operator for the bordered system
   ``F(x, mu) = [A_PP(mu) x ; x_k - 1]`` on a box ``X = [x~ +- r] x [mu~ +- h]``: ``K(X)`` inside
   the interior of ``X`` proves a unique zero in ``X`` (Krawczyk 1969; Rump, "Verification methods",
@@ -55,7 +59,8 @@ U_ROUND = 2.0 ** -53          # unit roundoff of IEEE double
 ETA = 2.0 ** -1074            # smallest positive subnormal
 TINY = 2.0 ** -1000           # absolute slack for underflow in a product sum (>> n * ETA for n < 2^70)
 
-FORMAT = "mceip-mu-proof/1"
+FORMAT = "mceip-mu-proof/2"
+FORMATS_READ = ("mceip-mu-proof/1", FORMAT)   # version 1: no forced sets (a leaf is its own)
 
 
 def gamma(n: int) -> float:
@@ -147,6 +152,34 @@ def closes_subsets(a0, a1, U: np.ndarray, a: float, b: float, d: np.ndarray, the
     return copositive_at(sub0, sub1, a, d, theta) and (a == b or copositive_at(sub0, sub1, b, d, theta))
 
 
+def farkas_closes(a0: np.ndarray, a1: np.ndarray, U: np.ndarray, F, a: float, b: float, w) -> bool:
+    """No solution whose support ``P`` satisfies ``F <= P <= U`` has mu in ``[a, b]``, by a Farkas
+    (Gordan) vector ``w`` (length ``s``) with ``w_i <= 0`` for every ``i`` not in ``F`` and
+    ``(A(mu)^T w)_U > 0`` at ``a`` and at ``b``.
+
+    At such a solution ``w^T y = sum_{i not in P} w_i y_i <= 0`` (``y_P = 0``, ``y >= 0`` and
+    ``w_i <= 0`` off ``P``, as ``F <= P``), while ``w^T y = (A(mu)^T w)^T x = sum_{j in P} g_j x_j > 0``.
+    ``g = A(mu)^T w`` is affine in mu, so both ends cover the interval. The linear relaxation of
+    the family (complementarity fixed on ``F``, dropped elsewhere) is infeasible exactly when such
+    a vector exists; it is found by an LP in the prover and re-checked here with a rigorous bound
+    on the rounding of ``g``, never taken from the LP's status."""
+    s = a0.shape[0]
+    w = np.asarray(w, dtype=float)
+    U = np.asarray(U, dtype=np.int64)
+    if w.shape != (s,) or len(U) == 0 or not np.all(np.isfinite(w)) or not (a <= b):
+        return False
+    free = np.zeros(s, dtype=bool)
+    free[[int(i) for i in F if 0 <= int(i) < s]] = True
+    if np.any(w[~free] > 0):
+        return False
+    for mu in ((a, b) if a != b else (a,)):
+        A, rA = pencil_at(a0[:, U], a1[:, U], mu)
+        g, rg = mr_mul(A.T, rA.T, w[:, None], None)
+        if not np.all(g[:, 0] - rg[:, 0] > 0):
+            return False
+    return True
+
+
 def nonsingular_on(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, a: float, b: float) -> bool:
     """Every ``A_PP(mu)``, ``mu`` in ``[a, b]``, is nonsingular (so support ``P`` has no eigenvalue there)."""
     return bool(nonsingular_batch(a0, a1, P, np.array([a]), np.array([b]))[0])
@@ -164,9 +197,10 @@ def nonsingular_batch(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, los: np.nda
     p = len(P)
     m = 0.5 * (los + his)
     h = _up(np.maximum(his - m, m - los), 2)
+    # A(mu) = A(m) + (mu - m) A1: ||I - R A(mu)|| <= ||I - R A(m)|| + h ||R A1||, each product
+    # with its rigorous radius (far tighter than |R| |A1| near an eigenvalue)
     A = s0[None] + m[:, None, None] * s1[None]
-    rA = _up(gamma(2) * (np.abs(s0)[None] + np.abs(m)[:, None, None] * np.abs(s1)[None])
-             + h[:, None, None] * np.abs(s1)[None], 4)
+    rA = _up(gamma(2) * (np.abs(s0)[None] + np.abs(m)[:, None, None] * np.abs(s1)[None]), 4)
     with np.errstate(all="ignore"):
         try:
             R = np.linalg.inv(A)
@@ -174,11 +208,13 @@ def nonsingular_batch(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, los: np.nda
             R = np.stack([_safe_inv(Ak) for Ak in A])
         fin = np.all(np.isfinite(R), axis=(1, 2))
         R = np.where(fin[:, None, None], R, 0.0)
-        C = R @ A
         aR = np.abs(R)
+        C = R @ A
         rC = _up(gamma(p + 2) * (aR @ np.abs(A)) + aR @ rA, p + 4)
+        C1 = R @ s1[None]
+        rC1 = _up(gamma(p + 2) * (aR @ np.abs(s1)[None]), p + 4)
         G = np.eye(p)[None] - C
-        rG = _up(rC + U_ROUND * np.abs(G), 2)
+        rG = _up(rC + U_ROUND * np.abs(G) + h[:, None, None] * (np.abs(C1) + rC1), 4)
         nrm = _up(np.max(np.sum(np.abs(G) + rG, axis=2), axis=1), p)
     out = good & fin & (nrm < 1.0)
     return out
@@ -337,14 +373,19 @@ def verify_window(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, mu: float, x: n
 
 @dataclass
 class Node:
-    """One node of the proof tree: supports in ``U`` (indices into the slip nodes), mu in ``[a, b]``.
+    """One node of the proof tree: the family of supports ``P`` with ``F <= P <= U`` (indices into
+    the slip nodes; ``F``, the forced set, is empty for "every support in ``U``") and mu in ``[a, b]``.
 
-    ``kind``: ``"cop"`` (sign argument, witness ``d``, ``theta``), ``"bisect"`` (children on
-    ``[a, m]`` and ``[m, b]``), ``"pairsplit"`` (children ``U \\ {a}`` and ``U \\ {b}`` for a pair
-    ``(a, b)`` inside ``U``), ``"drop"`` (children ``U \\ {i}`` for every ``i`` plus the leaf of
-    the exact support ``U``), ``"leaf"`` (exact support ``U``: ``windows`` each with one verified
-    eigenpair; the checker proves the rest of ``[a, b]`` free of eigenvalues itself), ``"pair"`` (no allowed support: ``U`` holds
-    both halves of a pair, only as a leaf), ``"open"`` (not closed: the proof is unfinished)."""
+    ``kind``: ``"cop"`` (sign argument on ``U``, witness ``d``, ``theta``), ``"farkas"`` (a Farkas
+    vector ``w``, :func:`farkas_closes`), ``"bisect"`` (children on ``[a, m]`` and ``[m, b]``),
+    ``"branch"`` (on an index ``i`` of ``U \\ F``: ``i`` not in the support, child ``(U \\ {i}, F)``,
+    or in it, child ``(U \\ partners(i), F + {i})``), ``"pairsplit"`` (children ``U \\ {a}`` and
+    ``U \\ {b}`` for a pair ``(a, b)`` inside ``U``), ``"drop"`` (children ``U \\ {i}`` for every
+    ``i`` plus the exact-support leaf of ``U``), ``"leaf"`` (``F = U``, the exact support ``U``:
+    ``windows`` each with one verified eigenpair, ``pieces`` of ``[a, b]`` each closed by a Farkas
+    vector, and the checker's own nonsingularity cover of the rest), ``"pair"`` (``F`` holds both halves
+    of a pair: no allowed support), ``"empty"`` (``U`` empty or ``F`` not inside ``U``: no
+    support at all), ``"open"`` (not closed: the proof is unfinished)."""
     id: int
     U: list[int]
     a: float
@@ -354,9 +395,14 @@ class Node:
     d: list[float] | None = None
     theta: float | None = None
     windows: list[dict] = field(default_factory=list)     # {"mu", "h", "x"} (x on U)
+    F: list[int] = field(default_factory=list)
+    w: list[float] | None = None
+    pieces: list[dict] = field(default_factory=list)      # leaf: {"a", "b", "w"} Farkas pieces
 
     def as_dict(self) -> dict:
         out = {"id": self.id, "U": self.U, "a": self.a, "b": self.b, "kind": self.kind}
+        if self.F:
+            out["F"] = self.F
         if self.children:
             out["children"] = self.children
         if self.d is not None:
@@ -364,13 +410,22 @@ class Node:
             out["theta"] = self.theta
         if self.windows:
             out["windows"] = self.windows
+        if self.w is not None:
+            out["w"] = self.w
+        if self.pieces:
+            out["pieces"] = self.pieces
         return out
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Node":
-        return cls(int(d["id"]), [int(i) for i in d["U"]], float(d["a"]), float(d["b"]), str(d["kind"]),
+    def from_dict(cls, d: dict, version: int = 2) -> "Node":
+        U = [int(i) for i in d["U"]]
+        kind = str(d["kind"])
+        F = [int(i) for i in d.get("F", [])]
+        if version == 1 and kind in ("leaf", "pair"):
+            F = list(U)                 # version 1: a leaf is the exact support U
+        return cls(int(d["id"]), U, float(d["a"]), float(d["b"]), kind,
                    [int(c) for c in d.get("children", [])], d.get("d"), d.get("theta"),
-                   list(d.get("windows", [])))
+                   list(d.get("windows", [])), F, d.get("w"), list(d.get("pieces", [])))
 
 
 @dataclass
@@ -410,10 +465,11 @@ class ProofLog:
 
     @classmethod
     def from_json(cls, d: dict) -> "ProofLog":
-        if d.get("format") != FORMAT:
-            raise ValueError(f"proof log format {d.get('format')!r}, expected {FORMAT!r}")
+        if d.get("format") not in FORMATS_READ:
+            raise ValueError(f"proof log format {d.get('format')!r}, expected one of {FORMATS_READ}")
+        version = FORMATS_READ.index(d["format"]) + 1
         return cls(int(d["s"]), float(d["cap"]), int(d["scale_exp"]), [tuple(p) for p in d["pairs"]],
-                   [Node.from_dict(n) for n in d["nodes"]], d.get("onset_root"), d.get("onset_below"),
+                   [Node.from_dict(n, version) for n in d["nodes"]], d.get("onset_root"), d.get("onset_below"),
                    [int(r) for r in d.get("all_roots", [])], d.get("onset_witness"), d.get("bound_root"),
                    d.get("bound"))
 
@@ -450,10 +506,18 @@ def check_node(a0, a1, node: Node, pairs, cap: float) -> tuple[bool, list, int, 
         ok = node.d is not None and closes_subsets(a0, a1, U, node.a, node.b, np.asarray(node.d, float),
                                                    float(node.theta))
         return ok, [], 0, "" if ok else "sign argument fails"
+    if node.kind == "farkas":
+        ok = node.w is not None and farkas_closes(a0, a1, U, node.F, node.a, node.b, node.w)
+        return ok, [], 0, "" if ok else "Farkas vector fails"
+    if node.kind == "empty":
+        ok = not node.U or not set(node.F) <= set(node.U)
+        return ok, [], 0, "" if ok else "the family is not empty"
     if node.kind == "pair":
-        ok = not _allowed(node.U, pairs)
-        return ok, [], 0, "" if ok else "U holds no pair"
+        ok = not _allowed(node.F, pairs)
+        return ok, [], 0, "" if ok else "F holds no pair"
     if node.kind == "leaf":
+        if sorted(set(node.F)) != sorted(set(node.U)):
+            return False, [], 0, "a leaf proves its exact support only (F must equal U)"
         if not _allowed(node.U, pairs):
             return True, [], 0, ""
         pieces, sols, ill = [], [], 0
@@ -467,7 +531,12 @@ def check_node(a0, a1, node: Node, pairs, cap: float) -> tuple[bool, list, int, 
             elif res.verdict != "not a solution":
                 ill += 1
                 sols.append((list(node.U), res.enc_lo, res.enc_hi, res.verdict))
-        if not cover_nonsingular(a0, a1, U, node.a, node.b, pieces):
+        for pc in node.pieces:
+            lo, hi = float(pc["a"]), float(pc["b"])
+            if not farkas_closes(a0, a1, U, node.U, lo, hi, pc["w"]):
+                return False, [], 0, f"Farkas piece [{lo}, {hi}] fails"
+        gaps = pieces + [(float(pc["a"]), float(pc["b"])) for pc in node.pieces]
+        if not cover_nonsingular(a0, a1, U, node.a, node.b, gaps):
             return False, [], 0, "the rest of [a, b] not proven free of eigenvalues"
         return True, sols, ill, ""
     return False, [], 0, f"node kind {node.kind!r} proves nothing by itself"
@@ -517,6 +586,14 @@ def _covers(pieces: list[tuple[float, float]], a: float, b: float) -> bool:
 
 
 def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
+    """Re-verify a proof log from the pencil alone (:func:`_check_log`, with one BLAS thread:
+    the tests are stacks of small matrices)."""
+    from app.linalg import one_blas_thread
+    with one_blas_thread():
+        return _check_log(A0, A1, log)
+
+
+def _check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
     """Re-verify a proof log from the pencil alone.
 
     Every node reachable from the roots is checked: its own test (``cop``, ``leaf``, ``pair``),
@@ -555,7 +632,7 @@ def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
                 memo[j] = (False, [], 0)
                 errors.append(f"node {j} missing")
                 continue
-            if n.kind in ("bisect", "drop", "pairsplit"):
+            if n.kind in ("bisect", "branch", "drop", "pairsplit"):
                 ok, why = _children_cover(n, byid, pairs)
                 sols, ill = [], 0
                 for c in n.children:
@@ -580,7 +657,7 @@ def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
     if log.onset_root is not None and log.onset_below is not None:
         n = byid.get(log.onset_root)
         ok, sols, ill = visit(log.onset_root)
-        full = n is not None and sorted(n.U) == list(range(log.s)) and n.a <= 0.0 and n.b >= log.onset_below
+        full = n is not None and sorted(n.U) == list(range(log.s)) and not n.F and n.a <= 0.0 and n.b >= log.onset_below
         if not full:
             errors.append("onset root does not cover every support on [0, onset_below]")
         # the tree must list nothing (and nothing undecided) at or below onset_below
@@ -606,7 +683,7 @@ def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
     elif log.bound_root is not None and log.bound is not None:
         n = byid.get(log.bound_root)
         ok, sols, ill = visit(log.bound_root)
-        if ok and ill == 0 and not sols and n is not None and sorted(n.U) == list(range(log.s)) and n.a <= 0.0 \
+        if ok and ill == 0 and not sols and n is not None and sorted(n.U) == list(range(log.s)) and not n.F and n.a <= 0.0 \
                 and n.b >= log.bound:
             lower_bound = float(log.bound)
         else:
@@ -620,7 +697,7 @@ def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
         for r in log.all_roots:
             n = byid.get(r)
             ok, sols, ill = visit(r)
-            if n is None or sorted(n.U) != list(range(log.s)):
+            if n is None or sorted(n.U) != list(range(log.s)) or n.F:
                 ok = False
                 errors.append(f"root {r} does not hold every support")
             else:
@@ -634,36 +711,61 @@ def check_log(A0: np.ndarray, A1: np.ndarray, log: ProofLog) -> CheckReport:
     return CheckReport(onset_ok, all_ok, onset, lower_bound, sorted(sols, key=lambda t: t[1]), ill_all, errors)
 
 
+def _contains(k: Node, U, F, a: float, b: float) -> bool:
+    """Child ``k``'s family holds every support ``P`` with ``F <= P <= U`` on ``[a, b]``: a larger
+    ``U``, a smaller ``F`` and a longer interval only make its claim stronger."""
+    return set(k.U) >= set(U) and set(k.F) <= set(F) and k.a <= a and k.b >= b
+
+
+def _partners(i: int, pairs) -> set[int]:
+    return {b for a, b in pairs if a == i} | {a for a, b in pairs if b == i}
+
+
 def _children_cover(n: Node, byid: dict, pairs) -> tuple[bool, str]:
+    """The children of a split node hold, together, every allowed support of its family."""
     kids = [byid.get(c) for c in n.children]
     if any(k is None for k in kids):
         return False, "a child is missing"
+    U, F = set(n.U), set(n.F)
     if n.kind == "bisect":
         if len(kids) != 2:
             return False, "bisect needs two children"
         k1, k2 = kids
-        ok = k1.U == n.U and k2.U == n.U and k1.a <= n.a and k2.b >= n.b and k1.b >= k2.a
+        ok = _contains(k1, U, F, k1.a, k1.b) and _contains(k2, U, F, k2.a, k2.b) and k1.a <= n.a \
+            and k2.b >= n.b and k1.b >= k2.a
         return ok, "" if ok else "bisection children do not cover the node"
+    if n.kind == "branch":
+        # index i of U \ F: either i is not in the support (U \ {i}, F), or it is, and then no
+        # partner of i is (U \ partners(i), F + {i})
+        if len(kids) != 2:
+            return False, "branch needs two children"
+        k0, k1 = kids
+        for i in U - F:
+            if _contains(k0, U - {i}, F, n.a, n.b) and _contains(k1, U - _partners(i, pairs), F | {i}, n.a, n.b):
+                return True, ""
+        return False, "branch children do not split the family on an index"
     if n.kind == "pairsplit":
         # (a, b) a pair inside U: the allowed supports in U lie in U \ {a} or in U \ {b}
-        if len(kids) != 2 or not all(k.a <= n.a and k.b >= n.b for k in kids):
-            return False, "pair split needs two children on the node's interval"
+        if len(kids) != 2:
+            return False, "pair split needs two children"
         for a, b in pairs:
-            if a in n.U and b in n.U and sorted(kids[0].U) == sorted(set(n.U) - {a}) \
-                    and sorted(kids[1].U) == sorted(set(n.U) - {b}):
+            if a in U and b in U and _contains(kids[0], U - {a}, F, n.a, n.b) \
+                    and _contains(kids[1], U - {b}, F, n.a, n.b):
                 return True, ""
         return False, "pair split children are not U minus either half of a pair"
-    # drop: every U \ {i} on an interval containing [a, b], and the exact-support leaf of U
-    need = set(n.U) if len(n.U) > 1 else set()     # U \ {i} is empty for |U| = 1: nothing to cover
-    leaf = False
-    for k in kids:
-        if not (k.a <= n.a and k.b >= n.b):
-            continue
-        if k.U == n.U and k.kind in ("leaf", "pair"):
-            leaf = True
-            continue
-        missing = set(n.U) - set(k.U)
-        if len(missing) == 1 and set(k.U) <= set(n.U):
-            need.discard(missing.pop())
-    ok = leaf and not need
-    return ok, "" if ok else "drop children do not cover the node"
+    if n.kind == "drop":
+        # every U \ {i} on an interval containing [a, b], and the exact-support leaf of U
+        need = set(U) if len(U) > 1 else set()     # U \ {i} is empty for |U| = 1: nothing to cover
+        leaf = False
+        for k in kids:
+            if not (k.a <= n.a and k.b >= n.b):
+                continue
+            if set(k.U) == U and set(k.F) == U and k.kind in ("leaf", "pair"):
+                leaf = True
+                continue
+            for i in list(need):
+                if _contains(k, U - {i}, F, n.a, n.b):
+                    need.discard(i)
+        ok = leaf and not need
+        return ok, "" if ok else "drop children do not cover the node"
+    return False, f"node kind {n.kind!r} has no children rule"

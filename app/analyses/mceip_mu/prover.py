@@ -27,16 +27,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
+import scipy.optimize
 
 from app.analyses.mceip_mu import checker as ck
 from app.linalg import one_blas_thread
 
 #: relative half-width of the window around a verified eigenvalue (the accuracy of a proven value)
 WINDOW_REL = 1e-9
-#: relative interval width below which a node (small U) is split by supports instead of bisected
-BISECT_REL = 0.25
-#: a node whose U is larger than this is not split by supports (fan-out |U|): it stays open
-DROP_MAX = 22
+#: a family whose LP relaxation is complementary is halved down to this relative width, then
+#: split on an index
+HALVE_MIN_REL = 1e-3
+#: a family on an interval wider than this (relative to its end) is halved before any index split
+WIDE_REL = 0.03
+#: a family with at most this many free indices is split on them at once (its leaves are few and
+#: cover any interval themselves)
+FEW_FREE = 3
+#: halvings of a leaf's gap tried with Farkas vectors before windows and nonsingularity take over
+FARKAS_DEPTH = 6
 
 
 @dataclass
@@ -58,11 +65,13 @@ class Tree:
     nodes: list[ck.Node] = field(default_factory=list)
     memo: dict = field(default_factory=dict)
 
-    def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open", tag: str = "") -> tuple[ck.Node, bool]:
-        key = (U, a, b, kind == "leaf-pending", tag)  # a leaf and the drop node of the same U differ
+    def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open", tag: str = "",
+            F: tuple[int, ...] = ()) -> tuple[ck.Node, bool]:
+        U, F = tuple(sorted(U)), tuple(sorted(F))
+        key = (U, F, a, b, tag)
         if key in self.memo:
             return self.nodes[self.memo[key]], False
-        n = ck.Node(len(self.nodes), list(U), float(a), float(b), kind)
+        n = ck.Node(len(self.nodes), list(U), float(a), float(b), kind, F=list(F))
         self.nodes.append(n)
         self.memo[key] = n.id
         return n, True
@@ -87,6 +96,7 @@ class Prover:
         self.found: dict[tuple, Found] = {}
         self.ill: list[Found] = []
         self.leaf_cache: dict = {}
+        self.cop_failed: set = set()
 
     # --- tests ------------------------------------------------------------------------------
 
@@ -115,6 +125,15 @@ class Prover:
         return out
 
     def _try_cop(self, n: ck.Node) -> bool:
+        key = (tuple(n.U), n.a, n.b)
+        if key in self.cop_failed:          # the same test already failed (a sibling with a larger F)
+            return False
+        if self._cop(n):
+            return True
+        self.cop_failed.add(key)
+        return False
+
+    def _cop(self, n: ck.Node) -> bool:
         U = np.asarray(n.U, dtype=np.int64)
         one = np.ones(len(U))
         for theta in (0.0, 1.0):
@@ -148,109 +167,241 @@ class Prover:
         self.leaf_cache[key] = out
         return out
 
+    # --- Farkas vectors ----------------------------------------------------------------------
+
+    def _lp(self, U: tuple[int, ...], F: set[int], a: float, b: float):
+        """The LP ``max t`` subject to ``(A(mu)^T w)_U >= t`` at ``a`` and ``b``, ``w_i <= 0`` off
+        ``F``, ``|w| <= 1``: a Farkas vector when ``t > 0``, else the dual point (the relaxed
+        ``x`` at each end and the ``y`` of their sum), which says where complementarity fails."""
+        s = self.s
+        Ul = list(U)
+        mus = (a, b) if a != b else (a,)
+        G = np.vstack([-(self.a0[:, Ul] + mu * self.a1[:, Ul]).T for mu in mus])
+        m = G.shape[0]
+        A_ub = np.hstack([G, np.ones((m, 1))])
+        bounds = [(-1.0, 1.0) if i in F else (-1.0, 0.0) for i in range(s)] + [(None, 1.0)]
+        c = np.zeros(s + 1)
+        c[-1] = -1.0
+        try:
+            r = scipy.optimize.linprog(c, A_ub=A_ub, b_ub=np.zeros(m), bounds=bounds, method="highs")
+        except (ValueError, np.linalg.LinAlgError):
+            return None, None
+        if r.status != 0 or r.x is None:
+            return None, None
+        if r.x[-1] > 0:
+            w = r.x[:s].copy()
+            off = np.ones(s, dtype=bool)
+            off[list(F)] = False
+            w[off] = np.minimum(w[off], 0.0)        # the sign pattern exactly (the LP's tolerance aside)
+            return w, None
+        lam = np.maximum(-np.asarray(r.ineqlin.marginals, dtype=float), 0.0)
+        k = len(Ul)
+        x = np.zeros(s)
+        y = np.zeros(s)
+        for q, mu in enumerate(mus):
+            lq = lam[q * k:(q + 1) * k]
+            x[Ul] += lq
+            y += (self.a0[:, Ul] + mu * self.a1[:, Ul]) @ lq
+        return None, (x, y)
+
+    def _try_farkas(self, n: ck.Node):
+        """Close ``n`` by a Farkas vector (kind ``farkas``); else return the LP's dual point."""
+        w, relaxed = self._lp(tuple(n.U), set(n.F), n.a, n.b)
+        if w is not None and ck.farkas_closes(self.a0, self.a1, np.asarray(n.U), n.F, n.a, n.b, w):
+            n.kind, n.w = "farkas", [float(v) for v in w]
+            return True, None
+        return False, relaxed
+
+    def _leaf_vector(self, U: np.ndarray, lo: float, hi: float, lp: bool = True):
+        """A Farkas vector for the exact support ``U`` on ``[lo, hi]``: ``A_UU(m)^-T 1`` at the
+        midpoint (no LP), else (``lp``) the LP's."""
+        s0, s1 = self.a0[np.ix_(U, U)], self.a1[np.ix_(U, U)]
+        m = 0.5 * (lo + hi)
+        try:
+            wu = np.linalg.solve((s0 + m * s1).T, np.ones(len(U)))
+        except np.linalg.LinAlgError:
+            wu = None
+        if wu is not None and np.all(np.isfinite(wu)):
+            w = np.zeros(self.s)
+            w[U] = wu
+            if ck.farkas_closes(self.a0, self.a1, U, U, lo, hi, w):
+                return w
+        if not lp:
+            return None
+        w, _ = self._lp(tuple(int(i) for i in U), set(int(i) for i in U), lo, hi)
+        if w is not None and ck.farkas_closes(self.a0, self.a1, U, U, lo, hi, w):
+            return w
+        return None
+
+    def _farkas_pieces(self, U: np.ndarray, lo: float, hi: float, depth: int, pieces: list, rest: list) -> None:
+        """Cover ``[lo, hi]`` by Farkas pieces (halving up to ``depth`` times); what is left goes to ``rest``."""
+        w = self._leaf_vector(U, lo, hi, lp=depth >= FARKAS_DEPTH - 1)   # the LP (which can cross an
+        if w is not None:                                               # eigenvalue) on the wide pieces only
+            pieces.append({"a": lo, "b": hi, "w": [float(v) for v in w]})
+            return
+        m = 0.5 * (lo + hi)
+        if depth <= 0 or not (lo < m < hi):
+            rest.append((lo, hi))
+            return
+        self._farkas_pieces(U, lo, m, depth - 1, pieces, rest)
+        self._farkas_pieces(U, m, hi, depth - 1, pieces, rest)
+
+    # --- leaves ------------------------------------------------------------------------------
+
+    def _looks_like_solution(self, U: np.ndarray, mu: float, x: np.ndarray) -> bool:
+        """Floating-point screen: ``x_U`` of one sign and ``y >= 0`` off ``U``, within 1e-6 relative."""
+        x = x * np.sign(np.sum(x)) if np.sum(x) != 0 else x
+        if np.min(x) < -1e-6 * np.max(np.abs(x)):
+            return False
+        full = np.zeros(self.s)
+        full[U] = x
+        y = (self.a0 + mu * self.a1) @ full
+        off = np.setdiff1d(np.arange(self.s), U)
+        return not len(off) or np.min(y[off]) >= -1e-6 * float(np.max(np.abs(y), initial=1.0) + np.max(np.abs(x)))
+
+    def _window(self, n: ck.Node, U: np.ndarray, mu: float, x: np.ndarray, mus: list[float]):
+        """A verified window around the eigenvalue ``mu`` of support ``U`` (recorded in ``n``)."""
+        h = WINDOW_REL * max(abs(mu), 1e-3)
+        near = [abs(mu - m) for m in mus if m != mu]
+        if near and min(near) < 4 * h:
+            h = 0.25 * min(near)
+        for _ in range(3):
+            if h <= 0:
+                break
+            res = ck.verify_window(self.a0, self.a1, U, mu, x, h, self.cap, self.pairs)
+            if res.ok:
+                n.windows.append({"mu": mu, "h": h, "x": [float(v) for v in x]})
+                if res.verdict in ("solution", "ill-conditioned"):
+                    f = Found(tuple(n.U), mu, h, x.copy(), (res.enc_lo, res.enc_hi), res.min_x, res.min_y, res.verdict)
+                    if res.verdict == "solution":
+                        self.found[(f.U, round(res.enc_lo, 12))] = f
+                    else:
+                        self.ill.append(f)
+                return res
+            h *= 0.1
+        return None
+
     def _leaf(self, n: ck.Node) -> bool:
-        """Exact support ``U`` on ``[a, b]``: windows around its real eigenvalues, gaps between."""
+        """Exact support ``U`` (``F = U``) on ``[a, b]``: windows around the eigenvalues that look
+        like solutions, Farkas pieces between them, and for what is left windows around every
+        eigenvalue and proven nonsingularity between (the checker redoes the last part)."""
         U = np.asarray(n.U, dtype=np.int64)
         n.kind = "leaf"
-        if not ck._allowed(n.U, self.pairs):
-            n.kind = "pair"
-            return True
         a, b = n.a, n.b
-        pieces: list[tuple[float, float]] = []
         eig = [(mu, x) for mu, x in self._eigen(U) if a - 1e-6 * max(1.0, abs(mu)) <= mu <= b + 1e-6 * max(1.0, abs(mu))]
         mus = [mu for mu, _ in eig]
-        for j, (mu, x) in enumerate(eig):
-            h = WINDOW_REL * max(abs(mu), 1e-3)
-            near = [abs(mu - m) for k, m in enumerate(mus) if k != j]
-            if near and min(near) < 4 * h:
-                h = 0.25 * min(near)
-            win = None
-            for _ in range(3):
-                if h <= 0:
-                    break
-                res = ck.verify_window(self.a0, self.a1, U, mu, x, h, self.cap, self.pairs)
-                if res.ok:
-                    win = res
-                    break
-                h *= 0.1
-            if win is None:
-                n.kind = "open"
-                return False
-            n.windows.append({"mu": mu, "h": h, "x": [float(v) for v in x]})
-            pieces.append((win.mu_lo, win.mu_hi))
-            if win.verdict in ("solution", "ill-conditioned"):
-                f = Found(tuple(n.U), mu, h, x.copy(), (win.enc_lo, win.enc_hi), win.min_x, win.min_y, win.verdict)
-                if win.verdict == "solution":
-                    self.found[(f.U, round(win.enc_lo, 12))] = f
-                else:
-                    self.ill.append(f)
-        # the rest of [a, b]: intervals on which A_UU(mu) is nonsingular (the checker redoes this)
-        if ck.cover_nonsingular(self.a0, self.a1, U, a, b, pieces, deadline=self.deadline):
+        covered: list[tuple[float, float]] = []
+        others = []
+        for mu, x in eig:
+            if self._looks_like_solution(U, mu, x):
+                res = self._window(n, U, mu, x, mus)
+                if res is None:
+                    n.kind = "open"
+                    return False
+                covered.append((res.mu_lo, res.mu_hi))
+            else:
+                others.append((mu, x))
+        gaps, reach = [], a
+        for lo, hi in sorted(covered):
+            if lo > reach:
+                gaps.append((reach, min(lo, b)))
+            reach = max(reach, hi)
+        if reach < b:
+            gaps.append((reach, b))
+        rest: list[tuple[float, float]] = []
+        for lo, hi in gaps:
+            self._farkas_pieces(U, lo, hi, FARKAS_DEPTH, n.pieces, rest)
+        for mu, x in others:
+            if any(lo - 1e-6 * max(1.0, abs(mu)) <= mu <= hi + 1e-6 * max(1.0, abs(mu)) for lo, hi in rest):
+                res = self._window(n, U, mu, x, mus)
+                if res is None:
+                    n.kind = "open"
+                    return False
+                covered.append((res.mu_lo, res.mu_hi))
+        done = covered + [(p["a"], p["b"]) for p in n.pieces]
+        if ck.cover_nonsingular(self.a0, self.a1, U, a, b, done, deadline=self.deadline):
             return True
         n.kind = "open"
         return False
 
     # --- the search --------------------------------------------------------------------------
 
+    def _split(self, n: ck.Node, relaxed) -> list[ck.Node]:
+        """Split an unclosed family: on the index of ``U \\ F`` where the LP's relaxed point breaks
+        complementarity most, or, when it breaks none (the relaxed point mixes the two ends of
+        the interval), by halving the interval."""
+        U, F = set(n.U), set(n.F)
+        free = sorted(U - F)
+        width = n.b - n.a
+        i = free[0]
+        halve = False
+        if width > WIDE_REL * max(abs(n.b), 1e-3) and len(free) > FEW_FREE:
+            halve = True
+        elif relaxed is not None:
+            x, y = relaxed
+            v = x[free] * np.maximum(y[free], 0.0)
+            scale = float(max(np.max(np.abs(x)), 1e-300) * max(np.max(np.abs(y)), 1e-300))
+            if np.max(v) <= 1e-9 * scale:
+                halve = width > HALVE_MIN_REL * max(abs(n.b), 1e-3)
+                i = free[int(np.argmax(x[free]))]
+            else:
+                i = free[int(np.argmax(v))]
+        if halve:
+            m = 0.5 * (n.a + n.b)
+            if n.a < m < n.b:
+                c1, _ = self.tree.add(tuple(n.U), n.a, m, F=tuple(n.F))
+                c2, _ = self.tree.add(tuple(n.U), m, n.b, F=tuple(n.F))
+                n.kind, n.children = "bisect", [c1.id, c2.id]
+                return [c1, c2]
+        partners = {q for p in self.pairs if i in p for q in p if q != i}
+        c0, _ = self.tree.add(tuple(U - {i}), n.a, n.b, F=tuple(F))
+        c1, _ = self.tree.add(tuple(U - partners), n.a, n.b, F=tuple(F | {i}))
+        n.kind, n.children = "branch", [c0.id, c1.id]
+        return [c0, c1]
+
     def explore(self, root: ck.Node, stop_below: float | None = None) -> list[ck.Node]:
-        """Close every node under ``root`` (best first: lowest ``a``). Returns the nodes left open
-        (deadline or undecidable). ``stop_below``: for the onset, abandon as soon as a solution
-        with mu at or below it is found (the caller restarts with a lower target)."""
-        heap = [(n.a, n.id) for n in self._open_under([root])]
+        """Close every node under ``root`` (best first: lowest ``a``, depth first among equals).
+        Returns the nodes left open (budget or undecidable). ``stop_below``: for the onset,
+        abandon as soon as a solution with mu at or below it is found (the caller restarts with
+        a lower target)."""
+        heap = [(n.a, -n.id, n.id) for n in self._open_under([root])]
+        heapq.heapify(heap)
         left: list[ck.Node] = []
-        queued = {i for _, i in heap}
+        queued = {i for _, _, i in heap}
         while heap:
-            _, i = heapq.heappop(heap)
+            _, _, i = heapq.heappop(heap)
             n = self.tree.nodes[i]
             if time.perf_counter() > self.deadline or len(self.tree.nodes) > self.max_nodes:
                 left.append(n)
-                left += [self.tree.nodes[j] for _, j in heap]
+                left += [self.tree.nodes[j] for _, _, j in heap]
                 break
             if n.kind != "open":
                 continue
-            pair = next(((a, b) for a, b in self.pairs if a in n.U and b in n.U), None)
-            if pair is not None:
-                # no allowed support holds both halves: the supports in U are those in U \ {a} or U \ {b}
-                c1, _ = self.tree.add(tuple(j for j in n.U if j != pair[0]), n.a, n.b)
-                c2, _ = self.tree.add(tuple(j for j in n.U if j != pair[1]), n.a, n.b)
-                n.kind, n.children = "pairsplit", [c1.id, c2.id]
-                for c in self._open_under([c1, c2]):
-                    if c.id not in queued:
-                        queued.add(c.id)
-                        heapq.heappush(heap, (c.a, c.id))
+            if not ck._allowed(n.F, self.pairs):
+                n.kind = "pair"
+                continue
+            if not n.U:
+                n.kind = "empty"     # no nonempty support left in the family
+                continue
+            if set(n.F) == set(n.U):
+                if not self._leaf(n):
+                    left.append(n)
+                if stop_below is not None and any(f.enc[0] <= stop_below for f in self.found.values()):
+                    return [n]
                 continue
             if self._try_cop(n):
                 continue
-            width = n.b - n.a
-            kids: list[ck.Node] = []
-            if width > BISECT_REL * max(abs(n.b), 1e-3) or len(n.U) > DROP_MAX:
-                m = 0.5 * (n.a + n.b)
-                if not (n.a < m < n.b) or width <= 1e-14 * max(abs(n.b), 1e-3):
-                    left.append(n)       # undecidable in double precision at this width
-                    continue
-                c1, _ = self.tree.add(tuple(n.U), n.a, m)
-                c2, _ = self.tree.add(tuple(n.U), m, n.b)
-                n.kind, n.children = "bisect", [c1.id, c2.id]
-                kids = [c1, c2]
-            else:
-                leaf, new = self.tree.add(tuple(n.U), n.a, n.b, "leaf-pending")
-                if new:
-                    leaf.kind = "open"
-                    if not self._leaf(leaf):
-                        left.append(leaf)
-                kids_ids = [leaf.id]
-                if len(n.U) > 1:
-                    for i in n.U:
-                        c, _ = self.tree.add(tuple(j for j in n.U if j != i), n.a, n.b)
-                        kids_ids.append(c.id)
-                        kids.append(c)
-                n.kind, n.children = "drop", kids_ids
-                if stop_below is not None and any(f.enc[0] <= stop_below for f in self.found.values()):
-                    return [n]
+            closed, relaxed = self._try_farkas(n)
+            if closed:
+                continue
+            if n.b - n.a <= 1e-14 * max(abs(n.b), 1e-3) and relaxed is None:
+                left.append(n)       # undecidable in double precision at this width
+                continue
+            kids = self._split(n, relaxed)
             for c in self._open_under(kids):
                 if c.id not in queued:
                     queued.add(c.id)
-                    heapq.heappush(heap, (c.a, c.id))
+                    heapq.heappush(heap, (c.a, -c.id, c.id))
         return left
 
     def _open_under(self, kids: list[ck.Node]) -> list[ck.Node]:
