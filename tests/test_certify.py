@@ -232,14 +232,14 @@ def test_verified_pd_refuses_a_matrix_just_below_definite():
 @pytest.mark.slow
 @pytest.mark.parametrize("pattern", ["crossed", "left"])
 def test_block_states_onset_proven(pattern):
-    """Every distinct classification of a 12 x 6 block path: the onset proven, and equal to
-    enumeration's smallest value below the cap."""
+    """Every distinct classification of a 12 x 6 block path: the onset and the complete list
+    proven, and equal to enumeration's values below the cap."""
     from benchmarks.problems import block_problems
     probs = block_problems(nx=12, pattern=pattern)
     cap = 10 * 1.1
     for p in probs.pencils:
-        r = mceip_mu(p.A0, p.A1, cap, seconds=60, want_all=p.A0.shape[0] <= 8)
-        assert r.onset.proven, (p.label, r.onset.status)
+        r = mceip_mu(p.A0, p.A1, cap, seconds=60)
+        assert r.onset.proven and r.all.proven, (p.label, r.onset.status, r.all.status)
         _agrees(r, p.A0, p.A1, cap)
     assert probs.pencils
 

@@ -15,14 +15,16 @@ def test_certificate_and_bound(signs, mu, count):
     a = run_scene(scene(signs, mu, ["necessary", "mceip_lambda2"]))["states"][0]["analyses"]
     l2 = a["mceip_lambda2"]
     cert = l2["certificate"]
-    assert set(cert) == {"method", "interval", "status", "gap", "seconds", "detail"}
+    assert set(cert) == {"method", "interval", "status", "gap", "seconds", "detail", "rigorous"}
     if not a["necessary"]["satisfied"]:
-        # (19) fails: no solution, proven
+        # (19) fails: no solution, proven (K* and M* PD by verified Cholesky: rigorous)
         assert l2["certified"] is True and cert["status"] == "proven" and not expected
-        assert cert["interval"] == [0.0, float("inf")]
+        assert cert["interval"] == [0.0, float("inf")] and cert["rigorous"] is True
     elif l2["certified"]:
-        # proven on the exact slip-node reduction (app/analyses/lambda2_exact.py): no solution at all
+        # shown on the exact slip-node reduction (app/analyses/lambda2_exact.py): no solution at
+        # all; the reduction's eigen-decomposition is floating point, so not rigorous
         assert cert["status"] == "proven" and cert["interval"] == [0.0, float("inf")] and not expected
+        assert cert["rigorous"] is False
         assert not l2["solutions"] and l2["search"]["lambda2_upper_bound"] > 0
     else:
         assert l2["certified"] is False and "not proven" in cert["status"]

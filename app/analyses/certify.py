@@ -14,13 +14,17 @@ from app.linalg import one_blas_thread
 
 
 def certificate(method: str, interval: tuple[float, float], status: str, seconds: float | None,
-                detail: dict | None = None, gap: float | None = None) -> dict:
+                detail: dict | None = None, gap: float | None = None, rigorous: bool = True) -> dict:
     """The ``certificate`` block of an MCEIP result (mu or lambda^2; fields method, interval,
-    status, gap, seconds, detail). ``interval``: the range of the eigenvalue the status speaks
-    about; ``status`` is ``"proven"`` only when every solution in it is listed; ``seconds``
-    ``None`` when not timed."""
+    status, gap, seconds, detail, rigorous). ``interval``: the range of the eigenvalue the status
+    speaks about; ``status`` is ``"proven"`` only when every solution in it is listed; ``seconds``
+    ``None`` when not timed. ``rigorous``: every step of the argument carries a rigorous bound of
+    its rounding error (or is exact); ``False`` for arguments that rest on floating-point
+    eigenvalues or factorisations without such a bound (the summary then says "shown in floating
+    point", not "proven")."""
     return {"method": method, "interval": [float(interval[0]), float(interval[1])], "status": status,
-            "gap": gap, "seconds": None if seconds is None else round(float(seconds), 4), "detail": detail or {}}
+            "gap": gap, "seconds": None if seconds is None else round(float(seconds), 4), "detail": detail or {},
+            "rigorous": bool(rigorous)}
 
 
 def in_pd_plus_nn(S: np.ndarray) -> bool:

@@ -34,6 +34,39 @@ from app.linalg import lu
 PROVEN = "proven"
 
 
+def _verified_pd_pencil(a0: np.ndarray, a1: np.ndarray, mu: float) -> bool:
+    """``sym(a0 + mu a1)`` proven positive definite (the dense verified Cholesky of
+    :func:`app.analyses.mceip_mu.checker.verified_pd`, after an exact power-of-two diagonal
+    scaling; the rounding of ``a0 + mu a1`` and of the symmetric part is in the radius)."""
+    from app.analyses.mceip_mu.checker import _up, gamma, verified_pd
+    A = a0 + mu * a1
+    H = 0.5 * (A + A.T)
+    d = np.diag(H)
+    if not np.all(np.isfinite(H)) or np.any(d <= 0):
+        return False
+    E = gamma(4) * (np.abs(a0) + abs(mu) * np.abs(a1))
+    E = 0.5 * (E + E.T) + gamma(1) * np.abs(H)
+    e = np.array([np.frexp(np.sqrt(v))[1] for v in d], dtype=np.int64)
+    Hs = np.ldexp(H, -(e[:, None] + e[None, :]))
+    Es = np.ldexp(E, -(e[:, None] + e[None, :]))
+    return verified_pd(Hs, float(_up(np.sqrt(np.sum(Es * Es)), Es.size)))
+
+
+def verified_sign_argument(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,
+                           max_dofs: int) -> bool:
+    """The necessary condition's "no solution" (19) with rigorous bounds: ``sym K*(mu)`` and
+    ``sym M*(mu)`` proven positive definite by dense verified Cholesky factorisations, for
+    pencils of at most ``max_dofs`` rows (``False`` above: not attempted). MPI collective (the
+    dense copies); rank 0 decides."""
+    from app.analyses.pencils import dense
+    if K0.getSize()[0] > max_dofs:
+        return False
+    k0, k1, m0, m1 = (dense(X) for X in (K0, K1, M0, M1))          # MPI collective
+    comm = K0.getComm().tompi4py()
+    ok = _verified_pd_pencil(k0, k1, mu) and _verified_pd_pencil(m0, m1, mu) if comm.rank == 0 else None
+    return bool(comm.bcast(ok, root=0))                              # MPI collective
+
+
 def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
     """Number of negative plus zero pivots of an LDL^T (Cholesky without pivoting) factorisation
     of the symmetric ``C``; a failed factorisation counts as 1 (nothing proven). Only "0" is

@@ -105,7 +105,8 @@ def _solutions(a: dict | None, key: str = "solutions") -> str:
     if a.get("not_applicable"):
         return "n/a"
     sols = a.get(key) or []
-    word = "proven" if a.get("certified") else \
+    rigorous = (a.get("certificate") or {}).get("rigorous", True) is not False
+    word = ("proven" if rigorous else "shown in floating point, not a rigorous proof") if a.get("certified") else \
         "onset proven" if (a.get("onset") or {}).get("proven") else "found (not proven)"
     if not sols:
         return f"none ({word})"

@@ -11,9 +11,13 @@ def proof_word(analysis: dict) -> str:
     accepted every claim), ``onset proven; list ...`` when only the MCEIP-mu onset is, else
     ``found (not proven)`` with the proven lower bound when there is one."""
     if analysis.get("certified"):
-        iv = (analysis.get("certificate") or {}).get("interval")
+        cert = analysis.get("certificate") or {}
+        iv = cert.get("interval")
         iv = [float(v) for v in iv] if iv else iv     # an infinite end is written as a string in results.json
-        return f"proven on [{iv[0]:.6g}, {iv[1]:.6g}]" if iv and iv[1] > iv[0] else "proven"
+        where = f" on [{iv[0]:.6g}, {iv[1]:.6g}]" if iv and iv[1] > iv[0] else ""
+        if cert.get("rigorous", True) is False:
+            return f"shown{where} in floating point, not a rigorous proof"
+        return f"proven{where}"
     onset = analysis.get("onset") or {}
     if onset.get("proven"):
         cap = (analysis.get("certificate") or {}).get("cap")

@@ -66,8 +66,9 @@ class MuProof:
     seconds: float                     # prover
     check_seconds: float               # checker
     candidates: int = 0
-    method: str = ("branch and bound over (U, [a, b]): sign argument with diagonal scalings, "
-                   "Krawczyk windows, verified nonsingularity; re-verified by an independent checker")
+    method: str = ("branch and bound over support families F <= P <= U and mu intervals: sign argument with "
+                   "diagonal scalings, Farkas vectors of the linear relaxation, Krawczyk windows, verified "
+                   "nonsingularity; re-verified by an independent checker")
 
 
 def _candidates(a0: np.ndarray, a1: np.ndarray, cap: float, pairs, search_kw: dict | None):
