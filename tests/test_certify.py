@@ -259,3 +259,25 @@ def test_proof_files_never_replace_an_existing_file(tmp_path):
     fresh = tmp_path / "fresh"
     fresh.mkdir()
     assert [p.name for p in write_proofs(results, fresh)] == ["state_3.npz"]
+
+
+def test_lp_fast_path_agrees_with_linprog():
+    """The prover's LP (app/analyses/mceip_mu/lp.py, SciPy's HiGHS wrapper called directly)
+    gives linprog's optimum on random Farkas LPs, feasible and infeasible ones alike."""
+    import scipy.optimize
+    from app.analyses.mceip_mu import lp
+    rng = np.random.default_rng(5)
+    for k in range(30):
+        s = int(rng.integers(2, 12))
+        G = rng.normal(size=(2 * s, s)) + (k % 3) * 0.5
+        A_ub = np.hstack([G, np.ones((2 * s, 1))])
+        lb = np.array([-1.0] * s + [-np.inf])
+        ub = np.array([1.0 if i % 2 else 0.0 for i in range(s)] + [1.0])
+        c = np.zeros(s + 1)
+        c[-1] = -1.0
+        r = lp.solve(c, A_ub, lb, ub)
+        ref = scipy.optimize.linprog(c, A_ub=A_ub, b_ub=np.zeros(2 * s), bounds=list(zip(lb, ub)), method="highs")
+        assert r.ok and ref.status == 0
+        assert r.x[-1] == pytest.approx(ref.x[-1], abs=1e-9)
+        assert np.all(A_ub @ r.x <= 1e-9) and np.all(r.x >= lb - 1e-12) and np.all(r.x <= ub + 1e-12)
+        assert r.marginals.shape == (2 * s,)

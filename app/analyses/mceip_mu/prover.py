@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from app.analyses.mceip_mu import checker as ck
+from app.analyses.mceip_mu import lp
 from app.linalg import one_blas_thread
 
 #: relative half-width of the window around a verified eigenvalue (the accuracy of a proven value)
@@ -39,6 +39,8 @@ WINDOW_REL = 1e-9
 HALVE_MIN_REL = 1e-3
 #: a family on an interval wider than this (relative to its end) is halved before any index split
 WIDE_REL = 0.03
+#: near mu = 0 the width rule is relative to this fraction of the cap (else it would halve forever)
+WIDE_FLOOR = 0.1
 #: a family with at most this many free indices is split on them at once (its leaves are few and
 #: cover any interval themselves)
 FEW_FREE = 3
@@ -179,14 +181,12 @@ class Prover:
         G = np.vstack([-(self.a0[:, Ul] + mu * self.a1[:, Ul]).T for mu in mus])
         m = G.shape[0]
         A_ub = np.hstack([G, np.ones((m, 1))])
-        bounds = [(-1.0, 1.0) if i in F else (-1.0, 0.0) for i in range(s)] + [(None, 1.0)]
+        lb = np.array([-1.0] * s + [-np.inf])
+        ub = np.array([1.0 if i in F else 0.0 for i in range(s)] + [1.0])
         c = np.zeros(s + 1)
         c[-1] = -1.0
-        try:
-            r = scipy.optimize.linprog(c, A_ub=A_ub, b_ub=np.zeros(m), bounds=bounds, method="highs")
-        except (ValueError, np.linalg.LinAlgError):
-            return None, None
-        if r.status != 0 or r.x is None:
+        r = lp.solve(c, A_ub, lb, ub)
+        if not r.ok or r.marginals is None:
             return None, None
         if r.x[-1] > 0:
             w = r.x[:s].copy()
@@ -194,7 +194,7 @@ class Prover:
             off[list(F)] = False
             w[off] = np.minimum(w[off], 0.0)        # the sign pattern exactly (the LP's tolerance aside)
             return w, None
-        lam = np.maximum(-np.asarray(r.ineqlin.marginals, dtype=float), 0.0)
+        lam = np.maximum(-r.marginals, 0.0)
         k = len(Ul)
         x = np.zeros(s)
         y = np.zeros(s)
@@ -327,22 +327,28 @@ class Prover:
     # --- the search --------------------------------------------------------------------------
 
     def _split(self, n: ck.Node, relaxed) -> list[ck.Node]:
-        """Split an unclosed family: on the index of ``U \\ F`` where the LP's relaxed point breaks
-        complementarity most, or, when it breaks none (the relaxed point mixes the two ends of
-        the interval), by halving the interval."""
+        """Split an unclosed family: on a pair inside ``U \\ F`` first (each child then holds one
+        half), else on the index of ``U \\ F`` where the LP's relaxed point breaks complementarity
+        most; by halving the interval when it is wide (more than ``WIDE_REL`` of its end, or of
+        ``WIDE_FLOOR`` times the cap near 0) or when the relaxed point breaks no complementarity
+        (it mixes the two ends of the interval)."""
         U, F = set(n.U), set(n.F)
         free = sorted(U - F)
         width = n.b - n.a
+        scale = max(abs(n.b), WIDE_FLOOR * self.cap, 1e-300)
         i = free[0]
         halve = False
-        if width > WIDE_REL * max(abs(n.b), 1e-3) and len(free) > FEW_FREE:
+        pair = next((p for p in self.pairs if p[0] in U - F and p[1] in U - F), None)
+        if pair is not None:
+            i = pair[0]
+        elif width > WIDE_REL * scale and len(free) > FEW_FREE:
             halve = True
         elif relaxed is not None:
             x, y = relaxed
             v = x[free] * np.maximum(y[free], 0.0)
-            scale = float(max(np.max(np.abs(x)), 1e-300) * max(np.max(np.abs(y)), 1e-300))
-            if np.max(v) <= 1e-9 * scale:
-                halve = width > HALVE_MIN_REL * max(abs(n.b), 1e-3)
+            size = float(max(np.max(np.abs(x)), 1e-300) * max(np.max(np.abs(y)), 1e-300))
+            if np.max(v) <= 1e-9 * size:
+                halve = width > HALVE_MIN_REL * scale
                 i = free[int(np.argmax(x[free]))]
             else:
                 i = free[int(np.argmax(v))]
@@ -388,6 +394,13 @@ class Prover:
                     left.append(n)
                 if stop_below is not None and any(f.enc[0] <= stop_below for f in self.found.values()):
                     return [n]
+                continue
+            if any(p[0] in n.U and p[1] in n.U and p[0] not in n.F and p[1] not in n.F for p in self.pairs):
+                kids = self._split(n, None)         # a pair inside U: one half per child first
+                for c in self._open_under(kids):
+                    if c.id not in queued:
+                        queued.add(c.id)
+                        heapq.heappush(heap, (c.a, -c.id, c.id))
                 continue
             if self._try_cop(n):
                 continue
