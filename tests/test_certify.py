@@ -281,3 +281,32 @@ def test_lp_fast_path_agrees_with_linprog():
         assert r.x[-1] == pytest.approx(ref.x[-1], abs=1e-9)
         assert np.all(A_ub @ r.x <= 1e-9) and np.all(r.x >= lb - 1e-12) and np.all(r.x <= ub + 1e-12)
         assert r.marginals.shape == (2 * s,)
+
+
+def test_product_argument_witness_is_checked():
+    """A family the sign argument cannot close (dense s = 30 pencil, every support, mu in
+    [0, 2.5]) is closed by the product argument; the checker re-verifies its witness ``M`` from
+    the pencil and rejects it once an entry that must be nonpositive is made positive, or once
+    the interval is stretched."""
+    from app.analyses.mceip_mu import prover
+    A0, A1 = _pd_plus_pencil(np.random.default_rng([11, 30]), 30)
+    P = prover.Prover(A0, A1, 10.0)
+    P.max_nodes = 8
+    root, _ = P.tree.add(tuple(range(30)), 0.0, 10.0)
+    P.explore(root)
+    rlt = [n for n in P.tree.nodes if n.kind == "rlt"]
+    assert rlt
+    n = rlt[0]
+    assert not checker.closes_subsets(P.a0, P.a1, np.arange(30), n.a, n.b, np.ones(30), 0.0)
+    ok, _, _, why = checker.check_node(P.a0, P.a1, n, [], 10.0)
+    assert ok, why
+    M = np.array(n.M)
+    i, j = np.unravel_index(np.argmin(M + 1e6 * np.eye(30)), M.shape)     # the most negative off-diagonal
+    bad = copy.deepcopy(n)
+    bad.M = M.copy()
+    bad.M[i, j] = abs(M[i, j]) + 1e-3
+    bad.M = bad.M.tolist()
+    assert not checker.check_node(P.a0, P.a1, bad, [], 10.0)[0]
+    wide = copy.deepcopy(n)
+    wide.b = 10.0
+    assert not checker.check_node(P.a0, P.a1, wide, [], 10.0)[0]

@@ -30,6 +30,9 @@ with every rounding error of the floating-point arithmetic bounded:
   ``A(mu)``, ``|mu - m| <= h``, is nonsingular when ``||I - R A(m)||_inf + h ||R A1||_inf < 1``
   (Banach lemma; both products bounded rigorously): then no support ``P`` solution has its mu
   in the interval.
+* **Products of constraints** (:func:`rlt_closes`): ``x^T M y <= 0`` at a solution for a
+  matrix ``M`` nonpositive off the diagonal (except on forced columns), so a strictly copositive
+  ``sym(M A_UU)`` at both ends excludes the family (the sign argument is ``M = D``).
 * **Farkas vectors** (:func:`farkas_closes`): a vector ``w``, nonpositive off a forced set ``F``,
   with ``(A(mu)^T w)_U > 0`` at both ends of ``[a, b]`` excludes every solution whose support
   lies between ``F`` and ``U`` there (the linear relaxation of that family is infeasible).
@@ -150,6 +153,41 @@ def closes_subsets(a0, a1, U: np.ndarray, a: float, b: float, d: np.ndarray, the
         return False
     sub0, sub1 = a0[np.ix_(U, U)], a1[np.ix_(U, U)]
     return copositive_at(sub0, sub1, a, d, theta) and (a == b or copositive_at(sub0, sub1, b, d, theta))
+
+
+def rlt_closes(a0: np.ndarray, a1: np.ndarray, U: np.ndarray, F, a: float, b: float, M, theta: float) -> bool:
+    """No solution whose support ``P`` satisfies ``F <= P <= U`` has mu in ``[a, b]``, by a
+    product-of-constraints argument (reformulation-linearisation): a ``|U| x |U|`` matrix ``M``
+    with ``M_ij <= 0`` for ``i != j`` and ``U[j]`` not in ``F`` (diagonal and forced columns of any
+    sign), and ``sym(M A_UU(mu))`` strictly copositive at ``a`` and ``b`` (exact split
+    ``P + N``, ``P`` proven positive definite, as :func:`copositive_at`).
+
+    At such a solution ``x_U^T M A_UU x_U = x^T M y = sum_{i in P, j in U \\ P} x_i M_ij y_j <= 0``
+    (``x_i = 0`` off ``P``, ``y_j = 0`` on ``P``, ``j`` off ``P`` is not in ``F``, ``y_j >= 0``), which
+    strict copositivity forbids. ``M = D`` positive diagonal is the sign argument. Affine in mu,
+    so both ends cover the interval."""
+    U = np.asarray(U, dtype=np.int64)
+    p = len(U)
+    M = np.asarray(M, dtype=float)
+    if M.shape != (p, p) or p == 0 or not np.all(np.isfinite(M)) or theta not in (0.0, 0.5, 1.0) \
+            or not (a <= b):
+        return False
+    forced = np.isin(U, np.asarray(list(F), dtype=np.int64))
+    sign_free = np.eye(p, dtype=bool) | forced[None, :]
+    if np.any(M[~sign_free] > 0):
+        return False
+    sub0, sub1 = a0[np.ix_(U, U)], a1[np.ix_(U, U)]
+    for mu in ((a, b) if a != b else (a,)):
+        A, rA = pencil_at(sub0, sub1, mu)
+        C, rC = mr_mul(M, None, A, rA)
+        H = 0.5 * (C + C.T)
+        R = _up(0.5 * (rC + rC.T) + U_ROUND * np.abs(H), 2)
+        if theta > 0:
+            off = H - np.diag(np.diag(H))
+            H = H - theta * np.maximum(off, 0.0)
+        if not verified_pd(H, float(_up(np.sqrt(np.sum(R * R)), R.size))):
+            return False
+    return True
 
 
 def farkas_closes(a0: np.ndarray, a1: np.ndarray, U: np.ndarray, F, a: float, b: float, w) -> bool:
@@ -376,7 +414,8 @@ class Node:
     """One node of the proof tree: the family of supports ``P`` with ``F <= P <= U`` (indices into
     the slip nodes; ``F``, the forced set, is empty for "every support in ``U``") and mu in ``[a, b]``.
 
-    ``kind``: ``"cop"`` (sign argument on ``U``, witness ``d``, ``theta``), ``"farkas"`` (a Farkas
+    ``kind``: ``"cop"`` (sign argument on ``U``, witness ``d``, ``theta``), ``"rlt"`` (products
+    of constraints, witness ``M``, ``theta``: :func:`rlt_closes`), ``"farkas"`` (a Farkas
     vector ``w``, :func:`farkas_closes`), ``"bisect"`` (children on ``[a, m]`` and ``[m, b]``),
     ``"branch"`` (on an index ``i`` of ``U \\ F``: ``i`` not in the support, child ``(U \\ {i}, F)``,
     or in it, child ``(U \\ partners(i), F + {i})``), ``"pairsplit"`` (children ``U \\ {a}`` and
@@ -398,6 +437,7 @@ class Node:
     F: list[int] = field(default_factory=list)
     w: list[float] | None = None
     pieces: list[dict] = field(default_factory=list)      # leaf: {"a", "b", "w"} Farkas pieces
+    M: list[list[float]] | None = None                     # rlt: the multiplier matrix (on U)
 
     def as_dict(self) -> dict:
         out = {"id": self.id, "U": self.U, "a": self.a, "b": self.b, "kind": self.kind}
@@ -414,6 +454,9 @@ class Node:
             out["w"] = self.w
         if self.pieces:
             out["pieces"] = self.pieces
+        if self.M is not None:
+            out["M"] = self.M
+            out["theta"] = self.theta
         return out
 
     @classmethod
@@ -425,7 +468,7 @@ class Node:
             F = list(U)                 # version 1: a leaf is the exact support U
         return cls(int(d["id"]), U, float(d["a"]), float(d["b"]), kind,
                    [int(c) for c in d.get("children", [])], d.get("d"), d.get("theta"),
-                   list(d.get("windows", [])), F, d.get("w"), list(d.get("pieces", [])))
+                   list(d.get("windows", [])), F, d.get("w"), list(d.get("pieces", [])), d.get("M"))
 
 
 @dataclass
@@ -506,6 +549,9 @@ def check_node(a0, a1, node: Node, pairs, cap: float) -> tuple[bool, list, int, 
         ok = node.d is not None and closes_subsets(a0, a1, U, node.a, node.b, np.asarray(node.d, float),
                                                    float(node.theta))
         return ok, [], 0, "" if ok else "sign argument fails"
+    if node.kind == "rlt":
+        ok = node.M is not None and rlt_closes(a0, a1, U, node.F, node.a, node.b, node.M, float(node.theta))
+        return ok, [], 0, "" if ok else "product argument fails"
     if node.kind == "farkas":
         ok = node.w is not None and farkas_closes(a0, a1, U, node.F, node.a, node.b, node.w)
         return ok, [], 0, "" if ok else "Farkas vector fails"

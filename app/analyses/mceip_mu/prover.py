@@ -44,6 +44,13 @@ WIDE_FLOOR = 0.1
 #: a family with at most this many free indices is split on them at once (its leaves are few and
 #: cover any interval themselves)
 FEW_FREE = 3
+#: subgradient steps and step size of the multiplier search of the product argument
+RLT_STEPS = 40
+RLT_RATE = 0.05
+#: the product argument is tried on families with at least this many free indices (2^12 supports
+#: or more: splitting them is what it saves) and at most this many slip nodes
+RLT_MIN_FREE = 12
+RLT_MAX = 64
 #: halvings of a leaf's gap tried with Farkas vectors before windows and nonsingularity take over
 FARKAS_DEPTH = 6
 
@@ -168,6 +175,47 @@ class Prover:
         out.sort(key=lambda t: t[0])
         self.leaf_cache[key] = out
         return out
+
+    # --- products of constraints ---------------------------------------------------------
+
+    def _try_rlt(self, n: ck.Node) -> bool:
+        """Close ``n`` by :func:`app.analyses.mceip_mu.checker.rlt_closes`: a multiplier matrix
+        ``M`` found by projected subgradient ascent on ``min(lambda_min sym(M A_UU))`` over the
+        two ends (from ``M = I``, the sign argument's start), then proven by the checker."""
+        U = np.asarray(n.U, dtype=np.int64)
+        p = len(U)
+        if p - len(n.F) < RLT_MIN_FREE or p > RLT_MAX:
+            return False             # a small family splits cheaply; a large U makes each step cost
+        As = [self.a0[np.ix_(U, U)] + mu * self.a1[np.ix_(U, U)] for mu in ((n.a, n.b) if n.a != n.b else (n.a,))]
+        free = np.eye(p, dtype=bool) | np.isin(U, np.asarray(n.F, dtype=np.int64))[None, :]
+        M = np.eye(p)
+        best, best_M = -np.inf, M
+        for _ in range(RLT_STEPS):
+            low = None
+            for A in As:
+                C = M @ A
+                w, V = np.linalg.eigh(0.5 * (C + C.T))
+                if low is None or w[0] < low[0]:
+                    low = (w[0], V[:, 0], A)
+            lam, v, A = low
+            if lam > best:
+                best, best_M = lam, M.copy()
+                if lam > 1e-8 * float(np.max(np.abs(np.diag(C)), initial=1.0)):
+                    break
+            G = np.outer(v, A @ v)
+            g = float(np.max(np.abs(G)))
+            if not (g > 0) or not np.isfinite(g):
+                break
+            M = M + RLT_RATE * G / g
+            M = np.where(free, M, np.minimum(M, 0.0))
+            M = M * (p / max(float(np.sum(np.abs(np.diag(M)))), 1e-300))
+        if not best > 0:
+            return False
+        for theta in (0.0, 1.0):
+            if ck.rlt_closes(self.a0, self.a1, U, n.F, n.a, n.b, best_M, theta):
+                n.kind, n.M, n.theta = "rlt", best_M.tolist(), theta
+                return True
+        return False
 
     # --- Farkas vectors ----------------------------------------------------------------------
 
@@ -405,7 +453,7 @@ class Prover:
             if self._try_cop(n):
                 continue
             closed, relaxed = self._try_farkas(n)
-            if closed:
+            if closed or self._try_rlt(n):
                 continue
             if n.b - n.a <= 1e-14 * max(abs(n.b), 1e-3) and relaxed is None:
                 left.append(n)       # undecidable in double precision at this width
