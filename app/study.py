@@ -46,7 +46,15 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
     """The body of :func:`run_study` (library warnings are caught around it)."""
     # the system type's own module (app/systems/) builds the system and runs its loading path
     system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
+    try:
+        return _study(scene, comm, stages, progress, inspect, outdir, t_start, system, states, path_info)
+    finally:
+        system.destroy()              # its PETSc objects, on every path (errors included)
 
+
+def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float,
+           system, states, path_info) -> dict:
+    """The per-state analyses and fields of :func:`_run` on the built ``system``."""
     cache: dict = {}
     deferred: list = []     # (classification, its analyses, state index): condensed MCEIP-mu, distributed below
     out_states = []
@@ -92,7 +100,6 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
         from app.outputs.fields import compute_fields
         outputs_record = compute_fields(scene, system, out_states, stages, progress, outdir)
-    system.destroy()
     return {**({"inspection": inspection} if inspect is not None else {}), "scene": scene.name, "units": system.units, "system": system.description,
             "mu": scene.mu, "analyses_requested": list(scene.analyses),
             "path": path_info, "distinct_classifications": len(cache),

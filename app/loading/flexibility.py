@@ -172,7 +172,7 @@ def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
     """Factor ``K`` and compute W and the unit-load contact displacements (MPI collective)."""
     dofs = np.asarray(dofs, dtype=np.int64)
     signs = np.asarray(signs, dtype=float)
-    ksp = lu_solver(K)
+    ksp = lu_solver(K, prefix="cd_flex_")
     try:
         return _flexibility(ksp, K, load_x, load_y, dofs, signs)
     except BaseException:

@@ -113,9 +113,10 @@ class System:
         self.destroy()
 
     def destroy(self) -> None:
-        flex = self.extra.get("flexibility")
-        if flex is not None:
-            flex.destroy()
+        for name in ("flexibility", "operators"):   # a builder's factorisation and operators (its K is self.K)
+            obj = self.extra.get(name)
+            if obj is not None and hasattr(obj, "destroy"):
+                obj.destroy()
         for obj in self.extra.get("owned", ()):     # PETSc objects a builder handed over
             obj.destroy()
         self.K.destroy()
