@@ -110,7 +110,7 @@ class Settings(Strict):
     enumerate_max_slip: Annotated[int, Field(ge=1, le=24)] = 14
     enumerate_problems: Annotated[list[Literal["mu", "lambda2"]], Field(max_length=2)] = ["mu", "lambda2"]
     mceip_mu_method: Literal["condensed", "full"] = "condensed"
-    limits: Limits = Field(Limits(), description="resource limits checked before any work (README, Safety)")
+    limits: Limits = Field(Limits(), description="resource limits checked before any work (docs/safety.md)")
 
 
 _SWEEP_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
