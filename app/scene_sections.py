@@ -80,7 +80,7 @@ class McpSettings(Strict):
     # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
     # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)
     search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40
-    # large condensed problems (100k-DOF studies, issue 14): above search_full_max slip nodes the search
+    # large condensed problems (100k-DOF studies): above search_full_max slip nodes the search
     # runs a reduced start set (uniform x and x on search_one_node spread unknowns with every t0, the
     # all-slip eigenvectors, the previous classification's solutions within a chain of warm_chain
     # classifications along the path) and the proof gets certify_seconds_large instead of

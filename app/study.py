@@ -1,6 +1,6 @@
 """A loading study end to end: scene -> system -> loading path -> per-state analyses -> results.
 
-Analyses depend only on a state's classification and slip signs (DESIGN.md section 3), so they
+Analyses depend only on a state's classification and slip signs (docs/method.md section 2), so they
 are computed once per distinct classification and shared; each state says which state it shares
 its analyses with.
 """
@@ -74,7 +74,7 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
             entry["analyses_shared_with"] = first
         else:
             # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
-            # 3-6x faster than OpenBLAS's default on these sizes (issue 14)
+            # 3-6x faster than OpenBLAS's default on these sizes
             with one_blas_thread():
                 analyses = analyse_state(system, cls, scene, defer_condensed=True)
             for name, a in analyses.items():

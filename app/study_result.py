@@ -12,7 +12,7 @@ A study produces one JSON-like dictionary (:func:`app.study.run_study`; its keys
 
 This module imports neither PETSc nor DOLFINx: it also reads results saved by earlier runs.
 
-Notation (paper, DESIGN conventions in ``docs/method.md``): ``x_Ts`` is the tangential rate of
+Notation (the paper's, as in ``docs/method.md``): ``x_Ts`` is the tangential rate of
 the slip nodes in a mode, normalised to sum 1, listed from A to B; ``pattern[i]`` is ``slip``
 where ``x_Ts[i] > 0`` and ``stick`` where it is 0.
 """

@@ -69,7 +69,7 @@ def _configure(eps: SLEPc.EPS, A: PETSc.Mat, B: PETSc.Mat | None, hermitian: boo
             how = f"SLEPc krylovschur, {nev} smallest"
         else:
             # large serial pencils: MUMPS factorises 2-4x faster than PETSc's own LU (100k DOFs:
-            # 0.9-1.7 s against 3.3-3.7 s, issue 14); small ones keep PETSc's (faster there)
+            # 0.9-1.7 s against 3.3-3.7 s); small ones keep PETSc's (faster there)
             configure_direct(_shift_invert(eps, 0.0), mumps=True if n >= MUMPS_MIN_DOFS else None)
             how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
     return how
@@ -89,7 +89,7 @@ def _below(A: PETSc.Mat, sigma: float) -> int:
 #: Krylov-Schur subspace of the shift-and-invert solve for one eigenvalue nearest a shift
 NEAREST_NCV = 4
 #: up to this size PETSc's own serial Cholesky uses the QMD ordering (0.9 against 1.3 ms per
-#: factorisation at 800 DOFs, issue 14); above it, PETSc's default (nested dissection)
+#: factorisation at 800 DOFs); above it, PETSc's default (nested dissection)
 QMD_MAX = 5000
 
 
@@ -114,7 +114,7 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
         eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
         # a 4-vector subspace: the shift is near the wanted eigenvalue, so the restarts converge it
-        # in about half the work of SLEPc's default 16 (issue 14; the answer is checked by inertia)
+        # in about half the work of SLEPc's default 16 (the answer is checked by inertia)
         eps.setDimensions(nev=1, ncv=min(NEAREST_NCV, At.getSize()[0]))
         eps.setTolerances(tol=settings.tol, max_it=settings.max_it)
         ksp = configure_direct(_shift_invert(eps, sigma),
@@ -149,7 +149,7 @@ def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | Non
     classification's value). The answer is checked by a second inertia count. None when a step
     fails (the caller falls back to plain Krylov-Schur).
 
-    With a ``hint`` the first shift is tried directly (issue 14: one factorisation fewer): the
+    With a ``hint`` the first shift is tried directly (one factorisation fewer): the
     solve's own LDL^T must show it below the spectrum, and its nearest eigenvalue is kept only
     when the second inertia count proves it the smallest; otherwise the shift is moved below the
     spectrum as without a hint."""
@@ -177,7 +177,7 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
     """Smallest eigenvalue of the symmetric part (A + A^T)/2 (for the necessary condition (19)).
 
     Small problems: LAPACK (all eigenvalues). Larger ones: shift-and-invert about a shift proven
-    below the spectrum by an LDL^T inertia count, warm-started from ``hint`` (issue 14: 2-3x
+    below the spectrum by an LDL^T inertia count, warm-started from ``hint`` (2-3x
     fewer operations than Krylov-Schur on the smallest eigenvalue, same value); plain
     Krylov-Schur if that fails."""
     At = sym_part(A)

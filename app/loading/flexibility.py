@@ -1,4 +1,4 @@
-"""Factor K once per study and build the contact flexibility W = B K^-1 B^T (DESIGN.md section 3).
+"""Factor K once per study and build the contact flexibility W = B K^-1 B^T (docs/method.md section 2).
 
 For linear elasticity K does not change along the loading, so one sparse LU factorisation
 (MUMPS) gives the flexibility of the n contact nodes, the 2n x 2n contact block of K^-1

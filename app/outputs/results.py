@@ -1,4 +1,4 @@
-"""results.json and steps.csv (DESIGN.md section 6), written atomically by rank 0."""
+"""results.json and steps.csv (docs/method.md section 6), written atomically by rank 0."""
 from __future__ import annotations
 
 import csv

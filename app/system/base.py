@@ -1,4 +1,4 @@
-"""The discrete system seen by the stability code (DESIGN.md sections 1 and 6).
+"""The discrete system seen by the stability code (docs/method.md sections 1 and 6).
 
 One abstraction serves the two-particle scene and the finite element block: PETSc stiffness and
 (lazily built) mass matrices, the contact candidate nodes with their tangential and normal DOFs,

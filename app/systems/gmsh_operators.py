@@ -15,7 +15,7 @@ components of a uniform traction and of a total force; gravity (x, y).
 Obstacle frames: the contact DOFs are rotated into the obstacle's tangent t and outward normal n
 (``u = t u_T + n u_N`` at every contact node): ``K' = R^T K R``, ``M' = R^T M R`` and loads
 ``R^T f`` with R orthogonal and block-diagonal, so the stability code sees plain DOF pairs in the
-paper's axes (DESIGN.md section 1). For axis-aligned obstacles R has entries 0 and +-1 and the
+paper's axes (docs/method.md section 1). For axis-aligned obstacles R has entries 0 and +-1 and the
 rotation is exact. Initial gaps ``g0 = (p - x) . n`` from the geometry (p the obstacle's point).
 """
 from __future__ import annotations
