@@ -10,6 +10,14 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 PY = sys.executable
 
 
+def pytest_sessionstart(session):
+    """``pytest -q`` (as ``make test``) hides the report header: print the versions anyway."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None and session.config.get_verbosity() < 0:
+        for line in pytest_report_header(session.config):
+            reporter.write_line(line)
+
+
 def pytest_report_header(config):
     """The session's first lines: the installed version of every package of requirements.lock
     (a mismatch is marked and fails tests/test_environment.py) and of Debian's compiled stack."""
