@@ -12,7 +12,7 @@ def proof_word(analysis: dict) -> str:
     ``found (not proven)`` with the proven lower bound when there is one."""
     if analysis.get("certified"):
         iv = (analysis.get("certificate") or {}).get("interval")
-        iv = [float(v) for v in iv] if iv else iv     # an infinite end is written as a string in results.json
+        iv = [float(v) for v in iv] if iv else iv
         return f"proven on [{iv[0]:.6g}, {iv[1]:.6g}]" if iv and iv[1] > iv[0] else "proven"
     onset = analysis.get("onset") or {}
     if onset.get("proven"):
