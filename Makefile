@@ -3,7 +3,7 @@ PY := .venv/bin/python
 SCENE ?=
 MPI ?= 1
 
-.PHONY: setup run test bench clean sweep
+.PHONY: setup run test bench clean sweep lock docs
 setup:
 	@bash scripts/setup.sh
 
@@ -13,6 +13,15 @@ run: setup
 
 test: setup
 	@$(PY) -m pytest -q -p no:cacheprovider tests
+
+# Refresh requirements.lock from pyproject.toml (UPGRADE=1: newest versions that fit), then set up
+lock: setup
+	@UPGRADE=$(UPGRADE) bash scripts/lock.sh
+	@bash scripts/setup.sh
+
+# The documentation site (mkdocs.yml, docs/) into site/, warnings as errors
+docs: setup
+	@$(PY) -m mkdocs build --strict --quiet --site-dir site
 
 bench: setup
 	@bash scripts/setup_bench.sh

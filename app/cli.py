@@ -40,14 +40,24 @@ examples:
   python -m app check out/                  # re-verify the MCEIP-mu proofs stored in out/proofs
   mpirun -n 4 python -m app run sweep.yaml --ranks-per-case 2   # a scene with a 'sweep' section:
                                             # its cases farmed out to groups of 2 ranks
+PETSc options: any PETSc/SLEPc option, placed after the scene file, reaches the app's solvers by
+  their prefixes cd_loading_, cd_flex_, cd_necessary_, cd_sufficient_, cd_lambda2_, cd_inertia_,
+  cd_mcp_, cd_mcp_free_, cd_spd_check_ (e.g. -cd_necessary_eps_monitor, -cd_loading_snes_monitor)
 exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json),
   4 the results could not be written (disk full, out of memory, final rename failed: see the error line)
 """
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line ``error: ...`` (exit status 2) instead of usage plus message."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {message} (see: {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION, epilog=EPILOG,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = _Parser(prog="python -m app", description=DESCRIPTION, epilog=EPILOG,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
     from app.version import __version__
     p.add_argument("--version", action="version", version=f"contact-divergence {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
@@ -116,13 +126,19 @@ def main(argv: list[str] | None = None) -> int:
     if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
         # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from app.petsc_options import command_line_options, split_petsc_options
+    try:
+        argv, petsc_options = split_petsc_options(sys.argv[1:] if argv is None else list(argv))
+    except ValueError as err:
+        return _fail(str(err))
     args = _parser().parse_args(argv)
-    if args.command == "render":
-        from app.outputs.render import render_main
-        return _guarded(render_main, args)
-    if args.command == "check":
-        return _check(args)
-    return _guarded(_main, args)
+    with command_line_options(petsc_options):         # PETSc options: from the command line only
+        if args.command == "render":
+            from app.outputs.render import render_main
+            return _guarded(render_main, args)
+        if args.command == "check":
+            return _check(args)
+        return _guarded(_main, args)
 
 
 def _guarded(fn, args) -> int:

@@ -9,10 +9,14 @@ choice of factor package and its MUMPS controls exist once.
 - :func:`lu_solver` creates, configures and sets up a KSP for a matrix; the caller owns it and
   calls ``destroy()`` (or uses :func:`lu` as a context manager, which does).
 
-Also here: :func:`set_linesearch` (a SNES line search through a private options prefix, removed
-at once) and :func:`one_blas_thread` (one BLAS thread around dense numpy/LAPACK work).
+PETSc options: every KSP, SNES and EPS the app creates has one of the options prefixes of
+:data:`PREFIXES` and reads PETSc's options database (``setFromOptions``) after the app's own
+settings, so ``python -m app run scene.yaml -cd_necessary_eps_monitor`` works as in any FEniCSx
+code; only the command line fills that database (:mod:`app.petsc_options`), never a scene
+file. :func:`owned` is the context manager that destroys a PETSc object on every path.
 
-No option is left in PETSc's global options database.
+Also here: :func:`set_linesearch` (a SNES line search default through the options database,
+removed at once) and :func:`one_blas_thread` (one BLAS thread around dense numpy/LAPACK work).
 """
 from __future__ import annotations
 
@@ -23,7 +27,34 @@ from typing import Literal, Optional
 
 from petsc4py import PETSc
 
+from app.petsc_options import PREFIXES
+
 Factor = Literal["lu", "cholesky"]
+
+
+def with_prefix(obj, prefix: str):
+    """Give the PETSc/SLEPc solver ``obj`` the options prefix ``prefix`` (one of :data:`PREFIXES`);
+    returns ``obj``. Call right after ``create()``, so that its inner solvers (a SNES's KSP, an
+    EPS's ST) inherit it; :func:`from_options` after the app's settings."""
+    assert prefix in PREFIXES, prefix
+    obj.setOptionsPrefix(prefix)
+    return obj
+
+
+def from_options(obj):
+    """``obj.setFromOptions()``: options of the command line override the app's settings."""
+    obj.setFromOptions()
+    return obj
+
+
+@contextmanager
+def owned(obj) -> Iterator:
+    """``with owned(PETSc.KSP().create(comm)) as ksp:``: ``obj`` destroyed on leaving the block,
+    errors included (petsc4py 3.18 only queues a dropped object as garbage: it is never freed)."""
+    try:
+        yield obj
+    finally:
+        obj.destroy()
 
 
 def configure_direct(ksp: PETSc.KSP, *, factor: Factor = "lu", mumps: Optional[bool] = None,
@@ -57,31 +88,36 @@ def configure_direct(ksp: PETSc.KSP, *, factor: Factor = "lu", mumps: Optional[b
     return ksp
 
 
-def set_linesearch(snes: PETSc.SNES, kind: str, prefix: str) -> None:
-    """Give ``snes`` the line search ``kind`` (e.g. ``"basic"``: full Newton steps). petsc4py 3.18
-    has no SNESLineSearch object, so this goes through the options database under the SNES's own
-    private ``prefix``, and the option is removed at once (nothing is left in the database)."""
-    snes.setOptionsPrefix(prefix)
+def set_linesearch(snes: PETSc.SNES, kind: str) -> None:
+    """Make ``kind`` (e.g. ``"basic"``: full Newton steps) the line search of ``snes`` unless the
+    command line chose one (``-<prefix>snes_linesearch_type``). petsc4py 3.18 has no SNESLineSearch
+    object, so this goes through the options database under the SNES's own prefix, and the
+    option is removed at once (nothing is left in the database)."""
+    name = f"{snes.getOptionsPrefix() or ''}snes_linesearch_type"
     opts = PETSc.Options()
-    opts.setValue(f"{prefix}snes_linesearch_type", kind)
+    if opts.hasName(name):
+        return
+    opts.setValue(name, kind)
     try:
         snes.setFromOptions()
     finally:
-        opts.delValue(f"{prefix}snes_linesearch_type")
+        opts.delValue(name)
 
 
-def lu_solver(A: PETSc.Mat, *, factor: Factor = "lu", mumps: Optional[bool] = True,
+def lu_solver(A: PETSc.Mat, *, prefix: str, factor: Factor = "lu", mumps: Optional[bool] = True,
               inertia: bool = False, ordering: Optional[str] = None) -> PETSc.KSP:
     """A KSP on ``A``'s communicator that solves with the factors of ``A`` (MPI collective).
 
     Defaults to a MUMPS LU factorisation (``mumps=None``: MUMPS only in parallel, see
-    :func:`configure_direct`; ``inertia``, ``ordering`` likewise) and factorises it here. The
-    caller owns the KSP and must ``destroy()`` it; :func:`lu` is the context-manager form.
+    :func:`configure_direct`; ``inertia``, ``ordering`` likewise), then reads the options under
+    ``prefix`` (one of :data:`PREFIXES`) and factorises it here. The caller owns the KSP and must
+    ``destroy()`` it; :func:`lu` is the context-manager form.
     """
-    ksp = PETSc.KSP().create(A.getComm())
+    ksp = with_prefix(PETSc.KSP().create(A.getComm()), prefix)
     try:
         ksp.setOperators(A)
         configure_direct(ksp, factor=factor, mumps=mumps, inertia=inertia, ordering=ordering)
+        from_options(ksp)
         ksp.setUp()
     except BaseException:
         ksp.destroy()
@@ -97,7 +133,7 @@ def one_blas_thread():
     of 20 x 20 solves 10-20x slower on this kind of machine, and the contact increments' dense
     2n x 2n LU factorisations 2-3x slower); all threads again afterwards. The BLAS libraries are
     inspected once per process (``threadpool_limits`` scans every loaded library on each call:
-    2-4 ms, issue 14)."""
+    2-4 ms)."""
     try:
         from threadpoolctl import ThreadpoolController
     except ImportError:              # pragma: no cover - threadpoolctl is a dependency

@@ -154,7 +154,7 @@ def check(scene: Scene, source: str = "scene") -> Estimate:
                          f"({worst.states} states, {worst.dofs} DOFs, {worst.contact_nodes} contact nodes) exceeds "
                          f"{how}; use a coarser mesh or fewer states, or raise settings.limits.max_memory_gb")
     # Under a small address-space cap, DOLFINx's mesh creation was seen spinning for minutes
-    # instead of failing (NOTES.md): refuse before the work instead.
+    # instead of failing (docs/limitations.md): refuse before the work instead.
     avail = address_space_limit()
     need = worst.memory_bytes + BASE_ADDRESS_SPACE
     if avail is not None and avail < need:

@@ -1,6 +1,6 @@
 """Physical sanity of a loading path: is small-strain linear elasticity still valid?
 
-The app's model is linear elasticity with small strains (DESIGN.md section 1). A path whose
+The app's model is linear elasticity with small strains (docs/method.md section 1). A path whose
 displacements are comparable to the body, or whose nominal strains exceed a few percent, is
 outside that model: its numbers are not physics. A unit mistake (E in Pa with lengths in mm, a
 force 100 times too large) shows up here. The checks use the prescribed motion of CD and the

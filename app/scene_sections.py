@@ -80,7 +80,7 @@ class McpSettings(Strict):
     # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
     # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)
     search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40
-    # large condensed problems (100k-DOF studies, issue 14): above search_full_max slip nodes the search
+    # large condensed problems (100k-DOF studies): above search_full_max slip nodes the search
     # runs a reduced start set (uniform x and x on search_one_node spread unknowns with every t0, the
     # all-slip eigenvectors, the previous classification's solutions within a chain of warm_chain
     # classifications along the path) and the proof gets certify_seconds_large instead of
@@ -110,7 +110,7 @@ class Settings(Strict):
     enumerate_max_slip: Annotated[int, Field(ge=1, le=24)] = 14
     enumerate_problems: Annotated[list[Literal["mu", "lambda2"]], Field(max_length=2)] = ["mu", "lambda2"]
     mceip_mu_method: Literal["condensed", "full"] = "condensed"
-    limits: Limits = Field(Limits(), description="resource limits checked before any work (README, Safety)")
+    limits: Limits = Field(Limits(), description="resource limits checked before any work (docs/safety.md)")
 
 
 _SWEEP_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")

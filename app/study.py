@@ -1,6 +1,6 @@
 """A loading study end to end: scene -> system -> loading path -> per-state analyses -> results.
 
-Analyses depend only on a state's classification and slip signs (DESIGN.md section 3), so they
+Analyses depend only on a state's classification and slip signs (docs/method.md section 2), so they
 are computed once per distinct classification and shared; each state says which state it shares
 its analyses with.
 """
@@ -46,7 +46,15 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
     """The body of :func:`run_study` (library warnings are caught around it)."""
     # the system type's own module (app/systems/) builds the system and runs its loading path
     system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
+    try:
+        return _study(scene, comm, stages, progress, inspect, outdir, t_start, system, states, path_info)
+    finally:
+        system.destroy()              # its PETSc objects, on every path (errors included)
 
+
+def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float,
+           system, states, path_info) -> dict:
+    """The per-state analyses and fields of :func:`_run` on the built ``system``."""
     cache: dict = {}
     deferred: list = []     # (classification, its analyses, state index): condensed MCEIP-mu, distributed below
     out_states = []
@@ -66,7 +74,7 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
             entry["analyses_shared_with"] = first
         else:
             # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
-            # 3-6x faster than OpenBLAS's default on these sizes (issue 14)
+            # 3-6x faster than OpenBLAS's default on these sizes
             with one_blas_thread():
                 analyses = analyse_state(system, cls, scene, defer_condensed=True)
             for name, a in analyses.items():
@@ -92,7 +100,6 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
         from app.outputs.fields import compute_fields
         outputs_record = compute_fields(scene, system, out_states, stages, progress, outdir)
-    system.destroy()
     return {**({"inspection": inspection} if inspect is not None else {}), "scene": scene.name, "units": system.units, "system": system.description,
             "mu": scene.mu, "analyses_requested": list(scene.analyses),
             "path": path_info, "distinct_classifications": len(cache),

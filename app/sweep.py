@@ -39,6 +39,7 @@ import traceback
 from collections import deque
 
 from app.config import Scene, SceneError
+from app.study_result import from_document
 from app.sweep_cases import Case, expand  # noqa: F401 - expand re-exported (app.sweep.expand)
 from app.sweep_table import case_row, error_row, summary_table, write_plots, write_tables
 from app.taskfarm import run_farm, sleep_until
@@ -52,7 +53,7 @@ def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
     """The case's results.json if it is complete and was computed from the same case scene."""
     path = case_dir(outdir, case) / "results.json"
     try:
-        res = json.loads(path.read_text(encoding="utf-8"))
+        res = from_document(json.loads(path.read_text(encoding="utf-8")))
     except (OSError, ValueError):
         return None
     if not isinstance(res, dict) or (res.get("sweep_case") or {}).get("scene_hash") != case.scene_hash:

@@ -125,7 +125,8 @@ def _columns(cases: list[Case]) -> list[str]:
 def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: dict[int, dict],
                  info: dict) -> None:
     """sweep.csv and sweep.json (atomically): one row per case, finished or not."""
-    from app.outputs.results import atomic_write, json_clean
+    from app.outputs.results import atomic_write
+    from app.study_result import NON_FINITE_REASON, json_clean
     cols = _columns(cases)
     table = []
     for c in cases:
@@ -146,7 +147,11 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
                        "index": "case number in sweep order (from 0)",
                        **{k: "swept key" for k in cases[0].values}, **dict(QUANTITIES)},
            "cases": table}
-    atomic_write(outdir / "sweep.json", json.dumps(json_clean(doc), indent=1))
+    non_finite: dict[str, str] = {}
+    data = json_clean(doc, non_finite)
+    if non_finite:
+        data["non_finite"] = {"reason": NON_FINITE_REASON, "values": non_finite}
+    atomic_write(outdir / "sweep.json", json.dumps(data, indent=1, allow_nan=False))
 
 
 def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[int, dict]) -> list[pathlib.Path]:

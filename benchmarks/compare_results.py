@@ -16,6 +16,7 @@ import argparse
 import collections
 import json
 import math
+import pathlib
 import sys
 
 #: keys whose values are wall-clock times or describe the run rather than its answers
@@ -61,10 +62,14 @@ def main() -> int:
     ap.add_argument("after")
     ap.add_argument("--rtol", type=float, default=1e-8)
     args = ap.parse_args()
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+    from app.study_result import from_document  # any format version, infinities as floats
     with open(args.before) as f:
-        a = json.load(f)
+        a = from_document(json.load(f))
     with open(args.after) as f:
-        b = json.load(f)
+        b = from_document(json.load(f))
+    a.pop("format_version", None)
+    b.pop("format_version", None)
     diffs = compare(a, b, args.rtol)
     if not diffs:
         print(f"identical: every value to {args.rtol:g}, every string and list (timings skipped)")

@@ -63,7 +63,7 @@ def main() -> None:
                               degree=cfg.degree)
         comm.Barrier()
         t = time.perf_counter()
-        ksp = lu_solver(ops.K)
+        ksp = lu_solver(ops.K, prefix="cd_flex_")
         comm.Barrier()
         factor_s = time.perf_counter() - t
         ksp.destroy()

@@ -52,7 +52,7 @@ def main() -> None:
     dofs = np.column_stack([ops.contact_dof_x, ops.contact_dof_y]).ravel().astype(np.int64)
     signs = np.tile([1.0, -1.0], len(ops.contact_x))
     t = time.perf_counter()
-    ksp = lu_solver(ops.K)
+    ksp = lu_solver(ops.K, prefix="cd_flex_")
     t_factor = time.perf_counter() - t
     ways = {"inverse": lambda: flexibility_inverse(ksp, dofs, signs),
             "sparse": lambda: flexibility_matsolve(ksp, ops.K, dofs, signs),

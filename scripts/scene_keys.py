@@ -166,9 +166,8 @@ class Schema:
 
 
 def _text(s: str) -> str:
-    """Schema text for a markdown table cell: one line, ``|`` escaped, and the design notes that
-    docstrings cite as "DESIGN.md section N" are docs/method.md (same section numbers)."""
-    return " ".join(s.split()).replace("|", "\\|").replace("DESIGN.md", "method.md")
+    """Schema text for a markdown table cell: one line, ``|`` escaped."""
+    return " ".join(s.split()).replace("|", "\\|")
 
 
 def _anchor(path: str) -> str:

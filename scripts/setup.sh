@@ -29,24 +29,30 @@ if [ ! -x .venv/bin/python ]; then
   "$py" -m venv --system-site-packages .venv
 fi
 
-# Pin numpy (and the other compiled Debian packages) to Debian's versions: the compiled
-# PETSc/DOLFINx modules break with numpy 2 ("numpy.dtype size changed").
+# Python packages: exactly the versions in requirements.lock (`make lock` refreshes it), checked
+# against their hashes, with --no-deps so that pip resolves nothing itself and never replaces
+# Debian's compiled numpy/scipy/h5py/PyYAML/mpi4py (scripts/debian_pins.py; the compiled
+# PETSc/DOLFINx modules break with numpy 2: "numpy.dtype size changed"). The app itself is then
+# installed in editable mode, built with Debian's setuptools and wheel (no build isolation, so
+# nothing unpinned is downloaded).
 pins=.venv/debian-pins.txt
-"$py" - > "$pins" <<'PY'
-import importlib.metadata as md
-for name in ("numpy", "scipy", "h5py", "PyYAML", "mpi4py"):
-    try:
-        print(f"{name}=={md.version(name)}")
-    except md.PackageNotFoundError:
-        pass
-PY
+"$py" scripts/debian_pins.py > "$pins"
 stamp=.venv/.setup-stamp
-want="$(cat pyproject.toml constraints.txt "$pins" | sha256sum | cut -d' ' -f1)"
+want="$(cat pyproject.toml requirements.lock "$pins" | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
-  echo "setup: installing Python packages into .venv"
-  .venv/bin/python -m pip install -q --disable-pip-version-check \
-    -c constraints.txt -c "$pins" -e ".[test]"
+  echo "setup: installing the locked Python packages into .venv (requirements.lock)"
+  .venv/bin/python -m pip install -q --disable-pip-version-check --require-hashes --no-deps \
+    -c "$pins" -r requirements.lock
+  .venv/bin/python -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e .
   echo "$want" > "$stamp"
 fi
-.venv/bin/python -c 'import numpy, dolfinx, petsc4py, slepc4py, gmsh; assert numpy.__version__.startswith("1.")' \
-  || { echo "setup: the environment is broken (numpy/petsc4py/dolfinx do not import)"; exit 1; }
+.venv/bin/python - "$pins" <<'PY' || { echo "setup: the environment is broken (see above)"; exit 1; }
+import importlib.metadata as md, sys
+import numpy, dolfinx, petsc4py, slepc4py, gmsh  # noqa: F401  (the compiled stack imports)
+for line in open(sys.argv[1]):
+    name, version = line.strip().split("==")
+    dist = md.distribution(name)
+    where = str(dist.locate_file(""))
+    assert dist.version == version and where.startswith("/usr/"), \
+        f"{name} {dist.version} from {where}: expected Debian's {version} under /usr"
+PY

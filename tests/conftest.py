@@ -10,6 +10,37 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 PY = sys.executable
 
 
+def pytest_sessionstart(session):
+    """``pytest -q`` (as ``make test``) hides the report header: print the versions anyway."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None and session.config.get_verbosity() < 0:
+        for line in pytest_report_header(session.config):
+            reporter.write_line(line)
+
+
+def pytest_report_header(config):
+    """The session's first lines: the installed version of every package of requirements.lock
+    (a mismatch is marked and fails tests/test_environment.py) and of Debian's compiled stack."""
+    import importlib.metadata as md
+    import re
+    text = (ROOT / "requirements.lock").read_text(encoding="utf-8")
+    shown = []
+    for name, want in re.findall(r"^([A-Za-z0-9_.\-]+)==([^\s\\;]+)", text, re.M):
+        try:
+            have = md.version(name)
+        except md.PackageNotFoundError:
+            have = "missing"
+        shown.append(name + "==" + have + ("" if have == want else f" (locked {want})"))
+    debian = []
+    for name in ("numpy", "scipy", "mpi4py", "petsc4py", "slepc4py", "fenics-dolfinx"):
+        try:
+            debian.append(f"{name}=={md.version(name)}")
+        except md.PackageNotFoundError:
+            pass
+    return [f"locked packages ({len(shown)}): " + ", ".join(shown),
+            "Debian packages: " + ", ".join(debian)]
+
+
 def run_scene(data: dict) -> dict:
     """Run a scene given as a dict in this process; returns the results dictionary."""
     from app.config import parse_scene

@@ -1,6 +1,8 @@
 """The public API (app/api.py, app/study_result.py) and the stability of results.json.
 
-results.json must keep its content: only ``format_version`` is new in format 1. Two checks:
+results.json must keep its content: only ``format_version`` is new in format 1, and format 2
+writes non-finite numbers as ``null`` listed in a ``non_finite`` block (read back by
+``from_document``, which also reads format 1). Two checks:
 
 * the two-particle scene of the README: the CLI's results.json equals, key by key and value by
   value, the one written by the code before the API existed (main at ab195b8, kept in
@@ -24,7 +26,7 @@ import yaml
 from conftest import ROOT, run_cli
 
 import app
-from app.study_result import FORMAT_VERSION, CriticalMu, StudyResult
+from app.study_result import FORMAT_VERSION, CriticalMu, StudyResult, from_document, to_document
 
 DATA = pathlib.Path(__file__).parent / "data"
 #: keys that vary from run to run (wall times) or describe what the CLI drew, not what it computed
@@ -84,9 +86,12 @@ def test_two_particles_results_json_unchanged(scene_file, tmp_path):
     scene = scene_file(TWO_PARTICLES)
     proc = run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q")
     assert proc.returncode == 0, proc.stderr
-    new = json.loads((tmp_path / "out" / "results.json").read_text())
-    old = json.loads((DATA / "results_two_particles_v0.json").read_text())
-    assert new["format_version"] == FORMAT_VERSION == 1
+    text = (tmp_path / "out" / "results.json").read_text()
+    doc = json.loads(text, parse_constant=lambda c: pytest.fail(f"results.json holds {c}"))
+    assert doc["format_version"] == FORMAT_VERSION == 2 and '"inf"' not in text
+    assert doc["non_finite"]["values"] and "JSON has no infinity" in doc["non_finite"]["reason"]
+    new = from_document(doc)
+    old = from_document(json.loads((DATA / "results_two_particles_v0.json").read_text()))
     # scene_config echoes the validated scene with every default: it grows with the schema
     # (docs/scene-keys.md); the scene itself is compared through the analyses it produced.
     diffs = _differences(old, new, skip=VOLATILE | EVIDENCE | {"scene_config"})
@@ -147,6 +152,31 @@ def test_solution_carries_keys_added_by_other_analyses():
     assert StudyResult.from_dict(r.to_json()).to_json() == r.to_json()
 
 
+def test_non_finite_numbers_are_null_with_a_reason():
+    """Format 2: every non-finite number is null, listed by its JSON pointer with its value;
+    from_document restores it, reads format 1's "inf" strings, and refuses what it cannot read."""
+    import numpy as np
+    results = {"scene": "s", "states": [{"index": 0, "analyses": {"x": {"interval": [0.0, math.inf],
+                                                                         "low": -math.inf, "odd": np.float64("nan"),
+                                                                         "a/b~c": [1.5, math.inf]}}}]}
+    doc = to_document(results)
+    json.dumps(doc, allow_nan=False)                        # valid JSON: no Infinity, no NaN
+    x = doc["states"][0]["analyses"]["x"]
+    assert x["interval"] == [0.0, None] and x["low"] is None and x["odd"] is None and x["a/b~c"] == [1.5, None]
+    assert doc["non_finite"]["values"] == {"/states/0/analyses/x/interval/1": "+inf", "/states/0/analyses/x/low": "-inf",
+                                           "/states/0/analyses/x/odd": "nan", "/states/0/analyses/x/a~1b~0c/1": "+inf"}
+    back = from_document(json.loads(json.dumps(doc)))["states"][0]["analyses"]["x"]
+    assert back["interval"] == [0.0, math.inf] and back["low"] == -math.inf and math.isnan(back["odd"])
+    assert back["a/b~c"] == [1.5, math.inf] and "non_finite" not in from_document(doc)
+    v1 = {"format_version": 1, "states": [{"interval": [0.0, "inf"], "low": "-inf", "name": "infinite"}]}
+    assert from_document(v1)["states"][0] == {"interval": [0.0, math.inf], "low": -math.inf, "name": "infinite"}
+    with pytest.raises(ValueError, match="format_version = 3"):
+        from_document({"format_version": 3})
+    with pytest.raises(ValueError, match="names no null number"):
+        from_document({"format_version": 2, "a": 1.0, "non_finite": {"values": {"/a": "+inf"}}})
+    assert to_document({"a": 1.0}) == {"format_version": FORMAT_VERSION, "a": 1.0}     # no block when all finite
+
+
 def test_load_scene_errors_are_one_line():
     with pytest.raises(app.SceneError, match=r"^scene: .*mu") as err:
         app.load_scene({"name": "x", "system": {"type": "block"}, "mu": -1})
@@ -161,7 +191,8 @@ def test_block_results_json_keys_unchanged_and_api_matches_cli(tmp_path):
     scene = ROOT / "app/scenes/villechaise_block.yaml"
     proc = run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q")
     assert proc.returncode == 0, proc.stderr
-    cli = json.loads((tmp_path / "out" / "results.json").read_text())
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    cli = from_document(doc)
     import sys
     sys.path.insert(0, str(ROOT / "scripts"))
     try:
@@ -177,11 +208,11 @@ def test_block_results_json_keys_unchanged_and_api_matches_cli(tmp_path):
              if not k.startswith("scene_config.") and ".certificate." not in k    # the schema's echo; a proof's record
              and ".mceip_mu.onset." not in k and ".mceip_mu.complete." not in k}  # the two claims' records
     assert {k.rsplit(".", 1)[-1] for k in added} <= ADDED_KEYS, sorted(added)
-    assert cli["format_version"] == FORMAT_VERSION
+    assert doc["format_version"] == FORMAT_VERSION and "non_finite" in doc
 
     r = app.run_study(app.load_scene(scene))
     assert str(r.final.min_mu()) == "1.7048"
-    api = r.to_json()
+    api = from_document(r.to_json())
     # the CLI also drew pictures and wrote ParaView files; the API computes only
     assert cli["outputs"]["files"] and api["outputs"]["files"] == []
     diffs = _differences(cli, api, skip=VOLATILE | {"outputs"})

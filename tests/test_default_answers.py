@@ -72,6 +72,6 @@ def test_default_study_answers_unchanged():
     bad: list[str] = []
     _compare(ref, got, "", bad)
     assert not bad, f"{len(bad)} differences, first: {bad[:5]}"
-    # and the paper's figures are among them (DESIGN.md section 5)
+    # and the paper's figures are among them (the paper's section 5)
     final = ref["analyses"][str(max(int(k) for k in ref["analyses"]))]
     assert final["mceip_mu"][0]["value"] == pytest.approx(1.7048, abs=1e-4)

@@ -48,7 +48,7 @@ def test_w_equals_contact_block_of_inverse(columns):
     N = ops.K.getSize()[0]
     Kd = ops.K.getValues(np.arange(N, dtype=PETSc.IntType), np.arange(N, dtype=PETSc.IntType))
     ref = signs[:, None] * np.linalg.inv(Kd)[np.ix_(dofs, dofs)] * signs[None, :]
-    with lu(ops.K) as ksp:
+    with lu(ops.K, prefix="cd_flex_") as ksp:
         W = flexibility_matsolve(ksp, ops.K, dofs, signs, chunk_bytes=8 * N * columns)
     assert W is not None
     assert W.shape == (len(dofs), len(dofs))
@@ -63,7 +63,7 @@ def test_w_from_inverse_entries_and_later_solves():
     Kinv = np.linalg.inv(Kd)
     ref = signs[:, None] * Kinv[np.ix_(dofs, dofs)] * signs[None, :]
     order = np.random.default_rng(0).permutation(len(dofs))          # rows in any order
-    with lu(ops.K) as ksp:
+    with lu(ops.K, prefix="cd_flex_") as ksp:
         W = flexibility_inverse(ksp, dofs[order], signs[order])
         assert W is not None
         np.testing.assert_allclose(W, ref[np.ix_(order, order)], rtol=0, atol=1e-12 * np.abs(ref).max())
@@ -92,7 +92,7 @@ _SCRIPT = textwrap.dedent("""
     ops = block_operators(mesh, facets, 5.0, 0.48, 9.6, 1.2e-9, plane="stress", degree=1)
     dofs = np.column_stack([ops.contact_dof_x, ops.contact_dof_y]).ravel().astype(np.int64)
     signs = np.tile([1.0, -1.0], len(ops.contact_x))
-    with lu(ops.K) as ksp:
+    with lu(ops.K, prefix="cd_flex_") as ksp:
         W = flexibility_matsolve(ksp, ops.K, dofs, signs, chunk_bytes=8 * ops.K.getSize()[0] * 5)
     assert all(np.array_equal(w, W) for w in comm.allgather(W))      # replicated on every rank
     if comm.rank == 0:

@@ -1,5 +1,5 @@
 """What MCEIP-lambda^2 results prove (app/analyses/lambda2_bounds.py), on the paper's two-particle
-system (DESIGN.md section 4), where every solution is known in closed form (Table 1)."""
+system (the paper's Fig. 1), where every solution is known in closed form (Table 1)."""
 import numpy as np
 import pytest
 from conftest import run_scene

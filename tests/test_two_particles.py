@@ -1,6 +1,6 @@
 """Table 1 of the paper, derived analytically, against the app (MCEIP-lambda^2 and MCEIP-mu).
 
-Pencil of DESIGN.md section 4 on (x_T1, x_T2), in units of k, with a = c^2 + 1, b = mu c s,
+Pencil of docs/method.md section 4 on (x_T1, x_T2), in units of k, with a = c^2 + 1, b = mu c s,
 sigma = S1 S2 and L = lambda^2 m / k:
 
     [[L + a - b S1, -sigma], [-sigma, L + a + b S2]] x = y,  0 <= x ⊥ y >= 0.

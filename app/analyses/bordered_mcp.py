@@ -13,7 +13,7 @@ from petsc4py import PETSc
 from app.analyses.mcp_results import McpSolution
 from app.analyses.pencils import axpy_structure
 from app.config import McpSettings
-from app.linalg import configure_direct, lu_solver, set_linesearch
+from app.linalg import configure_direct, from_options, lu_solver, set_linesearch, with_prefix
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
 MAX_LIFT_FACTORS = 16   # factorisations of A_ff(t) kept per problem (lifts at a t already seen reuse them)
@@ -166,18 +166,23 @@ class BorderedMcp:
 
     def _solver(self, method: str, settings: McpSettings) -> PETSc.SNES:
         """A new SNES of ``method`` for one run (destroyed by :meth:`solve`)."""
-        snes = PETSc.SNES().create(self.comm)
-        snes.setType(method)
-        if method == RSLS and settings.rsls_linesearch != "bt":
-            set_linesearch(snes, settings.rsls_linesearch, "mcp_rsls_")
-        snes.setFunction(self.residual, self.F)
-        snes.setJacobian(self.jacobian, self.J)
-        snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=settings.stol, max_it=settings.max_it)
-        snes.setMaxFunctionEvaluations(100 * settings.max_it)
-        self._atol, self._max_funcs = 1e-13, 100 * settings.max_it
-        snes.setConvergenceTest(self._converged, args=(settings,))
-        # serial: minimum-degree ordering (3x less fill than nd with the dense border), tiny pivot shift
-        configure_direct(snes.getKSP(), shift=1e-14, ordering="qmd")
+        snes = with_prefix(PETSc.SNES().create(self.comm), "cd_mcp_")
+        try:
+            snes.setType(method)
+            snes.setFunction(self.residual, self.F)
+            snes.setJacobian(self.jacobian, self.J)
+            snes.setTolerances(rtol=settings.rtol, atol=1e-13, stol=settings.stol, max_it=settings.max_it)
+            snes.setMaxFunctionEvaluations(100 * settings.max_it)
+            self._atol, self._max_funcs = 1e-13, 100 * settings.max_it
+            snes.setConvergenceTest(self._converged, args=(settings,))
+            # serial: minimum-degree ordering (3x less fill than nd with the dense border), tiny pivot shift
+            configure_direct(snes.getKSP(), shift=1e-14, ordering="qmd")
+            from_options(snes)
+            if method == RSLS and settings.rsls_linesearch != "bt":
+                set_linesearch(snes, settings.rsls_linesearch)
+        except BaseException:
+            snes.destroy()
+            raise
         return snes
 
     # -- one SNES VI run ---------------------------------------------------------------------
@@ -205,8 +210,8 @@ class BorderedMcp:
         xu.setArray(hi)
         X.setArray(x)
         snes = self._solver(method, settings)
-        snes.setVariableBounds(xl, xu)
         try:
+            snes.setVariableBounds(xl, xu)
             snes.solve(None, X)
             reason, its = snes.getConvergedReason(), snes.getIterationNumber()
         except PETSc.Error:          # e.g. a zero pivot in a dense reduced Jacobian: a failed run
@@ -239,7 +244,7 @@ class BorderedMcp:
         Aff = A0ff.copy()
         Aff.axpy(t, A1ff, structure=self._ff_structure)
         try:
-            ksp = lu_solver(Aff, mumps=None)
+            ksp = lu_solver(Aff, prefix="cd_mcp_free_", mumps=None)
         except BaseException:
             Aff.destroy()
             raise

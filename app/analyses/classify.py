@@ -25,7 +25,7 @@ class Classification:
 
     @property
     def key(self) -> tuple:
-        """States with equal keys have identical reduced pencils (DESIGN.md section 3)."""
+        """States with equal keys have identical reduced pencils (10)-(16)."""
         return self.status, tuple(s if st == SLIP else 0 for s, st in zip(self.signs, self.status))
 
     def indices(self, status: str) -> np.ndarray:
@@ -63,7 +63,7 @@ def classify(state: EquilibriumState, mu: float, rtol: float = 1e-8) -> Classifi
     r_scale = max(float(np.max(np.abs(np.concatenate([state.r_N, state.r_T])), initial=0.0)), 1e-300)
     u_scale = max(float(np.max(np.abs(np.concatenate([state.u_N, state.u_T])), initial=0.0)), 1e-300)
     status, signs = [], []
-    # Python floats (the same doubles): comparisons on numpy scalars cost 5x more (issue 14)
+    # Python floats (the same doubles): comparisons on numpy scalars cost 5x more
     for uN, rN, rT in zip(np.asarray(state.u_N).tolist(), np.asarray(state.r_N).tolist(),
                           np.asarray(state.r_T).tolist()):
         if -rN <= rtol * r_scale:
@@ -81,8 +81,8 @@ def classify(state: EquilibriumState, mu: float, rtol: float = 1e-8) -> Classifi
 def frictionless_reason(cls: Classification, mu: float) -> str | None:
     """Why the stability analyses do not apply to ``cls``, or None when they do.
 
-    With ``mu = 0`` there is no friction cone to slip on and ``K* = K0`` is SPD (DESIGN.md
-    section 2): no divergence. A slip node whose tangential reaction is round-off has no slip
+    With ``mu = 0`` there is no friction cone to slip on and ``K* = K0`` is SPD ((15) at mu = 0):
+    no divergence. A slip node whose tangential reaction is round-off has no slip
     direction ``S``, so its pencil is undefined.
     """
     if mu == 0:

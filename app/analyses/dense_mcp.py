@@ -1,4 +1,4 @@
-"""Dense candidate search for the condensed MCEIP-mu (Propositions 1-2, DESIGN.md section 3).
+"""Dense candidate search for the condensed MCEIP-mu (the paper's Propositions 1-2, eqs. (21)-(23)).
 
 The condensed problem lives on the ``s`` complementarity unknowns only (no free DOFs):
 

@@ -6,6 +6,8 @@ spectrum: the answer is then complete. Larger ones use Krylov-Schur with shift-a
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
+
 import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
@@ -13,7 +15,7 @@ from slepc4py import SLEPc
 from app.analyses.lambda2_bounds import inertia_negative_or_zero
 from app.analyses.pencils import combine, diag_scale, gather_vec, sym_part
 from app.config import EigSettings
-from app.linalg import configure_direct
+from app.linalg import configure_direct, from_options, owned, with_prefix
 
 MUMPS_MIN_DOFS = 20_000     # from this size on, shift-and-invert factorises with MUMPS even on one rank
 
@@ -28,9 +30,21 @@ def _shift_invert(eps: SLEPc.EPS, sigma: float) -> PETSc.KSP:
     return st.getKSP()
 
 
-def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> tuple[SLEPc.EPS, str]:
+def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings,
+         prefix: str) -> tuple[SLEPc.EPS, str]:
+    """A configured EPS for ``A x = theta B x`` (the caller owns it), options read under ``prefix``."""
+    eps = with_prefix(SLEPc.EPS().create(A.getComm()), prefix)
+    try:
+        how = _configure(eps, A, B, hermitian, settings)
+        from_options(eps)
+    except BaseException:
+        eps.destroy()
+        raise
+    return eps, how
+
+
+def _configure(eps: SLEPc.EPS, A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> str:
     n = A.getSize()[0]
-    eps = SLEPc.EPS().create(A.getComm())
     eps.setOperators(A, B)
     if hermitian:
         eps.setProblemType(SLEPc.EPS.ProblemType.HEP if B is None else SLEPc.EPS.ProblemType.GHEP)
@@ -55,10 +69,10 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
             how = f"SLEPc krylovschur, {nev} smallest"
         else:
             # large serial pencils: MUMPS factorises 2-4x faster than PETSc's own LU (100k DOFs:
-            # 0.9-1.7 s against 3.3-3.7 s, issue 14); small ones keep PETSc's (faster there)
+            # 0.9-1.7 s against 3.3-3.7 s); small ones keep PETSc's (faster there)
             configure_direct(_shift_invert(eps, 0.0), mumps=True if n >= MUMPS_MIN_DOFS else None)
             how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
-    return eps, how
+    return how
 
 
 def _below(A: PETSc.Mat, sigma: float) -> int:
@@ -75,7 +89,7 @@ def _below(A: PETSc.Mat, sigma: float) -> int:
 #: Krylov-Schur subspace of the shift-and-invert solve for one eigenvalue nearest a shift
 NEAREST_NCV = 4
 #: up to this size PETSc's own serial Cholesky uses the QMD ordering (0.9 against 1.3 ms per
-#: factorisation at 800 DOFs, issue 14); above it, PETSc's default (nested dissection)
+#: factorisation at 800 DOFs); above it, PETSc's default (nested dissection)
 QMD_MAX = 5000
 
 
@@ -94,17 +108,18 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
     an indefinite ``At - sigma I`` can be unstable, and the value would then be unreliable."""
     if shift_below and At.getComm().getSize() > 1:
         return None                     # MUMPS LU in parallel: no inertia from the solve's factor
-    eps = SLEPc.EPS().create(At.getComm())
+    eps = with_prefix(SLEPc.EPS().create(At.getComm()), "cd_necessary_")
     try:
         eps.setOperators(At)
         eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
         # a 4-vector subspace: the shift is near the wanted eigenvalue, so the restarts converge it
-        # in about half the work of SLEPc's default 16 (issue 14; the answer is checked by inertia)
+        # in about half the work of SLEPc's default 16 (the answer is checked by inertia)
         eps.setDimensions(nev=1, ncv=min(NEAREST_NCV, At.getSize()[0]))
         eps.setTolerances(tol=settings.tol, max_it=settings.max_it)
         ksp = configure_direct(_shift_invert(eps, sigma),
                                factor="cholesky" if At.getComm().getSize() == 1 else "lu", ordering=_ordering(At))
+        from_options(eps)
         if shift_below:
             eps.setUp()
             ksp.setUp()
@@ -134,7 +149,7 @@ def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | Non
     classification's value). The answer is checked by a second inertia count. None when a step
     fails (the caller falls back to plain Krylov-Schur).
 
-    With a ``hint`` the first shift is tried directly (issue 14: one factorisation fewer): the
+    With a ``hint`` the first shift is tried directly (one factorisation fewer): the
     solve's own LDL^T must show it below the spectrum, and its nearest eigenvalue is kept only
     when the second inertia count proves it the smallest; otherwise the shift is moved below the
     spectrum as without a hint."""
@@ -162,7 +177,7 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
     """Smallest eigenvalue of the symmetric part (A + A^T)/2 (for the necessary condition (19)).
 
     Small problems: LAPACK (all eigenvalues). Larger ones: shift-and-invert about a shift proven
-    below the spectrum by an LDL^T inertia count, warm-started from ``hint`` (issue 14: 2-3x
+    below the spectrum by an LDL^T inertia count, warm-started from ``hint`` (2-3x
     fewer operations than Krylov-Schur on the smallest eigenvalue, same value); plain
     Krylov-Schur if that fails."""
     At = sym_part(A)
@@ -171,10 +186,9 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
             lam = _min_sym_eig_sinvert(At, settings, hint)
             if lam is not None:
                 return lam
-        eps, _ = _eps(At, None, True, settings)
-        eps.solve()
-        vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
-        eps.destroy()
+        with owned(_eps(At, None, True, settings, "cd_necessary_")[0]) as eps:
+            eps.solve()
+            vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
     finally:
         At.destroy()
     if not vals:
@@ -218,9 +232,10 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
     Solved as ``K* x = theta M* x`` (``lambda^2 = -theta``); every real eigenpair with
     ``lambda^2 > 0`` is checked for ``x_Ts >= 0`` (up to the sign of the eigenvector).
     """
-    eps, how = _eps(Ks, Ms, False, settings)
-    vr, vi = Ks.createVecRight(), Ks.createVecRight()
-    try:
+    eps, how = _eps(Ks, Ms, False, settings, "cd_sufficient_")
+    with ExitStack() as owns:
+        owns.enter_context(owned(eps))
+        vr, vi = (owns.enter_context(owned(Ks.createVecRight())) for _ in range(2))
         eps.solve()
         nconv = eps.getConverged()
         candidates, admissible, modes = [], [], []
@@ -248,9 +263,6 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
                 if keep_modes:
                     mode["_x"] = x / np.sum(xc)
                 modes.append(mode)
-    finally:
-        for obj in (eps, vr, vi):
-            obj.destroy()
     order = np.argsort(admissible)[::-1]
     return {"satisfied": bool(admissible), "lambda2": [admissible[i] for i in order],
             "modes": [modes[i] for i in order], "real_candidates": sorted(candidates, key=lambda c: -c["lambda2"]),

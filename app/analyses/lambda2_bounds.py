@@ -23,13 +23,14 @@ solutions are labelled ill-conditioned instead of clean patterns.
 from __future__ import annotations
 
 import time
+from contextlib import ExitStack
 
 import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.pencils import axpy_structure, diag_scale, sym_part
-from app.linalg import lu
+from app.linalg import from_options, lu, owned, with_prefix
 
 PROVEN = "proven"
 
@@ -75,7 +76,7 @@ def inertia_negative_or_zero(C: PETSc.Mat, ordering: str | None = None) -> int:
     own factorisation (e.g. ``"qmd"``), default its own."""
     try:
         # MUMPS (in parallel) reports the inertia
-        with lu(C, factor="cholesky", mumps=None, inertia=True, ordering=ordering) as ksp:
+        with lu(C, prefix="cd_inertia_", factor="cholesky", mumps=None, inertia=True, ordering=ordering) as ksp:
             neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
         return int(neg) + int(zero)
     except PETSc.Error:
@@ -129,23 +130,23 @@ def free_block_max_omega2(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, tol: f
     the free rows of ``K`` and ``M``: their ``f`` rows do not depend on mu). None if SLEPc fails."""
     r0, r1 = Ks.getOwnershipRange()
     free = np.setdiff1d(np.arange(r0, r1), comp).astype(PETSc.IntType)
-    isf = PETSc.IS().createGeneral(free, comm=Ks.getComm())
-    Kf, Mf = Ks.createSubMatrix(isf, isf), Ms.createSubMatrix(isf, isf)
-    eps = SLEPc.EPS().create(Ks.getComm())
-    try:
+    with ExitStack() as owns:
+        isf = owns.enter_context(owned(PETSc.IS().createGeneral(free, comm=Ks.getComm())))
+        Kf = owns.enter_context(owned(Ks.createSubMatrix(isf, isf)))
+        Mf = owns.enter_context(owned(Ms.createSubMatrix(isf, isf)))
+        eps = owns.enter_context(owned(with_prefix(SLEPc.EPS().create(Ks.getComm()), "cd_lambda2_")))
         if Kf.getSize()[0] == 0:
             return None
-        eps.setOperators(Kf, Mf)
-        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
-        eps.setDimensions(nev=1)
-        eps.setTolerances(tol=tol, max_it=2000)
-        eps.solve()
-        if eps.getConverged() < 1:
+        try:
+            eps.setOperators(Kf, Mf)
+            eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+            eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+            eps.setDimensions(nev=1)
+            eps.setTolerances(tol=tol, max_it=2000)
+            from_options(eps)
+            eps.solve()
+            if eps.getConverged() < 1:
+                return None
+            return float(eps.getEigenvalue(0).real)
+        except PETSc.Error:
             return None
-        return float(eps.getEigenvalue(0).real)
-    except PETSc.Error:
-        return None
-    finally:
-        for obj in (eps, Kf, Mf, isf):
-            obj.destroy()

@@ -1,5 +1,5 @@
 """A proof that MCEIP-lambda^2 (12)-(14) has no solution, on the exact slip-node reduction
-(DESIGN.md section 7, last paragraph).
+(docs/method.md section 7).
 
 With ``H(t) = K + t M`` (``t = lambda^2 >= 0``, SPD) every DOF except the slip nodes' ``x_Ts`` is
 eliminated exactly: the interior through the eigen-decomposition ``K Phi = M Phi Omega``

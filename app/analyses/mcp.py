@@ -18,6 +18,8 @@ enumeration (:mod:`app.analyses.enumerate`) proves it for small problems.
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
+
 import numpy as np
 import scipy.linalg
 from petsc4py import PETSc
@@ -26,6 +28,7 @@ from app.analyses.bordered_mcp import RSLS, SSLS, BorderedMcp
 from app.analyses.mcp_results import McpSolution, SearchReport
 from app.analyses.pencils import dense, diag_scale
 from app.config import McpSettings
+from app.linalg import owned
 
 __all__ = ["RSLS", "SSLS", "BorderedMcp", "McpSolution", "SearchReport", "search_mceip"]
 
@@ -80,11 +83,20 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     """
     alpha = diag_scale(A0)
     tau = 1.0 if value_scale is None else value_scale
-    S0, S1 = A0.copy(), A1.copy()
-    S0.scale(1.0 / alpha)
-    S1.scale(tau / alpha)
-    op = BorderedMcp(S0, S1, comp, pairs=pairs)
-    op.stagnation = settings.stagnation_its
+    with ExitStack() as owns:                      # every PETSc object destroyed, errors included
+        S0, S1 = (owns.enter_context(owned(A.copy())) for A in (A0, A1))
+        S0.scale(1.0 / alpha)
+        S1.scale(tau / alpha)
+        op = BorderedMcp(S0, S1, comp, pairs=pairs)
+        owns.callback(op.destroy)
+        op.stagnation = settings.stagnation_its
+        return _search(op, S0, S1, comp, problem, settings, tau, t_upper, pairs)
+
+
+def _search(op: BorderedMcp, S0: PETSc.Mat, S1: PETSc.Mat, comp: np.ndarray, problem: str,
+            settings: McpSettings, tau: float, t_upper: float,
+            pairs: list[tuple[int, int]] | None) -> SearchReport:
+    """The phases of :func:`search_mceip` on the scaled problem ``op``."""
     s = len(comp)
     # positions of split pairs within x_c (a pattern with both a and b active is degenerate)
     cpos = {int(c): k for k, c in enumerate(comp)}
@@ -226,7 +238,4 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
                         x_start=xs if t_ls is not None and lo <= t_ls <= hi else None)
         if len(report.solutions) == n_before:
             break
-    op.destroy()
-    S0.destroy()
-    S1.destroy()
     return report

@@ -1,4 +1,4 @@
-"""Reduced pencils of an equilibrium state: paper eqs. (10)-(16), DESIGN.md section 2.
+"""Reduced pencils of an equilibrium state: paper eqs. (10)-(16) (docs/method.md section 2).
 
 For any matrix A of the system (A = K or A = M) the state's classification defines
 
@@ -9,7 +9,7 @@ slip nodes), ``D = diag(1 on f, -S sign_T on Ts)`` is the change of variables (1
 places the normal rows of the slip nodes on the rows of their tangential DOFs (11).
 The kept DOFs keep the system's order, so ``A0`` is distributed like ``A``.
 
-For MCEIP-mu the exact condensation onto the slip nodes (DESIGN.md section 3) gives the small
+For MCEIP-mu the exact condensation onto the slip nodes (docs/method.md section 2) gives the small
 dense pencil ``S Ŝ_TT S + mu Ŝ_NT S`` from the contact Schur complement.
 """
 from __future__ import annotations

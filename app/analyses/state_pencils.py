@@ -69,7 +69,7 @@ class StatePencils:
 
     def star(self, mu: float) -> tuple[PETSc.Mat, PETSc.Mat]:
         """``(K*(mu), M*(mu))`` of (15), built once and shared by the necessary and sufficient
-        conditions (issue 14); destroyed with the rest. Callers must not modify them."""
+        conditions; destroyed with the rest. Callers must not modify them."""
         mu = float(mu)
         if mu not in self._star:
             K0, K1 = self.K()

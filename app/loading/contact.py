@@ -17,12 +17,13 @@ singular at free nodes.
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
 from dataclasses import dataclass
 
 import numpy as np
 from petsc4py import PETSc
 
-from app.linalg import configure_direct, one_blas_thread, set_linesearch
+from app.linalg import configure_direct, from_options, one_blas_thread, owned, set_linesearch, with_prefix
 
 
 @dataclass
@@ -103,28 +104,24 @@ class FrictionalContact:
 
     def _snes(self, method: str, z0: np.ndarray, atol: float, linesearch: str = "bt") -> tuple[np.ndarray, int, int]:
         m = 2 * self.n
-        X = PETSc.Vec().createSeq(m, comm=PETSc.COMM_SELF)
-        X.setArray(z0)
-        lo, hi = X.duplicate(), X.duplicate()
-        lo.setArray(np.concatenate([np.zeros(self.n), np.full(self.n, PETSc.NINFINITY)]))
-        hi.set(PETSc.INFINITY)
-        F = X.duplicate()
-        snes = PETSc.SNES().create(PETSc.COMM_SELF)
-        try:
+        with ExitStack() as owns:
+            X = owns.enter_context(owned(PETSc.Vec().createSeq(m, comm=PETSc.COMM_SELF)))
+            X.setArray(z0)
+            lo, hi, F = (owns.enter_context(owned(X.duplicate())) for _ in range(3))
+            lo.setArray(np.concatenate([np.zeros(self.n), np.full(self.n, PETSc.NINFINITY)]))
+            hi.set(PETSc.INFINITY)
+            snes = owns.enter_context(owned(with_prefix(PETSc.SNES().create(PETSc.COMM_SELF), "cd_loading_")))
             snes.setType(method)
-            if linesearch != "bt":
-                set_linesearch(snes, linesearch, "contact_inc_")
             snes.setFunction(self._residual, F)
             snes.setJacobian(self._jacobian, self.J)
             snes.setVariableBounds(lo, hi)
             snes.setTolerances(rtol=1e-14, atol=atol, stol=1e-16, max_it=100)
             configure_direct(snes.getKSP(), mumps=False)
+            from_options(snes)
+            if linesearch != "bt":
+                set_linesearch(snes, linesearch)
             snes.solve(None, X)
             return X.getArray().copy(), snes.getConvergedReason(), snes.getIterationNumber()
-        finally:
-            snes.destroy()
-            for v in (X, lo, hi, F):
-                v.destroy()
 
     def violation(self, z: np.ndarray, scale: float) -> float:
         """Largest violation of g >= 0, p >= 0, g p = 0, |r_T| <= mu p and of the slip rule."""

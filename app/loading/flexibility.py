@@ -1,4 +1,4 @@
-"""Factor K once per study and build the contact flexibility W = B K^-1 B^T (DESIGN.md section 3).
+"""Factor K once per study and build the contact flexibility W = B K^-1 B^T (docs/method.md section 2).
 
 For linear elasticity K does not change along the loading, so one sparse LU factorisation
 (MUMPS) gives the flexibility of the n contact nodes, the 2n x 2n contact block of K^-1
@@ -172,7 +172,7 @@ def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
     """Factor ``K`` and compute W and the unit-load contact displacements (MPI collective)."""
     dofs = np.asarray(dofs, dtype=np.int64)
     signs = np.asarray(signs, dtype=float)
-    ksp = lu_solver(K)
+    ksp = lu_solver(K, prefix="cd_flex_")
     try:
         return _flexibility(ksp, K, load_x, load_y, dofs, signs)
     except BaseException:

@@ -11,7 +11,7 @@ Force control of a displacement phase (``until: normal_force F``): the phase's m
 scaled by ``c`` so that the normal resultant ``-sum r_N`` is F at its end; the loads of the same
 phase (``fixed``: forces, tractions, gravity) are applied as given. When the phase starts from the
 unloaded state with zero gaps and no loads (in it or before), every increment is positively homogeneous in ``c``
-(DESIGN.md section 5): one trial run gives the exact factor, as for the built-in block
+(docs/method.md section 5): one trial run gives the exact factor, as for the built-in block
 (app/loading/block_path.py), and the same two runs are made here. Otherwise ``c`` is bracketed
 (doubled until the force is passed, e.g. to close gaps) and found by regula falsi (Illinois); either way the reached force is checked to 1e-10 relative.
 """

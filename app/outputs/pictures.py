@@ -166,7 +166,7 @@ def _draws(scene) -> bool:
 def prestarted(scene, comm):
     """Around a study whose results rank 0 will draw: on rank 0, the drawing processes of the
     plots and the screenshots are started first, so that they import matplotlib and VTK and warm
-    up while the study runs (issue 14); those not used are stopped at the end."""
+    up while the study runs; those not used are stopped at the end."""
     # the children draw only in a process that has loaded DOLFINx (:func:`draw_outputs`): a meshed
     # system's study loads it; a mesh-less system's pictures (particles, matrices) are drawn here
     meshed = getattr(scene.system, "has_fields", False)
@@ -194,7 +194,7 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """
     if not wants_pictures(results):
         return results
-    from app.outputs.results import json_clean
-    data = json.loads(json.dumps(json_clean(results)))
+    from app.study_result import from_document, to_document
+    data = from_document(json.loads(json.dumps(to_document(results), allow_nan=False)))
     draw_outputs(data, outdir, progress)
     return data

@@ -42,7 +42,7 @@ def _save(fig, path: pathlib.Path) -> list[pathlib.Path]:
     """The figure as PNG (150 dpi) and SVG, both cropped to the tight box of the PNG's layout.
 
     The tight box is computed once (``bbox_inches="tight"`` lays the figure out once more per
-    file: 4 layouts instead of 2 for the two files; issue 14)."""
+    file: 4 layouts instead of 2 for the two files)."""
     import matplotlib
     path.parent.mkdir(parents=True, exist_ok=True)
     dpi = fig.dpi
@@ -142,7 +142,7 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
         yedges = np.array([xs[0] - 0.5, xs[0] + 0.5])
     xedges = np.concatenate([idx - 0.5, [idx[-1] + 0.5]])
     # what pcolormesh(xedges, yedges, codes) draws, as one rectangle per run of equal status along a
-    # node's row: the same picture, but the SVG holds ~100 rectangles instead of n x states quads (issue 14)
+    # node's row: the same picture, but the SVG holds ~100 rectangles instead of n x states quads
     rects, colours = [], []
     for r, row in enumerate(codes):
         cut = np.flatnonzero(np.diff(row)) + 1

@@ -21,6 +21,7 @@ def render_main(args) -> int:
     outdir = pathlib.Path(args.results)
     res_file = outdir / "results.json"
     from app.outputs.folder import MARKER, marker_kind
+    from app.study_result import from_document
     if res_file.is_file() and marker_kind(outdir) is None:
         # redrawing replaces the pictures in plots/ and screenshots/: only in a folder the app wrote
         print(f"error: {outdir}: not a results folder written by this app (no {MARKER}): nothing is redrawn there",
@@ -31,7 +32,7 @@ def render_main(args) -> int:
               file=sys.stderr)
         return 2
     try:
-        results = json.loads(res_file.read_text(encoding="utf-8"))
+        results = from_document(json.loads(res_file.read_text(encoding="utf-8")))
     except (OSError, ValueError) as err:
         print(f"error: {res_file}: cannot be read ({err})", file=sys.stderr)
         return 2

@@ -75,7 +75,7 @@ def versions() -> dict:
 
 def _source_version(module: str, variable: str) -> str | None:
     """The string ``variable = "..."`` of an installed module's source, without importing it
-    (importing gmsh costs 0.2-0.4 s, issue 14); None if not found."""
+    (importing gmsh costs 0.2-0.4 s); None if not found."""
     import importlib.util
     import re
     try:

@@ -1,4 +1,4 @@
-"""results.json and steps.csv (DESIGN.md section 6), written atomically by rank 0."""
+"""results.json and steps.csv (docs/method.md section 6), written atomically by rank 0."""
 from __future__ import annotations
 
 import csv
@@ -8,7 +8,7 @@ import os
 import pathlib
 import tempfile
 
-from app.study_result import FORMAT_VERSION, StateResult, json_clean
+from app.study_result import StateResult, to_document
 
 
 def _umask() -> int:
@@ -101,6 +101,5 @@ def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     proofs (app/outputs/proofs.py) are written before, while the results still hold the pencils."""
     outdir.mkdir(parents=True, exist_ok=True)
     atomic_write(outdir / "steps.csv", steps_csv(results))
-    doc = {"format_version": FORMAT_VERSION, **json_clean(results)}
-    atomic_write(outdir / "results.json", json.dumps(doc, indent=1))
+    atomic_write(outdir / "results.json", json.dumps(to_document(results), indent=1, allow_nan=False))
     return [outdir / "steps.csv", outdir / "results.json"]

@@ -100,7 +100,7 @@ _PLOTTERS: dict[tuple[int, int], object] = {}
 
 
 def _plotter(res: tuple[int, int]):
-    """The off-screen plotter of this resolution, emptied (issue 14: one plotter, one OpenGL
+    """The off-screen plotter of this resolution, emptied (one plotter, one OpenGL
     context and its compiled shaders for every picture instead of one per picture; lights, the
     background and the window are kept). :func:`close_plotters` releases them."""
     res = (int(res[0]), int(res[1]))
@@ -258,7 +258,7 @@ def _finish(pl, fd: FieldData, pts: np.ndarray, title: list[str], legend: list[t
     pl.suppress_rendering = False
     pl.render()                 # a reused plotter: render this scene (the first screenshot renders itself)
     from PIL import Image
-    # the same pixels as pl.screenshot(path); zlib level 1: 1.5x faster to write, 14 % larger (issue 14)
+    # the same pixels as pl.screenshot(path); zlib level 1: 1.5x faster to write, 14 % larger
     Image.fromarray(pl.screenshot(None, return_img=True)).save(path, format="PNG", compress_level=1)
     return path
 

@@ -13,7 +13,7 @@ def proof_word(analysis: dict) -> str:
     if analysis.get("certified"):
         cert = analysis.get("certificate") or {}
         iv = cert.get("interval")
-        iv = [float(v) for v in iv] if iv else iv     # an infinite end is written as a string in results.json
+        iv = [float(v) for v in iv] if iv else iv
         where = f" on [{iv[0]:.6g}, {iv[1]:.6g}]" if iv and iv[1] > iv[0] else ""
         if cert.get("rigorous", True) is False:
             return f"shown{where} in floating point, not a rigorous proof"

@@ -1,4 +1,4 @@
-"""Drawing processes started before they are needed (issue 14: pictures add at most 2 s).
+"""Drawing processes started before they are needed (pictures add at most 2 s).
 
 After a run, rank 0 draws the plots (matplotlib) and the screenshots (pyvista/VTK). They are
 drawn by child interpreters, ``python -m app.outputs.worker KIND [ARG]``:

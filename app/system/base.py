@@ -1,4 +1,4 @@
-"""The discrete system seen by the stability code (DESIGN.md sections 1 and 6).
+"""The discrete system seen by the stability code (docs/method.md sections 1 and 6).
 
 One abstraction serves the two-particle scene and the finite element block: PETSc stiffness and
 (lazily built) mass matrices, the contact candidate nodes with their tangential and normal DOFs,
@@ -113,9 +113,10 @@ class System:
         self.destroy()
 
     def destroy(self) -> None:
-        flex = self.extra.get("flexibility")
-        if flex is not None:
-            flex.destroy()
+        for name in ("flexibility", "operators"):   # a builder's factorisation and operators (its K is self.K)
+            obj = self.extra.get(name)
+            if obj is not None and hasattr(obj, "destroy"):
+                obj.destroy()
         for obj in self.extra.get("owned", ()):     # PETSc objects a builder handed over
             obj.destroy()
         self.K.destroy()

@@ -1,4 +1,4 @@
-"""``system.type: block``: the block's System and its quasi-static loading path (DESIGN.md section 5).
+"""``system.type: block``: the block's System and its quasi-static loading path (docs/method.md section 5).
 
 :func:`build` meshes the block (Gmsh), assembles K and M (DOLFINx), factorises K and computes the
 contact flexibility W = B K^-1 B^T; :func:`path` runs the loading.

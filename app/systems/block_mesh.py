@@ -8,7 +8,7 @@ and the arrays :func:`dolfinx.io.gmshio.model_to_mesh` would distribute
 (nodes, cells, marked facets) are cached on rank 0 in a ``.npz`` file
 (written atomically, never over an existing file). A cached mesh is read
 with numpy and distributed with :func:`dolfinx.mesh.create_mesh` exactly as
-``model_to_mesh`` does, so gmsh is not even imported (issue 14: 0.2-0.4 s
+``model_to_mesh`` does, so gmsh is not even imported (0.2-0.4 s
 of start-up) and the node/cell numbering is the same.
 
 Physical groups (= DOLFINx facet/cell tag values)::

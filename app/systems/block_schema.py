@@ -1,5 +1,5 @@
 """Scene schema of ``system.type: block``: the elastic block of Villechaise and Zeghloul and its
-quasi-static loading (the top-level ``loading`` section), DESIGN.md section 5.
+quasi-static loading (the top-level ``loading`` section), docs/method.md section 5.
 
     system: {type: block, length: 80, height: 40, nx: 20, ny: 10, E: 5.0, nu: 0.48}
     loading: {normal_force: 55, normal_steps: 10, tangential_step: 0.02, tangential_max: 10}
@@ -26,7 +26,7 @@ class Loading(Strict):
 
 
 class Block(Strict):
-    """The elastic block of Villechaise and Zeghloul (DESIGN.md section 5). Units: mm, MPa, tonne/mm^3."""
+    """The elastic block of Villechaise and Zeghloul (the paper's section 5). Units: mm, MPa, tonne/mm^3."""
     has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/outputs/fields.py)
     refinable: ClassVar[bool] = True        # a mesh-refinement study (app/refinement.py)
     type: Literal["block"]

@@ -6,7 +6,7 @@ within the limits); then Gmsh reads and meshes it in the sandboxed child of
 app/systems/gmsh_sandbox.py, which checks the model (app/systems/gmsh_child.py: 2D, linear
 triangles, physical groups, orientation) and returns its groups, sizes and the arrays DOLFINx
 0.5.2's :func:`dolfinx.io.gmshio.model_to_mesh` would extract (its ``read_from_msh`` is broken,
-see NOTES.md). Every problem is a one-line :class:`app.systems.schema.SystemPathError` on the key
+see docs/limitations.md). Every problem is a one-line :class:`app.systems.schema.SystemPathError` on the key
 ``file`` (``resource=True`` on the error for the time and memory limits: exit status 4). The result
 is cached per file version, so validating a scene and building it run Gmsh once.
 """

@@ -15,7 +15,7 @@ components of a uniform traction and of a total force; gravity (x, y).
 Obstacle frames: the contact DOFs are rotated into the obstacle's tangent t and outward normal n
 (``u = t u_T + n u_N`` at every contact node): ``K' = R^T K R``, ``M' = R^T M R`` and loads
 ``R^T f`` with R orthogonal and block-diagonal, so the stability code sees plain DOF pairs in the
-paper's axes (DESIGN.md section 1). For axis-aligned obstacles R has entries 0 and +-1 and the
+paper's axes (docs/method.md section 1). For axis-aligned obstacles R has entries 0 and +-1 and the
 rotation is exact. Initial gaps ``g0 = (p - x) . n`` from the geometry (p the obstacle's point).
 """
 from __future__ import annotations
@@ -154,6 +154,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
                 own = loc[loc < n_owned]
                 clash = [d for d in own if d in owner]
                 if comm.allreduce(len(clash), op=MPI.SUM):       # MPI collective
+                    K_full.destroy()                               # the error path owns nothing
                     raise BodyError(f"system.prescribed: the curves '{name}' and '{owner.get(clash[0], '?') if clash else '?'}' "
                                     "share nodes: prescribe one motion per node (merge them into one physical curve)")
                 owner.update({int(d): name for d in own})
@@ -249,6 +250,8 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     dx_ = np.concatenate([g[1] for g in gathered])
     dy_ = np.concatenate([g[2] for g in gathered])
     if len(dx_) == 0:
+        for obj in (K, kept):                                      # the error path owns nothing
+            obj.destroy()
         raise BodyError(f"system.contact = '{cfg.contact}': no free node on it (all its nodes are prescribed)")
     s = (xy - np.array(cfg.obstacle.point)) @ tvec
     order = np.lexsort((xy[:, 1], xy[:, 0], s))

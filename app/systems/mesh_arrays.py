@@ -1,4 +1,4 @@
-"""A DOLFINx mesh from the arrays of a gmsh model, without gmsh (issue 14: start-up).
+"""A DOLFINx mesh from the arrays of a gmsh model, without gmsh (start-up).
 
 DOLFINx 0.5.2's :mod:`dolfinx.io.gmshio` imports gmsh at module level and its
 :func:`~dolfinx.io.gmshio.model_to_mesh` needs a live gmsh model. It does two things: it

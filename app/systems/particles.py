@@ -1,5 +1,5 @@
 """``system.type: two_particles``: the two-particle system of the paper, section 5 and Fig. 1
-(DESIGN.md section 4), and its single equilibrium state."""
+(the paper's Fig. 1 and Table 1; docs/method.md section 4), and its single equilibrium state."""
 from __future__ import annotations
 
 import math

@@ -16,7 +16,7 @@ from app.validation import PathError, Strict
 
 
 class TwoParticles(Strict):
-    """The two-particle system of the paper, section 5, Fig. 1 (DESIGN.md section 4)."""
+    """The two-particle system of the paper, section 5, Fig. 1 (docs/method.md section 4)."""
     has_fields: ClassVar[bool] = False      # no mesh: no ParaView files, no screenshots
     refinable: ClassVar[bool] = False       # no mesh to refine
     type: Literal["two_particles"]

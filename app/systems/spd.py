@@ -35,12 +35,13 @@ def _scaled(A):
 def _inertia_mumps(S) -> tuple[int, int]:
     """(negative pivots, null pivots) of the sparse symmetric S by MUMPS (serial)."""
     from petsc4py import PETSc
+
+    from app.linalg import from_options, with_prefix
     n = S.shape[0]
     mat = PETSc.Mat().createAIJ((n, n), csr=(S.indptr.astype(PETSc.IntType), S.indices.astype(PETSc.IntType),
                                              S.data), comm=PETSc.COMM_SELF)
-    ksp = PETSc.KSP().create(comm=PETSc.COMM_SELF)
+    ksp = with_prefix(PETSc.KSP().create(comm=PETSc.COMM_SELF), "cd_spd_check_")
     try:
-        ksp.setOptionsPrefix("app_spd_check_")
         ksp.setOperators(mat)
         ksp.setType("preonly")
         pc = ksp.getPC()
@@ -52,6 +53,7 @@ def _inertia_mumps(S) -> tuple[int, int]:
         F.setMumpsIcntl(24, 1)          # null pivot detection
         F.setMumpsCntl(3, NULL_PIVOT)   # relative to max |S| (1: S has a unit diagonal)
         F.setMumpsIcntl(4, 0)           # quiet
+        from_options(ksp)
         try:
             ksp.setUp()
         except PETSc.Error:
