@@ -265,6 +265,7 @@ def test_lp_fast_path_agrees_with_linprog():
     """The prover's LP (app/analyses/mceip_mu/lp.py, SciPy's HiGHS wrapper called directly)
     gives linprog's optimum on random Farkas LPs, feasible and infeasible ones alike."""
     import scipy.optimize
+
     from app.analyses.mceip_mu import lp
     rng = np.random.default_rng(5)
     for k in range(30):
