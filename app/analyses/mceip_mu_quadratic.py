@@ -12,7 +12,9 @@ linearisation
     [[0, I], [-A0_JJ, -A1_JJ]] z = mu [[I, 0], [0, A2_JJ]] z,    z = (x_J, mu x_J),
 
 (QZ, scipy.linalg.eig: a singular ``A2`` gives infinite eigenvalues, which are dropped), and
-each real ``mu >= 0`` with a null vector ``x_J > 0`` and ``y = A(mu)[J^c, J] x_J >= 0`` is a
+(batched: with ``A0_JJ`` invertible, the eigenvalues ``1/mu`` of the reversed companion matrix
+``[[0, I], [-A0_JJ^-1 A2_JJ, -A0_JJ^-1 A1_JJ]]`` through LAPACK on the whole stack of supports of
+one size), and each real ``mu >= 0`` with a null vector ``x_J > 0`` and ``y = A(mu)[J^c, J] x_J >= 0`` is a
 solution (the sign checks (26)). With ``A2 = 0`` this is the flat enumeration (24)-(26).
 
 What this proves: nothing, in the sense of :mod:`app.analyses.mceip_mu`. The enumeration is
@@ -23,17 +25,25 @@ above ``max_slip`` slip nodes (``settings.enumerate_max_slip``).
 """
 from __future__ import annotations
 
-import itertools
 import time
 
 import numpy as np
 import scipy.linalg
 
-from app.analyses.enumerate import RESIDUAL_TOL, RESOLVE_TOL, TooManySlipNodes, pencil_scale
+from app.analyses.enumerate import (
+    BATCH_ELEMENTS,
+    RESIDUAL_TOL,
+    RESOLVE_TOL,
+    TooManySlipNodes,
+    pencil_scale,
+    supports_of_size,
+)
+from app.linalg import one_blas_thread
 
 
 def quadratic_eigenvalues(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray) -> np.ndarray:
-    """Finite eigenvalues of ``(a0 + mu a1 + mu^2 a2) x = 0`` (complex array)."""
+    """Finite eigenvalues of ``(a0 + mu a1 + mu^2 a2) x = 0`` (complex array), by QZ on the
+    first companion linearisation."""
     k = a0.shape[0]
     Z, I = np.zeros((k, k)), np.eye(k)
     L = np.block([[Z, I], [-a0, -a1]])
@@ -42,9 +52,43 @@ def quadratic_eigenvalues(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray) -> np.
     return w[np.isfinite(w)]
 
 
+def _batch_eigenvalues(B0: np.ndarray, B1: np.ndarray, B2: np.ndarray) -> np.ndarray:
+    """Eigenvalues mu of the stacked quadratic pencils (shape (m, 2k), complex; inf where infinite).
+
+    With ``B0`` invertible, ``nu = 1/mu`` are the eigenvalues of the companion matrix of the
+    reversed polynomial ``nu^2 B0 + nu B1 + B2``, ``[[0, I], [-B0^-1 B2, -B0^-1 B1]]`` (batched
+    LAPACK); a numerically singular ``B0`` goes to QZ (:func:`quadratic_eigenvalues`)."""
+    m, k, _ = B0.shape
+    out = np.full((m, 2 * k), np.inf, dtype=complex)
+    try:
+        C1 = np.linalg.solve(B0, B1)
+        C2 = np.linalg.solve(B0, B2)
+        n0 = np.linalg.norm(B0, 1, axis=(1, 2))
+        ok = np.all(np.isfinite(C1), axis=(1, 2)) & np.all(np.isfinite(C2), axis=(1, 2))
+        ok &= (np.linalg.norm(C1, 1, axis=(1, 2)) < 1e12 * np.maximum(np.linalg.norm(B1, 1, axis=(1, 2)), 1e-300) / np.maximum(n0, 1e-300))
+        ok &= (np.linalg.norm(C2, 1, axis=(1, 2)) < 1e12 * np.maximum(np.linalg.norm(B2, 1, axis=(1, 2)), 1e-300) / np.maximum(n0, 1e-300))
+    except np.linalg.LinAlgError:
+        ok = np.zeros(m, dtype=bool)
+    if ok.any():
+        j = np.flatnonzero(ok)
+        L = np.zeros((len(j), 2 * k, 2 * k))
+        L[:, :k, k:] = np.eye(k)
+        L[:, k:, :k] = -C2[j]
+        L[:, k:, k:] = -C1[j]
+        nu = np.linalg.eigvals(L)
+        zero = np.abs(nu) <= 1e-12 * np.maximum(np.linalg.norm(L, 1, axis=(1, 2)), 1e-300)[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[j] = np.where(zero, np.inf, 1.0 / np.where(zero, 1.0, nu))
+    for j in np.flatnonzero(~ok):
+        w = quadratic_eigenvalues(B0[j], B1[j], B2[j])
+        out[j, :len(w)] = w
+    return out
+
+
 def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip: int,
                         mu_max: float = np.inf) -> list[dict]:
-    """Every solution of the quadratic MCEIP-mu with ``0 <= mu <= mu_max``, by supports.
+    """Every solution of the quadratic MCEIP-mu with ``0 <= mu <= mu_max``, by supports (batched
+    over the supports of one size, as app/analyses/enumerate.py does for the linear pencil).
 
     Returns dicts with ``value``, ``x_Ts`` (sum 1), ``pattern``, ``residual`` (smallest singular
     value of ``A(mu)[J, J]`` relative to ``||a0|| + mu ||a1|| + mu^2 ||a2||``), ``complementarity``,
@@ -57,47 +101,52 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
     sc = pencil_scale(A0)
     a0, a1, a2 = A0 / sc, A1 / sc, A2 / sc
     out: list[dict] = []
-    for k in range(1, s + 1):
-        for J in itertools.combinations(range(s), k):
-            J = np.array(J)
-            b0, b1, b2 = a0[np.ix_(J, J)], a1[np.ix_(J, J)], a2[np.ix_(J, J)]
-            n0, n1, n2 = (np.linalg.norm(b, 2) for b in (b0, b1, b2))
-            for w in quadratic_eigenvalues(b0, b1, b2):
-                mu = float(w.real)
-                if abs(w.imag) > 1e-6 * max(1.0, abs(mu)) or mu < -1e-12 or mu > mu_max * (1 + 1e-12):
+    seen: list[tuple[float, tuple]] = []
+    with one_blas_thread():
+        for k in range(1, s + 1):
+            P = supports_of_size(s, k)
+            step = max(1, BATCH_ELEMENTS // (4 * k * k))
+            for lo in range(0, len(P), step):
+                Pb = P[lo:lo + step]
+                B0 = a0[Pb[:, :, None], Pb[:, None, :]]
+                B1 = a1[Pb[:, :, None], Pb[:, None, :]]
+                B2 = a2[Pb[:, :, None], Pb[:, None, :]]
+                W = _batch_eigenvalues(B0, B1, B2)
+                real = np.isfinite(W) & (np.abs(W.imag) <= 1e-6 * np.maximum(1.0, np.abs(W.real)))
+                wr = np.where(real, W.real, np.nan)
+                cand = real & (wr >= -1e-12) & (wr <= (mu_max * (1 + 1e-12) if np.isfinite(mu_max) else np.inf))
+                ii, jj = np.nonzero(cand)
+                if not len(ii):
                     continue
-                mu = max(mu, 0.0)
-                B = b0 + mu * b1 + mu * mu * b2
-                _, sv, Vh = np.linalg.svd(B)
-                if sv[-1] > RESIDUAL_TOL * max(n0 + mu * n1 + mu * mu * n2, 1e-300):
-                    continue
-                v = Vh[-1]
-                if v.sum() < 0:
-                    v = -v
-                mx = float(np.min(v) / max(np.max(np.abs(v)), 1e-300))
-                if mx <= 0:
-                    continue
-                x = np.zeros(s)
-                x[J] = v / v.sum()
-                y = (a0 + mu * a1 + mu * mu * a2) @ x
-                sup = np.zeros(s, dtype=bool)
-                sup[J] = True
-                stick = y[~sup]
-                my = float(np.min(stick)) if len(stick) else np.inf
-                if my < -RESOLVE_TOL:
-                    continue
-                if any(abs(d["value"] - mu) <= 1e-10 * max(1.0, mu) and d["_support"] == tuple(J) for d in out):
-                    continue        # a double eigenvalue: one solution
-                out.append({"value": mu, "x_Ts": [float(t) for t in x],
-                            "pattern": ["slip" if b else "stick" for b in sup],
-                            "residual": float(sv[-1] / max(n0 + mu * n1 + mu * mu * n2, 1e-300)),
-                            "complementarity": float(np.max(np.abs(x * y))),
-                            "min_x_Ts": mx, "min_y_Ts": float(np.min(y)),
-                            "margin_y_stick": my if np.isfinite(my) else None,
-                            "ill_conditioned": bool(mx < RESOLVE_TOL or my < RESOLVE_TOL),
-                            "_support": tuple(J)})
-    for d in out:
-        del d["_support"]
+                mu = np.maximum(wr[ii, jj], 0.0)
+                At = B0[ii] + mu[:, None, None] * B1[ii] + (mu * mu)[:, None, None] * B2[ii]
+                _, sv, Vh = np.linalg.svd(At)
+                norms = (np.linalg.norm(B0[ii], 2, axis=(1, 2)) + mu * np.linalg.norm(B1[ii], 2, axis=(1, 2))
+                         + mu * mu * np.linalg.norm(B2[ii], 2, axis=(1, 2)))
+                res = sv[:, -1] / np.maximum(norms, 1e-300)
+                v = Vh[:, -1, :]
+                v = v * np.where(v.sum(axis=1) < 0, -1.0, 1.0)[:, None]
+                mx = np.min(v, axis=1) / np.maximum(np.max(np.abs(v), axis=1), 1e-300)
+                for c in np.flatnonzero((mx > 0) & (res <= RESIDUAL_TOL)):
+                    J, m_c = Pb[ii[c]], float(mu[c])
+                    if any(abs(val - m_c) <= 1e-10 * max(1.0, m_c) and sup == tuple(J) for val, sup in seen):
+                        continue        # a double eigenvalue: one solution
+                    x = np.zeros(s)
+                    x[J] = v[c] / v[c].sum()
+                    y = (a0 + m_c * a1 + m_c * m_c * a2) @ x
+                    sup = np.zeros(s, dtype=bool)
+                    sup[J] = True
+                    stick = y[~sup]
+                    my = float(np.min(stick)) if len(stick) else np.inf
+                    if my < -RESOLVE_TOL:
+                        continue
+                    seen.append((m_c, tuple(J)))
+                    out.append({"value": m_c, "x_Ts": [float(t) for t in x],
+                                "pattern": ["slip" if b else "stick" for b in sup],
+                                "residual": float(res[c]), "complementarity": float(np.max(np.abs(x * y))),
+                                "min_x_Ts": float(mx[c]), "min_y_Ts": float(np.min(y)),
+                                "margin_y_stick": my if np.isfinite(my) else None,
+                                "ill_conditioned": bool(mx[c] < RESOLVE_TOL or my < RESOLVE_TOL)})
     return sorted(out, key=lambda d: (d["value"], d["pattern"]))
 
 

@@ -225,7 +225,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     edges = _contact_edges(mesh, facets(cfg.contact), comm)                       # MPI collective
     # the whole body must start on its side of the obstacle line (not only the contact curve)
     tvec, nvec = cfg.obstacle.frame()
-    clear = (np.array(cfg.obstacle.point) - dof_x) @ nvec
+    clear = cfg.obstacle.clearance(dof_x) if len(dof_x) else np.zeros(0)
     i = int(np.argmin(clear)) if len(clear) else 0
     mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
     deepest = min(comm.allgather(mine), key=lambda c: c[0])                     # MPI collective
@@ -250,7 +250,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     dy_ = np.concatenate([g[2] for g in gathered])
     if len(dx_) == 0:
         raise BodyError(f"system.contact = '{cfg.contact}': no free node on it (all its nodes are prescribed)")
-    s = (xy - np.array(cfg.obstacle.point)) @ tvec
+    s = cfg.obstacle.coordinate(xy)
     order = np.lexsort((xy[:, 1], xy[:, 0], s))
     xy, dx_, dy_ = xy[order], dx_[order], dy_[order]
 

@@ -1,0 +1,89 @@
+"""The quadratic MCEIP-mu enumeration (app/analyses/mceip_mu_quadratic.py) against independent
+computations: the flat enumeration (24)-(26) when A2 = 0, and a per-support QZ reference written
+here (scipy.linalg.eig on the first companion linearisation, numpy sign checks)."""
+import itertools
+import time
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from app.analyses.enumerate import enumerate_mceip
+from app.analyses.mceip_mu_quadratic import enumerate_quadratic, quadratic_mu_result
+
+
+def random_pencil(s, seed, curvature):
+    rng = np.random.default_rng(seed)
+    B = rng.normal(size=(s, s))
+    A0 = B @ B.T + s * np.eye(s)                      # S Ŝ_TT S: SPD
+    A1 = rng.normal(size=(s, s)) * 1.5
+    G = np.diag(curvature * rng.uniform(0.2, 1.0, size=s))
+    return A0 + G, A1, G
+
+
+def reference(A0, A1, A2):
+    """Per support J: every finite real mu >= 0 of the QZ of [[0, I], [-A0, -A1]] - mu [[I, 0], [0, A2]],
+    its null vector by SVD, x_J > 0 and y on the rest >= 0 (relative 1e-9)."""
+    s = A0.shape[0]
+    sc = np.max(np.abs(np.diag(A0)))
+    out = []
+    for k in range(1, s + 1):
+        for J in itertools.combinations(range(s), k):
+            J = list(J)
+            a0, a1, a2 = (A[np.ix_(J, J)] for A in (A0, A1, A2))
+            Z, I = np.zeros((k, k)), np.eye(k)
+            w = scipy.linalg.eig(np.block([[Z, I], [-a0, -a1]]), np.block([[I, Z], [Z, a2]]), right=False)
+            for mu in w[np.isfinite(w)]:
+                if abs(mu.imag) > 1e-6 * max(1, abs(mu.real)) or mu.real < 0:
+                    continue
+                mu = mu.real
+                _, sv, Vh = np.linalg.svd(a0 + mu * a1 + mu * mu * a2)
+                v = Vh[-1] * np.sign(Vh[-1].sum())
+                if np.min(v) <= 0:
+                    continue
+                x = np.zeros(s)
+                x[J] = v / v.sum()
+                y = (A0 + mu * A1 + mu * mu * A2) @ x / sc
+                if np.delete(y, J).size and np.min(np.delete(y, J)) < -1e-9:
+                    continue
+                if not any(abs(m - mu) < 1e-9 * max(1, mu) and p == tuple(J) for m, p in out):
+                    out.append((mu, tuple(J)))
+    return sorted(out)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_flat_pencil_equals_the_linear_enumeration(seed):
+    A0, A1, _ = random_pencil(6, seed, 0.0)
+    lin = enumerate_mceip(A0, A1, np.arange(6), 14)
+    quad = enumerate_quadratic(A0, A1, np.zeros((6, 6)), 14)
+    assert [d["pattern"] for d in quad] == [d["pattern"] for d in lin]
+    assert [d["value"] for d in quad] == pytest.approx([d["value"] for d in lin], rel=1e-10)
+    for q, l in zip(quad, lin):
+        assert q["x_Ts"] == pytest.approx(l["x_Ts"], abs=1e-9)
+
+
+@pytest.mark.parametrize("curvature", [-1.5, -0.3, 0.4, 2.0])
+@pytest.mark.parametrize("seed", range(4))
+def test_quadratic_pencil_equals_the_qz_reference(seed, curvature):
+    A0, A1, A2 = random_pencil(6, 100 + seed, curvature)
+    got = enumerate_quadratic(A0, A1, A2, 14)
+    ref = reference(A0, A1, A2)
+    assert [tuple(np.flatnonzero([p == "slip" for p in d["pattern"]])) for d in got] == [j for _, j in ref]
+    assert [d["value"] for d in got] == pytest.approx([m for m, _ in ref], rel=1e-9)
+    for d in got:                                      # each one solves the quadratic MCEIP
+        x, mu = np.array(d["x_Ts"]), d["value"]
+        y = (A0 + mu * A1 + mu * mu * A2) @ x
+        sup = x > 0
+        assert np.abs(y[sup]).max() < 1e-9 * np.abs(A0).max() and (y[~sup] >= -1e-9 * np.abs(A0).max()).all()
+
+
+def test_refused_above_max_slip_and_fast_at_14():
+    A0, A1, A2 = random_pencil(15, 7, -0.5)
+    d = quadratic_mu_result(A0, A1, A2, 10.0, 14)
+    assert d["solutions"] == [] and d["result"].startswith("not searched") and d["certified"] is False
+    A0, A1, A2 = random_pencil(14, 8, -0.5)
+    t = time.perf_counter()
+    d = quadratic_mu_result(A0, A1, A2, 10.0, 14)
+    print(f"s = 14: {time.perf_counter() - t:.2f} s, {len(d['solutions'])} solution(s)")
+    assert time.perf_counter() - t < 20
+    assert "not proven" in d["result"]
