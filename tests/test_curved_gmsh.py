@@ -140,3 +140,29 @@ def _same(a_res, b_res, rel):
         assert b["analyses"]["necessary"]["satisfied"] == a["analyses"]["necessary"]["satisfied"]
         assert b["analyses"]["sufficient"]["satisfied"] == a["analyses"]["sufficient"]["satisfied"]
     assert n > 0
+
+
+def test_fields_on_a_circle_are_the_rotated_fields(tmp_path):
+    """With the fields stage: the displacement fields reproduce the states' contact displacements
+    (reactions rotated from the contact frames), and the scene rotated about the centre writes the
+    rotated displacement, reaction and mode fields (the frame rotations of fields.py)."""
+    from scipy.spatial import cKDTree
+    from test_fields_any_geometry import _run
+    outputs = {"paraview": True, "states": ["final", "first_mceip_mu"], "screenshots": {"resolution": [320, 200]}}
+    a = scene(write_geo(tmp_path / "a.geo"), circle(400.0), press=0.6)
+    b = scene(write_geo(tmp_path / "b.geo", angle_deg=30.0, about=(40.0, -400.0)), circle(400.0), angle_deg=30.0, press=0.6)
+    for d in (a, b):
+        d["outputs"] = outputs
+        d["system"]["program"][1]["steps"] = 20         # to the first slip, before gross sliding
+    ra, fa = _run(a, tmp_path / "oa")
+    rb, fb = _run(b, tmp_path / "ob")
+    assert ra["outputs"]["contact_displacement_check"] < 1e-10 and rb["outputs"]["contact_displacement_check"] < 1e-10
+    c, s = math.cos(math.radians(30.0)), math.sin(math.radians(30.0))
+    Q = np.array([[c, -s], [s, c]])
+    centre = np.array([40.0, -400.0])
+    dist, perm = cKDTree((fa["points"] - centre) @ Q.T + centre).query(fb["points"])
+    assert dist.max() < 1e-9 * 80
+    for key in ("state_u", "mode_v"):
+        assert fa[key].shape == fb[key].shape and fa[key].size
+        ref = fa[key][:, perm] @ Q.T
+        assert np.abs(fb[key] - ref).max() <= 1e-8 * np.abs(ref).max(), key

@@ -22,7 +22,8 @@ frames of the final contact points. The largest violation is reported per increm
 A state's ``u_N`` is then ``-g`` (the exact gap), ``u_T = t . (t0 u_T + n0 u_N)`` the tangential
 displacement in its contact frame, and ``r_T``, ``r_N`` the components in that frame;
 ``curved_contact`` records the frames (``(a, b, c, d)``: ``t = a t0 + b n0``, ``n = c t0 + d n0``),
-the exact gaps, the arc coordinates and the number of linearisations.
+the exact gaps, the displacements in the system frames (``u_system``, interleaved T, N), the arc
+coordinates and the number of linearisations.
 """
 from __future__ import annotations
 
@@ -212,7 +213,7 @@ class CurvedContact:
         return IncrementResult(u_T=uT, u_N=-g, r_T=rT.copy(), r_N=rN.copy(), slip_increment=d,
                                iterations=its, method=f"{method}, {lin} exact-gap linearisation(s)", violation=viol,
                                extra={"u_system": u.copy(),
-                                      "curved_contact": {"frame": abcd.tolist(), "gap": g.tolist(),
+                                      "curved_contact": {"frame": abcd.tolist(), "gap": g.tolist(), "u_system": u.tolist(),
                                                          "arc": arc.tolist(), "linearisations": lin}})
 
     def destroy(self) -> None:
