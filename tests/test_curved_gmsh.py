@@ -189,3 +189,36 @@ def test_same_numbers_on_two_ranks(tmp_path):
     for x, y in zip(out[1]["states"], out[2]["states"]):
         assert y["analyses"]["necessary"]["min_eig_K_sym"] == pytest.approx(x["analyses"]["necessary"]["min_eig_K_sym"],
                                                                              rel=1e-10)
+
+
+@pytest.mark.parametrize("side", ["outside", "inside"])
+def test_half_disk_on_a_circle_against_hertz(tmp_path, side):
+    """The frictionless half-disk of app/scenes/gmsh/half_disk.yaml (R1 = 20 mm, h = 0.04 mm at the
+    contact) pressed with 10 N/mm on a rigid circle of radius R2 = 60 mm: Hertz's line contact with
+    1/Re = 1/R1 + 1/R2 on the convex cylinder, 1/R1 - 1/R2 in the concave seat."""
+    import json
+    import re
+
+    from conftest import run_cli
+    from test_gmsh_examples import EX, E, F, NU, _measure
+    R1, R2 = 20.0, 60.0
+    Re = 1.0 / (1.0 / R1 + (1.0 if side == "outside" else -1.0) / R2)
+    Es = E / (1 - NU ** 2)
+    a_ex = math.sqrt(4 * F * Re / (math.pi * Es))
+    p_ex = 2 * F / (math.pi * a_ex)
+    (tmp_path / "half_disk.geo").write_text((EX / "half_disk.geo").read_text())
+    centre = [0.0, -R2] if side == "outside" else [0.0, R2]
+    text = re.sub(r"^outputs:.*$", "", (EX / "half_disk.yaml").read_text(), flags=re.M)
+    text = text.replace("obstacle: {point: [0, 0], normal: [0, -1]}",
+                        f"obstacle: {{type: circle, centre: {centre}, radius: {R2}, side: {side}}}")
+    assert "type: circle" in text
+    (tmp_path / "s.yaml").write_text(text)
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert res["states"][-1]["load"]["normal_resultant"] == pytest.approx(F, rel=1e-10)
+    assert all(st["contact_solve"]["violation"] <= 1e-9 for st in res["states"])
+    a, p0, x, _ = _measure(res)
+    print(f"{side}: Re = {Re:.4g} mm, a = {a:.4f} (Hertz {a_ex:.4f}), p0 = {p0:.4f} (Hertz {p_ex:.4f})")
+    assert abs(a / a_ex - 1) <= 0.75 * 0.04 / a_ex + 0.005          # edge resolution: half a cell
+    assert abs(p0 / p_ex - 1) <= 0.02
