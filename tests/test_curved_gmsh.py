@@ -169,6 +169,7 @@ def test_fields_on_a_circle_are_the_rotated_fields(tmp_path):
         assert np.abs(fb[key] - ref).max() <= 1e-8 * np.abs(ref).max(), key
 
 
+@pytest.mark.mpi
 def test_same_numbers_on_two_ranks(tmp_path):
     """The exact-gap path and the curved pencils (rotated K, geometric terms, quadratic MCEIP-mu)
     give the same numbers on 1 and 2 MPI ranks."""
@@ -200,7 +201,7 @@ def test_half_disk_on_a_circle_against_hertz(tmp_path, side):
     import re
 
     from conftest import run_cli
-    from test_gmsh_examples import EX, E, F, NU, _measure
+    from test_gmsh_examples import EX, NU, E, F, _measure
     R1, R2 = 20.0, 60.0
     Re = 1.0 / (1.0 / R1 + (1.0 if side == "outside" else -1.0) / R2)
     Es = E / (1 - NU ** 2)
@@ -222,3 +223,35 @@ def test_half_disk_on_a_circle_against_hertz(tmp_path, side):
     print(f"{side}: Re = {Re:.4g} mm, a = {a:.4f} (Hertz {a_ex:.4f}), p0 = {p0:.4f} (Hertz {p_ex:.4f})")
     assert abs(a / a_ex - 1) <= 0.75 * 0.04 / a_ex + 0.005          # edge resolution: half a cell
     assert abs(p0 / p_ex - 1) <= 0.02
+
+
+def test_convex_and_concave_examples(tmp_path):
+    """The shipped half-disk examples (README "Curved obstacles"): gross sliding where the
+    tangential resultant is mu times the normal one; on the convex cylinder critical friction
+    coefficients at every state once a node slips in the shear, in the concave seat none from
+    state 10 on (every support enumerated)."""
+    import json
+    import re
+
+    from conftest import run_cli
+    from test_gmsh_examples import EX
+    out = {}
+    for name in ("half_disk_cylinder", "half_disk_seat"):
+        text = re.sub(r"^outputs:.*$", "", (EX / f"{name}.yaml").read_text(), flags=re.M)
+        text = re.sub(r"^analyses:.*$", "analyses: [mceip_mu]", text, flags=re.M)
+        (tmp_path / f"{name}.yaml").write_text(text)
+        (tmp_path / "half_disk_curved.geo").write_text((EX / "half_disk_curved.geo").read_text())
+        p = run_cli("run", str(tmp_path / f"{name}.yaml"), "-o", str(tmp_path / name), "-q")
+        assert p.returncode == 0, p.stderr
+        out[name] = json.loads((tmp_path / name / "results.json").read_text())
+    for res in out.values():
+        assert "gross sliding" in res["path"]["end"] and res["failures"] == []
+        last = res["states"][-1]["load"]
+        assert last["tangential_resultant"] == pytest.approx(1.1 * last["normal_resultant"], rel=1e-8)
+    cyl, seat = out["half_disk_cylinder"]["states"], out["half_disk_seat"]["states"]
+    assert all(mu_values(s) for s in cyl if s["load"]["name"] == "shear" and s["classification"]["slip"] > 0)
+    assert not any(mu_values(s) for s in seat[10:])
+    assert all(s["analyses"]["mceip_mu"]["result"].startswith("not searched") for s in seat[10:]
+               if s["classification"]["slip"] > 14)
+    print("smallest critical mu: cylinder", min(min(mu_values(s)) for s in cyl if mu_values(s)),
+          "seat", min(min(mu_values(s)) for s in seat if mu_values(s)))

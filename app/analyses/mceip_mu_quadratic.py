@@ -153,7 +153,7 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
 def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_slip: int) -> dict:
     """The ``mceip_mu`` entry of results.json for a curved obstacle: the solutions found by the
     exhaustive floating-point enumeration, ``certified: false`` (found, not proven)."""
-    from app.analyses.certify import certificate       # the certificate record's format only
+    from app.analyses.certify import certificate  # the certificate record's format only
     t0 = time.perf_counter()
     s = A0.shape[0]
     how = "quadratic MCEIP-mu: every support enumerated, companion linearisation + QZ, sign checks (26) in floating point"

@@ -127,7 +127,7 @@ class CurvedContact:
 
     def solve(self, u0: np.ndarray, u_T_prev: np.ndarray, g_prev: np.ndarray,
               d_prev: np.ndarray | None = None) -> IncrementResult:
-        n, mu = self.n, self.mu
+        n = self.n
         u_prev = np.ravel(np.column_stack([u_T_prev, -np.asarray(g_prev)]))
         x_prev = self.positions(u_prev)
         uk = u_prev.copy()
