@@ -95,8 +95,19 @@ def test_two_particles_mu_on_a_circle(signs, R, side):
     a = run_scene(scene(signs, 1.0, R, side, ["mceip_mu", "enumerate"]))["states"][0]["analyses"]
     assert_same_set(a["mceip_mu"]["solutions"], expected)
     assert_same_set(a["enumerate"]["problems"]["mu"]["solutions"], expected)
-    assert a["mceip_mu"]["certified"] is False          # found by enumeration, not proven
-    assert all(not s["certified"] for s in a["mceip_mu"]["solutions"])
+    # the exact proof (app/analyses/mceip_mu_quadratic_proof.py): complete on [0, cap], every
+    # closed-form value inside its rigorous enclosure (widened by the closed form's own rounding)
+    d = a["mceip_mu"]
+    assert d["certified"] is True and d["complete"]["proven"]
+    cap = d["certificate"]["cap"]
+    assert d["complete"]["count"] == sum(1 for v, _, _ in expected if v <= cap)
+    for sol, (v, _, _) in zip(sorted(d["solutions"], key=lambda x: (x["value"], x["pattern"])), expected):
+        if v <= cap:
+            lo, hi = sol["enclosure"]
+            assert sol["certified"] and lo - 1e-13 * v <= v <= hi + 1e-13 * v and hi - lo <= 1e-12 * v
+    if expected and expected[0][0] <= cap:
+        lo, hi = d["onset"]["enclosure"]
+        assert lo - 1e-13 * expected[0][0] <= expected[0][0] <= hi + 1e-13 * expected[0][0]
 
 
 def test_closed_form_same_signs():

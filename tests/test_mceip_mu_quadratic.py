@@ -10,6 +10,7 @@ import scipy.linalg
 
 from app.analyses.enumerate import enumerate_mceip
 from app.analyses.mceip_mu_quadratic import enumerate_quadratic, quadratic_mu_result
+from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
 
 
 def random_pencil(s, seed, curvature):
@@ -77,6 +78,33 @@ def test_quadratic_pencil_equals_the_qz_reference(seed, curvature):
         assert np.abs(y[sup]).max() < 1e-9 * np.abs(A0).max() and (y[~sup] >= -1e-9 * np.abs(A0).max()).all()
 
 
+@pytest.mark.parametrize("curvature", [-1.0, 0.5])
+@pytest.mark.parametrize("seed", range(3))
+def test_exact_proof_against_the_qz_reference(seed, curvature):
+    """The exact proof's list on [0, 50] is the reference's (each value inside its enclosure)."""
+    A0, A1, A2 = random_pencil(6, 200 + seed, curvature)
+    proof = prove_quadratic(A0, A1, A2, 50.0)
+    ref = [(m, j) for m, j in reference(A0, A1, A2) if m <= 50.0]
+    assert proof.proven and not proof.undecided
+    assert [p.support for p in proof.solutions] == [j for _, j in ref]
+    for p, (m, _) in zip(proof.solutions, ref):
+        lo, hi = p.enclosure
+        assert lo - 1e-12 * m <= m <= hi + 1e-12 * m
+
+
+def test_exact_proof_refuses_what_it_cannot_decide():
+    """A support whose determinant vanishes identically (two equal rows and columns) cannot be
+    decided: the result is found, not proven."""
+    A0, A1, A2 = random_pencil(3, 9, -0.5)
+    for A in (A0, A1, A2):
+        A[2, :] = A[1, :]
+        A[:, 2] = A[:, 1]
+    proof = prove_quadratic(A0, A1, A2, 50.0)
+    assert not proof.proven and any("vanishes identically" in why for _, why in proof.undecided)
+    d = quadratic_mu_result(A0, A1, A2, 50.0, 14)
+    assert d["certified"] is False and "not proven" in d["result"]
+
+
 def test_refused_above_max_slip_and_fast_at_14():
     A0, A1, A2 = random_pencil(15, 7, -0.5)
     d = quadratic_mu_result(A0, A1, A2, 10.0, 14)
@@ -86,4 +114,4 @@ def test_refused_above_max_slip_and_fast_at_14():
     d = quadratic_mu_result(A0, A1, A2, 10.0, 14)
     print(f"s = 14: {time.perf_counter() - t:.2f} s, {len(d['solutions'])} solution(s)")
     assert time.perf_counter() - t < 20
-    assert "not proven" in d["result"]
+    assert "not proven" in d["result"] and "not attempted" in d["result"]       # s = 14 > PROOF_MAX_S

@@ -285,7 +285,9 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
         from app.analyses.mceip_mu_quadratic import quadratic_mu_result
         A0, A1, A2 = p.condensed_mu_quadratic()
         with system.stages("MCEIP-mu (21)-(23)"):
-            d = quadratic_mu_result(A0, A1, A2, mu_cap(scene.mu, scene.settings.mcp), scene.settings.enumerate_max_slip)
+            mcp = scene.settings.mcp
+            d = quadratic_mu_result(A0, A1, A2, mu_cap(scene.mu, mcp), scene.settings.enumerate_max_slip,
+                                    certify=mcp.certify, seconds=mcp.certify_seconds)
         d["method"] = "condensed (quadratic)"
         return d
     if method == "condensed":
