@@ -165,7 +165,7 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
     the exact proof of :mod:`app.analyses.mceip_mu_quadratic_proof` on ``[0, cap]``: each
     solution it proves is ``certified`` with its ``enclosure``; candidates it proves not to be
     solutions are dropped. Without the proof every solution is found, not proven."""
-    from app.analyses.certify import certificate       # the certificate record's format only
+    from app.analyses.certify import certificate  # the certificate record's format only
     t0 = time.perf_counter()
     s = A0.shape[0]
     how = "quadratic MCEIP-mu: every support enumerated, companion linearisation + QZ, sign checks (26) in floating point"
