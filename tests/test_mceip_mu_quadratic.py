@@ -115,3 +115,32 @@ def test_refused_above_max_slip_and_fast_at_14():
     print(f"s = 14: {time.perf_counter() - t:.2f} s, {len(d['solutions'])} solution(s)")
     assert time.perf_counter() - t < 20
     assert "not proven" in d["result"] and "not attempted" in d["result"]       # s = 14 > PROOF_MAX_S
+
+
+def test_exact_proof_agrees_with_the_enumeration_on_40_pencils():
+    """Soundness harness: on 40 random pencils (s = 2 .. 7, curvature of both signs) every proven
+    list on [0, 30] equals the floating-point enumeration's (supports, values in the enclosures),
+    and every proof is complete."""
+    rng = np.random.default_rng(2026)
+    n_sol = 0
+    for k in range(40):
+        s = int(rng.integers(2, 8))
+        A0, A1, A2 = random_pencil(s, 1000 + k, float(rng.choice([-1.2, -0.4, 0.3, 1.5])))
+        proof = prove_quadratic(A0, A1, A2, 30.0)
+        assert proof.proven, proof.undecided[:2]
+        found = [d for d in enumerate_quadratic(A0, A1, A2, 14) if d["value"] <= 30.0]
+        assert [tuple(np.flatnonzero([p == "slip" for p in d["pattern"]])) for d in found] == \
+            [p.support for p in proof.solutions]
+        for d, p in zip(found, proof.solutions):
+            lo, hi = p.enclosure
+            assert lo - 1e-10 * hi <= d["value"] <= hi + 1e-10 * hi
+        n_sol += len(found)
+    assert n_sol > 20                                    # the harness exercises solutions, not only absences
+
+
+def test_a_continuum_of_solutions_is_not_proven():
+    """Two identical decoupled slip nodes: at the root of a(mu) every x >= 0 on both is a solution
+    (a double root of det on the support {0, 1}): the proof leaves it undecided."""
+    A0, A1, A2 = np.diag([2.0, 2.0]), np.diag([-3.0, -3.0]), np.diag([0.5, 0.5])
+    proof = prove_quadratic(A0, A1, A2, 50.0)
+    assert not proof.proven and any("multiple root" in why for _, why in proof.undecided)

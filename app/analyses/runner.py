@@ -346,6 +346,14 @@ def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> dict:
                 problems[problem] = {"problem": problem, "solutions": sols, "complete": True,
                                      **_enumeration_certificate(sols),
                                      **({"mu": scene.lambda2_mu} if problem == "lambda2" else {})}
+                if problem == "mu" and curvature.is_curved(p.cls):
+                    # the quadratic pattern problems are decided in floating point: found, not proven
+                    # (the exact proof is mceip_mu's, app/analyses/mceip_mu_quadratic_proof.py)
+                    for x in sols:
+                        x["certified"] = False
+                    problems[problem].update(certified=False, certificate=certificate(
+                        "exhaustive floating-point enumeration of the quadratic pattern problems", (0.0, 0.0),
+                        "not proven", None, {"solutions": len(sols)}))
             except TooManySlipNodes as err:
                 problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err),
                                      "certified": False}
