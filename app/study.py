@@ -11,6 +11,7 @@ import time
 from mpi4py import MPI
 
 from app.analyses.classify import classify
+from app.analyses.curvature import attach as attach_curvature
 from app.analyses.runner import analyse_condensed_distributed, analyse_state
 from app.config import Scene
 from app.library_warnings import describe, explained, merged
@@ -62,7 +63,8 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
     bar = progress.bar(len(states), "analyses")
     for state in states:
         t_state = time.perf_counter()
-        cls = classify(state, scene.mu, scene.settings.classify_rtol)
+        # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/curvature.py)
+        cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
         entry = {"index": state.index, "load": state.load, "classification": cls.counts(),
                  "nodes": [{"id": n.id, "x": n.x, "status": st, "sign": sg,
                             "u_N": float(uN), "u_T": float(uT), "r_N": float(rN), "r_T": float(rT)}

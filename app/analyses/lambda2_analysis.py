@@ -15,6 +15,7 @@ from app.analyses import eigen
 from app.analyses import lambda2_bounds as l2b
 from app.analyses import lambda2_exact as l2x
 from app.analyses.certify import certificate
+from app.analyses.curvature import is_curved
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import diag_scale
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
@@ -75,7 +76,7 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start:
     """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
     (app/analyses/lambda2_exact.py), or None when that proof does not apply or does not succeed."""
     rayleigh = _rayleigh_bound(nec)
-    if rayleigh is None:
+    if rayleigh is None or is_curved(p.cls):      # the exact reduction has no curvature terms
         return None
     dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
     if dc is None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses import eigen
+from app.analyses import curvature, eigen
 from app.analyses.certify import certificate, condensed_mu_result, mu_cap
 from app.analyses.classify import STICK, ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
@@ -67,6 +67,10 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
     if na is not None:
         return {name: {"not_applicable": True, "reason": na} for name in ANALYSES if name in scene.analyses}
     if ZERO in cls.status:
+        if curvature.is_curved(cls):
+            why = ("UnsupportedState: zero-reaction contact nodes (the paper's set Z) on a curved obstacle: "
+                   "their rate conditions (9) in the rotating frame are not implemented")
+            return {name: {"failed": True, "reason": why} for name in ANALYSES if name in scene.analyses}
         return _analyse_with_zero_nodes(system, cls, scene)
     p = StatePencils(system, cls)
     out: dict = {}
@@ -274,6 +278,18 @@ def _mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated:
                 "complete": {"proven": True, "status": "proven: no slip node", "interval": [0.0, np.inf], "count": 0},
                 "certificate": certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), "proven", 0.0, gap=0.0)}
     method = scene.settings.mceip_mu_method
+    if curvature.is_curved(p.cls):
+        if method != "condensed":
+            raise UnsupportedState(f"settings.mceip_mu_method = {method}: on a curved obstacle MCEIP-mu is quadratic "
+                                   "in mu and only the condensed enumeration solves it (use 'condensed')")
+        from app.analyses.mceip_mu_quadratic import quadratic_mu_result
+        A0, A1, A2 = p.condensed_mu_quadratic()
+        with system.stages("MCEIP-mu (21)-(23)"):
+            mcp = scene.settings.mcp
+            d = quadratic_mu_result(A0, A1, A2, mu_cap(scene.mu, mcp), scene.settings.enumerate_max_slip,
+                                    certify=mcp.certify, seconds=mcp.certify_seconds)
+        d["method"] = "condensed (quadratic)"
+        return d
     if method == "condensed":
         # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
         A0, A1 = p.condensed_mu()
@@ -307,6 +323,9 @@ def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> dict:
             try:
                 if s == 0:
                     sols = []
+                elif problem == "mu" and curvature.is_curved(p.cls):
+                    from app.analyses.mceip_mu_quadratic import enumerate_quadratic
+                    sols = enumerate_quadratic(*p.condensed_mu_quadratic(), settings.enumerate_max_slip)
                 elif problem == "mu":
                     A0, A1 = p.condensed_mu()
                     sols = enumerate_mceip(A0, A1, np.arange(s), settings.enumerate_max_slip)
@@ -314,15 +333,27 @@ def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> dict:
                     if p.space.n > FULL_DENSE_LIMIT:
                         raise TooManySlipNodes(f"{p.space.n} DOFs: dense enumeration of MCEIP-lambda2 "
                                                f"refused above {FULL_DENSE_LIMIT}")
-                    K0, K1 = p.K()
-                    M0, M1 = p.M()
                     mu = scene.lambda2_mu
-                    Ks = dense(K0) + mu * dense(K1)
-                    Ms = dense(M0) + mu * dense(M1)
+                    if curvature.is_curved(p.cls):
+                        Kst, Mst = p.star(mu)            # with the curvature terms
+                        Ks, Ms = dense(Kst), dense(Mst)
+                    else:
+                        K0, K1 = p.K()
+                        M0, M1 = p.M()
+                        Ks = dense(K0) + mu * dense(K1)
+                        Ms = dense(M0) + mu * dense(M1)
                     sols = enumerate_mceip(Ks, Ms, p.space.comp, settings.enumerate_max_slip)
                 problems[problem] = {"problem": problem, "solutions": sols, "complete": True,
                                      **_enumeration_certificate(sols),
                                      **({"mu": scene.lambda2_mu} if problem == "lambda2" else {})}
+                if problem == "mu" and curvature.is_curved(p.cls):
+                    # the quadratic pattern problems are decided in floating point: found, not proven
+                    # (the exact proof is mceip_mu's, app/analyses/mceip_mu_quadratic_proof.py)
+                    for x in sols:
+                        x["certified"] = False
+                    problems[problem].update(certified=False, certificate=certificate(
+                        "exhaustive floating-point enumeration of the quadratic pattern problems", (0.0, 0.0),
+                        "not proven", None, {"solutions": len(sols)}))
             except TooManySlipNodes as err:
                 problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err),
                                      "certified": False}

@@ -13,6 +13,7 @@ from typing import Any, Callable
 import numpy as np
 from petsc4py import PETSc
 
+from app.analyses import curvature
 from app.analyses.classify import Classification
 from app.analyses.pencils import (
     combine,
@@ -52,33 +53,52 @@ class StatePencils:
                 self._space = reduced_space(self.system, self.cls)
         return self._space
 
+    def _reduced(self, A):
+        """``reduced_pencil`` of ``A``, on a curved obstacle in the slip nodes' contact frames."""
+        space = self.space
+        with self.system.stages("reduced pencils"):
+            rot = curvature.rotate_petsc(A, self.system, self.cls) if curvature.is_curved(self.cls) else None
+            try:
+                return reduced_pencil(A if rot is None else rot, self.system, self.cls, space)
+            finally:
+                if rot is not None:
+                    rot.destroy()
+
     def K(self):
+        """``(K0, K1)`` of (16), without the curvature terms (``star`` adds them)."""
         if self._K is None:
-            space = self.space
-            with self.system.stages("reduced pencils"):
-                self._K = reduced_pencil(self.system.K, self.system, self.cls, space)
+            self._K = self._reduced(self.system.K)
         return self._K
 
     def M(self):
         if self._M is None:
-            Mfull = self.system.mass()
-            space = self.space
-            with self.system.stages("reduced pencils"):
-                self._M = reduced_pencil(Mfull, self.system, self.cls, space)
+            self._M = self._reduced(self.system.mass())
         return self._M
 
     def star(self, mu: float) -> tuple[PETSc.Mat, PETSc.Mat]:
         """``(K*(mu), M*(mu))`` of (15), built once and shared by the necessary and sufficient
-        conditions; destroyed with the rest. Callers must not modify them."""
+        conditions; destroyed with the rest. Callers must not modify them. On a curved
+        obstacle ``K*(mu) = K0 + G + mu K1 + mu^2 G`` (docs/method.md section 8)."""
         mu = float(mu)
         if mu not in self._star:
             K0, K1 = self.K()
             M0, M1 = self.M()
             with self.system.stages("reduced pencils"):
-                self._star[mu] = (combine(K0, K1, mu), combine(M0, M1, mu))
+                Ks = combine(K0, K1, mu)
+                if curvature.is_curved(self.cls):
+                    curvature.add_geometric(Ks, self.space, self.cls, 1.0 + mu * mu)
+                self._star[mu] = (Ks, combine(M0, M1, mu))
         return self._star[mu]
 
+    def condensed_mu_quadratic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(A0, A1, A2)``: the condensed MCEIP-mu on a curved obstacle, ``A0 + mu A1 + mu^2 A2``."""
+        Sc = self.system.contact_schur()
+        with self.system.stages("condensed pencil"):
+            return curvature.condensed_quadratic(Sc, self.cls)
+
     def condensed_mu(self) -> tuple[np.ndarray, np.ndarray]:
+        if curvature.is_curved(self.cls):
+            raise RuntimeError("the condensed pencil of a curved obstacle is quadratic in mu: use condensed_mu_quadratic")
         if self._cond is None:
             Sc = self.system.contact_schur()
             with self.system.stages("condensed pencil"):

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from contextlib import ExitStack
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 from petsc4py import PETSc
@@ -36,6 +37,7 @@ class IncrementResult:
     iterations: int
     method: str
     violation: float              # largest violation of (1)-(2), relative to the reaction scale
+    extra: Optional[dict] = None  # solver-specific records (the exact-gap solver of app/loading/curved.py)
 
 
 class ContactSolveError(RuntimeError):

@@ -54,7 +54,8 @@ def _run_phase(solver: FrictionalContact, U0: np.ndarray, G: np.ndarray, a0: np.
         a = a0 + da * (k / steps)
         u0 = U0 @ a - G
         inc = solver.solve(u0, u_prev[0::2], -u_prev[1::2])
-        u_prev = np.ravel(np.column_stack([inc.u_T, inc.u_N]))
+        # a curved obstacle's solver continues from the displacements in the system frames
+        u_prev = solver.carry(inc) if hasattr(solver, "carry") else np.ravel(np.column_stack([inc.u_T, inc.u_N]))
         # Reactions at the round-off level of r = Kc (u_c - u0) are zero (e.g. before a gap closes):
         # the classification's tolerances are relative to the state's own reactions.
         noise = 1e-12 * solver.kscale * max(float(np.max(np.abs(u0))), float(np.max(np.abs(u_prev))))
@@ -120,12 +121,16 @@ def _scale_for_force(solver, U0, G, a0, ph: ProgramPhase, u_prev, homogeneous: b
 
 
 def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc: np.ndarray, mu: float,
-                classify_rtol: float, progress):
-    """Equilibrium states of the whole program; returns (states, path_info)."""
+                classify_rtol: float, progress, solver=None):
+    """Equilibrium states of the whole program; returns (states, path_info).
+
+    ``solver``: the increment solver of a curved obstacle (app/loading/curved.py: it owns the
+    gaps, so ``gaps`` are zero, and no increment is positively homogeneous); default the flat one."""
     n = U0.shape[0] // 2
     G = np.zeros(2 * n)
     G[1::2] = gaps
-    solver = FrictionalContact(Kc, mu)
+    curved = solver is not None
+    solver = FrictionalContact(Kc, mu) if solver is None else solver
     states: list[EquilibriumState] = []
     info: dict = {"phases": [], "failure": None}
     a = np.zeros(U0.shape[1])
@@ -137,7 +142,7 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
             da = ph.increment()
             rec = {"name": ph.name, "steps": ph.steps}
             if ph.normal_force is not None:
-                homogeneous = (not np.any(a) and not np.any(gaps) and not np.any(u_prev)
+                homogeneous = (not curved and not np.any(a) and not np.any(gaps) and not np.any(u_prev)
                                and (ph.fixed is None or not np.any(ph.fixed)))
                 c = _scale_for_force(solver, U0, G, a, ph, u_prev, homogeneous)
                 da = ph.increment(c)
@@ -151,7 +156,9 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
                     st = EquilibriumState(index=len(states), load=load, u_T=inc.u_T.copy(), u_N=inc.u_N.copy(),
                                           r_T=inc.r_T.copy(), r_N=inc.r_N.copy(),
                                           extra={"contact_solve": {"iterations": inc.iterations, "method": inc.method,
-                                                                   "violation": inc.violation}})
+                                                                   "violation": inc.violation},
+                                                 **({"curved_contact": inc.extra["curved_contact"]}
+                                                    if inc.extra and "curved_contact" in inc.extra else {})})
                     states.append(st)
                     bar.update(1)
                     if ph.stop_at_gross_sliding and mu > 0:     # frictionless: "slip" is every contact

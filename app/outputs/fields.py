@@ -159,6 +159,10 @@ class _FieldMaker:
         nodes = entry["nodes"]
         load = entry.get("load") or {}
         r = np.ravel([[n["r_T"], n["r_N"]] for n in nodes])
+        cc = entry.get("curved_contact")
+        if cc is not None:               # a curved obstacle: reactions in the contact frames -> node frames
+            from app.analyses.curvature import frame_matrix
+            r = frame_matrix(cc["frame"], len(nodes)) @ r
         vec = self.src.response(load, r)
         try:
             uc = self._contact_values(vec)
@@ -168,7 +172,8 @@ class _FieldMaker:
         self.u.x.array[:] = f.x.array
         self.q.interpolate(self.vm)
         # a state's u_N is the normal displacement minus the initial gap (app/loading/program.py)
-        want = np.ravel([[n["u_T"], n["u_N"] + g] for n, g in zip(nodes, self.src.gaps)])
+        want = (np.asarray(cc["u_system"], dtype=float) if cc is not None else          # app/loading/curved.py
+                np.ravel([[n["u_T"], n["u_N"] + g] for n, g in zip(nodes, self.src.gaps)]))
         big = self.comm.allreduce(float(np.max(np.abs(f.x.array), initial=0.0)), op=MPI.MAX)   # MPI collective
         mismatch = float(np.max(np.abs(uc - want), initial=0.0) / max(np.max(np.abs(want), initial=0.0), big, 1e-300))
         return self.gather.nodal(self.u.x.array), self.gather.cellwise(self.q.x.array[self.q_dofs]), mismatch
@@ -177,6 +182,19 @@ class _FieldMaker:
         """Contact displacements of a system vector in paper axes (T0, N0, T1, ...), replicated."""
         from app.loading.flexibility import contact_entries
         return contact_entries(vec, self.dofs, self.signs)                 # MPI collective
+
+    def _to_node_frames(self, arr: np.ndarray, r0: int, entry: dict, cls) -> None:
+        """On a curved obstacle the pencils' slip-node DOFs are in the contact frames
+        (app/analyses/curvature.py): rotate them back to the node frames, in place (owned DOFs)."""
+        if entry.get("curved_contact") is None:
+            return
+        for node, f in zip(self.system.nodes, _slip_frames(entry, cls)):
+            a, b, c, d = f
+            iT, iN = node.dof_T - r0, node.dof_N - r0
+            if (a, b, c, d) == (1.0, 0.0, 0.0, 1.0) or not (0 <= iT < len(arr) and 0 <= iN < len(arr)):
+                continue
+            vT, vN = arr[iT] * node.sign_T, arr[iN] * node.sign_N
+            arr[iT], arr[iN] = node.sign_T * (a * vT + c * vN), node.sign_N * (b * vT + d * vN)
 
     def mode(self, entry: dict, problem: str, sol: dict) -> tuple[np.ndarray | None, str]:
         """Mode displacement (N, 2) on rank 0, normalised to max |v| = 1, and how it was built."""
@@ -191,6 +209,7 @@ class _FieldMaker:
             r0, _ = vec.getOwnershipRange()
             arr = np.zeros(vec.getLocalSize())
             arr[kept - r0] = space.d_local * np.asarray(x)[offset:offset + len(kept)]
+            self._to_node_frames(arr, r0, entry, cls)
             vec.setArray(arr)
             space.destroy()
             how = "exact: kept-space vector mapped back (v_f = x_f, v_Ts = -S x_Ts, removed DOFs 0)"
@@ -201,6 +220,9 @@ class _FieldMaker:
             slip = cls.slip
             xts = np.asarray(sol["x_Ts"], dtype=float)
             v_c[2 * slip] = -cls.slip_signs * xts
+            if entry.get("curved_contact") is not None:     # contact frames -> node frames (slip nodes)
+                from app.analyses.curvature import frame_matrix
+                v_c = frame_matrix(_slip_frames(entry, cls), self.n) @ v_c
             con = np.asarray(con, dtype=np.int64)
             r = np.zeros(2 * self.n)
             r[con] = np.linalg.solve(self.src.W[np.ix_(con, con)], v_c[con])
@@ -352,11 +374,22 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
                     modes_json=np.array(json.dumps(meta)),
                     contact_tangent=src.tangent, contact_normal=src.normal, length_scale=np.array(maker.scale),
                     **({"obstacle_point": np.array(src.obstacle["point"], dtype=float),
-                        "obstacle_normal": np.array(src.obstacle["normal"], dtype=float)} if src.obstacle else {}))
+                        "obstacle_normal": np.array(src.obstacle["normal"], dtype=float)}
+                       if src.obstacle and "point" in src.obstacle else {}),
+                    **({"obstacle_circle": np.array([*src.obstacle["centre"], src.obstacle["radius"],
+                                                     1.0 if src.obstacle["side"] == "outside" else -1.0])}
+                       if src.obstacle and "centre" in src.obstacle else {}))
                 record["files"].append("fields/fields.npz")
             log.info("fields: %d mode(s); wrote %s", len(meta), ", ".join(record["files"]) or "nothing")
     record = comm.bcast(record, root=0)                                          # MPI collective
     return record
+
+
+def _slip_frames(entry: dict, cls) -> list:
+    """The contact frames the pencils of a curved-obstacle state use: the state's at its slip
+    nodes, the node's own elsewhere (app/analyses/curvature.py)."""
+    frames = entry["curved_contact"]["frame"]
+    return [tuple(frames[i]) if st == "slip" else (1.0, 0.0, 0.0, 1.0) for i, st in enumerate(cls.status)]
 
 
 def _contact_fields(entry: dict, u: np.ndarray, contact: np.ndarray, src) -> dict:
@@ -366,7 +399,9 @@ def _contact_fields(entry: dict, u: np.ndarray, contact: np.ndarray, src) -> dic
     status = np.full(n_pts, -1, dtype=np.int32)
     reaction = np.zeros((n_pts, 3))
     slip_dir = np.zeros((n_pts, 3))
-    for node, j, t, n in zip(entry["nodes"], contact, src.tangent, src.normal):
+    frames = (entry.get("curved_contact") or {}).get("frame") or [(1.0, 0.0, 0.0, 1.0)] * len(entry["nodes"])
+    for node, j, t0, n0, (a, b, c, d) in zip(entry["nodes"], contact, src.tangent, src.normal, frames):
+        t, n = a * t0 + b * n0, c * t0 + d * n0       # the contact frame (the node's own on a line)
         status[j] = STATUS_CODE[node["status"]]
         reaction[j, :2] = node["r_T"] * t + node["r_N"] * n
         if node["status"] == "slip":

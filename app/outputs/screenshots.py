@@ -65,6 +65,10 @@ class FieldData:
             self.modes = json.loads(str(z["modes_json"]))
             files = set(z.files)
             self.obstacle = None        # (point, outward normal of the body), None: no obstacle line
+            self.circle = None          # (centre, radius, +1 body outside / -1 inside): a circle obstacle
+            if "obstacle_circle" in files:
+                oc = z["obstacle_circle"].astype(float)
+                self.circle = (oc[:2], float(oc[2]), float(oc[3]))
             if "obstacle_point" in files:
                 self.obstacle = (z["obstacle_point"].astype(float), z["obstacle_normal"].astype(float))
             elif "length_scale" not in files:      # written before the geometry keys: the block on y = 0
@@ -131,6 +135,8 @@ def _font_size(res) -> int:
 def _obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
     """The rigid obstacle: a grey hatched strip along its line, on the side of the body's outward
     normal, as long as the body's projection on the line plus margins; returns its corners (x, y)."""
+    if fd.circle is not None:
+        return _circle_obstacle(pl, fd, pts)
     if fd.obstacle is None:
         return np.zeros((0, 2))
     pv = _pyvista()
@@ -160,6 +166,42 @@ def _obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
         pl.add_mesh(pv.PolyData(np.array(hatch), lines=lines), color="#5f5f5f", line_width=1)
     pl.add_mesh(pv.Line((*at(s0, 0.0), -0.015), (*at(s1, 0.0), -0.015)), color="#5f5f5f", line_width=1.5)
     return corners
+
+
+def _circle_obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
+    """A circle obstacle: a grey hatched band along the arc the body faces (inside the circle when
+    the body is outside it, outside in a bore), over the body's angular extent plus margins;
+    returns the band's outline points (x, y)."""
+    pv = _pyvista()
+    c, R, sign = fd.circle
+    d = np.concatenate([pts, fd.points]) - c
+    mid = np.arctan2(*np.mean(d, axis=0)[::-1])
+    th = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - mid)))
+    margin = 0.06 * fd.size / R
+    t0, t1 = float(th.min()) - margin, float(th.max()) + margin
+    depth = min(0.08 * fd.small, 0.5 * R)
+    r_in, r_out = (R - depth, R) if sign > 0 else (R, R + depth)
+    ang = mid + np.linspace(t0, t1, 97)
+    ring = lambda r: np.column_stack([c[0] + r * np.cos(ang), c[1] + r * np.sin(ang)])   # noqa: E731
+    outline = np.concatenate([ring(r_out), ring(r_in)[::-1]])
+    face = pv.PolyData(np.column_stack([outline, np.full(len(outline), -0.02)]),
+                       faces=np.concatenate([[len(outline)], np.arange(len(outline))]))
+    pl.add_mesh(face.triangulate(), color="#9a9a9a")
+    surface = ring(R)
+    k = 40
+    hatch = []
+    for j in range(0, len(ang) - 1, max(1, len(ang) // k)):
+        a = ang[min(j + 2, len(ang) - 1)]
+        p_far = c + (r_in if sign > 0 else r_out) * np.array([np.cos(ang[j]), np.sin(ang[j])])
+        p_on = c + R * np.array([np.cos(a), np.sin(a)])
+        hatch += [[*p_far, -0.01], [*p_on, -0.01]]
+    if hatch:
+        m = len(hatch) // 2
+        lines = np.column_stack([np.full(m, 2), 2 * np.arange(m), 2 * np.arange(m) + 1]).ravel()
+        pl.add_mesh(pv.PolyData(np.array(hatch), lines=lines), color="#5f5f5f", line_width=1)
+    line = pv.lines_from_points(np.column_stack([surface, np.full(len(surface), -0.015)]))
+    pl.add_mesh(line, color="#5f5f5f", line_width=1.5)
+    return outline
 
 
 def _edges(fd: FieldData, displacement: np.ndarray | None = None, boundary: bool = False):

@@ -63,7 +63,8 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
         if key in a:
             sols = a[key]["solutions"]
             vals = ", ".join(f"{s['value']:.6g} ({''.join('S' if p == 'slip' else '-' for p in s['pattern'])})"
-                             for s in sols) or "none found"
+                             for s in sols) or ("not searched" if str(a[key].get("result", "")).startswith("not searched")
+                                                else "none found")
             extra = f" at mu = {a[key]['mu']}" if key == "mceip_lambda2" else ""
             lines.append(f"    {name}{extra}: {vals} [{proof_word(a[key])}]")
     for w in results.get("warnings", []):

@@ -47,8 +47,8 @@ class FieldSource(Protocol):
     contact nodes' coordinates and their own unit tangent and outward normal in global x/y
     (``u = t u_T + n u_N`` at node i), ``gaps`` their initial gaps (a state's ``u_N`` is the
     normal displacement minus the gap), ``W`` the contact flexibility in paper axes.
-    ``obstacle`` is the rigid line (``point``, ``normal``: the body's outward normal) when there
-    is one.
+    ``obstacle`` is the rigid line (``point``, ``normal``: the body's outward normal) or circle
+    (``centre``, ``radius``, ``side``) when there is one.
     """
     V: object
     length_scale: float

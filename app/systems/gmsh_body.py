@@ -52,7 +52,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     ops = body_operators(cfg, comm, stages)
     n = len(ops.contact_dofs)
     tvec, nvec = cfg.obstacle.frame()
-    s = (ops.contact_xy - np.array(cfg.obstacle.point)) @ tvec
+    s = cfg.obstacle.coordinate(ops.contact_xy)          # along the line, or the arc coordinate on a circle
     nodes = [ContactNode(id=i, x=float(s[i]), dof_T=int(ops.contact_dofs[i, 0]), dof_N=int(ops.contact_dofs[i, 1]))
              for i in range(n)]
     dofs = ops.contact_dofs.ravel()
@@ -74,9 +74,13 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
             raise BodyError(SINGULAR)
         U0 = _contact_columns(flex, ops.loads)
     size = max(float(np.ptp(ops.contact_xy, axis=0).max()), 1e-300)
-    gaps = (np.array(cfg.obstacle.point) - ops.contact_xy) @ nvec
+    gaps = cfg.obstacle.clearance(ops.contact_xy)
     gaps[np.abs(gaps) <= 1e-10 * size] = 0.0
     depth, where, body, frac = ops.deepest
+    if depth < -1e-10 * body and frac > 0.5 and cfg.obstacle.type == "circle":
+        raise BodyError(f"system.obstacle: the body starts inside the obstacle ({100 * frac:.0f} % of its nodes, up to "
+                        f"{-depth:.3g} at {_point(where, body)}; {cfg.obstacle.describe()}): check centre, radius "
+                        "and side (outside: the body outside the circle, inside: in the bore)")
     if depth < -1e-10 * body and frac > 0.5:
         raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line ({100 * frac:.0f} % of its "
                         f"nodes, up to {-depth:.3g} beyond it at {_point(where, body)}; line through "
@@ -96,11 +100,10 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
                     build_contact_schur=lambda: flex.schur,
                     description=(f"gmsh body {pathlib.Path(cfg.file).name}, P{cfg.degree}, plane {cfg.plane}, "
-                                 f"thickness {cfg.thickness} {u['length']}, {mats}, obstacle through "
-                                 f"{tuple(cfg.obstacle.point)} with outward normal {tuple(np.round(nvec, 12))}, "
+                                 f"thickness {cfg.thickness} {u['length']}, {mats}, {cfg.obstacle.describe()}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     if len(ops.left_out):
-        gl = (np.array(cfg.obstacle.point) - ops.left_out) @ nvec
+        gl = cfg.obstacle.clearance(ops.left_out)
         i = int(np.argmin(gl))
         g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.size else 0.0
         w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
@@ -111,6 +114,9 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
                     "params": ops.params, "contact_xy": ops.contact_xy,
                     "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
+    if cfg.obstacle.type == "circle":      # the curvature terms of the pencils (app/analyses/curvature.py)
+        system.extra["curvature"] = np.full(n, cfg.obstacle.circle().curvature)
+        system.extra["circle"] = cfg.obstacle.circle(np.mean(ops.contact_xy, axis=0))
     system.fields = BodyFields(cfg, ops, flex, gaps)
     return system
 
@@ -179,8 +185,14 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     flex = system.extra["flexibility"]
     with stages("quasi-static loading"):
         try:
-            states, info = run_program(_phases(cfg, system.extra["params"]), system.extra["U0"], system.extra["gaps"],
-                                       flex.schur, scene.mu, scene.settings.classify_rtol, progress)
+            solver, gaps = None, system.extra["gaps"]
+            if cfg.obstacle.type == "circle":      # exact gaps and frames (app/loading/curved.py)
+                from app.loading.curved import CurvedContact
+                tvec, nvec = cfg.obstacle.frame()
+                solver = CurvedContact(flex.schur, scene.mu, system.extra["circle"], system.extra["contact_xy"], tvec, nvec)
+                gaps = np.zeros_like(gaps)
+            states, info = run_program(_phases(cfg, system.extra["params"]), system.extra["U0"], gaps,
+                                       flex.schur, scene.mu, scene.settings.classify_rtol, progress, solver=solver)
         except ProgramError as err:
             system.destroy()
             raise UnreachableLoad(str(err)) from None
@@ -188,7 +200,9 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     _add_tractions(cfg, system.extra["recovery"], states)
     from app.sanity import check_body_path  # small-strain validity (warnings, never an error)
     tvec, nvec = cfg.obstacle.frame()
-    for w in check_body_path(states, system.fields.ops.size, tvec, nvec, system.extra["gaps"],
+    # on a circle a state's u_N is minus its exact gap (app/loading/curved.py): no initial gap to add
+    for w in check_body_path(states, system.fields.ops.size, tvec, nvec,
+                             system.extra["gaps"] if cfg.obstacle.type == "line" else None,
                              UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)

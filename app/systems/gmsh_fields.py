@@ -50,7 +50,11 @@ class BodyFields:
         self.normal = np.tile(nvec, (n, 1))
         self.gaps = gaps
         self.W = flex.W
-        self.obstacle = {"point": [float(v) for v in cfg.obstacle.point], "normal": [float(v) for v in nvec]}
+        if cfg.obstacle.type == "circle":
+            self.obstacle = {"centre": [float(v) for v in cfg.obstacle.centre], "radius": float(cfg.obstacle.radius),
+                             "side": cfg.obstacle.side}
+        else:
+            self.obstacle = {"point": [float(v) for v in cfg.obstacle.point], "normal": [float(v) for v in nvec]}
         self._index = {parameter_name(k): j for k, j in ops.params.items()}
 
     def von_mises(self, u):

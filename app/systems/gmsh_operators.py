@@ -226,7 +226,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     edges = _contact_edges(mesh, facets(cfg.contact), comm)                       # MPI collective
     # the whole body must start on its side of the obstacle line (not only the contact curve)
     tvec, nvec = cfg.obstacle.frame()
-    clear = (np.array(cfg.obstacle.point) - dof_x) @ nvec
+    clear = cfg.obstacle.clearance(dof_x) if len(dof_x) else np.zeros(0)
     i = int(np.argmin(clear)) if len(clear) else 0
     mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
     deepest = min(comm.allgather(mine), key=lambda c: c[0])                     # MPI collective
@@ -253,7 +253,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         for obj in (K, kept):                                      # the error path owns nothing
             obj.destroy()
         raise BodyError(f"system.contact = '{cfg.contact}': no free node on it (all its nodes are prescribed)")
-    s = (xy - np.array(cfg.obstacle.point)) @ tvec
+    s = cfg.obstacle.coordinate(xy)
     order = np.lexsort((xy[:, 1], xy[:, 0], s))
     xy, dx_, dy_ = xy[order], dx_[order], dy_[order]
 

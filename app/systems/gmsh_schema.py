@@ -11,6 +11,7 @@ obstacle, and a loading program.
       plane: stress                # or strain
       thickness: 9.6
       obstacle: {point: [0, 0], normal: [0, -1]}      # a straight line; normal: the body's outward normal
+      # or: obstacle: {type: circle, centre: [40, -200], radius: 200, side: outside}
       program:                     # phases; each starts from the end of the previous one
         - {steps: 10, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 55}}
         - {steps: 310, displacement: {CD: {translation: [-6.2, 0]}}}
@@ -26,7 +27,8 @@ Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase l
 ``gravity`` adds the body force density x acceleration. ``until: {normal_force: F}`` scales the
 phase's increments so that the normal resultant on the contact curve is F at its end (exact in one
 rescaling when the phase starts from the unloaded, touching state: the incremental problems are
-then positively homogeneous; otherwise bracketing and regula falsi). Not modelled: curved obstacles, two
+then positively homogeneous; otherwise bracketing and regula falsi). A circle obstacle has exact gaps
+and frames (docs/method.md section 8); its increments are never homogeneous. Not modelled: other curves, two
 deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
 ``contact`` curve.
 """
@@ -60,15 +62,27 @@ class Material(StrictModel):
 
 
 class Obstacle(StrictModel):
-    """A rigid straight line through ``point``; ``normal`` is the body's outward normal at contact
-    (pointing into the obstacle; need not be a unit vector), or ``angle_deg``: the line's slope,
-    i.e. the normal (0, -1) rotated counter-clockwise by that angle (exact for any angle)."""
-    point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length]")
-    normal: Vec2 = Field((0.0, -1.0), description="the body's outward normal at contact (into the obstacle)")
-    angle_deg: Optional[Finite] = Field(None, description="or: the line's slope, the normal (0, -1) rotated by it [deg]")
+    """The rigid obstacle. ``type: line`` (the default): a straight line through ``point``;
+    ``normal`` is the body's outward normal at contact (pointing into the obstacle; need not be a
+    unit vector), or ``angle_deg``: the line's slope, i.e. the normal (0, -1) rotated
+    counter-clockwise by that angle (exact for any angle). ``type: circle``: a circle of centre
+    ``centre`` and radius ``radius``, the body ``outside`` it (a convex cylinder) or ``inside`` it
+    (a concave bore); gaps, frames and curvature at the contact points are exact (docs/method.md
+    section 8), the contact DOFs stay in the global axes (t = +x, n = -y)."""
+    type: Literal["line", "circle"] = Field("line", description="line (straight) or circle")
+    point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length] (type line)")
+    normal: Vec2 = Field((0.0, -1.0), description="the body's outward normal at contact (into the obstacle) (type line)")
+    angle_deg: Optional[Finite] = Field(None, description="or: the line's slope, the normal (0, -1) rotated by it [deg] "
+                                        "(type line)")
+    centre: Optional[Vec2] = Field(None, description="centre of the circle [length] (type circle)")
+    radius: Optional[PosFloat] = Field(None, description="radius of the circle [length] (type circle)")
+    side: Optional[Literal["outside", "inside"]] = Field(
+        None, description="where the body is: outside (convex cylinder) or inside (concave bore) (type circle)")
 
     @model_validator(mode="after")
     def _one_way(self) -> "Obstacle":
+        from app.systems.obstacle_schema import check_circle_keys
+        check_circle_keys(self, ("centre", "radius", "side"), ("point", "normal", "angle_deg"))
         if self.angle_deg is not None and "normal" in self.model_fields_set:
             raise SystemPathError("angle_deg", self.angle_deg, "give either normal or angle_deg, not both")
         return self
@@ -81,7 +95,11 @@ class Obstacle(StrictModel):
         return v
 
     def frame(self) -> tuple[np.ndarray, np.ndarray]:
-        """Unit tangent t and outward normal n, with t = (-n_y, n_x) (for n = -y, t = +x)."""
+        """Unit tangent t and outward normal n of the contact DOFs, with t = (-n_y, n_x) (for
+        n = -y, t = +x); for a circle the global axes (each node's contact frame is then its own,
+        app/loading/curved.py)."""
+        if self.type == "circle":
+            return np.array([1.0, 0.0]), np.array([0.0, -1.0])
         if self.angle_deg is not None:
             a = math.radians(self.angle_deg)
             n = np.array([math.sin(a), -math.cos(a)])
@@ -90,6 +108,34 @@ class Obstacle(StrictModel):
             n /= np.max(np.abs(n))              # scaled first: no overflow or underflow in the norm
             n /= np.linalg.norm(n)
         return np.array([-n[1], n[0]]), n
+
+    def circle(self, ref=None):
+        """The :class:`app.loading.curved.Circle` of a circle obstacle (anchored in the direction
+        of the point ``ref``), None for a line."""
+        if self.type != "circle":
+            return None
+        from app.loading.curved import Circle
+        return Circle(self.centre, self.radius, self.side, ref)
+
+    def clearance(self, xy: np.ndarray) -> np.ndarray:
+        """Gaps of the points ``xy`` (n, 2): ``(p - x) . n`` for a line, exact for a circle."""
+        if self.type == "circle":
+            xy = np.atleast_2d(xy)
+            return self.circle(np.mean(xy, axis=0)).gap(xy)
+        return (np.array(self.point) - np.asarray(xy)) @ self.frame()[1]
+
+    def coordinate(self, xy: np.ndarray) -> np.ndarray:
+        """Tangential coordinate of the points ``xy`` along the obstacle: ``(x - p) . t`` for a
+        line, for a circle the arc coordinate from the direction of their mean."""
+        if self.type == "circle":
+            xy = np.atleast_2d(xy)
+            return self.circle(np.mean(xy, axis=0)).arc(xy)
+        return (np.asarray(xy) - np.array(self.point)) @ self.frame()[0]
+
+    def describe(self) -> str:
+        if self.type == "circle":
+            return "obstacle " + self.circle().describe()
+        return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
 
 
 class Motion(StrictModel):
@@ -133,7 +179,7 @@ class GmshBody(StrictModel):
     plane: Literal["stress", "strain"] = "stress"
     thickness: PosFloat = 1.0
     mass: Literal["consistent", "lumped"] = "consistent"
-    obstacle: Obstacle = Field(Obstacle(), description="the rigid straight line")
+    obstacle: Obstacle = Field(Obstacle(), description="the rigid obstacle: a straight line (default) or a circle")
     foundation: Optional[PosFloat] = Field(None, description="weak elastic foundation for a body nothing holds "
                                            "[stress/length]")
     program: Annotated[list[Phase], Field(min_length=1, max_length=1000)] = Field(

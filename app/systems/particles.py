@@ -31,15 +31,21 @@ def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages) -> System:
     """System of the two-particle scene: both particles are contact nodes, no interior DOFs."""
     K, M = particle_matrices(cfg.k, cfg.m, cfg.phi_deg)
     nodes = [ContactNode(id=0, x=0.0, dof_T=0, dof_N=1), ContactNode(id=1, x=1.0, dof_T=2, dof_N=3)]
-    return discrete_system(K, M, nodes, comm, stages, UNITS,
-                           f"two particles, k={cfg.k} N/mm, m={cfg.m} tonne, phi={cfg.phi_deg} deg")
+    ob = cfg.obstacle
+    where = "" if ob.type == "line" else f", on a circle of radius {ob.radius} mm ({ob.side})"
+    system = discrete_system(K, M, nodes, comm, stages, UNITS,
+                             f"two particles, k={cfg.k} N/mm, m={cfg.m} tonne, phi={cfg.phi_deg} deg{where}")
+    if ob.type != "line":      # the curvature terms of the pencils (app/analyses/curvature.py)
+        system.extra["curvature"] = np.full(2, ob.curvature())
+    return system
 
 
 def path(scene, comm: MPI.Comm, stages: Stages, progress=None):
     """The paper's two-particle state: both particles in impending slip with signs S1, S2.
 
-    The scene fixes only the signs; the static reactions are taken with unit normal reaction
-    (r_N = -1 N), so r_T = S mu. The pencils do not depend on the reaction values.
+    The scene fixes the signs and the normal reaction P (``normal_reaction``, default 1 N):
+    r_N = -P, r_T = S mu P. On the straight line the pencils do not depend on P; on a circle
+    they do, through kappa P (docs/method.md section 8).
     Returns ``(system, [state], path_info)``.
     """
     cfg: TwoParticles = scene.system
@@ -47,6 +53,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress=None):
         system = build(cfg, comm, stages)
     S = np.array(cfg.signs, dtype=float)
     mu_state = max(scene.mu, 1e-300)
+    P = cfg.normal_reaction
     state = EquilibriumState(index=0, load={}, u_T=np.zeros(2), u_N=np.zeros(2),
-                             r_T=S * mu_state, r_N=-np.ones(2))
+                             r_T=S * mu_state * P, r_N=-P * np.ones(2))
     return system, [state], {"end": "single equilibrium state"}

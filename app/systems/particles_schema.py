@@ -1,18 +1,42 @@
 """Scene schema of ``system.type: two_particles``: the paper's two-particle system (section 5, Fig. 1).
 
     system: {type: two_particles, k: 1.0, m: 1.0, phi_deg: 30, signs: [1, 1]}
+    system: {..., obstacle: {type: circle, radius: 50, side: outside}, normal_reaction: 2.0}
 
 A single equilibrium state (both particles in impending slip with the signs given): no
 ``loading`` section, and no mesh for ParaView files or screenshots.
 """
 from __future__ import annotations
 
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal, Optional
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from app.systems.schema import PosFloat
 from app.validation import PathError, Strict
+
+
+class ParticleObstacle(Strict):
+    """The rigid obstacle both particles rest on: the paper's straight line, or a circle of radius
+    ``radius`` with the particles outside it (``side: outside``, a convex cylinder) or inside it
+    (``side: inside``, a concave bore). The springs' matrix is written in each particle's own
+    contact frame, so the circle's centre plays no part (docs/method.md section 8)."""
+    type: Literal["line", "circle"] = Field("line", description="line (the paper's) or circle")
+    radius: Optional[PosFloat] = Field(None, description="radius of the circle [mm] (type circle only)")
+    side: Optional[Literal["outside", "inside"]] = Field(
+        None, description="where the particles are: outside (convex cylinder) or inside (concave bore) (type circle only)")
+
+    @model_validator(mode="after")
+    def _keys_of_type(self) -> "ParticleObstacle":
+        from app.systems.obstacle_schema import check_circle_keys
+        check_circle_keys(self, ("radius", "side"), ())
+        return self
+
+    def curvature(self) -> float:
+        """Signed curvature (dN/ds = kappa T): -1/R outside a circle, +1/R inside, 0 on the line."""
+        if self.type == "line":
+            return 0.0
+        return (-1.0 if self.side == "outside" else 1.0) / self.radius
 
 
 class TwoParticles(Strict):
@@ -26,6 +50,9 @@ class TwoParticles(Strict):
         description="angle of the inclined springs with the horizontal [deg]")
     signs: tuple[Literal[-1, 1], Literal[-1, 1]] = Field(
         description="S1, S2: signs of the static tangential reactions (both particles in impending slip)")
+    obstacle: ParticleObstacle = Field(ParticleObstacle(), description="the rigid obstacle: line (default) or circle")
+    normal_reaction: PosFloat = Field(1.0, description="P = -r_N of each particle [N] (enters the pencils "
+                                      "only on a curved obstacle, through kappa P)")
 
     @field_validator("signs", mode="before")
     @classmethod

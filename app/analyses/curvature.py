@@ -1,0 +1,148 @@
+"""Curved rigid obstacles in the stability pencils (docs/method.md section 8).
+
+A node slipping along a rigid curve of signed curvature ``kappa`` (``dN/ds = kappa T``,
+``dT/ds = -kappa N``, N the body's outward normal; a circle of radius R: ``kappa = -1/R`` with
+the body outside it, ``+1/R`` inside a bore) sees its reaction frame rotate with the contact
+point. The rates of the reaction components in the rotating frame are then
+
+    w_T = (A v)_T - kappa r_N v_T,    w_N = (A v)_N + kappa r_T v_T,
+
+and with ``r_T = -mu S r_N`` at impending slip (``P = -r_N > 0``) the reduction (10)-(11)
+gives, on the slip nodes' ``x_Ts`` only,
+
+    K*(mu) = K0 + mu K1 + mu^2 K2,   K0 <- K0 + G,   K2 = G,   G = diag(kappa_i P_i).
+
+Everything else (M*, the free and stick DOFs) is unchanged. With a curved obstacle the pencils
+depend on the static normal reactions and on the frames at the contact points, so the
+classification used to share analyses carries them (:class:`CurvedClassification`).
+
+``frames``: per contact node the frame at its contact point in the system's paper axes,
+``(a, b, c, d)`` with ``t' = a T + b N`` and ``n' = c T + d N`` (identity ``(1, 0, 0, 1)``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from app.analyses.classify import SLIP, Classification
+
+IDENTITY = (1.0, 0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class CurvedClassification(Classification):
+    """A classification on a curved obstacle: also ``geometric[i] = kappa_i P_i`` (0 off the
+    slip nodes) and the contact frames of the slip nodes (``frames[i]``, identity elsewhere)."""
+    geometric: tuple[float, ...] = ()
+    frames: tuple[tuple[float, float, float, float], ...] = ()
+
+    @property
+    def key(self) -> tuple:
+        """Equal keys, equal pencils: the statuses and signs, and kappa P and the frames of the slip nodes."""
+        return (super().key, tuple(self.geometric), tuple(self.frames))
+
+    def slip_geometric(self) -> np.ndarray:
+        """``kappa_i P_i`` of the slip nodes, in slip-node order (the diagonal of ``G``)."""
+        return np.array([self.geometric[i] for i in self.slip], dtype=float)
+
+    def rotated(self) -> bool:
+        """Whether some slip node's contact frame differs from the system's node frame."""
+        return any(f != IDENTITY for f in self.frames)
+
+
+def is_curved(cls: Classification) -> bool:
+    return isinstance(cls, CurvedClassification)
+
+
+def node_curvature(system) -> Optional[np.ndarray]:
+    """Signed curvature per contact node of a system on a curved obstacle, else None."""
+    k = system.extra.get("curvature") if isinstance(system.extra, dict) else None
+    return None if k is None else np.asarray(k, dtype=float)
+
+
+def attach(cls: Classification, state, system) -> Classification:
+    """``cls`` with the curvature data of ``state`` (unchanged on a straight obstacle).
+
+    ``state.extra["curved_contact"]["frame"]`` gives the contact frames (the loading path on a
+    curved obstacle records them); without it every frame is the node's own."""
+    kappa = node_curvature(system)
+    if kappa is None:
+        return cls
+    rN = np.asarray(state.r_N, dtype=float)
+    frames_in = (state.extra.get("curved_contact") or {}).get("frame")
+    geo, frames = [], []
+    for i, st in enumerate(cls.status):
+        if st == SLIP:
+            geo.append(float(kappa[i] * -rN[i]))
+            frames.append(tuple(float(v) for v in frames_in[i]) if frames_in is not None else IDENTITY)
+        else:
+            geo.append(0.0)
+            frames.append(IDENTITY)
+    return CurvedClassification(cls.status, cls.signs, tuple(geo), tuple(frames))
+
+
+def condensed_quadratic(Sc: np.ndarray, cls: CurvedClassification) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A0, A1, A2)`` of the condensed MCEIP-mu on a curved obstacle:
+    ``A(mu) = S Ŝ_TT S + G + mu Ŝ_NT S + mu^2 G`` (docs/method.md section 8), the contact Schur
+    complement first rotated into the contact frames of the slip nodes."""
+    from app.analyses.pencils import condensed_mu_pencil
+    Sc = rotate_schur(Sc, cls)
+    A0, A1 = condensed_mu_pencil(Sc, cls)
+    G = np.diag(cls.slip_geometric())
+    return A0 + G, A1, G
+
+
+def frame_matrix(frames, n: int) -> np.ndarray:
+    """Block-diagonal ``Q`` (2n x 2n, paper axes, order T_0, N_0, ...): old components = Q new."""
+    Q = np.eye(2 * n)
+    for i, (a, b, c, d) in enumerate(frames):
+        Q[2 * i:2 * i + 2, 2 * i:2 * i + 2] = [[a, c], [b, d]]
+    return Q
+
+
+def rotate_schur(Sc: np.ndarray, cls: CurvedClassification) -> np.ndarray:
+    """The contact Schur complement in the contact frames (``Q^T Sc Q``); ``Sc`` itself if none rotates."""
+    if not cls.rotated():
+        return Sc
+    Q = frame_matrix(cls.frames, Sc.shape[0] // 2)
+    return Q.T @ Sc @ Q
+
+
+def rotate_petsc(A, system, cls: CurvedClassification):
+    """A new PETSc matrix ``Q^T A Q`` in the contact frames of the slip nodes (system DOFs, the
+    node's own paper-axis signs kept); None when no frame rotates. The caller destroys it."""
+    if not cls.rotated():
+        return None
+    from petsc4py import PETSc
+    Q = PETSc.Mat().createAIJ(A.getSizes(), nnz=(2, 2), comm=A.getComm())
+    Q.setUp()
+    r0, r1 = Q.getOwnershipRange()
+    blocks = {}
+    for node, f in zip(system.nodes, cls.frames):
+        if f == IDENTITY:
+            continue
+        a, b, c, d = f
+        sT, sN = node.sign_T, node.sign_N
+        blocks[node.dof_T] = ((node.dof_T, a), (node.dof_N, sT * sN * c))
+        blocks[node.dof_N] = ((node.dof_T, sN * sT * b), (node.dof_N, d))
+    for row in range(r0, r1):
+        for col, v in blocks.get(row, ((row, 1.0),)):
+            Q.setValue(row, col, v)
+    Q.assemble()
+    try:
+        return A.ptap(Q)
+    finally:
+        Q.destroy()
+
+
+def add_geometric(Ks, space, cls: CurvedClassification, factor: float) -> None:
+    """``Ks += factor * G`` on the rows of the slip nodes' ``x_Ts`` (in place, owned rows)."""
+    from petsc4py import PETSc
+    g = cls.slip_geometric()
+    r0, r1 = Ks.getOwnershipRange()
+    for p, gi in zip(space.comp, g):
+        if r0 <= p < r1 and gi != 0.0:
+            Ks.setValue(int(p), int(p), factor * gi, addv=PETSc.InsertMode.ADD_VALUES)
+    Ks.assemble()

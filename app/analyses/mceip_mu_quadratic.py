@@ -1,0 +1,257 @@
+"""MCEIP-mu on a curved obstacle: the quadratic complementarity eigenproblem (docs/method.md section 8).
+
+On a curved obstacle the condensed pencil of the transition problem is quadratic in mu,
+
+    A(mu) x = y,   A(mu) = A0 + mu A1 + mu^2 A2,   mu >= 0,   0 <= x ⊥ y >= 0,   x != 0,
+
+with ``A2 = G = diag(kappa_i P_i)`` on the slip nodes. Solutions are found by enumeration of the
+``2^s - 1`` supports ``J`` (the slip nodes that keep slipping in the mode): each support is the
+quadratic eigenproblem ``A(mu)[J, J] x_J = 0``, solved through its first companion
+linearisation
+
+    [[0, I], [-A0_JJ, -A1_JJ]] z = mu [[I, 0], [0, A2_JJ]] z,    z = (x_J, mu x_J),
+
+(QZ, scipy.linalg.eig: a singular ``A2`` gives infinite eigenvalues, which are dropped), and
+(batched: with ``A0_JJ`` invertible, the eigenvalues ``1/mu`` of the reversed companion matrix
+``[[0, I], [-A0_JJ^-1 A2_JJ, -A0_JJ^-1 A1_JJ]]`` through LAPACK on the whole stack of supports of
+one size), and each real ``mu >= 0`` with a null vector ``x_J > 0`` and ``y = A(mu)[J^c, J] x_J >= 0`` is a
+solution (the sign checks (26)). With ``A2 = 0`` this is the flat enumeration (24)-(26).
+
+What this proves: by itself nothing. The enumeration is exhaustive over supports, but each
+eigenproblem and each sign check is decided in floating point, so its results are *found by
+exhaustive enumeration, not proven*; margins below ``RESOLVE_TOL`` are flagged
+``ill_conditioned``. Refused above ``max_slip`` slip nodes (``settings.enumerate_max_slip``).
+Up to ``PROOF_MAX_S`` slip nodes :func:`quadratic_mu_result` adds the exact proof of
+:mod:`app.analyses.mceip_mu_quadratic_proof` (rational determinants, isolated real roots, ball
+arithmetic): when it decides every support the list in ``[0, cap]`` is proven complete and each
+solution carries a rigorous ``enclosure``; otherwise everything stays *found, not proven*.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg
+
+from app.analyses.enumerate import (
+    BATCH_ELEMENTS,
+    RESIDUAL_TOL,
+    RESOLVE_TOL,
+    TooManySlipNodes,
+    pencil_scale,
+    supports_of_size,
+)
+from app.linalg import one_blas_thread
+
+
+def quadratic_eigenvalues(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray) -> np.ndarray:
+    """Finite eigenvalues of ``(a0 + mu a1 + mu^2 a2) x = 0`` (complex array), by QZ on the
+    first companion linearisation."""
+    k = a0.shape[0]
+    Z, I = np.zeros((k, k)), np.eye(k)
+    L = np.block([[Z, I], [-a0, -a1]])
+    B = np.block([[I, Z], [Z, a2]])
+    w = scipy.linalg.eig(L, B, right=False)
+    return w[np.isfinite(w)]
+
+
+def _batch_eigenvalues(B0: np.ndarray, B1: np.ndarray, B2: np.ndarray) -> np.ndarray:
+    """Eigenvalues mu of the stacked quadratic pencils (shape (m, 2k), complex; inf where infinite).
+
+    With ``B0`` invertible, ``nu = 1/mu`` are the eigenvalues of the companion matrix of the
+    reversed polynomial ``nu^2 B0 + nu B1 + B2``, ``[[0, I], [-B0^-1 B2, -B0^-1 B1]]`` (batched
+    LAPACK); a numerically singular ``B0`` goes to QZ (:func:`quadratic_eigenvalues`)."""
+    m, k, _ = B0.shape
+    out = np.full((m, 2 * k), np.inf, dtype=complex)
+    try:
+        C1 = np.linalg.solve(B0, B1)
+        C2 = np.linalg.solve(B0, B2)
+        n0 = np.linalg.norm(B0, 1, axis=(1, 2))
+        ok = np.all(np.isfinite(C1), axis=(1, 2)) & np.all(np.isfinite(C2), axis=(1, 2))
+        ok &= (np.linalg.norm(C1, 1, axis=(1, 2)) < 1e12 * np.maximum(np.linalg.norm(B1, 1, axis=(1, 2)), 1e-300) / np.maximum(n0, 1e-300))
+        ok &= (np.linalg.norm(C2, 1, axis=(1, 2)) < 1e12 * np.maximum(np.linalg.norm(B2, 1, axis=(1, 2)), 1e-300) / np.maximum(n0, 1e-300))
+    except np.linalg.LinAlgError:
+        ok = np.zeros(m, dtype=bool)
+    if ok.any():
+        j = np.flatnonzero(ok)
+        L = np.zeros((len(j), 2 * k, 2 * k))
+        L[:, :k, k:] = np.eye(k)
+        L[:, k:, :k] = -C2[j]
+        L[:, k:, k:] = -C1[j]
+        nu = np.linalg.eigvals(L)
+        zero = np.abs(nu) <= 1e-12 * np.maximum(np.linalg.norm(L, 1, axis=(1, 2)), 1e-300)[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[j] = np.where(zero, np.inf, 1.0 / np.where(zero, 1.0, nu))
+    for j in np.flatnonzero(~ok):
+        w = quadratic_eigenvalues(B0[j], B1[j], B2[j])
+        out[j, :len(w)] = w
+    return out
+
+
+def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip: int,
+                        mu_max: float = np.inf) -> list[dict]:
+    """Every solution of the quadratic MCEIP-mu with ``0 <= mu <= mu_max``, by supports (batched
+    over the supports of one size, as app/analyses/enumerate.py does for the linear pencil).
+
+    Returns dicts with ``value``, ``x_Ts`` (sum 1), ``pattern``, ``residual`` (smallest singular
+    value of ``A(mu)[J, J]`` relative to ``||a0|| + mu ||a1|| + mu^2 ||a2||``), ``complementarity``,
+    ``min_x_Ts``, ``min_y_Ts``, ``margin_y_stick`` and ``ill_conditioned``; sorted by value.
+    """
+    s = A0.shape[0]
+    if s > max_slip:
+        raise TooManySlipNodes(f"{s} slip nodes: enumeration of the 2^{s} supports of the quadratic MCEIP-mu "
+                               f"refused (settings.enumerate_max_slip = {max_slip})")
+    sc = pencil_scale(A0)
+    a0, a1, a2 = A0 / sc, A1 / sc, A2 / sc
+    out: list[dict] = []
+    seen: list[tuple[float, tuple]] = []
+    with one_blas_thread():
+        for k in range(1, s + 1):
+            P = supports_of_size(s, k)
+            step = max(1, BATCH_ELEMENTS // (4 * k * k))
+            for lo in range(0, len(P), step):
+                Pb = P[lo:lo + step]
+                B0 = a0[Pb[:, :, None], Pb[:, None, :]]
+                B1 = a1[Pb[:, :, None], Pb[:, None, :]]
+                B2 = a2[Pb[:, :, None], Pb[:, None, :]]
+                W = _batch_eigenvalues(B0, B1, B2)
+                real = np.isfinite(W) & (np.abs(W.imag) <= 1e-6 * np.maximum(1.0, np.abs(W.real)))
+                wr = np.where(real, W.real, np.nan)
+                cand = real & (wr >= -1e-12) & (wr <= (mu_max * (1 + 1e-12) if np.isfinite(mu_max) else np.inf))
+                ii, jj = np.nonzero(cand)
+                if not len(ii):
+                    continue
+                mu = np.maximum(wr[ii, jj], 0.0)
+                At = B0[ii] + mu[:, None, None] * B1[ii] + (mu * mu)[:, None, None] * B2[ii]
+                _, sv, Vh = np.linalg.svd(At)
+                norms = (np.linalg.norm(B0[ii], 2, axis=(1, 2)) + mu * np.linalg.norm(B1[ii], 2, axis=(1, 2))
+                         + mu * mu * np.linalg.norm(B2[ii], 2, axis=(1, 2)))
+                res = sv[:, -1] / np.maximum(norms, 1e-300)
+                v = Vh[:, -1, :]
+                v = v * np.where(v.sum(axis=1) < 0, -1.0, 1.0)[:, None]
+                mx = np.min(v, axis=1) / np.maximum(np.max(np.abs(v), axis=1), 1e-300)
+                for c in np.flatnonzero((mx > 0) & (res <= RESIDUAL_TOL)):
+                    J, m_c = Pb[ii[c]], float(mu[c])
+                    if any(abs(val - m_c) <= 1e-10 * max(1.0, m_c) and sup == tuple(J) for val, sup in seen):
+                        continue        # a double eigenvalue: one solution
+                    x = np.zeros(s)
+                    x[J] = v[c] / v[c].sum()
+                    y = (a0 + m_c * a1 + m_c * m_c * a2) @ x
+                    sup = np.zeros(s, dtype=bool)
+                    sup[J] = True
+                    stick = y[~sup]
+                    my = float(np.min(stick)) if len(stick) else np.inf
+                    if my < -RESOLVE_TOL:
+                        continue
+                    seen.append((m_c, tuple(J)))
+                    out.append({"value": m_c, "x_Ts": [float(t) for t in x],
+                                "pattern": ["slip" if b else "stick" for b in sup],
+                                "residual": float(res[c]), "complementarity": float(np.max(np.abs(x * y))),
+                                "min_x_Ts": float(mx[c]), "min_y_Ts": float(np.min(y)),
+                                "margin_y_stick": my if np.isfinite(my) else None,
+                                "ill_conditioned": bool(mx[c] < RESOLVE_TOL or my < RESOLVE_TOL)})
+    return sorted(out, key=lambda d: (d["value"], d["pattern"]))
+
+
+#: the proof of app/analyses/mceip_mu_quadratic_proof.py is attempted up to this many slip nodes
+#: (exact determinants of every support: 0.3 s at s = 8, 1.4 s at s = 10 on the development machine)
+PROOF_MAX_S = 10
+
+
+def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_slip: int,
+                        certify: bool = True, seconds: float = 60.0) -> dict:
+    """The ``mceip_mu`` entry of results.json for a curved obstacle: the solutions found by the
+    exhaustive floating-point enumeration and, up to ``PROOF_MAX_S`` slip nodes (``certify``),
+    the exact proof of :mod:`app.analyses.mceip_mu_quadratic_proof` on ``[0, cap]``: each
+    solution it proves is ``certified`` with its ``enclosure``; candidates it proves not to be
+    solutions are dropped. Without the proof every solution is found, not proven."""
+    from app.analyses.certify import certificate  # the certificate record's format only
+    t0 = time.perf_counter()
+    s = A0.shape[0]
+    how = "quadratic MCEIP-mu: every support enumerated, companion linearisation + QZ, sign checks (26) in floating point"
+    try:
+        sols = enumerate_quadratic(A0, A1, A2, max_slip)
+    except TooManySlipNodes as err:
+        return {"solutions": [], "result": f"not searched: {err}", "certified": False,
+                "onset": {"proven": False, "status": "not searched", "value": None, "enclosure": None},
+                "complete": {"proven": False, "status": "not searched", "interval": [0.0, 0.0], "count": None},
+                "certificate": certificate("none", (0.0, 0.0), "not attempted", 0.0),
+                "search": {"method": how, "complete": False, "note": str(err)}, "quadratic": True}
+    for d in sols:
+        d.update(certified=False, found_by=["exhaustive enumeration of the quadratic pattern problems"],
+                 found_count=1, iterations=0)
+    search = {"method": how, "attempts": 2 ** s - 1, "seconds": round(time.perf_counter() - t0, 4), "found": len(sols),
+              "intervals": ["[0, inf)"], "complete": False,
+              "note": "every support enumerated; decided in floating point (not a proof)"}
+    proof = None
+    if certify and s <= PROOF_MAX_S:
+        from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+        proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, deadline=time.perf_counter() + seconds)
+    if proof is None or not proof.proven:
+        first = sols[0]["value"] if sols else None
+        why = ("" if proof is None else
+               f"; the exact proof left {len(proof.undecided)} support(s) undecided, e.g. {proof.undecided[0][1]}")
+        result = ((f"{len(sols)} solution(s) found, smallest mu = {first:.10g}" if sols else "no solution found")
+                  + " (found by exhaustive floating-point enumeration of the quadratic pattern problems, not proven"
+                  + (f": s = {s} > {PROOF_MAX_S}, the exact proof not attempted" if proof is None and certify and s > PROOF_MAX_S
+                     else "") + why + ")")
+        return {"solutions": sols, "result": result, "certified": False,
+                "onset": {"proven": False, "status": "found, not proven", "value": first, "enclosure": None},
+                "complete": {"proven": False, "status": "found, not proven", "interval": [0.0, 0.0], "count": None},
+                "certificate": certificate("none (floating-point enumeration)", (0.0, 0.0),
+                                           "not proven: exhaustive floating-point enumeration of the 2^s supports",
+                                           time.perf_counter() - t0, {"s": s, "cap": float(cap), "solutions": len(sols),
+                                                                      **({"undecided": len(proof.undecided)} if proof else {})}),
+                "search": search, "quadratic": True}
+    # the proof is complete on [0, cap]: its list replaces the candidates there
+    out, rejected = [], 0
+    unmatched = list(proof.solutions)
+    for d in sols:
+        if d["value"] > cap:
+            out.append(d)                                   # above the cap: found, not proven
+            continue
+        sup = tuple(i for i, p in enumerate(d["pattern"]) if p == "slip")
+        hit = next((p for p in unmatched if p.support == sup and
+                    (p.enclosure[0] <= d["value"] <= p.enclosure[1]
+                     or abs(d["value"] - p.value) <= 1e-9 * max(1.0, p.value))), None)
+        if hit is None:
+            rejected += 1                                   # proven not a solution (a rounding artefact)
+            continue
+        unmatched.remove(hit)
+        d.update(certified=True, enclosure=[hit.enclosure[0], hit.enclosure[1]], value=hit.value)
+        out.append(d)
+    for p in unmatched:                                     # proven, missed by the floating-point enumeration
+        x = _null_vector(A0, A1, A2, p.support, p.value)
+        out.append({"value": p.value, "x_Ts": x, "pattern": ["slip" if i in p.support else "stick" for i in range(s)],
+                    "certified": True, "enclosure": list(p.enclosure), "found_by": ["exact proof"], "found_count": 1,
+                    "iterations": 0, "ill_conditioned": False})
+    out.sort(key=lambda d: (d["value"], d["pattern"]))
+    on = proof.onset
+    pat = "".join("S" if i in on.support else "-" for i in range(s)) if on else ""
+    result = ((f"proven onset: mu = {on.value:.10g} (pattern {pat}, enclosure [{on.enclosure[0]:.10g}, "
+               f"{on.enclosure[1]:.10g}])" if on else f"proven: no critical mu in [0, {cap:.6g}]")
+              + f"; proven complete: {len(proof.solutions)} critical value(s) in [0, {cap:.6g}]"
+              + (f"; {sum(1 for d in out if d['value'] > cap)} more found above the cap (not proven)"
+                 if any(d["value"] > cap for d in out) else ""))
+    method = ("exact determinant polynomial of every support (rational arithmetic), its real roots isolated, "
+              "the signs of the null vector and of y by ball arithmetic (FLINT)")
+    return {"solutions": out, "result": result, "certified": True,
+            "onset": {"proven": True, "status": "proven", "value": on.value if on else None,
+                      "enclosure": list(on.enclosure) if on else None},
+            "complete": {"proven": True, "status": "proven", "interval": [0.0, float(cap)], "count": len(proof.solutions)},
+            "certificate": {**certificate(method, (0.0, cap), "proven", time.perf_counter() - t0,
+                                          {"s": s, "cap": float(cap), "supports": proof.supports,
+                                           "proof_seconds": round(proof.seconds, 4),
+                                           "rejected_floating_point_candidates": rejected}, gap=0.0),
+                            "cap": float(cap), "onset": on.value if on else None},
+            "search": {**search, "complete": True}, "quadratic": True}
+
+
+def _null_vector(A0, A1, A2, support, mu) -> list[float]:
+    J = list(support)
+    B = (A0 + mu * A1 + mu * mu * A2)[np.ix_(J, J)]
+    v = np.linalg.svd(B)[2][-1]
+    v = v * np.sign(v.sum())
+    x = np.zeros(A0.shape[0])
+    x[J] = v / v.sum()
+    return [float(t) for t in x]

@@ -1,0 +1,266 @@
+"""A proof for the quadratic MCEIP-mu of a curved obstacle, in exact and ball arithmetic (FLINT).
+
+Problem (docs/method.md section 8): ``A(mu) x = y``, ``A(mu) = A0 + mu A1 + mu^2 A2``,
+``mu >= 0``, ``0 <= x ⊥ y >= 0``, ``x != 0``; the floating-point entries of ``A0, A1, A2`` are
+the data and the proof is about them exactly. For every support ``J`` (the unknowns with
+``x > 0``) a solution is an eigenpair of ``A_JJ(mu) x_J = 0`` with ``x_J > 0`` and
+``y_{J^c} = A_{J^c J}(mu) x_J >= 0``. The proof, support by support:
+
+1. ``p_J(mu) = det A_JJ(mu)`` exactly: a polynomial of degree at most ``2|J|`` with rational
+   coefficients, interpolated from exact rational determinants (``fmpq_mat``) at the integers
+   ``0 .. 2|J|``. ``p_J = 0`` identically: the support is undecided (not proven).
+2. Its real roots: the squarefree part ``p_J / gcd(p_J, p_J')`` (exact), whose roots FLINT
+   isolates rigorously (``complex_roots``: real roots are returned with an exactly zero
+   imaginary part); only the roots whose enclosure meets ``[0, cap]`` matter, and an enclosure
+   that straddles an end of ``[0, cap]`` is undecided.
+3. At a real root of ``p_J`` of multiplicity 1 the null space of ``A_JJ`` is one-dimensional and
+   spanned by any non-zero column of the adjugate; the column's entries (cofactors, determinants
+   in ball arithmetic at the root's enclosure, ``arb_mat``) give the signs of ``x_J``, and
+   ``y_{J^c}`` follows in ball arithmetic. Proven a solution when ``x_J > 0`` (after the sign of
+   the column is chosen) and ``y_{J^c} > 0``; proven not one when some ``x_i`` has the opposite
+   sign or some ``y_i < 0``; otherwise (a ball that contains 0, a multiple root) undecided.
+
+When every support is decided, the list of solutions with ``mu`` in ``[0, cap]`` is complete,
+each with a rigorous enclosure of its ``mu``, and the onset is the smallest of them (or none).
+Exponential in ``s`` (``2^s - 1`` supports, each ``2|J| + 1`` exact determinants): attempted up
+to ``max_s`` slip nodes. Nothing here trusts a floating-point solver: the floating-point
+enumeration only names the candidates that are compared with the proof's list.
+"""
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+PREC = 256          # bits of the ball arithmetic at the roots
+
+
+@dataclass
+class ProvenSolution:
+    value: float                      # midpoint of the enclosure
+    enclosure: tuple[float, float]    # rigorous (rounded outwards to doubles)
+    support: tuple[int, ...]
+
+
+@dataclass
+class QuadraticProof:
+    proven: bool                      # every support decided: the list in [0, cap] is complete
+    cap: float
+    solutions: list[ProvenSolution] = field(default_factory=list)
+    undecided: list[tuple[tuple[int, ...], str]] = field(default_factory=list)
+    supports: int = 0
+    seconds: float = 0.0
+
+    @property
+    def onset(self) -> ProvenSolution | None:
+        return min(self.solutions, key=lambda p: p.enclosure[0]) if self.solutions else None
+
+
+def _q(v: float):
+    import flint
+    return flint.fmpq(*float(v).as_integer_ratio())
+
+
+def _qmat(A: np.ndarray):
+    import flint
+    return flint.fmpq_mat([[_q(v) for v in row] for row in A])
+
+
+def _integer_data(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray):
+    """``2^E A0, 2^E A1, 2^E A2`` as exact integers (one power of two for all: the dyadic floats
+    become integers; determinants scale by a positive power of two, roots and signs do not change)."""
+    import flint
+    ratios = [[[float(v).as_integer_ratio() for v in row] for row in A] for A in (A0, A1, A2)]
+    E = max([d.bit_length() - 1 for R in ratios for row in R for _, d in row] + [0])     # d: powers of two
+    return [[[flint.fmpz(n << (E - (d.bit_length() - 1))) for n, d in row] for row in R] for R in ratios]
+
+
+def _det_poly(Z0, Z1, Z2, J: tuple[int, ...]):
+    """``det A_JJ(mu)`` (of the integer data) as an exact ``fmpq_poly``: integer determinants
+    (``fmpz_mat``) at ``mu = 0 .. 2|J|``, Lagrange interpolation."""
+    import flint
+    k = len(J)
+    pts = list(range(2 * k + 1))
+    vals = []
+    for t in pts:
+        vals.append(flint.fmpz_mat([[Z0[i][j] + t * Z1[i][j] + t * t * Z2[i][j] for j in J] for i in J]).det())
+    x = flint.fmpq_poly([0, 1])
+    p = flint.fmpq_poly([0])
+    for a, ta in enumerate(pts):
+        L = flint.fmpq_poly([1])
+        den = 1
+        for b, tb in enumerate(pts):
+            if b != a:
+                L = L * (x - tb)
+                den *= ta - tb
+        p = p + L * flint.fmpq(vals[a], den)
+    return p
+
+
+def _arb_interval(r):
+    """(lo, hi) doubles enclosing the real ball ``r`` (outward)."""
+    lo, hi = r.lower(), r.upper()
+    return float(np.nextafter(float(lo), -np.inf)), float(np.nextafter(float(hi), np.inf))
+
+
+def _decide(Q0, Q1, Q2, J, s, root) -> tuple[str, str]:
+    """'solution' / 'not' / 'undecided' for the simple real root ``root`` (an arb) of ``p_J``."""
+    import flint
+    k = len(J)
+    rest = [i for i in range(s) if i not in J]
+
+    def entry(i, j):
+        return flint.arb(Q0[i][j]) + root * (flint.arb(Q1[i][j]) + root * flint.arb(Q2[i][j]))
+
+    A = [[entry(i, j) for j in J] for i in J]
+    if k == 1:
+        x = [flint.arb(1)]
+    else:
+        x = None
+        for row in range(k):          # a non-zero adjugate column: x_c = (-1)^(row+c) det(minor(row, c))
+            col = []
+            for c in range(k):
+                minor = flint.arb_mat([[A[a][b] for b in range(k) if b != c] for a in range(k) if a != row])
+                col.append(minor.det() * (-1) ** (row + c))
+            if any(v > 0 or v < 0 for v in col):
+                x = col
+                break
+        if x is None:
+            return "undecided", "no adjugate column is provably non-zero at the root"
+    pos = all(v > 0 for v in x)
+    neg = all(v < 0 for v in x)
+    if not (pos or neg):
+        if any(v > 0 for v in x) and any(v < 0 for v in x):
+            return "not", "x_J has entries of both signs"
+        return "undecided", "the sign of an entry of x_J is not resolved"
+    if neg:
+        x = [-v for v in x]
+    y = [sum((entry(i, j) * x[b] for b, j in enumerate(J)), flint.arb(0)) for i in rest]
+    if any(v < 0 for v in y):
+        return "not", "y < 0 off the support"
+    if all(v > 0 for v in y):
+        return "solution", ""
+    return "undecided", "the sign of y off the support is not resolved (y = 0 within the enclosure)"
+
+
+def prove_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_s: int = 10,
+                    deadline: float | None = None) -> QuadraticProof | None:
+    """The proof above on ``[0, cap]``; None when ``s > max_s`` (not attempted). ``deadline``
+    (``time.perf_counter()`` value): stop and report the remaining supports undecided."""
+    import flint
+    t0 = time.perf_counter()
+    s = A0.shape[0]
+    if s > max_s:
+        return None
+    old = flint.ctx.prec
+    flint.ctx.prec = PREC
+    try:
+        Q0, Q1, Q2 = _integer_data(A0, A1, A2)            # exact: the proof is about these data
+        out = QuadraticProof(proven=True, cap=float(cap))
+        capq = _q(cap)
+        for k in range(1, s + 1):
+            for J in itertools.combinations(range(s), k):
+                out.supports += 1
+                if deadline is not None and time.perf_counter() > deadline:
+                    out.undecided.append((J, "time budget"))
+                    continue
+                p = _det_poly(Q0, Q1, Q2, J)
+                if p.is_zero():
+                    out.undecided.append((J, "det A_JJ(mu) vanishes identically"))
+                    continue
+                if p.degree() == 0:
+                    continue                                   # a non-zero constant: no eigenvalue
+                sq = p // p.gcd(p.derivative())                # squarefree part, same roots
+                multiple = sq.degree() < p.degree()
+                try:
+                    roots = _isolate(sq)
+                except ValueError as err:                     # FLINT could not isolate the roots
+                    out.undecided.append((J, f"root isolation failed ({err})"))
+                    continue
+                for root, _ in roots:
+                    if not root.imag.is_zero():
+                        continue                               # FLINT returns real roots with imag exactly 0
+                    r = root.real
+                    if r < 0 or r > flint.arb(capq):
+                        continue
+                    if not (r > 0 or r.is_zero()) or not (r < flint.arb(capq)):
+                        out.undecided.append((J, "a root at an end of [0, cap] is not separated from it"))
+                        continue
+                    if multiple and _is_multiple(p, sq, r):
+                        out.undecided.append((J, "a multiple root of det A_JJ(mu)"))
+                        continue
+                    verdict, why = _decide(Q0, Q1, Q2, J, s, r)
+                    if verdict == "undecided" or verdict == "solution":
+                        r = _refine(sq, r)            # narrower: resolves more signs, a tight enclosure
+                        verdict, why = _decide(Q0, Q1, Q2, J, s, r)
+                    if verdict == "solution":
+                        lo, hi = _arb_interval(r)
+                        out.solutions.append(ProvenSolution(float(r.mid()), (max(lo, 0.0), hi), J))
+                    elif verdict == "undecided":
+                        out.undecided.append((J, why))
+        out.proven = not out.undecided
+        out.solutions.sort(key=lambda p_: (p_.enclosure[0], p_.support))
+        out.seconds = time.perf_counter() - t0
+        return out
+    finally:
+        flint.ctx.prec = old
+
+
+def _isolate(sq):
+    """FLINT's rigorous isolation of the roots of ``sq`` (integer coefficients), at 53 bits first
+    (faster; rigorous at any precision), then at more."""
+    import flint
+    z = sq.numer() if hasattr(sq, "numer") else sq
+    saved = flint.ctx.prec
+    try:
+        for prec in (53, 212, 848):
+            flint.ctx.prec = prec
+            try:
+                return z.complex_roots()
+            except ValueError:
+                if prec == 848:
+                    raise
+    finally:
+        flint.ctx.prec = saved
+
+
+def _refine(sq, r, steps: int = 80):
+    """The simple real root of the squarefree ``sq`` in the ball ``r``, narrowed by exact
+    bisection on the sign change of ``sq`` (rational arithmetic); ``r`` itself when the ends of
+    the ball do not show the sign change."""
+    import flint
+    lo, hi = _exact(r.lower()), _exact(r.upper())
+    flo, fhi = sq(lo), sq(hi)
+    if flo == 0 or fhi == 0 or (flo > 0) == (fhi > 0):
+        return r
+    for _ in range(steps):
+        mid = (lo + hi) / 2
+        fm = sq(mid)
+        if fm == 0:
+            return flint.arb(mid)
+        if (fm > 0) == (flo > 0):
+            lo, flo = mid, fm
+        else:
+            hi = mid
+    return flint.arb((lo + hi) / 2, (hi - lo) / 2)
+
+
+def _exact(v):
+    """The exact rational value of an arb with zero radius (an end point of a ball)."""
+    import flint
+    m, e = v.man_exp()
+    return flint.fmpq(m) * flint.fmpq(2) ** int(e) if e >= 0 else flint.fmpq(m, flint.fmpz(2) ** int(-e))
+
+
+def _is_multiple(p, sq, r) -> bool:
+    """Whether the root ``r`` of the squarefree part ``sq`` may be a multiple root of ``p``: the
+    cofactor ``p / sq`` does not provably vanish nowhere on ``r`` (it vanishes exactly at the
+    multiple roots)."""
+    import flint
+    c = p // sq
+    v = flint.arb(0)
+    for i, a in enumerate(c.coeffs()):
+        v += flint.arb(a) * r ** i
+    return not (v > 0 or v < 0)
