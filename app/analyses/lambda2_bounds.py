@@ -39,7 +39,7 @@ def _verified_pd_pencil(a0: np.ndarray, a1: np.ndarray, mu: float) -> bool:
     """``sym(a0 + mu a1)`` proven positive definite (the dense verified Cholesky of
     :func:`app.analyses.mceip_mu.checker.verified_pd`, after an exact power-of-two diagonal
     scaling; the rounding of ``a0 + mu a1`` and of the symmetric part is in the radius)."""
-    from app.analyses.mceip_mu.checker import _up, gamma, verified_pd
+    from app.analyses.mceip_mu.checker import gamma, rounded_up, verified_pd
     A = a0 + mu * a1
     H = 0.5 * (A + A.T)
     d = np.diag(H)
@@ -50,7 +50,7 @@ def _verified_pd_pencil(a0: np.ndarray, a1: np.ndarray, mu: float) -> bool:
     e = np.array([np.frexp(np.sqrt(v))[1] for v in d], dtype=np.int64)
     Hs = np.ldexp(H, -(e[:, None] + e[None, :]))
     Es = np.ldexp(E, -(e[:, None] + e[None, :]))
-    return verified_pd(Hs, float(_up(np.sqrt(np.sum(Es * Es)), Es.size)))
+    return verified_pd(Hs, float(rounded_up(np.sqrt(np.sum(Es * Es)), Es.size)))
 
 
 def verified_sign_argument(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,

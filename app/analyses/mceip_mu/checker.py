@@ -77,6 +77,11 @@ def _up(x, n: int):
     return x * (1.0 + 4.0 * gamma(n + 4)) + TINY
 
 
+def rounded_up(x, n: int):
+    """A computed nonnegative bound inflated to cover its own rounding (``n`` operations deep)."""
+    return _up(x, n)
+
+
 def mr_mul(A: np.ndarray, rA, B: np.ndarray, rB) -> tuple[np.ndarray, np.ndarray]:
     """Midpoint-radius product: ``(C, rC)`` with ``|A~ B~ - C| <= rC`` for every ``A~`` within
     ``rA`` of ``A`` and ``B~`` within ``rB`` of ``B`` (entrywise; ``None`` means exact)."""
