@@ -58,6 +58,18 @@ def run_cli(*args: str, ranks: int = 1, timeout: float = 600, cwd=None) -> subpr
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd or ROOT)
 
 
+
+def results_on_ranks(scene, outdir, ranks=(1, 2), cwd=None) -> dict:
+    """results.json of ``python -m app run SCENE`` on each number of ``ranks`` (output folders
+    ``outdir/o<ranks>``), every run asserted to succeed."""
+    import json
+    out = {}
+    for n in ranks:
+        p = run_cli("run", str(scene), "-o", str(outdir / f"o{n}"), "-q", ranks=n, cwd=cwd)
+        assert p.returncode == 0, p.stderr
+        out[n] = json.loads((outdir / f"o{n}" / "results.json").read_text())
+    return out
+
 def one_error_line(proc: subprocess.CompletedProcess, code: int = 2) -> str:
     """The single ``error:`` line of a failed CLI run with exit status ``code`` (and no traceback)."""
     out = proc.stdout + proc.stderr

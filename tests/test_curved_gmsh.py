@@ -175,19 +175,13 @@ def test_fields_on_a_circle_are_the_rotated_fields(tmp_path):
 def test_same_numbers_on_two_ranks(tmp_path):
     """The exact-gap path and the curved pencils (rotated K, geometric terms, quadratic MCEIP-mu)
     give the same numbers on 1 and 2 MPI ranks."""
-    import json
-
     import yaml
-    from conftest import run_cli
+    from conftest import results_on_ranks
     write_geo(tmp_path / "b.geo", angle_deg=20.0, about=(40.0, -400.0))
     s = scene("b.geo", circle(400.0), angle_deg=20.0, analyses=("necessary", "mceip_mu"), press=0.6)
     s["system"]["program"][1]["steps"] = 30
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
-    out = {}
-    for ranks in (1, 2):
-        p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / f"o{ranks}"), "-q", ranks=ranks)
-        assert p.returncode == 0, p.stderr
-        out[ranks] = json.loads((tmp_path / f"o{ranks}" / "results.json").read_text())
+    out = results_on_ranks(tmp_path / "s.yaml", tmp_path)
     _same(out[1], out[2], 1e-10)
     for x, y in zip(out[1]["states"], out[2]["states"]):
         assert y["analyses"]["necessary"]["min_eig_K_sym"] == pytest.approx(x["analyses"]["necessary"]["min_eig_K_sym"],

@@ -10,13 +10,12 @@ app/loading/program.py).
 - One-line errors for a missing file, a missing or empty physical group, 3D, mixed and inverted
   meshes, and a body the program leaves floating.
 """
-import json
 import math
 import pathlib
 
 import numpy as np
 import pytest
-from conftest import ROOT, run_cli, run_scene
+from conftest import ROOT, results_on_ranks, run_cli, run_scene
 
 GEO = ROOT / "app" / "scenes" / "gmsh" / "block.geo"
 
@@ -137,11 +136,7 @@ def test_gmsh_scene_same_numbers_on_two_ranks(tmp_path):
     f = write_block_msh(tmp_path / "b.msh", 10, 5, "crossed", 25.0)
     s = gmsh_scene("b.msh", angle_deg=25.0, analyses=["necessary", "mceip_mu"])
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
-    out = {}
-    for ranks in (1, 2):
-        p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / f"o{ranks}"), "-q", ranks=ranks)
-        assert p.returncode == 0, p.stderr
-        out[ranks] = json.loads((tmp_path / f"o{ranks}" / "results.json").read_text())
+    out = results_on_ranks(tmp_path / "s.yaml", tmp_path)
     assert f
     a, b = out[1], out[2]
     assert_same_path(a, b)

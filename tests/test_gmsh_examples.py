@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import ROOT, run_cli
+from conftest import ROOT, results_on_ranks, run_cli
 
 EX = ROOT / "app" / "scenes" / "gmsh"
 F, R, E, NU = 10.0, 20.0, 1000.0, 0.3          # the half-disk scene's data (plane strain, unit thickness)
@@ -139,11 +139,7 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, 
 def test_examples_same_numbers_on_two_ranks(tmp_path, scene):
     """Initial gaps (half-disk), the regula falsi force control, an inclined obstacle with gravity and a
     foundation (incline): the same states and MCEIP-mu on 1 and 2 ranks."""
-    out = {}
-    for ranks in (1, 2):
-        p = run_cli("run", str(EX / scene), "-o", str(tmp_path / f"o{ranks}"), "-q", ranks=ranks)
-        assert p.returncode == 0, p.stderr
-        out[ranks] = json.loads((tmp_path / f"o{ranks}" / "results.json").read_text())
+    out = results_on_ranks(EX / scene, tmp_path)
     a, b = out[1], out[2]
     assert b["mpi_ranks"] == 2 and a["path"]["end"] == b["path"]["end"]
     assert len(a["states"]) == len(b["states"])

@@ -8,13 +8,12 @@
   same MCEIP-mu;
 - one-line errors for user mistakes.
 """
-import json
 
 import numpy as np
 import pytest
 import scipy.io
 import scipy.sparse as sp
-from conftest import run_cli, run_scene
+from conftest import results_on_ranks, run_cli, run_scene
 from mpi4py import MPI
 from test_two_particles import CASES, PHI, analytic_lambda2, analytic_mu, assert_same_set
 from test_two_particles import K as KP
@@ -267,11 +266,7 @@ def test_cli_run_relative_paths_and_mpi(tmp_path):
     s = particle_scene(tmp_path, (1, -1), 7.0)
     s["system"]["K"], s["system"]["M"] = "K.mtx", "M.mtx"
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
-    out = {}
-    for ranks in (1, 2):
-        p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / f"o{ranks}"), "-q", ranks=ranks, cwd="/")
-        assert p.returncode == 0, p.stderr
-        out[ranks] = json.loads((tmp_path / f"o{ranks}" / "results.json").read_text())
+    out = results_on_ranks(tmp_path / "s.yaml", tmp_path, cwd="/")
     a, b = (out[r]["states"][0]["analyses"] for r in (1, 2))
     for key in ("mceip_mu", "mceip_lambda2"):
         assert _values(a[key]) == pytest.approx(_values(b[key]), rel=1e-10)
