@@ -145,11 +145,17 @@ def copositive_at(a0: np.ndarray, a1: np.ndarray, mu: float, d: np.ndarray, thet
     H = 0.5 * (DA + DA.T)
     aD = d[:, None] * (np.abs(a0) + abs(mu) * np.abs(a1))
     E = gamma(5) * 0.5 * (aD + aD.T)
+    return _pd_plus_nn(H, E, theta)
+
+
+def _pd_plus_nn(H: np.ndarray, E: np.ndarray, theta: float) -> bool:
+    """Every symmetric matrix within entrywise ``E`` of ``H`` is strictly copositive: the exact
+    split ``N = theta * (positive off-diagonal part of H)`` and ``H - N`` proven positive
+    definite (within the Frobenius norm of ``E``)."""
     if theta > 0:
         off = H - np.diag(np.diag(H))
         H = H - theta * np.maximum(off, 0.0)
-    radius = float(_up(np.sqrt(np.sum(E * E)), E.size))
-    return verified_pd(H, radius)
+    return verified_pd(H, float(_up(np.sqrt(np.sum(E * E)), E.size)))
 
 
 def closes_subsets(a0, a1, U: np.ndarray, a: float, b: float, d: np.ndarray, theta: float) -> bool:
@@ -187,10 +193,7 @@ def rlt_closes(a0: np.ndarray, a1: np.ndarray, U: np.ndarray, F, a: float, b: fl
         C, rC = mr_mul(M, None, A, rA)
         H = 0.5 * (C + C.T)
         R = _up(0.5 * (rC + rC.T) + U_ROUND * np.abs(H), 2)
-        if theta > 0:
-            off = H - np.diag(np.diag(H))
-            H = H - theta * np.maximum(off, 0.0)
-        if not verified_pd(H, float(_up(np.sqrt(np.sum(R * R)), R.size))):
+        if not _pd_plus_nn(H, R, theta):
             return False
     return True
 
