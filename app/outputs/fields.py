@@ -22,7 +22,7 @@ system's DOFs, i.e. in the node frames (T, N) at contact nodes, and are rotated 
 Everything is gathered on rank 0 in a canonical node and cell order (sorted by coordinates), so
 the files do not depend on the number of MPI ranks, and rank 0 writes:
 
-* ``paraview/states.xdmf`` (+ ``.h5``): one mesh, time = state index, fields ``displacement``
+* ``paraview/states.xdmf`` (+ ``states.h5``, and ``states.1.h5`` ... past 64 MiB of data): one mesh, time = state index, fields ``displacement``
   [length], ``von_mises`` [stress, cell data], ``contact_status`` (-1 not a contact node, 0 free,
   1 zero, 2 stick, 3 slip), ``reaction`` (nodal contact force on the body, global x/y) [force],
   ``slip_direction`` (unit vector of impending slip along the node's tangent, global x/y; 0 elsewhere);
@@ -240,19 +240,78 @@ class _FieldMaker:
 
 
 class _XdmfSeries:
-    """meshio's XDMF time-series writer with the .h5 next to the .xdmf (meshio puts it in the cwd)."""
+    """meshio's XDMF time series whose HDF5 data are built in memory and written to disk by Python.
 
-    def __init__(self, path: pathlib.Path):
+    HDF5 does not survive a full disk: after a failed write its object destructors raise inside
+    h5py and the process then dies of a segmentation fault (HDF5 1.10, h5py 3.7), so a user would
+    see a crash instead of "no space left". Here HDF5 only ever writes into a ``BytesIO``; each
+    finished image goes to disk through ``open``/``write``, where a full disk is a plain
+    ``OSError(ENOSPC)``. Memory stays bounded: a new ``.h5`` part is started once a part holds
+    ``part_bytes`` of data (``states.h5`` holds the mesh and the first states, ``states.1.h5`` ...
+    the next; the ``.xdmf`` names the part of each array). Parts are written with ``"xb"``: the
+    series never overwrites a file (the folder is the study's own staging folder).
+    """
+
+    def __init__(self, path: pathlib.Path, part_bytes: int = 64 * 2**20):
         import h5py
         import meshio
 
+        series = self
+
         class Writer(meshio.xdmf.TimeSeriesWriter):
             def __enter__(self):
-                self.h5_filename = str(self.filename.with_suffix(".h5"))
-                self.h5_file = h5py.File(self.h5_filename, "w")
+                series._open_part()
                 return self
 
-        self.writer = Writer(path)
+            def __exit__(self, *exc):
+                if exc and exc[0] is not None:      # the study failed: nothing more is written
+                    series._discard_part()
+                    return False
+                series._close_part()
+                import xml.etree.ElementTree as ET
+                with open(self.filename, "xb") as f:
+                    ET.ElementTree(self.xdmf_file).write(f)
+                return False
+
+            def write_data(self, t, point_data=None, cell_data=None):
+                super().write_data(t, point_data=point_data, cell_data=cell_data)
+                if series._held >= series.part_bytes:
+                    series._close_part()
+                    series._open_part()
+
+            def numpy_to_xml_string(self, data):
+                series._held += np.asarray(data).nbytes
+                return super().numpy_to_xml_string(data)
+
+        self._h5py = h5py
+        self.path = pathlib.Path(path)
+        self.part_bytes = int(part_bytes)
+        self.parts: list[pathlib.Path] = []
+        self._buf = None
+        self._held = 0
+        self.writer = Writer(self.path)
+
+    def _open_part(self) -> None:
+        import io
+        k = len(self.parts)
+        name = self.path.with_suffix(".h5") if k == 0 else self.path.with_suffix(f".{k}.h5")
+        self.parts.append(name)
+        self._buf = io.BytesIO()
+        self.writer.h5_filename = str(name)
+        self.writer.h5_file = self._h5py.File(self._buf, "w")
+        self._held = 0
+
+    def _close_part(self) -> None:
+        self.writer.h5_file.close()
+        image = self._buf.getvalue()
+        self._buf = None
+        with open(self.parts[-1], "xb") as f:
+            f.write(image)
+
+    def _discard_part(self) -> None:
+        if self._buf is not None:
+            self.writer.h5_file.close()
+            self._buf = None
 
     def __enter__(self):
         return self.writer.__enter__()
@@ -329,10 +388,14 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
                     if idx in pictured:
                         kept_u[idx], kept_vm[idx] = u, vm
                 bar.update(1)
-        finally:
+        except BaseException as err:
             bar.close()
             if series is not None:
-                series.__exit__(None, None, None)
+                series.__exit__(type(err), err, err.__traceback__)
+            raise
+        bar.close()
+        if series is not None:
+            series.__exit__(None, None, None)
         record["contact_displacement_check"] = worst
         log.info("fields: %d state(s) computed (contact displacements reproduced to %.2g relative)",
                  len(state_ids), worst)
@@ -359,7 +422,8 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
                 meshio.write(paraview_dir / "modes.vtu",
                              meshio.Mesh(_pad3(g.points), [(g.cell_type, g.cells)],
                                          point_data={n: _pad3(v) for n, v in modes.items()}))
-                record["files"] += ["paraview/states.xdmf", "paraview/states.h5", "paraview/modes.vtu"]
+                record["files"] += (["paraview/states.xdmf"] + [f"paraview/{p.name}" for p in series.parts]
+                                    + ["paraview/modes.vtu"])
             if shots is not None:
                 fdir = outdir / "fields"
                 fdir.mkdir(parents=True, exist_ok=True)
