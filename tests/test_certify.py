@@ -17,7 +17,7 @@ from mpi4py import MPI
 from app import mceip_mu
 from app.analyses.classify import classify
 from app.analyses.enumerate import enumerate_patterns
-from app.analyses.mceip_mu import checker
+from app.analyses.mceip_mu import checker, closing, prooflog, rounding
 from app.analyses.pencils import condensed_mu_pencil, split_pencils
 from app.stages import Stages
 from app.system.discrete import random_contact_problem
@@ -155,13 +155,13 @@ def test_checker_accepts_the_log_and_rejects_tampering():
     A0, A1 = _random_pencil(394604, 4, 2, 1, 1, 1.0)
     r = mceip_mu(A0, A1, 8.5)
     good = _log_of(r)
-    rep = checker.check_log(A0, A1, checker.ProofLog.from_json(good))
+    rep = checker.check_log(A0, A1, prooflog.ProofLog.from_json(good))
     assert rep.onset_ok and rep.all_ok and len(rep.solutions) == len(r.all.values)
 
     def rejected(edit) -> bool:
         bad = copy.deepcopy(good)
         edit(bad)
-        rep = checker.check_log(A0, A1, checker.ProofLog.from_json(bad))
+        rep = checker.check_log(A0, A1, prooflog.ProofLog.from_json(bad))
         return not (rep.onset_ok and rep.all_ok)
 
     cops = [n for n in good["nodes"] if n["kind"] == "cop" and any(v != 1.0 for v in n["d"])] or \
@@ -224,9 +224,9 @@ def test_verified_pd_refuses_a_matrix_just_below_definite():
     B = rng.normal(size=(40, 40))
     H = B @ B.T
     lam = np.linalg.eigvalsh(H)[0]
-    assert checker.verified_pd(H - 0.999 * lam * np.eye(40))
-    assert not checker.verified_pd(H - 1.000001 * lam * np.eye(40))
-    assert not checker.verified_pd(H, radius=lam * 1.01)
+    assert rounding.verified_pd(H - 0.999 * lam * np.eye(40))
+    assert not rounding.verified_pd(H - 1.000001 * lam * np.eye(40))
+    assert not rounding.verified_pd(H, radius=lam * 1.01)
 
 
 @pytest.mark.slow
@@ -298,7 +298,7 @@ def test_product_argument_witness_is_checked():
     rlt = [n for n in P.tree.nodes if n.kind == "rlt"]
     assert rlt
     n = rlt[0]
-    assert not checker.closes_subsets(P.a0, P.a1, np.arange(30), n.a, n.b, np.ones(30), 0.0)
+    assert not closing.closes_subsets(P.a0, P.a1, np.arange(30), n.a, n.b, np.ones(30), 0.0)
     ok, _, _, why = checker.check_node(P.a0, P.a1, n, [], 10.0)
     assert ok, why
     M = np.array(n.M)
@@ -311,3 +311,21 @@ def test_product_argument_witness_is_checked():
     wide = copy.deepcopy(n)
     wide.b = 10.0
     assert not checker.check_node(P.a0, P.a1, wide, [], 10.0)[0]
+
+
+def test_trusted_kernel_does_not_import_the_prover():
+    """The checker's modules (rounding, closing, windows, prooflog, checker) import neither the
+    prover nor its LP: a bug there cannot make the checker accept a log."""
+    import ast
+    import pathlib
+    pkg = pathlib.Path(checker.__file__).parent
+    for name in ("rounding", "closing", "windows", "prooflog", "checker"):
+        tree = ast.parse((pkg / f"{name}.py").read_text(encoding="utf-8"))
+        imported = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                imported |= {node.module or ""} | {f"{node.module}.{a.name}" for a in node.names}
+            elif isinstance(node, ast.Import):
+                imported |= {a.name for a in node.names}
+        bad = {m for m in imported if m.split(".")[-1] in ("prover", "lp", "dense_mcp", "enumerate")}
+        assert not bad, (name, bad)

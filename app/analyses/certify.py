@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.analyses.mceip_mu import checker as _ck
+from app.analyses.mceip_mu import rounding as _rounding
 from app.linalg import one_blas_thread
 
 
@@ -30,7 +30,7 @@ def certificate(method: str, interval: tuple[float, float], status: str, seconds
 def in_pd_plus_nn(S: np.ndarray) -> bool:
     """Proven: the symmetric ``S`` is in ``PD + NN`` (so strictly copositive). Exact power-of-two
     diagonal scaling, splits ``N = theta * (positive off-diagonal part)``, ``theta`` in
-    {0, 1, 1/2}, and the verified Cholesky of :func:`app.analyses.mceip_mu.checker.verified_pd`."""
+    {0, 1, 1/2}, and the verified Cholesky of :func:`app.analyses.mceip_mu.rounding.verified_pd`."""
     S = np.asarray(S, dtype=float)
     if S.size == 0:
         return True
@@ -41,7 +41,7 @@ def in_pd_plus_nn(S: np.ndarray) -> bool:
     Sn = np.ldexp(S, -(e[:, None] + e[None, :]))
     off = Sn - np.diag(np.diag(Sn))
     pos = np.maximum(off, 0.0)
-    return any(_ck.verified_pd(Sn - theta * pos) for theta in (0.0, 1.0, 0.5))
+    return any(_rounding.verified_pd(Sn - theta * pos) for theta in (0.0, 1.0, 0.5))
 
 
 # --- the MCEIP-mu result of one state: search + certificate ----------------------------------------

@@ -37,9 +37,9 @@ PROVEN = "proven"
 
 def _verified_pd_pencil(a0: np.ndarray, a1: np.ndarray, mu: float) -> bool:
     """``sym(a0 + mu a1)`` proven positive definite (the dense verified Cholesky of
-    :func:`app.analyses.mceip_mu.checker.verified_pd`, after an exact power-of-two diagonal
+    :func:`app.analyses.mceip_mu.rounding.verified_pd`, after an exact power-of-two diagonal
     scaling; the rounding of ``a0 + mu a1`` and of the symmetric part is in the radius)."""
-    from app.analyses.mceip_mu.checker import gamma, rounded_up, verified_pd
+    from app.analyses.mceip_mu.rounding import gamma, rounded_up, verified_pd
     A = a0 + mu * a1
     H = 0.5 * (A + A.T)
     d = np.diag(H)

@@ -65,7 +65,8 @@ class StateCheck:
 def check_folder(folder: pathlib.Path) -> list[StateCheck]:
     """Re-verify every stored proof of a results folder (raises ``FileNotFoundError`` when the
     folder has no results.json)."""
-    from app.analyses.mceip_mu.checker import ProofLog, check_log
+    from app.analyses.mceip_mu.checker import check_log
+    from app.analyses.mceip_mu.prooflog import ProofLog
     from app.study_result import from_document
     results = from_document(json.loads((folder / "results.json").read_text(encoding="utf-8")))
     by_index = {int(st["index"]): st for st in results.get("states", [])}

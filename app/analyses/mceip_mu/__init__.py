@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.mceip_mu import checker, prover
+from app.analyses.mceip_mu import checker, prooflog, prover
 from app.linalg import one_blas_thread
 
 #: below this many slip nodes the float candidates come from exhaustive enumeration
@@ -61,7 +61,7 @@ class MuProof:
     lower_bound: float                 # proven: no critical mu in [0, lower_bound]
     ill_conditioned: bool              # some decision could not be resolved in double precision
     certified: bool                    # both claims accepted by the checker
-    log: checker.ProofLog
+    log: prooflog.ProofLog
     nodes: int
     seconds: float                     # prover
     check_seconds: float               # checker
@@ -140,7 +140,7 @@ def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: fl
     return _result(A0, A1, cap, out, rep, len(cands), t_check)
 
 
-def _result(A0, A1, cap, out: prover.ProofOutcome, rep: checker.CheckReport, n_cands: int,
+def _result(A0, A1, cap, out: prover.ProofOutcome, rep: prooflog.CheckReport, n_cands: int,
             t_check: float) -> MuProof:
     s = A0.shape[0]
     proven_keys = {(tuple(u), round(lo, 12)) for u, lo, hi in rep.solutions}

@@ -1,7 +1,7 @@
 """Branch and bound that proves the condensed MCEIP-mu (21)-(23) and writes the proof log.
 
 A node ``(U, [a, b])`` stands for "every solution whose support lies in ``U`` and whose mu lies in
-``[a, b]``". It is closed by one of the tests of :mod:`app.analyses.mceip_mu.checker`:
+``[a, b]``". It is closed by one of the tests of :mod:`app.analyses.mceip_mu.closing` and :mod:`app.analyses.mceip_mu.windows`:
 
 * ``cop``: the sign argument, ``sym(D A_UU)`` strictly copositive at ``a`` and ``b``, with ``D = I``
   or the diagonal ``z / x`` of the right and left eigenvectors of ``A_UU`` at an end (a
@@ -28,8 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from app.analyses.mceip_mu import checker as ck
-from app.analyses.mceip_mu import lp
+from app.analyses.mceip_mu import checker, closing, lp, prooflog, windows
 from app.linalg import one_blas_thread
 
 #: relative half-width of the window around a verified eigenvalue (the accuracy of a proven value)
@@ -71,16 +70,16 @@ class Found:
 @dataclass
 class Tree:
     """The nodes built so far, with the memo ``(U, a, b) -> id``."""
-    nodes: list[ck.Node] = field(default_factory=list)
+    nodes: list[prooflog.Node] = field(default_factory=list)
     memo: dict = field(default_factory=dict)
 
     def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open", tag: str = "",
-            F: tuple[int, ...] = ()) -> tuple[ck.Node, bool]:
+            F: tuple[int, ...] = ()) -> tuple[prooflog.Node, bool]:
         U, F = tuple(sorted(U)), tuple(sorted(F))
         key = (U, F, a, b, tag)
         if key in self.memo:
             return self.nodes[self.memo[key]], False
-        n = ck.Node(len(self.nodes), list(U), float(a), float(b), kind, F=list(F))
+        n = prooflog.Node(len(self.nodes), list(U), float(a), float(b), kind, F=list(F))
         self.nodes.append(n)
         self.memo[key] = n.id
         return n, True
@@ -96,7 +95,7 @@ class Prover:
         diag = np.abs(np.diag(A0))
         ref = float(np.max(diag)) if np.max(diag, initial=0.0) > 0 else float(np.max(np.abs(A0), initial=1.0))
         self.scale_exp = int(math.frexp(ref)[1]) if ref > 0 and math.isfinite(ref) else 0
-        self.a0, self.a1 = ck.scaled(A0, A1, self.scale_exp)
+        self.a0, self.a1 = checker.scaled(A0, A1, self.scale_exp)
         self.cap = float(cap)
         self.pairs = [tuple(sorted((int(a), int(b)))) for a, b in pairs]
         self.tree = Tree()
@@ -133,7 +132,7 @@ class Prover:
                     out.append(d)
         return out
 
-    def _try_cop(self, n: ck.Node) -> bool:
+    def _try_cop(self, n: prooflog.Node) -> bool:
         key = (tuple(n.U), n.a, n.b)
         if key in self.cop_failed:          # the same test already failed (a sibling with a larger F)
             return False
@@ -142,16 +141,16 @@ class Prover:
         self.cop_failed.add(key)
         return False
 
-    def _cop(self, n: ck.Node) -> bool:
+    def _cop(self, n: prooflog.Node) -> bool:
         U = np.asarray(n.U, dtype=np.int64)
         one = np.ones(len(U))
         for theta in (0.0, 1.0):
-            if ck.closes_subsets(self.a0, self.a1, U, n.a, n.b, one, theta):
+            if closing.closes_subsets(self.a0, self.a1, U, n.a, n.b, one, theta):
                 n.kind, n.d, n.theta = "cop", [1.0] * len(U), theta
                 return True
         for d in self._dvectors(U, n.a, n.b)[1:]:
             for theta in (0.0, 1.0, 0.5):
-                if ck.closes_subsets(self.a0, self.a1, U, n.a, n.b, d, theta):
+                if closing.closes_subsets(self.a0, self.a1, U, n.a, n.b, d, theta):
                     n.kind, n.d, n.theta = "cop", [float(v) for v in d], theta
                     return True
         return False
@@ -178,8 +177,8 @@ class Prover:
 
     # --- products of constraints ---------------------------------------------------------
 
-    def _try_rlt(self, n: ck.Node) -> bool:
-        """Close ``n`` by :func:`app.analyses.mceip_mu.checker.rlt_closes`: a multiplier matrix
+    def _try_rlt(self, n: prooflog.Node) -> bool:
+        """Close ``n`` by :func:`app.analyses.mceip_mu.closing.rlt_closes`: a multiplier matrix
         ``M`` found by projected subgradient ascent on ``min(lambda_min sym(M A_UU))`` over the
         two ends (from ``M = I``, the sign argument's start), then proven by the checker."""
         U = np.asarray(n.U, dtype=np.int64)
@@ -212,7 +211,7 @@ class Prover:
         if not best > 0:
             return False
         for theta in (0.0, 1.0):
-            if ck.rlt_closes(self.a0, self.a1, U, n.F, n.a, n.b, best_M, theta):
+            if closing.rlt_closes(self.a0, self.a1, U, n.F, n.a, n.b, best_M, theta):
                 n.kind, n.M, n.theta = "rlt", best_M.tolist(), theta
                 return True
         return False
@@ -252,10 +251,10 @@ class Prover:
             y += (self.a0[:, Ul] + mu * self.a1[:, Ul]) @ lq
         return None, (x, y)
 
-    def _try_farkas(self, n: ck.Node):
+    def _try_farkas(self, n: prooflog.Node):
         """Close ``n`` by a Farkas vector (kind ``farkas``); else return the LP's dual point."""
         w, relaxed = self._lp(tuple(n.U), set(n.F), n.a, n.b)
-        if w is not None and ck.farkas_closes(self.a0, self.a1, np.asarray(n.U), n.F, n.a, n.b, w):
+        if w is not None and closing.farkas_closes(self.a0, self.a1, np.asarray(n.U), n.F, n.a, n.b, w):
             n.kind, n.w = "farkas", [float(v) for v in w]
             return True, None
         return False, relaxed
@@ -272,12 +271,12 @@ class Prover:
         if wu is not None and np.all(np.isfinite(wu)):
             w = np.zeros(self.s)
             w[U] = wu
-            if ck.farkas_closes(self.a0, self.a1, U, U, lo, hi, w):
+            if closing.farkas_closes(self.a0, self.a1, U, U, lo, hi, w):
                 return w
         if not lp:
             return None
         w, _ = self._lp(tuple(int(i) for i in U), set(int(i) for i in U), lo, hi)
-        if w is not None and ck.farkas_closes(self.a0, self.a1, U, U, lo, hi, w):
+        if w is not None and closing.farkas_closes(self.a0, self.a1, U, U, lo, hi, w):
             return w
         return None
 
@@ -307,7 +306,7 @@ class Prover:
         off = np.setdiff1d(np.arange(self.s), U)
         return not len(off) or np.min(y[off]) >= -1e-6 * float(np.max(np.abs(y), initial=1.0) + np.max(np.abs(x)))
 
-    def _window(self, n: ck.Node, U: np.ndarray, mu: float, x: np.ndarray, mus: list[float]):
+    def _window(self, n: prooflog.Node, U: np.ndarray, mu: float, x: np.ndarray, mus: list[float]):
         """A verified window around the eigenvalue ``mu`` of support ``U`` (recorded in ``n``)."""
         h = WINDOW_REL * max(abs(mu), 1e-3)
         near = [abs(mu - m) for m in mus if m != mu]
@@ -316,7 +315,7 @@ class Prover:
         for _ in range(3):
             if h <= 0:
                 break
-            res = ck.verify_window(self.a0, self.a1, U, mu, x, h, self.cap, self.pairs)
+            res = windows.verify_window(self.a0, self.a1, U, mu, x, h, self.cap, self.pairs)
             if res.ok:
                 n.windows.append({"mu": mu, "h": h, "x": [float(v) for v in x]})
                 if res.verdict in ("solution", "ill-conditioned"):
@@ -329,7 +328,7 @@ class Prover:
             h *= 0.1
         return None
 
-    def _leaf(self, n: ck.Node) -> bool:
+    def _leaf(self, n: prooflog.Node) -> bool:
         """Exact support ``U`` (``F = U``) on ``[a, b]``: windows around the eigenvalues that look
         like solutions, Farkas pieces between them, and for what is left windows around every
         eigenvalue and proven nonsingularity between (the checker redoes the last part)."""
@@ -367,14 +366,14 @@ class Prover:
                     return False
                 covered.append((res.mu_lo, res.mu_hi))
         done = covered + [(p["a"], p["b"]) for p in n.pieces]
-        if ck.cover_nonsingular(self.a0, self.a1, U, a, b, done, deadline=self.deadline):
+        if closing.cover_nonsingular(self.a0, self.a1, U, a, b, done, deadline=self.deadline):
             return True
         n.kind = "open"
         return False
 
     # --- the search --------------------------------------------------------------------------
 
-    def _split(self, n: ck.Node, relaxed) -> list[ck.Node]:
+    def _split(self, n: prooflog.Node, relaxed) -> list[prooflog.Node]:
         """Split an unclosed family: on a pair inside ``U \\ F`` first (each child then holds one
         half), else on the index of ``U \\ F`` where the LP's relaxed point breaks complementarity
         most; by halving the interval when it is wide (more than ``WIDE_REL`` of its end, or of
@@ -413,14 +412,14 @@ class Prover:
         n.kind, n.children = "branch", [c0.id, c1.id]
         return [c0, c1]
 
-    def explore(self, root: ck.Node, stop_below: float | None = None) -> list[ck.Node]:
+    def explore(self, root: prooflog.Node, stop_below: float | None = None) -> list[prooflog.Node]:
         """Close every node under ``root`` (best first: lowest ``a``, depth first among equals).
         Returns the nodes left open (budget or undecidable). ``stop_below``: for the onset,
         abandon as soon as a solution with mu at or below it is found (the caller restarts with
         a lower target)."""
         heap = [(n.a, -n.id, n.id) for n in self._open_under([root])]
         heapq.heapify(heap)
-        left: list[ck.Node] = []
+        left: list[prooflog.Node] = []
         queued = {i for _, _, i in heap}
         while heap:
             _, _, i = heapq.heappop(heap)
@@ -431,7 +430,7 @@ class Prover:
                 break
             if n.kind != "open":
                 continue
-            if not ck._allowed(n.F, self.pairs):
+            if not checker.allowed(n.F, self.pairs):
                 n.kind = "pair"
                 continue
             if not n.U:
@@ -465,7 +464,7 @@ class Prover:
                     heapq.heappush(heap, (c.a, -c.id, c.id))
         return left
 
-    def _open_under(self, kids: list[ck.Node]) -> list[ck.Node]:
+    def _open_under(self, kids: list[prooflog.Node]) -> list[prooflog.Node]:
         """The open nodes among ``kids`` and under them (a memoised child may have been split by
         an earlier, abandoned exploration and still hold open nodes)."""
         out, stack, seen = [], list(kids), set()
@@ -480,10 +479,10 @@ class Prover:
                 stack.extend(self.tree.nodes[j] for j in c.children)
         return out
 
-    def log(self, onset_root, onset_below, all_roots, witness: Found | None) -> ck.ProofLog:
+    def log(self, onset_root, onset_below, all_roots, witness: Found | None) -> prooflog.ProofLog:
         w = None if witness is None else {"U": list(witness.U), "mu": witness.mu, "h": witness.h,
                                           "x": [float(v) for v in witness.x]}
-        return ck.ProofLog(self.s, self.cap, self.scale_exp, [list(p) for p in self.pairs], self.tree.nodes,
+        return prooflog.ProofLog(self.s, self.cap, self.scale_exp, [list(p) for p in self.pairs], self.tree.nodes,
                            onset_root, onset_below, all_roots, w)
 
 
@@ -516,7 +515,7 @@ def _polish(s0: np.ndarray, s1: np.ndarray, mu: float, x: np.ndarray, steps: int
 @dataclass
 class ProofOutcome:
     """What the prover built (to be accepted by the checker): the log and the open nodes."""
-    log: ck.ProofLog
+    log: prooflog.ProofLog
     found: list[Found]
     ill: list[Found]
     onset_done: bool
@@ -537,7 +536,7 @@ def _seed_candidates(P: Prover, candidates) -> None:
         if len(xs) == P.s:
             xs = xs[Ua]
         mu, xs = _polish(P.a0[np.ix_(Ua, Ua)], P.a1[np.ix_(Ua, Ua)], float(mu), xs)
-        res = ck.verify_window(P.a0, P.a1, Ua, float(mu), xs, h, P.cap, P.pairs)
+        res = windows.verify_window(P.a0, P.a1, Ua, float(mu), xs, h, P.cap, P.pairs)
         if res.ok and res.verdict == "solution":
             P.found[(U, round(res.enc_lo, 12))] = Found(U, float(mu), h, xs.copy(), (res.enc_lo, res.enc_hi),
                                                        res.min_x, res.min_y, res.verdict)
@@ -554,7 +553,7 @@ def _onset_target(P: Prover, w: Found) -> float:
     for rel in (0.0, 1e-8, 1e-7, 1e-6):
         L = top if rel == 0.0 else float(w.enc[0] * (1.0 - rel))
         for d in P._dvectors(all_idx, L, L):
-            if any(ck.copositive_at(P.a0, P.a1, L, d, th) for th in (0.0, 1.0)):
+            if any(closing.copositive_at(P.a0, P.a1, L, d, th) for th in (0.0, 1.0)):
                 return L
     return top
 
