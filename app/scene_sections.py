@@ -91,6 +91,10 @@ class McpSettings(Strict):
         4, description="reduced search: number of evenly spaced one-node starts")
     warm_chain: Annotated[int, Field(ge=1, le=100_000)] = Field(
         8, description="classifications per warm-started chain along the path (one rank per chain)")
+    prove_first: bool = Field(
+        True, description="above search_full_max slip nodes, first try the search-free proof that no critical mu "
+                          "lies in [0, cap] (sign argument, intervals halved); when it succeeds the search is "
+                          "skipped, so values above the cap are not listed")
     certify_seconds_large: NonNegFloat = Field(
         5.0, description="proof budget per state above search_full_max slip nodes [s]")
 

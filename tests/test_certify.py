@@ -329,3 +329,40 @@ def test_trusted_kernel_does_not_import_the_prover():
                 imported |= {a.name for a in node.names}
         bad = {m for m in imported if m.split(".")[-1] in ("prover", "lp", "dense_mcp", "enumerate")}
         assert not bad, (name, bad)
+
+
+def test_none_below_cap_without_a_search():
+    """The search-free proof of "no critical mu in [0, cap]" (the sign argument on every support,
+    intervals halved): when it answers, enumeration finds nothing in [0, cap] and the checker
+    accepted its log; on pencils with a solution below the cap it declines (None)."""
+    from app.analyses.mceip_mu import mceip_mu_none_below_cap
+    rng = np.random.default_rng(17)
+    answered = declined = 0
+    for _ in range(40):
+        s = int(rng.integers(2, 9))
+        A0, A1 = _pd_plus_pencil(rng, s, a1_scale=float(rng.uniform(0.05, 3.0)))
+        cap = float(rng.uniform(1.0, 30.0))
+        vals = [p.value for p in enumerate_patterns(A0, A1, np.arange(s), t_max=cap)]
+        r = mceip_mu_none_below_cap(A0, A1, cap)
+        if r is None:
+            declined += 1
+            continue
+        answered += 1
+        assert not vals, vals
+        assert r.certified and r.onset.value is None and r.all.values == []
+        assert checker.check_log(A0, A1, r.log).all_ok
+        assert all(n.kind in ("cop", "bisect") for n in r.log.nodes)
+    assert answered >= 5 and declined >= 5, (answered, declined)
+
+
+def test_large_family_scaling_by_inverse_iteration():
+    """The diagonal scaling of large families (inverse iteration) is the full eigendecomposition's
+    ``z / x`` where both exist, on a nonsymmetric matrix with a positive Perron-like pair."""
+    from app.analyses.mceip_mu.prover import _perron_scaling, _perron_scaling_large
+    rng = np.random.default_rng(3)
+    n = 80
+    B = rng.uniform(0.0, 1.0, size=(n, n))
+    A = n * np.eye(n) - B - 0.3 * B.T @ np.diag(rng.uniform(0, 1, n)) / n   # an M-matrix: x, z > 0
+    d_full, d_fast = _perron_scaling(A), _perron_scaling_large(A)
+    assert d_full is not None and d_fast is not None
+    assert np.allclose(d_fast, d_full, rtol=1e-6)

@@ -99,7 +99,8 @@ name: large-s-check
 system: {type: block, nx: 16, ny: 8}
 mu: 1.1
 analyses: [mceip_mu]
-settings: {mcp: {search_full_max: 3, warm_chain: 3, certify_seconds_large: 0, certify_enumerate_max: 3}}
+settings: {mcp: {search_full_max: 3, warm_chain: 3, certify_seconds_large: 0, certify_enumerate_max: 3,
+                  prove_first: false}}
 """
 
 

@@ -68,7 +68,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     log travel in the private ``_proof`` key (written to ``proofs/`` beside results.json)."""
     from app.analyses import dense_mcp
     from app.analyses.enumerate import enumerate_patterns
-    from app.analyses.mceip_mu import mceip_mu
+    from app.analyses.mceip_mu import mceip_mu, mceip_mu_none_below_cap
 
     s = A0.shape[0]
     comp = np.arange(s)
@@ -81,6 +81,14 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                 f"no search: s = {s} <= certify_enumerate_max, every support enumerated in floating point "
                 "(candidates for the proof)"))
             found_by = {}
+        elif large and settings.certify and settings.prove_first and \
+                (quick := mceip_mu_none_below_cap(A0, A1, cap, pairs=pairs)) is not None:
+            # proven without a search: no critical mu in [0, cap] (values above the cap, which a
+            # search might meet, are outside every claim and not searched for)
+            rep = dense_mcp.DenseSearchReport([], 0, 0, 0, 0.0, note=(
+                f"no search: s = {s} > search_full_max and the sign argument alone proved that no critical mu "
+                f"lies in [0, {cap:.6g}] (values above the cap are not searched for)"))
+            return _as_dict(A0, A1, cap, quick, [], {}, rep, comp, settings)
         else:
             rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
                                    zero_one_max=settings.search_zero_one_max, full_max=settings.search_full_max,

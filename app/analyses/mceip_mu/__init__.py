@@ -140,6 +140,25 @@ def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: fl
     return _result(A0, A1, cap, out, rep, len(cands), t_check)
 
 
+def mceip_mu_none_below_cap(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None,
+                            max_nodes: int = 63) -> MuProof | None:
+    """The proof that the condensed pencil has no critical mu in ``[0, cap]`` by the sign argument
+    alone (:func:`.prover.prove_none_below_cap`, re-verified by the checker), or ``None``. It needs
+    no search: a study tries it first at large ``s`` and searches only when it fails."""
+    A0 = np.asarray(A0, dtype=float)
+    A1 = np.asarray(A1, dtype=float)
+    pairs = [tuple(int(i) for i in p) for p in (pairs or [])]
+    with one_blas_thread():
+        out = prover.prove_none_below_cap(A0, A1, cap, pairs=pairs, max_nodes=max_nodes)
+        if out is None:
+            return None
+        t1 = time.perf_counter()
+        rep = checker.check_log(A0, A1, out.log)
+        t_check = time.perf_counter() - t1
+    proof = _result(A0, A1, cap, out, rep, 0, t_check)
+    return proof if proof.certified and proof.onset.value is None else None
+
+
 def _result(A0, A1, cap, out: prover.ProofOutcome, rep: prooflog.CheckReport, n_cands: int,
             t_check: float) -> MuProof:
     s = A0.shape[0]
@@ -180,4 +199,4 @@ def _result(A0, A1, cap, out: prover.ProofOutcome, rep: prooflog.CheckReport, n_
                    out.log, out.nodes, out.seconds, t_check, n_cands)
 
 
-__all__ = ["Claim", "MuProof", "Solution", "checker", "mceip_mu", "prover"]
+__all__ = ["Claim", "MuProof", "Solution", "checker", "mceip_mu", "mceip_mu_none_below_cap", "prover"]

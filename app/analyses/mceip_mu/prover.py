@@ -52,6 +52,10 @@ RLT_MIN_FREE = 12
 RLT_MAX = 64
 #: halvings of a leaf's gap tried with Farkas vectors before windows and nonsingularity take over
 FARKAS_DEPTH = 6
+#: above this many slip nodes in ``U``: a wide family is halved without its LP (a dense LP of
+#: hundreds of columns costs seconds and closes no wide family of the block's large states), and
+#: the diagonal scalings come from inverse iteration instead of a full eigendecomposition
+LARGE_U = 64
 
 
 @dataclass
@@ -105,31 +109,23 @@ class Prover:
         self.ill: list[Found] = []
         self.leaf_cache: dict = {}
         self.cop_failed: set = set()
+        self.dvec_cache: dict = {}
 
     # --- tests ------------------------------------------------------------------------------
 
     def _dvectors(self, U: np.ndarray, a: float, b: float) -> list[np.ndarray]:
-        """Candidate diagonals: ``I`` and ``z / x`` at each end (when both vectors are positive)."""
+        """Candidate diagonals: ``I`` and ``z / x`` at each end (when both vectors are positive),
+        ``x`` and ``z`` the right and left eigenvectors of the eigenvalue of ``A_UU`` with the
+        smallest real part. They only guide the sign argument, which proves or fails on its own."""
         out = [np.ones(len(U))]
         for mu in (b, a) if a != b else (b,):
-            A = self.a0[np.ix_(U, U)] + mu * self.a1[np.ix_(U, U)]
-            try:
-                w, vl, vr = scipy.linalg.eig(A, left=True, right=True)
-            except (np.linalg.LinAlgError, ValueError):
-                continue
-            if not np.all(np.isfinite(w)):
-                continue
-            j = int(np.argmin(w.real))
-            if abs(w[j].imag) > 1e-12 * max(1.0, abs(w[j].real)):
-                continue
-            x, z = vr[:, j].real, vl[:, j].real
-            x = x * np.sign(np.sum(x))
-            z = z * np.sign(np.sum(z))
-            if np.all(x > 0) and np.all(z > 0):
-                d = z / x
-                d = d / math.exp(float(np.mean(np.log(d))))
-                if np.all(np.isfinite(d)) and np.max(d) / np.min(d) < 1e12:
-                    out.append(d)
+            key = (tuple(U), mu)
+            if key not in self.dvec_cache:
+                A = self.a0[np.ix_(U, U)] + mu * self.a1[np.ix_(U, U)]
+                self.dvec_cache[key] = _perron_scaling(A) if len(U) <= LARGE_U else _perron_scaling_large(A)
+            d = self.dvec_cache[key]
+            if d is not None:
+                out.append(d)
         return out
 
     def _try_cop(self, n: prooflog.Node) -> bool:
@@ -451,6 +447,9 @@ class Prover:
                 continue
             if self._try_cop(n):
                 continue
+            if len(n.U) > LARGE_U and self._wide(n):
+                self._push(heap, queued, self._split(n, None))     # halved: its LP would not close it
+                continue
             closed, relaxed = self._try_farkas(n)
             if closed or self._try_rlt(n):
                 continue
@@ -463,6 +462,20 @@ class Prover:
                     queued.add(c.id)
                     heapq.heappush(heap, (c.a, -c.id, c.id))
         return left
+
+    def _wide(self, n: prooflog.Node) -> bool:
+        """:meth:`_split` halves ``n`` whatever its LP says (no pair inside, a wide interval)."""
+        U, F = set(n.U), set(n.F)
+        if any(p[0] in U - F and p[1] in U - F for p in self.pairs):
+            return False
+        scale = max(abs(n.b), WIDE_FLOOR * self.cap, 1e-300)
+        return n.b - n.a > WIDE_REL * scale and len(U - F) > FEW_FREE
+
+    def _push(self, heap: list, queued: set, kids: list[prooflog.Node]) -> None:
+        for c in self._open_under(kids):
+            if c.id not in queued:
+                queued.add(c.id)
+                heapq.heappush(heap, (c.a, -c.id, c.id))
 
     def _open_under(self, kids: list[prooflog.Node]) -> list[prooflog.Node]:
         """The open nodes among ``kids`` and under them (a memoised child may have been split by
@@ -484,6 +497,56 @@ class Prover:
                                           "x": [float(v) for v in witness.x]}
         return prooflog.ProofLog(self.s, self.cap, self.scale_exp, [list(p) for p in self.pairs], self.tree.nodes,
                            onset_root, onset_below, all_roots, w)
+
+
+def _perron_scaling(A: np.ndarray) -> np.ndarray | None:
+    """``z / x`` (geometric mean 1) for the eigenvalue of ``A`` with the smallest real part, when
+    it is real and both eigenvectors are positive (full eigendecomposition)."""
+    try:
+        w, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    if not np.all(np.isfinite(w)):
+        return None
+    j = int(np.argmin(w.real))
+    if abs(w[j].imag) > 1e-12 * max(1.0, abs(w[j].real)):
+        return None
+    return _ratio(vr[:, j].real, vl[:, j].real)
+
+
+def _perron_scaling_large(A: np.ndarray, steps: int = 30) -> np.ndarray | None:
+    """:func:`_perron_scaling` by inverse iteration (one LU factorisation, ``steps`` solves with
+    ``A`` and with ``A^T``): the eigenvalue nearest 0, which below an onset is the one with the
+    smallest real part; a guess that fails only costs the sign argument one candidate."""
+    try:
+        lu = scipy.linalg.lu_factor(A, check_finite=False)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    n = A.shape[0]
+    x = np.ones(n) / math.sqrt(n)
+    z = x.copy()
+    with np.errstate(all="ignore"):
+        for _ in range(steps):
+            x = scipy.linalg.lu_solve(lu, x, check_finite=False)
+            z = scipy.linalg.lu_solve(lu, z, trans=1, check_finite=False)
+            nx, nz = np.linalg.norm(x), np.linalg.norm(z)
+            if not (np.isfinite(nx) and np.isfinite(nz) and nx > 0 and nz > 0):
+                return None
+            x, z = x / nx, z / nz
+        lam = float(x @ (A @ x))
+        if np.linalg.norm(A @ x - lam * x) > 1e-6 * max(np.linalg.norm(A, 1), 1e-300):
+            return None          # not converged: no candidate
+    return _ratio(x, z)
+
+
+def _ratio(x: np.ndarray, z: np.ndarray) -> np.ndarray | None:
+    x = x * np.sign(np.sum(x))
+    z = z * np.sign(np.sum(z))
+    if not (np.all(x > 0) and np.all(z > 0)):
+        return None
+    d = z / x
+    d = d / math.exp(float(np.mean(np.log(d))))
+    return d if np.all(np.isfinite(d)) and np.max(d) / np.min(d) < 1e12 else None
 
 
 def _polish(s0: np.ndarray, s1: np.ndarray, mu: float, x: np.ndarray, steps: int = 2) -> tuple[float, np.ndarray]:
@@ -576,6 +639,27 @@ def _bound(P: Prover, hi: float) -> tuple[int | None, float | None]:
         if up - lo <= 1e-6 * max(up, 1e-3):
             break
     return (best.id, best.b) if best is not None else (None, None)
+
+
+def prove_none_below_cap(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), max_nodes: int = 63) -> ProofOutcome | None:
+    """The cheap proof of "no critical mu in ``[0, cap]``": the sign argument on every support,
+    the interval halved while it is wide (as :meth:`Prover._wide`), at most ``max_nodes`` nodes.
+    ``None`` when a piece stays open (then a search and :func:`prove` are needed). Below an onset
+    this is what :func:`prove` would build first, without the search that guides it."""
+    with one_blas_thread():
+        t0 = time.perf_counter()
+        P = Prover(A0, A1, cap, pairs)
+        root, _ = P.tree.add(tuple(range(P.s)), 0.0, P.cap)
+        todo = [root]
+        while todo:
+            n = todo.pop()
+            if P._try_cop(n):
+                continue
+            if not P._wide(n) or len(P.tree.nodes) + 2 > max_nodes:
+                return None
+            todo += P._split(n, None)
+        log = P.log(root.id, P.cap, [root.id], None)
+        return ProofOutcome(log, [], [], True, True, len(P.tree.nodes), time.perf_counter() - t0)
 
 
 def prove(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), candidates=(), seconds: float = 60.0,
