@@ -289,9 +289,9 @@ def test_product_argument_witness_is_checked():
     [0, 2.5]) is closed by the product argument; the checker re-verifies its witness ``M`` from
     the pencil and rejects it once an entry that must be nonpositive is made positive, or once
     the interval is stretched."""
-    from app.analyses.mceip_mu import prover
+    from app.analyses.mceip_mu import branch
     A0, A1 = _pd_plus_pencil(np.random.default_rng([11, 30]), 30)
-    P = prover.Prover(A0, A1, 10.0)
+    P = branch.Prover(A0, A1, 10.0)
     P.max_nodes = 8
     root, _ = P.tree.add(tuple(range(30)), 0.0, 10.0)
     P.explore(root)
@@ -327,7 +327,8 @@ def test_trusted_kernel_does_not_import_the_prover():
                 imported |= {node.module or ""} | {f"{node.module}.{a.name}" for a in node.names}
             elif isinstance(node, ast.Import):
                 imported |= {a.name for a in node.names}
-        bad = {m for m in imported if m.split(".")[-1] in ("prover", "lp", "dense_mcp", "enumerate")}
+        bad = {m for m in imported if m.split(".")[-1] in ("prover", "branch", "leaves", "heuristics", "lp", "dense_mcp",
+                                                           "enumerate")}
         assert not bad, (name, bad)
 
 
@@ -358,11 +359,11 @@ def test_none_below_cap_without_a_search():
 def test_large_family_scaling_by_inverse_iteration():
     """The diagonal scaling of large families (inverse iteration) is the full eigendecomposition's
     ``z / x`` where both exist, on a nonsymmetric matrix with a positive Perron-like pair."""
-    from app.analyses.mceip_mu.prover import _perron_scaling, _perron_scaling_large
+    from app.analyses.mceip_mu.heuristics import perron_scaling, perron_scaling_large
     rng = np.random.default_rng(3)
     n = 80
     B = rng.uniform(0.0, 1.0, size=(n, n))
     A = n * np.eye(n) - B - 0.3 * B.T @ np.diag(rng.uniform(0, 1, n)) / n   # an M-matrix: x, z > 0
-    d_full, d_fast = _perron_scaling(A), _perron_scaling_large(A)
+    d_full, d_fast = perron_scaling(A), perron_scaling_large(A)
     assert d_full is not None and d_fast is not None
     assert np.allclose(d_fast, d_full, rtol=1e-6)

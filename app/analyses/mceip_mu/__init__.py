@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.analyses.mceip_mu import checker, prooflog, prover
+from app.analyses.mceip_mu.leaves import Found
 from app.linalg import one_blas_thread
 
 #: below this many slip nodes the float candidates come from exhaustive enumeration
@@ -163,7 +164,7 @@ def _result(A0, A1, cap, out: prover.ProofOutcome, rep: prooflog.CheckReport, n_
             t_check: float) -> MuProof:
     s = A0.shape[0]
     proven_keys = {(tuple(u), round(lo, 12)) for u, lo, hi in rep.solutions}
-    def solution(f: prover.Found, proven: bool, ill: bool) -> Solution:
+    def solution(f: Found, proven: bool, ill: bool) -> Solution:
         sup = np.zeros(s, dtype=bool)
         sup[list(f.U)] = True
         x = np.zeros(s)
