@@ -99,6 +99,7 @@ class _Tasks:
         self.write, self.interval, self._done = write, interval, done
         self.n, self.cost = 0, 0.0
         self.now: tuple[str, float] | None = None
+        self.detail = None
         self.last: str | None = None
         self.t0 = self.t_line = time.perf_counter()
         self._lock = threading.Lock()
@@ -106,10 +107,13 @@ class _Tasks:
         self._thread = threading.Thread(target=self._beat, name=f"progress: {desc}", daemon=True)
         self._thread.start()
 
-    def start(self, label: str) -> None:
-        """A task begins here (``label``: what it is, e.g. "s = 180")."""
+    def start(self, label: str, detail=None) -> None:
+        """A task begins here (``label``: what it is, e.g. "s = 180"; ``detail``: a callable
+        returning what the task is doing now, e.g. "onset proof, 230 tree nodes", shown in the
+        lines written while it runs)."""
         with self._lock:
             self.now = (label, time.perf_counter())
+            self.detail = detail
 
     def finish(self, label: str, cost: float) -> None:
         """The task begun last ends; ``label``: its result (e.g. "s = 180 proven")."""
@@ -128,7 +132,8 @@ class _Tasks:
         pct = f" ({100.0 * n / self.total:.0f}%)" if self.total else ""
         parts = [f"{self.desc}: {n}/{self.total} {self.unit}s{pct}, {now - self.t0:.1f} s"]
         if self.now is not None:
-            parts.append(f"now {self.now[0]} ({now - self.now[1]:.0f} s)")
+            what = self.detail() if self.detail is not None else ""
+            parts.append(f"now {self.now[0]} ({now - self.now[1]:.0f} s{': ' + what if what else ''})")
         if self.last is not None:
             parts.append(f"last {self.last}")
         if not end:

@@ -99,3 +99,35 @@ def test_slow_mceip_mu_prints_a_line_at_least_every_5_s(monkeypatch):
     n_deferred = len(calls)
     assert lines[-1][1].startswith(f"MCEIP-mu: {n_deferred}/{n_deferred} classifications (100%)")
     assert lines[-1][1].endswith(", done") and n_deferred <= total
+
+
+def test_a_long_task_shows_what_it_is_doing():
+    """The line written while one task runs carries its live detail (the prover's phase and tree)."""
+    rec = _Recorder()
+    state = {"text": "onset proof, 12 tree nodes, at mu = 3.5"}
+    with Progress(enabled=True, comm=SimpleNamespace(rank=0), stream=rec, interval=0.3).tasks(
+            1, "MCEIP-mu", unit="classification", total_cost=1.0) as tasks:
+        tasks.start("s = 574", detail=lambda: state["text"])
+        time.sleep(0.8)
+        tasks.finish("s = 574 proven", 1.0)
+    running = [t for _, t in rec.lines if "now s = 574" in t]
+    assert running and all("onset proof, 12 tree nodes, at mu = 3.5" in t for t in running), running
+
+
+def test_the_prover_reports_its_tree_while_it_works(monkeypatch):
+    """Inside one certificate the live status follows the proof: its phase, node count, mu."""
+    import numpy as np
+
+    from app.analyses.mceip_mu import branch, live, mceip_mu
+    seen = []
+    real = branch.Prover._try_cop
+
+    def spy(self, n):
+        seen.append(live.LIVE.text())
+        return real(self, n)
+
+    monkeypatch.setattr(branch.Prover, "_try_cop", spy)
+    rng = np.random.default_rng(2)
+    B = rng.normal(size=(8, 8))
+    mceip_mu(B @ B.T + 8 * np.eye(8), 3.0 * rng.normal(size=(8, 8)), cap=10.0)
+    assert any(t.startswith("onset proof, ") and "tree nodes" in t and "at mu = " in t for t in seen), seen

@@ -69,6 +69,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     from app.analyses import dense_mcp
     from app.analyses.enumerate import enumerate_patterns
     from app.analyses.mceip_mu import mceip_mu, mceip_mu_none_below_cap
+    from app.analyses.mceip_mu.live import LIVE
 
     s = A0.shape[0]
     comp = np.arange(s)
@@ -90,6 +91,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                 f"lies in [0, {cap:.6g}] (values above the cap are not searched for)"))
             return _as_dict(A0, A1, cap, quick, [], {}, rep, comp, settings)
         else:
+            LIVE.reset("search")
             rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
                                    zero_one_max=settings.search_zero_one_max, full_max=settings.search_full_max,
                                    one_node=settings.search_one_node, warm=warm)

@@ -14,6 +14,7 @@ from app.analyses.certify import certificate, condensed_mu_result, mu_cap
 from app.analyses.classify import STICK, ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.lambda2_analysis import mceip_lambda2
+from app.analyses.mceip_mu.live import LIVE
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import (
     UnsupportedState,
@@ -128,7 +129,8 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
         for k in chains[c]:
             cls = jobs[k][0]
             warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k != chains[c][0] else None
-            tasks.start(f"s = {slips[k]}")
+            LIVE.reset()
+            tasks.start(f"s = {slips[k]}", detail=LIVE.text)
             p = StatePencils(system, cls)
             try:
                 mine[k] = _mceip_mu(system, p, scene, slips[k], replicated=False, warm=warm)

@@ -30,6 +30,7 @@ import numpy as np
 from app.analyses.mceip_mu import checker, closing, lp, prooflog
 from app.analyses.mceip_mu.heuristics import perron_scaling, perron_scaling_large
 from app.analyses.mceip_mu.leaves import Found, LeafTests
+from app.analyses.mceip_mu.live import LIVE
 
 #: a family whose LP relaxation is complementary is halved down to this relative width, then
 #: split on an index
@@ -264,6 +265,7 @@ class Prover(LeafTests):
         while heap:
             _, _, i = heapq.heappop(heap)
             n = self.tree.nodes[i]
+            LIVE.nodes, LIVE.mu = len(self.tree.nodes), n.a
             if time.perf_counter() > self.deadline or len(self.tree.nodes) > self.max_nodes:
                 left.append(n)
                 left += [self.tree.nodes[j] for _, _, j in heap]

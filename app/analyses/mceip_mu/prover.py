@@ -17,6 +17,7 @@ from app.analyses.mceip_mu import closing, prooflog, windows
 from app.analyses.mceip_mu.branch import Prover
 from app.analyses.mceip_mu.heuristics import polish
 from app.analyses.mceip_mu.leaves import WINDOW_REL, Found
+from app.analyses.mceip_mu.live import LIVE
 from app.linalg import one_blas_thread
 
 
@@ -96,8 +97,10 @@ def prove_none_below_cap(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), m
         P = Prover(A0, A1, cap, pairs)
         root, _ = P.tree.add(tuple(range(P.s)), 0.0, P.cap)
         todo = [root]
+        LIVE.reset("sign argument on [0, cap]")
         while todo:
             n = todo.pop()
+            LIVE.nodes, LIVE.mu = len(P.tree.nodes), n.a
             if P._try_cop(n):
                 continue
             if not P._wide(n) or len(P.tree.nodes) + 2 > max_nodes:
@@ -122,6 +125,7 @@ def prove(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), candidates=(), s
 
 def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset_nodes, all_nodes) -> ProofOutcome:
     t0 = time.perf_counter()
+    LIVE.reset("onset proof")
     P = Prover(A0, A1, cap, pairs, deadline=t0 + seconds)
     P.max_nodes = onset_nodes
     all_idx = tuple(range(P.s))
@@ -157,6 +161,7 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset
             if all_seconds is not None:
                 P.deadline = min(P.deadline, time.perf_counter() + all_seconds)
             P.max_nodes = len(P.tree.nodes) + all_nodes
+            LIVE.phase = "list proof"
             root2, _ = P.tree.add(all_idx, onset_below, P.cap)
             all_roots.append(root2.id)
             left = P.explore(root2)
