@@ -26,7 +26,7 @@ class _Null:
 
 
 class _NullTasks:
-    def start(self, label: str) -> None:
+    def start(self, label: str, detail=None) -> None:
         pass
 
     def finish(self, label: str, cost: float) -> None:

@@ -1,8 +1,10 @@
 """Results do not depend on the number of MPI ranks (1, 2, 3), to 1e-8 relative."""
 import json
+import os
+import subprocess
 
 import pytest
-from conftest import run_cli
+from conftest import PY, ROOT, run_cli
 
 SCENE = """\
 name: mpi-check
@@ -59,3 +61,42 @@ def test_same_numbers_on_any_number_of_ranks(serial, ranks):
             assert va == pytest.approx(vb, rel=1e-8, abs=1e-10 * 55 if ka == "r" else 0)
     # the study exercises the parallel MCP search: MCEIP-lambda^2 has a solution at the final state
     assert ref["states"][-1]["analyses"]["mceip_lambda2"]["solutions"]
+
+
+ONE_RANK_FAILS = """
+import sys
+sys.path.insert(0, {root!r})
+from mpi4py import MPI
+import app.analyses.runner as runner
+from app.config import parse_scene
+from app.study import run_study
+comm = MPI.COMM_WORLD
+real = runner._mceip_mu
+def failing(*a, **k):
+    if comm.rank == 1 and k.get("replicated", True) is False:
+        raise ValueError("a bug on rank 1")
+    return real(*a, **k)
+runner._mceip_mu = failing
+scene = parse_scene({{"name": "fails", "system": {{"type": "block", "nx": 16, "ny": 8}}, "mu": 1.1,
+                     "analyses": ["mceip_mu"],
+                     "settings": {{"mcp": {{"search_full_max": 3, "certify_enumerate_max": 3}}}}}})
+try:
+    run_study(scene, comm)
+except Exception as err:
+    print(f"rank {{comm.rank}} raised {{type(err).__name__}}: {{err}}", flush=True)
+"""
+
+
+@pytest.mark.mpi
+def test_an_error_on_one_rank_is_raised_on_every_rank(tmp_path):
+    """An unexpected error inside one rank's share of the MCEIP-mu jobs ends the study on both
+    ranks (no rank left waiting in a collective): rank 1 raises its own, rank 0 one naming it."""
+    script = tmp_path / "fails.py"
+    script.write_text(ONE_RANK_FAILS.format(root=str(ROOT)))
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1")
+    p = subprocess.run(["mpirun", "--oversubscribe", "-n", "2", PY, str(script)], capture_output=True, text=True,
+                       timeout=300, env=env)
+    assert "rank 1 raised ValueError: a bug on rank 1" in p.stdout, p.stdout + p.stderr
+    assert "rank 0 raised RuntimeError: MCEIP-mu failed on rank 1: ValueError: a bug on rank 1" in p.stdout, \
+        p.stdout + p.stderr

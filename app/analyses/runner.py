@@ -151,11 +151,16 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
             for c in order:
                 run_chain(c, t)
     else:
+        error = None
         with _SharedCounter(comm) as counter:                           # MPI collective (window)
             with tasks(counter.done if comm.rank == 0 else None) as t:
-                while (i := counter.next()) < len(order):               # one-sided, rank 0's window
-                    run_chain(order[i], t, counter)
+                try:
+                    while (i := counter.next()) < len(order):           # one-sided, rank 0's window
+                        run_chain(order[i], t, counter)
+                except Exception as err:      # this rank stops taking chains; the collectives stay matched
+                    error = err
                 comm.Barrier()        # MPI collective: every rank done (rank 0 keeps reporting meanwhile)
+        _raise_on_every_rank(comm, error)                                # MPI collective
     failures = []
     for part in comm.allgather(mine):                                    # MPI collective
         for k, d in part.items():
@@ -166,6 +171,19 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
             if d.get("failed"):
                 failures.append((k, d["reason"]))
     return failures
+
+
+def _raise_on_every_rank(comm, error: Exception | None) -> None:
+    """An unexpected error on some rank is raised on every rank (MPI collective): the failing rank
+    re-raises its own, the others a RuntimeError naming it, so that no rank waits in a later
+    collective for one that has left."""
+    what = comm.allgather(None if error is None else f"{type(error).__name__}: {error}")     # MPI collective
+    if error is not None:
+        raise error
+    failed = [(r, w) for r, w in enumerate(what) if w is not None]
+    if failed:
+        r, w = failed[0]
+        raise RuntimeError(f"MCEIP-mu failed on rank {r}: {w}")
 
 
 class _SharedCounter:
