@@ -78,7 +78,7 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
 
     Scene -> system (two particles, or the FE block: Gmsh + DOLFINx) -> loading path ->
     classification of every equilibrium state -> the scene's analyses once per distinct
-    classification (app/study.py). Raises ``app.errors.UnreachableLoad`` when the
+    classification (app/study.py). Raises ``app.common.errors.UnreachableLoad`` when the
     prescribed path cannot reach the requested normal force. A scene with a ``sweep`` or
     ``refinement`` section is a batch of studies: run it with ``python -m app run``.
     """

@@ -14,8 +14,8 @@ import pathlib
 import signal
 import sys
 
-from app.errors import EXIT_WRITE
-from app.errors import fail as _fail
+from app.common.errors import EXIT_WRITE
+from app.common.errors import fail as _fail
 
 DESCRIPTION = """\
 Divergence instabilities of elastic bodies in frictional contact.
@@ -126,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
         # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from app.petsc_options import command_line_options, split_petsc_options
+    from app.common.petsc_options import command_line_options, split_petsc_options
     try:
         argv, petsc_options = split_petsc_options(sys.argv[1:] if argv is None else list(argv))
     except ValueError as err:
@@ -235,7 +235,7 @@ def _main(args) -> int:
                   + (f"; {timing}" if timing else ""))
         return 0
 
-    from app.logs import setup_logging
+    from app.common.logs import setup_logging
     setup_logging(args.log_level, comm.rank)           # app logs at --log-level; rank 0 only below WARNING
     import logging
     logging.getLogger("app.preflight").info(estimate.describe())
@@ -270,8 +270,8 @@ def _terminate(signum, frame):
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
     """Run the scene into the staging folder ``outdir`` and commit ``folder`` (app/driver.py)."""
     from app import driver
-    from app.errors import UnreachableLoad
-    from app.progress import Progress
+    from app.common.errors import UnreachableLoad
+    from app.common.progress import Progress
     if scene.refinement is not None:                          # a mesh-refinement study (app/refinement.py)
         from app.refinement import main as refinement_main
         return refinement_main(scene, args, comm, folder, outdir)

@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 import yaml
 from pydantic import BaseModel, Field, ValidationError, field_validator, model_validator
 
+from app.common.validation import PathError, ResourcePathError, SceneError, Strict, one_line, show_value
 from app.scene_sections import (  # noqa: F401 - re-exported: app.config is where scenes are described
     STATE_WORDS,
     EigSettings,
@@ -31,7 +32,6 @@ from app.systems import schemas as registered_schemas
 from app.systems.block_schema import Block, Loading  # noqa: F401 - re-exported (app.config.Block)
 from app.systems.particles_schema import TwoParticles  # noqa: F401 - re-exported
 from app.systems.schema import NonNegFloat
-from app.validation import PathError, ResourcePathError, SceneError, Strict, one_line, show_value
 
 Analysis = Literal["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]
 

@@ -4,9 +4,9 @@ draw what the scene asks for, write the results, and turn the outcome into an ex
 * :func:`run_and_write` -- :func:`app.study.run_study` (collective), then on rank 0 the pictures
   (app/outputs/pictures.py) and ``results.json``/``steps.csv`` (app/outputs/results.py);
 * :func:`commit` -- every rank has written: rank 0 moves the staged folder into place;
-* :func:`exit_status` -- 0 ok, 3 some states failed (:data:`app.errors.EXIT_INCOMPLETE`).
+* :func:`exit_status` -- 0 ok, 3 some states failed (:data:`app.common.errors.EXIT_INCOMPLETE`).
 
-A loading that cannot be followed raises :class:`app.errors.UnreachableLoad` identically on every
+A loading that cannot be followed raises :class:`app.common.errors.UnreachableLoad` identically on every
 rank; callers turn it into one ``error:`` line (:func:`loading_error`).
 """
 from __future__ import annotations
@@ -14,9 +14,9 @@ from __future__ import annotations
 import pathlib
 from typing import Any, Optional
 
+from app.common.errors import EXIT_INCOMPLETE, EXIT_OK
+from app.common.progress import Progress
 from app.config import Scene
-from app.errors import EXIT_INCOMPLETE, EXIT_OK
-from app.progress import Progress
 
 
 def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[Progress] = None,
@@ -58,6 +58,6 @@ def exit_status(failures: list) -> int:
 
 
 def loading_error(source: str, err: BaseException) -> str:
-    """The one-line message of an :class:`app.errors.UnreachableLoad` for scene ``source``."""
+    """The one-line message of an :class:`app.common.errors.UnreachableLoad` for scene ``source``."""
     key = getattr(err, "key", "loading")
     return f"{source}: {key}: {err}" if key else f"{source}: {err}"

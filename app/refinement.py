@@ -37,8 +37,8 @@ from mpi4py import MPI
 
 from app.analyses.classify import FREE, SLIP, classify
 from app.analyses.runner import analyse_state
+from app.common.progress import Progress
 from app.config import Scene
-from app.progress import Progress
 from app.refinement_report import (  # noqa: F401 - observed_order re-exported
     QOIS,
     STAGE_GROUPS,
@@ -233,7 +233,7 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
 def main(scene: Scene, args, comm: MPI.Comm, folder, outdir: pathlib.Path) -> int:
     """``python -m app run`` of a scene with a ``refinement`` section (called by app/cli.py)."""
     from app import driver
-    from app.errors import UnreachableLoad, fail
+    from app.common.errors import UnreachableLoad, fail
     quiet = getattr(args, "quiet", False)
     try:
         summary = run_refinement(scene, comm, Progress(enabled=False, comm=comm), outdir,

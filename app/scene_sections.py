@@ -2,7 +2,7 @@
 of a batch of cases, the outputs for people and the mesh-refinement study.
 
 :class:`app.config.Scene` assembles them (and re-exports them); each is a frozen pydantic model
-whose validation errors become one line (app/validation.py).
+whose validation errors become one line (app/common/validation.py).
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import Field, field_validator, model_validator
 
+from app.common.validation import PathError, Strict, one_line, show_value
 from app.systems.schema import NonNegFloat, PosFloat
-from app.validation import PathError, Strict, one_line, show_value
 
 
 class Limits(Strict):

@@ -64,7 +64,7 @@ def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
 def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     """Run ``case`` on ``gcomm`` (app/driver.py); the group's rank 0 writes it and returns its table row."""
     from app import driver
-    from app.errors import UnreachableLoad
+    from app.common.errors import UnreachableLoad
     from app.outputs.results import atomic_write
     error = None
     folder = case_dir(outdir, case)
@@ -210,7 +210,7 @@ def run_sweep(scene: Scene, cases: list[Case], comm, outdir: pathlib.Path, ranks
 
 def main(scene: Scene, args, comm) -> int:
     """``python -m app validate|run`` for a sweep scene."""
-    from app.errors import fail as _fail
+    from app.common.errors import fail as _fail
     source = args.scene or "default scene"
     rpc = getattr(args, "ranks_per_case", None)
     if scene.sweep is None:

@@ -37,9 +37,9 @@ def record(nx: int, steps: int):
     """(Kc, mu, the recorded increments (u0, u_T_prev, g_prev)) of the block's tangential path."""
     import yaml
 
+    from app.common.progress import Progress
+    from app.common.stages import Stages
     from app.config import default_scene_path, parse_scene
-    from app.progress import Progress
-    from app.stages import Stages
     from app.systems.block import path
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)

@@ -18,8 +18,8 @@ from petsc4py import PETSc
 
 from app.analyses.classify import classify
 from app.analyses.runner import analyse_state
+from app.common.stages import Stages
 from app.config import parse_scene
-from app.stages import Stages
 from app.system.discrete import random_contact_problem
 
 

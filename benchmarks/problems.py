@@ -13,9 +13,9 @@ from mpi4py import MPI
 
 from app.analyses.classify import classify
 from app.analyses.pencils import UnsupportedState, condensed_mu_pencil
+from app.common.progress import Progress
+from app.common.stages import Stages
 from app.config import Scene, parse_scene
-from app.progress import Progress
-from app.stages import Stages
 
 
 @dataclass

@@ -172,9 +172,9 @@ def section_scaling(sizes: list[int]) -> dict:
 def section_condensed(sizes: list[int]) -> dict:
     from app.analyses.classify import classify
     from app.analyses.runner import analyse_state
+    from app.common.progress import Progress
+    from app.common.stages import Stages
     from app.loading.block_path import block_path
-    from app.progress import Progress
-    from app.stages import Stages
     from benchmarks.problems import block_scene
     say(f"\n== condensed slip-node pencil against the full-size MCP: MCEIP-mu at the final state, nx = {sizes} "
         f"(both with settings.mcp pattern_starts = false, pattern_eig_limit = 0: the same uniform starts and gap "
@@ -226,8 +226,8 @@ def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
     from app.analyses.mcp import search_mceip
     from app.analyses.pencils import condensed_mu_pencil
     from app.analyses.runner import seq_aij
+    from app.common.stages import Stages
     from app.config import McpSettings
-    from app.stages import Stages
     from app.system.discrete import random_contact_problem
     from benchmarks.problems import block_problems
     say(f"\n== MCP search against exhaustive enumeration, MCEIP-mu, s = {s_values[0]}..{s_values[-1]} slip nodes "

@@ -23,7 +23,7 @@ def generate() -> str:
     sys.path.insert(0, str(ROOT))
     try:
         from app.cli import _parser
-        from app.petsc_options import PREFIXES
+        from app.common.petsc_options import PREFIXES
     finally:
         sys.path.pop(0)
     parser = _parser()

@@ -101,8 +101,8 @@ def _direct_reactions(clamp_tangential: bool, gx: float, gy: float):
     from mpi4py import MPI
 
     from app.analyses.pencils import dense, gather_vec
+    from app.common.stages import Stages
     from app.config import parse_scene
-    from app.stages import Stages
     from app.systems.block import build_block_system
     cfg = parse_scene(scene()).system
     system, ops, flex = build_block_system(cfg, MPI.COMM_WORLD, Stages())
@@ -190,8 +190,8 @@ def test_equilibrium_of_resultants_with_the_reactions(paper):
     import ufl
     from mpi4py import MPI
 
+    from app.common.stages import Stages
     from app.config import parse_scene
-    from app.stages import Stages
     from app.system.elasticity import lame_parameters
     from app.systems.block import build_block_system
     cfg = parse_scene(scene()).system

@@ -19,7 +19,7 @@ from app.analyses.classify import classify
 from app.analyses.enumerate import enumerate_patterns
 from app.analyses.mceip_mu import checker
 from app.analyses.pencils import condensed_mu_pencil, split_pencils
-from app.stages import Stages
+from app.common.stages import Stages
 from app.system.discrete import random_contact_problem
 
 

@@ -191,8 +191,8 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
     from mpi4py import MPI
 
     import app.system.elasticity as elasticity
+    from app.common.errors import UnreachableLoad
     from app.config import parse_scene
-    from app.errors import UnreachableLoad
     from app.study import run_study
     original = elasticity.block_operators
 

@@ -265,8 +265,8 @@ def test_validate_sizes_are_the_built_systems_sizes(tmp_path, example, degree):
     from mpi4py import MPI
 
     from app import preflight
+    from app.common.stages import Stages
     from app.config import load_scene
-    from app.stages import Stages
     from app.systems import gmsh_body
     ex = ROOT / "app" / "scenes" / "gmsh"
     (tmp_path / f"{example}.geo").write_text((ex / f"{example}.geo").read_text())

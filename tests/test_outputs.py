@@ -324,7 +324,7 @@ def test_progress_and_log_lines(serial):
 def test_progress_bar_on_a_terminal_and_quiet():
     from types import SimpleNamespace
 
-    from app.progress import Progress
+    from app.common.progress import Progress
 
     class Tty(io.StringIO):
         def isatty(self):

@@ -13,7 +13,7 @@ import yaml
 from conftest import ROOT, one_error_line, run_cli, run_scene
 from petsc4py import PETSc
 
-from app.petsc_options import PREFIXES, split_petsc_options
+from app.common.petsc_options import PREFIXES, split_petsc_options
 
 BLOCK = yaml.safe_load("""\
 name: block

@@ -1,4 +1,4 @@
-"""Progress of the MCEIP-mu stage (app/progress.py ``Progress.tasks``, hooked in app/analyses/runner.py).
+"""Progress of the MCEIP-mu stage (app/common/progress.py ``Progress.tasks``, hooked in app/analyses/runner.py).
 
 A study whose per-classification MCEIP-mu is made slow (it sleeps) must still print a progress
 line at least every 5 s, naming the classifications done, the s running now, the last result and
@@ -14,8 +14,8 @@ import pytest
 import yaml
 
 import app.analyses.runner as runner
+from app.common.progress import Progress, time_left
 from app.config import default_scene_path, parse_scene
-from app.progress import Progress, time_left
 from app.study import run_study
 
 

@@ -21,8 +21,8 @@ from app.analyses.pencils import (
     split_pencils,
 )
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, seq_aij, warm_hints
+from app.common.progress import Progress
 from app.config import Scene
-from app.progress import Progress
 from app.system.base import System
 
 FULL_DENSE_LIMIT = 3000
@@ -113,7 +113,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     the same on any number of ranks. Fills each analyses dict in place (key order as in
     :func:`analyse_state`); returns the failures.
 
-    ``progress`` (an :class:`app.progress.Progress`): rank 0 shows the classifications done over
+    ``progress`` (an :class:`app.common.progress.Progress`): rank 0 shows the classifications done over
     all ranks, the one it runs now (its s), the last it finished (proven or not) and the time
     left estimated from the cost model of :func:`_cost`."""
     system.contact_schur()        # collective the first time: built on every rank before the split

@@ -2,7 +2,7 @@
 types); these names stay importable for scripts written before the move (benchmarks/)."""
 from __future__ import annotations
 
-from app.errors import UnreachableLoad
+from app.common.errors import UnreachableLoad
 from app.systems.block import UNITS, block_path, build_block_system
 
 __all__ = ["UNITS", "UnreachableLoad", "block_path", "build_block_system"]

@@ -15,8 +15,8 @@ import sys
 import tempfile
 import time
 
+from app.common.stages import Stages
 from app.outputs.select import select_states
-from app.stages import Stages
 
 log = logging.getLogger(__name__)
 

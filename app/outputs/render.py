@@ -14,7 +14,7 @@ import sys
 def render_main(args) -> int:
     from mpi4py import MPI
 
-    from app.logs import setup_logging
+    from app.common.logs import setup_logging
     setup_logging(args.log_level, MPI.COMM_WORLD.rank)
     if MPI.COMM_WORLD.rank != 0:          # nothing parallel to do: rank 0 draws
         return 0
@@ -45,7 +45,7 @@ def render_main(args) -> int:
         if not args.quiet:
             print(f"{outdir}: nothing to draw: the scene's 'outputs' ask for no plots, screenshots or report")
         return 0
-    from app.progress import Progress
+    from app.common.progress import Progress
     before = len((results.get("outputs") or {}).get("notes") or [])
     drawn = draw_outputs(results, outdir, Progress(enabled=not args.quiet))
     failed = [n for n in results["outputs"]["notes"][before:] if " failed (" in n]

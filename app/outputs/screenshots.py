@@ -477,7 +477,7 @@ def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
     import types
     progress = None
     if job["progress"]:
-        from app.progress import Progress
+        from app.common.progress import Progress
         progress = Progress(enabled=True, comm=types.SimpleNamespace(rank=0))
     return _draw(job["results"], job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
                  pathlib.Path(job["fields"]), progress)

@@ -5,7 +5,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.stages import Stages
+from app.common.stages import Stages
 from app.system.base import ContactNode, System
 
 

@@ -18,13 +18,13 @@ import numpy as np
 from mpi4py import MPI
 
 from app.analyses.classify import FREE, SLIP, classify
+from app.common.errors import UnreachableLoad
+from app.common.progress import Progress
+from app.common.stages import Stages
 from app.config import Scene
-from app.errors import UnreachableLoad
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility
 from app.loading.state import EquilibriumState
-from app.progress import Progress
-from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.block_schema import Block
 from app.systems.units import CONTINUUM_UNITS as UNITS

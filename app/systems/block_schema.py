@@ -13,8 +13,8 @@ from typing import Annotated, Any, ClassVar, Literal, Optional
 
 from pydantic import Field, model_validator
 
+from app.common.validation import PathError, Strict
 from app.systems.schema import PosFloat
-from app.validation import PathError, Strict
 
 
 class Loading(Strict):

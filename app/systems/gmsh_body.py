@@ -18,9 +18,9 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.errors import UnreachableLoad
+from app.common.errors import UnreachableLoad
+from app.common.stages import Stages
 from app.loading.program import ProgramPhase, run_program
-from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.contact_traction import ContactRecovery, contact_recovery
 from app.systems.gmsh_fields import BodyFields, parameter_name

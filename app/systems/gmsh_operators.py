@@ -27,7 +27,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.stages import Stages
+from app.common.stages import Stages
 from app.systems.gmsh_fields import FieldData
 from app.systems.gmsh_schema import GmshBody
 

@@ -21,10 +21,10 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from app.common.stages import Stages
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility
 from app.loading.state import EquilibriumState
-from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.systems.matrices_schema import Matrices
 from app.systems.units import DISCRETE_UNITS as UNITS

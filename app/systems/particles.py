@@ -7,8 +7,8 @@ import math
 import numpy as np
 from mpi4py import MPI
 
+from app.common.stages import Stages
 from app.loading.state import EquilibriumState
-from app.stages import Stages
 from app.system.base import ContactNode, System
 from app.system.discrete import discrete_system
 from app.systems.particles_schema import TwoParticles

@@ -12,7 +12,7 @@ from typing import Annotated
 
 from pydantic import Field, ValidationInfo
 
-from app.validation import PathError, ResourcePathError, Strict  # noqa: F401 - ResourcePathError re-exported
+from app.common.validation import PathError, ResourcePathError, Strict  # noqa: F401 - ResourcePathError re-exported
 
 #: the largest magnitude of a number in a scene (README "Scene files"): finite, and small enough that
 #: products of a few such numbers (E x displacement x area, ...) stay finite in double precision
@@ -22,7 +22,7 @@ NonNegFloat = Annotated[float, Field(ge=0, le=MAGNITUDE_MAX, allow_inf_nan=False
 Finite = Annotated[float, Field(ge=-MAGNITUDE_MAX, le=MAGNITUDE_MAX, allow_inf_nan=False)]
 
 
-#: the one strict base model of every scene section (app/validation.py): unknown keys refused,
+#: the one strict base model of every scene section (app/common/validation.py): unknown keys refused,
 #: booleans never taken for numbers
 StrictModel = Strict
 

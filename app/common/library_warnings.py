@@ -53,7 +53,7 @@ def _caller(depth: int = 3) -> tuple[str, str, int]:
     if f is None:
         return "?", "?", 0
     name = f.f_code.co_filename
-    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository
     if name.startswith(here + os.sep):
         name = os.path.relpath(name, here)
     return name, f.f_code.co_name, f.f_lineno
