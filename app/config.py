@@ -29,8 +29,8 @@ from app.scene_sections import (  # noqa: F401 - re-exported: app.config is wher
 )
 from app.systems import SYSTEM_TYPES
 from app.systems import schemas as registered_schemas
-from app.systems.block_schema import Block, Loading  # noqa: F401 - re-exported (app.config.Block)
-from app.systems.particles_schema import TwoParticles  # noqa: F401 - re-exported
+from app.systems.block.schema import Block, Loading  # noqa: F401 - re-exported (app.config.Block)
+from app.systems.particles.schema import TwoParticles  # noqa: F401 - re-exported
 from app.systems.schema import NonNegFloat
 
 Analysis = Literal["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]

@@ -30,7 +30,7 @@ def _random_pencil(s: int, seed: int):
     from app.analyses.classify import classify
     from app.analyses.pencils import condensed_mu_pencil
     from app.common.stages import Stages
-    from app.system.discrete import random_contact_problem
+    from app.systems.discrete import random_contact_problem
     rng = np.random.default_rng(seed)
     mu = float(rng.uniform(0.5, 3.0))
     system, state = random_contact_problem(rng, s + 2, 4, s, 1, mu, MPI.COMM_WORLD, Stages())

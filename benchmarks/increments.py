@@ -40,7 +40,7 @@ def record(nx: int, steps: int):
     from app.common.progress import Progress
     from app.common.stages import Stages
     from app.config import default_scene_path, parse_scene
-    from app.systems.block import path
+    from app.systems.block.path import path
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
     data["system"].update(nx=nx, ny=nx // 2)

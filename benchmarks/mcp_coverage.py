@@ -20,7 +20,7 @@ from app.analyses.classify import classify
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
 from app.config import parse_scene
-from app.system.discrete import random_contact_problem
+from app.systems.discrete import random_contact_problem
 
 
 def _match(sol, ref):

@@ -228,7 +228,7 @@ def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
     from app.analyses.runner import seq_aij
     from app.common.stages import Stages
     from app.config import McpSettings
-    from app.system.discrete import random_contact_problem
+    from app.systems.discrete import random_contact_problem
     from benchmarks.problems import block_problems
     say(f"\n== MCP search against exhaustive enumeration, MCEIP-mu, s = {s_values[0]}..{s_values[-1]} slip nodes "
         f"(block: first state of the paper path with s slip nodes, paper mesh; random: SPD systems) ==")

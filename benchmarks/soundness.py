@@ -622,7 +622,7 @@ def _contact(rng, s):
     from app.analyses.classify import classify
     from app.analyses.pencils import condensed_mu_pencil
     from app.common.stages import Stages
-    from app.system.discrete import random_contact_problem
+    from app.systems.discrete import random_contact_problem
     n_stick, n_free, n_int = int(rng.integers(0, 3)), int(rng.integers(0, 3)), int(rng.integers(0, 5))
     mu = float(rng.uniform(0.3, 4.0))
     sub = np.random.default_rng(int(rng.integers(2 ** 31)))

@@ -20,7 +20,7 @@ from app.analyses.enumerate import enumerate_patterns
 from app.analyses.mceip_mu import checker
 from app.analyses.pencils import condensed_mu_pencil, split_pencils
 from app.common.stages import Stages
-from app.system.discrete import random_contact_problem
+from app.systems.discrete import random_contact_problem
 
 
 def _random_pencil(seed, n_slip, n_stick, n_free, n_int, mu):

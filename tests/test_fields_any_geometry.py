@@ -1,5 +1,5 @@
 """Field outputs (ParaView files, fields.npz for the screenshots) of any body, through the system's
-field capability (app/system/base.py ``FieldSource``; app/outputs/fields.py):
+field capability (app/systems/base.py ``FieldSource``; app/outputs/fields.py):
 
 * the gmsh paper block writes the built-in block's fields (P1 on the paper mesh, P2 on a coarse one);
 * the rotated block on an inclined obstacle writes the rotated fields: displacements and modes

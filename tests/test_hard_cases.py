@@ -175,7 +175,7 @@ def test_killed_rank_leaves_no_results_folder(tmp_path):
 
 def test_missing_cached_mesh_file_is_regenerated():
     """Meshes are generated, never read from user files: a deleted cache file is rebuilt."""
-    from app.systems.block_mesh import DEFAULT_CACHE_DIR, mesh_file_name
+    from app.systems.block.mesh import DEFAULT_CACHE_DIR, mesh_file_name
     scene = _with(nx=6, ny=3)
     first = run_scene(scene)
     path = DEFAULT_CACHE_DIR / mesh_file_name(80.0, 40.0, 6, 3, "crossed", None)
@@ -190,7 +190,7 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
     """A mesh without contact nodes on AB stops with a clear error, not a crash later on."""
     from mpi4py import MPI
 
-    import app.system.elasticity as elasticity
+    import app.systems.elasticity as elasticity
     from app.common.errors import UnreachableLoad
     from app.config import parse_scene
     from app.study import run_study

@@ -148,7 +148,7 @@ def test_sandbox_alone_stops_a_write(tmp_path, monkeypatch):
     leaves it no write access outside the child's folder: the marker stays absent. Without bubblewrap
     the same file does create it (so the test can fail)."""
     from app.scene_sections import Limits
-    from app.systems import gmsh_sandbox
+    from app.systems.gmsh import sandbox as gmsh_sandbox
     if not gmsh_sandbox.bwrap_usable():
         pytest.skip("bubblewrap not usable on this machine")
     lim = gmsh_sandbox.SandboxLimits.from_limits(Limits())
@@ -179,7 +179,7 @@ def _msh(tmp_path: pathlib.Path) -> bytes:
 
 def test_msh_header_counts_refused_before_reading(tmp_path):
     """Node tags of 1e15 (a Gmsh segfault) and 1e12 declared nodes: refused from the header."""
-    from app.systems.gmsh_mesh import model_info
+    from app.systems.gmsh.mesh import model_info
     from app.systems.schema import SystemPathError
     lines = _msh(tmp_path).decode().splitlines()
     i = lines.index("$Nodes") + 1
@@ -225,8 +225,8 @@ def test_mutated_msh_fuzz_never_crashes_this_process(tmp_path):
     from concurrent.futures import ThreadPoolExecutor
 
     from app.scene_sections import Limits
-    from app.systems.gmsh_mesh import _read_uncached
-    from app.systems.gmsh_sandbox import SandboxLimits
+    from app.systems.gmsh.mesh import _read_uncached
+    from app.systems.gmsh.sandbox import SandboxLimits
     from app.systems.schema import SystemPathError
     lim = SandboxLimits.from_limits(Limits())
     paths = []
@@ -267,7 +267,7 @@ def test_validate_sizes_are_the_built_systems_sizes(tmp_path, example, degree):
     from app import preflight
     from app.common.stages import Stages
     from app.config import load_scene
-    from app.systems import gmsh_body
+    from app.systems.gmsh import path as gmsh_body
     ex = ROOT / "app" / "scenes" / "gmsh"
     (tmp_path / f"{example}.geo").write_text((ex / f"{example}.geo").read_text())
     data = yaml.safe_load((ex / f"{example}.yaml").read_text())
@@ -326,7 +326,7 @@ def test_sandbox_removes_only_its_own_folder(tmp_path, monkeypatch):
     """The child's working folder is one the app made (mkdtemp) and the only thing it removes:
     the scene's folder and a user's folders in the temporary area are left as they were."""
     from app.scene_sections import Limits
-    from app.systems import gmsh_sandbox
+    from app.systems.gmsh import sandbox as gmsh_sandbox
     tmpdir = tmp_path / "tmp"
     tmpdir.mkdir()
     (tmpdir / "app-gmsh-users-own").mkdir()               # a user's folder named like the app's

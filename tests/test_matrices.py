@@ -27,7 +27,7 @@ def _write_mtx(path, A):
 
 def particle_scene(tmp_path, signs, mu, analyses=("mceip_lambda2", "mceip_mu", "enumerate", "sufficient", "necessary"),
                    fmt="mtx"):
-    from app.systems.particles import particle_matrices
+    from app.systems.particles.path import particle_matrices
     Kd, Md = particle_matrices(KP, MP, PHI)
     if fmt == "mtx":
         k, m = _write_mtx(tmp_path / "K.mtx", Kd), _write_mtx(tmp_path / "M.mtx", Md)
@@ -86,7 +86,7 @@ def test_random_system_through_files_equals_in_memory(tmp_path):
     from app.analyses.runner import analyse_state
     from app.common.stages import Stages
     from app.config import parse_scene
-    from app.system.discrete import random_contact_problem
+    from app.systems.discrete import random_contact_problem
     mu = 0.8
     analyses = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]
     for seed in range(4):
@@ -138,7 +138,7 @@ def block_as_matrices(tmp_path_factory):
     from app.analyses.pencils import dense, gather_vec
     from app.common.stages import Stages
     from app.config import parse_scene
-    from app.systems.block import build_block_system
+    from app.systems.block.path import build_block_system
     d = tmp_path_factory.mktemp("blockm")
     base = {"name": "b", "system": BLOCK, "mu": 1.1, "analyses": ["mceip_mu"]}
     ref = run_scene(base)

@@ -484,7 +484,7 @@ def test_mesh_cache_falls_back_to_the_user_cache(tmp_path, monkeypatch):
     root cannot create): new meshes go to $XDG_CACHE_HOME/contact-divergence/meshes."""
     from mpi4py import MPI
 
-    import app.systems.block_mesh as bm
+    import app.systems.block.mesh as bm
     blocker = tmp_path / "install"
     blocker.write_text("a file, not a folder")
     monkeypatch.setattr(bm, "DEFAULT_CACHE_DIR", blocker / "meshes")

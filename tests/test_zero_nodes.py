@@ -9,7 +9,7 @@ from app.analyses.pencils import condensed_mu_pencil, dense, reduced_pencil, red
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
 from app.config import parse_scene
-from app.system.discrete import random_contact_problem
+from app.systems.discrete import random_contact_problem
 
 
 def _scene(mu, analyses):

@@ -20,7 +20,7 @@ from app.analyses.mcp import search_mceip
 from app.analyses.pencils import diag_scale
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
 from app.config import Scene
-from app.system.base import System
+from app.systems.base import System
 
 
 def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: dict | None = None) -> dict:

@@ -21,7 +21,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.analyses.classify import FREE, SLIP, STICK, ZERO, Classification
-from app.system.base import System
+from app.systems.base import System
 
 
 class UnsupportedState(Exception):

@@ -23,7 +23,7 @@ from app.analyses.pencils import (
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, seq_aij, warm_hints
 from app.common.progress import Progress
 from app.config import Scene
-from app.system.base import System
+from app.systems.base import System
 
 FULL_DENSE_LIMIT = 3000
 ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")   # in the order they run

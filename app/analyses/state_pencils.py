@@ -22,7 +22,7 @@ from app.analyses.pencils import (
     reduced_space,
 )
 from app.config import Scene
-from app.system.base import System
+from app.systems.base import System
 
 
 def seq_aij(A: np.ndarray) -> PETSc.Mat:

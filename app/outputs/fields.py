@@ -1,7 +1,7 @@
 """Fields of a meshed system for ParaView and the screenshots, computed while the system is alive.
 
 Works through the system's field capability only (``system.fields``, an
-:class:`app.system.base.FieldSource`: the block, a Gmsh body), with no assumption on the body's
+:class:`app.systems.base.FieldSource`: the block, a Gmsh body), with no assumption on the body's
 shape, the contact side or the obstacle. Per equilibrium state: the displacement (from the
 contact reactions and the state's prescribed loading: displacements, tractions, body force; one
 solve with the factorised K), the von Mises stress (cellwise, at the cell midpoint), and at the
@@ -133,7 +133,7 @@ def _classification(entry: dict) -> Classification:
 
 
 class _FieldMaker:
-    """Fields of one meshed system through its :class:`app.system.base.FieldSource` (collective methods)."""
+    """Fields of one meshed system through its :class:`app.systems.base.FieldSource` (collective methods)."""
 
     def __init__(self, system):
         import dolfinx.fem

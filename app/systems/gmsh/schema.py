@@ -193,7 +193,7 @@ class GmshBody(StrictModel):
         """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/preflight.py)."""
         import pathlib
 
-        from app.systems.gmsh_mesh import mesh_sizes
+        from app.systems.gmsh.mesh import mesh_sizes
         dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, dict(self.prescribed), self.contact)
         return dofs, contact, "system.file"
 
@@ -206,7 +206,7 @@ class GmshBody(StrictModel):
             return data
         alias = {1: {}, 2: {}}
         try:
-            from app.systems.gmsh_mesh import model_info
+            from app.systems.gmsh.mesh import model_info
             path = resolve_file("", data.get("file"), info)
             mi = model_info(path, path.name, context_limits(info), (base_dir(info), path.parent))
             for dim, groups in ((1, mi.curves), (2, mi.surfaces)):
@@ -239,7 +239,7 @@ class GmshBody(StrictModel):
     def _groups(self, vinfo: ValidationInfo) -> "GmshBody":
         import pathlib
 
-        from app.systems.gmsh_mesh import model_info
+        from app.systems.gmsh.mesh import model_info
         path = pathlib.Path(self.file)
         shown = path.name
         try:

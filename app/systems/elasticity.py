@@ -26,8 +26,8 @@ from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.system.stress import strain, stress
-from app.systems.block_mesh import AB, CD
+from app.systems.block.mesh import AB, CD
+from app.systems.stress import strain, stress
 
 __all__ = ["BlockOperators", "block_operators", "lame_parameters"]
 
@@ -207,7 +207,7 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     """Assemble the reduced elasticity operators of the block (collective).
 
     Args:
-        mesh: Mesh of the block (see :func:`app.systems.block_mesh.block_mesh`).
+        mesh: Mesh of the block (see :func:`app.systems.block.mesh.block_mesh`).
         facet_tags: Facet tags with AB and CD.
         E: Young's modulus in MPa.
         nu: Poisson's ratio.

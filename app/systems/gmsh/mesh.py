@@ -1,9 +1,9 @@
 """Read a user's 2D Gmsh model (``.geo`` or ``.msh``) as data, never as code in the app's process.
 
-A ``.geo`` is first checked against the allowlist of app/systems/geo_allowlist.py, a ``.msh``
-against its headers (app/systems/msh_header.py: it must start with ``$MeshFormat``, counts
+A ``.geo`` is first checked against the allowlist of app/systems/gmsh/geo_allowlist.py, a ``.msh``
+against its headers (app/systems/gmsh/msh_header.py: it must start with ``$MeshFormat``, counts
 within the limits); then Gmsh reads and meshes it in the sandboxed child of
-app/systems/gmsh_sandbox.py, which checks the model (app/systems/gmsh_child.py: 2D, linear
+app/systems/gmsh/sandbox.py, which checks the model (app/systems/gmsh/child.py: 2D, linear
 triangles, physical groups, orientation) and returns its groups, sizes and the arrays DOLFINx
 0.5.2's :func:`dolfinx.io.gmshio.model_to_mesh` would extract (its ``read_from_msh`` is broken,
 see docs/limitations.md). Every problem is a one-line :class:`app.systems.schema.SystemPathError` on the key
@@ -70,7 +70,7 @@ def gmsh_initialize():
 
 def _limits(limits):
     from app.scene_sections import Limits
-    from app.systems.gmsh_sandbox import SandboxLimits
+    from app.systems.gmsh.sandbox import SandboxLimits
     return SandboxLimits.from_limits(limits if limits is not None else Limits())
 
 
@@ -110,7 +110,8 @@ def _refusal(value: str, msg: str, resource: bool = False) -> SystemPathError:
 
 
 def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInfo, dict]:
-    from app.systems import geo_allowlist, gmsh_sandbox, msh_header
+    from app.systems.gmsh import geo_allowlist, msh_header
+    from app.systems.gmsh import sandbox as gmsh_sandbox
     suffix = path.suffix.lower()
     if suffix not in (".geo", ".msh"):
         raise _refusal(value, "allowed: a Gmsh .geo or .msh file")
@@ -185,7 +186,7 @@ def mesh_sizes(path: pathlib.Path, degree: int, prescribed: dict[str, str], cont
     """(DOFs after the Dirichlet reduction, contact nodes) of a body on the file's mesh, counted from
     the arrays read at validation (no assembly): a node of a prescribed curve loses the prescribed
     components, P2 adds a node per triangle edge; contact nodes with a prescribed component are
-    left out of the contact set (app/systems/gmsh_operators.py)."""
+    left out of the contact set (app/systems/gmsh/operators.py)."""
     info, arrays = _read(path, path.name, None, None)
     facets, values = arrays["facets"], arrays["facet_values"]
     p2 = degree == 2

@@ -36,7 +36,7 @@ from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 
 from app.systems import mesh_arrays
-from app.systems.gmsh_mesh import GMSH_LINE, GMSH_TRIANGLE, gmsh_initialize
+from app.systems.gmsh.mesh import GMSH_LINE, GMSH_TRIANGLE, gmsh_initialize
 
 __all__ = ["AB", "CD", "LATERAL", "CELLS", "PATTERNS", "DEFAULT_CACHE_DIR", "block_mesh",
            "structured_triangulation", "mesh_file_name"]
@@ -44,7 +44,7 @@ __all__ = ["AB", "CD", "LATERAL", "CELLS", "PATTERNS", "DEFAULT_CACHE_DIR", "blo
 AB, CD, LATERAL = 1, 2, 3
 CELLS = 1
 PATTERNS = ("crossed", "right", "left", "alternate", "unstructured")
-DEFAULT_CACHE_DIR = pathlib.Path(__file__).resolve().parents[2] / "meshes"
+DEFAULT_CACHE_DIR = pathlib.Path(__file__).resolve().parents[3] / "meshes"
 
 APP_NAME = "contact-divergence"
 

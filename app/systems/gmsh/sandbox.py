@@ -1,6 +1,6 @@
-"""Run Gmsh on a user's file in a separate, limited process (app/systems/gmsh_child.py).
+"""Run Gmsh on a user's file in a separate, limited process (app/systems/gmsh/child.py).
 
-A Gmsh file is untrusted: a ``.geo`` is a program (app/systems/geo_allowlist.py refuses the
+A Gmsh file is untrusted: a ``.geo`` is a program (app/systems/gmsh/geo_allowlist.py refuses the
 dangerous commands first), and a corrupt ``.msh`` can crash Gmsh (segfaults seen on mutated
 node tags). So Gmsh never runs in the app's process. The child
 
@@ -37,7 +37,7 @@ import numpy as np
 
 log = logging.getLogger(__name__)
 
-CHILD = pathlib.Path(__file__).with_name("gmsh_child.py")
+CHILD = pathlib.Path(__file__).with_name("child.py")
 #: address space Python, numpy and Gmsh's libraries map before reading anything
 BASE_ADDRESS_SPACE = 1 << 30
 _BWRAP: dict[str, bool] = {}      # "usable": probed once per process

@@ -47,9 +47,9 @@ DYNAMIC_ANALYSES = ("necessary", "sufficient", "mceip_lambda2")
 def _load(path: pathlib.Path, kind: str, limits=None):
     """Contents of a matrix or vector file, by its suffix: Matrix Market (``.mtx``, ``.mm``; may be
     sparse), NumPy ``.npy``, anything else PETSc binary (read without PETSc: its ``.info`` sidecar
-    is ignored). The header is checked against ``limits`` first (app/systems/matrix_files.py)."""
+    is ignored). The header is checked against ``limits`` first (app/systems/matrices/files.py)."""
     from app.scene_sections import Limits
-    from app.systems import matrix_files
+    from app.systems.matrices import files as matrix_files
     limits = limits if limits is not None else Limits()
     cap, how = limits.memory_cap()
     matrix_files.check_header(matrix_files.header(path, kind), path, limits.max_dofs, cap, how)
@@ -64,7 +64,7 @@ def _load(path: pathlib.Path, kind: str, limits=None):
 
 def _refuse(key: str, value: Any, path: pathlib.Path, err: Exception, what: str):
     """The one-line error of a file that cannot be read: a limit (exit 4 for memory) or the reader's reason."""
-    from app.systems.matrix_files import MatrixFileError, kind_of
+    from app.systems.matrices.files import MatrixFileError, kind_of
     if isinstance(err, MatrixFileError):
         cls = ResourcePathError if err.resource else SystemPathError
         return cls(key, value, str(err) if path.name in str(err) else f"{path.name}: {err}")
@@ -240,7 +240,7 @@ class Matrices(StrictModel):
             i, j = np.unravel_index(int(np.argmax(diff.toarray())) if n <= 4000 else 0, (n, n))
             raise SystemPathError("K", pathlib.Path(self.K).name, f"not symmetric: |K - K^T| up to {worst:.3g} (e.g. at "
                                   f"[{i}, {j}]), more than {SYMMETRY_RTOL:g} x max |K| = {scale:.3g}")
-        from app.systems.spd import not_spd
+        from app.systems.matrices.spd import not_spd
         why = not_spd(K)
         if why:
             raise SystemPathError("K", pathlib.Path(self.K).name, f"not positive definite: {why}; fix every rigid-body "

@@ -1,13 +1,13 @@
 """``system.type: gmsh``: the System of a 2D body from a Gmsh file and its loading program
 (app/loading/program.py).
 
-:func:`build` takes the body's reduced, obstacle-rotated operators (app/systems/gmsh_operators.py:
+:func:`build` takes the body's reduced, obstacle-rotated operators (app/systems/gmsh/operators.py:
 K, the mass, the load parameters, the contact DOFs in the obstacle frames), factorises K for the
 contact flexibility and the contact responses ``U0`` of the unit load parameters, and checks the
 initial position against the obstacle; :func:`path` turns the program's phases into load
 parameter increments and runs them (app/loading/program.py); the contact tractions of every
-state are recovered from the nodal reactions (app/systems/contact_traction.py). The body's
-displacement fields (ParaView files, screenshots) are in app/systems/gmsh_fields.py.
+state are recovered from the nodal reactions (app/systems/gmsh/contact_traction.py). The body's
+displacement fields (ParaView files, screenshots) are in app/systems/gmsh/fields.py.
 """
 from __future__ import annotations
 
@@ -21,11 +21,11 @@ from petsc4py import PETSc
 from app.common.errors import UnreachableLoad
 from app.common.stages import Stages
 from app.loading.program import ProgramPhase, run_program
-from app.system.base import ContactNode, System
-from app.systems.contact_traction import ContactRecovery, contact_recovery
-from app.systems.gmsh_fields import BodyFields, parameter_name
-from app.systems.gmsh_operators import BodyError, body_operators
-from app.systems.gmsh_schema import GmshBody
+from app.systems.base import ContactNode, System
+from app.systems.gmsh.contact_traction import ContactRecovery, contact_recovery
+from app.systems.gmsh.fields import BodyFields, parameter_name
+from app.systems.gmsh.operators import BodyError, body_operators
+from app.systems.gmsh.schema import GmshBody
 from app.systems.units import CONTINUUM_UNITS as UNITS
 
 log = logging.getLogger(__name__)

@@ -1,4 +1,4 @@
-"""The built-in block's :class:`app.system.base.FieldSource`: fields from the contact reactions
+"""The built-in block's :class:`app.systems.base.FieldSource`: fields from the contact reactions
 and the prescribed motion of CD (``load["u_x"]``, ``load["u_y"]``)."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from typing import Optional
 import numpy as np
 from petsc4py import PETSc
 
-from app.system.stress import von_mises
+from app.systems.stress import von_mises
 
 
 class BlockFields:
@@ -26,7 +26,7 @@ class BlockFields:
         self.obstacle = {"point": [0.0, 0.0], "normal": [0.0, -1.0]}
 
     def von_mises(self, u):
-        from app.system.elasticity import lame_parameters
+        from app.systems.elasticity import lame_parameters
         mu, lmbda = lame_parameters(self.cfg.E, self.cfg.nu, self.cfg.plane)
         return von_mises(u, mu, lmbda, self.cfg.plane)
 

@@ -5,7 +5,7 @@ name, so such a file is refused here. The ``$Nodes`` and ``$Elements`` headers (
 or binary, MSH 4.x ASCII or binary) give the counts, checked against the limits before any
 array is allocated; node and element tags far beyond the counts are refused (Gmsh 4.8 sizes
 arrays by the largest tag: a tag of 1e15 crashed it). The file is then read by Gmsh in the
-sandbox (app/systems/gmsh_sandbox.py), which also bounds what a corrupt body does.
+sandbox (app/systems/gmsh/sandbox.py), which also bounds what a corrupt body does.
 """
 from __future__ import annotations
 

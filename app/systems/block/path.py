@@ -25,8 +25,8 @@ from app.config import Scene
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility
 from app.loading.state import EquilibriumState
-from app.system.base import ContactNode, System
-from app.systems.block_schema import Block
+from app.systems.base import ContactNode, System
+from app.systems.block.schema import Block
 from app.systems.units import CONTINUUM_UNITS as UNITS
 
 log = logging.getLogger(__name__)
@@ -34,8 +34,8 @@ log = logging.getLogger(__name__)
 
 def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s"):
     """Mesh (Gmsh), operators (DOLFINx), factorisation and contact flexibility."""
-    from app.system.elasticity import block_operators
-    from app.systems.block_mesh import block_mesh
+    from app.systems.block.mesh import block_mesh
+    from app.systems.elasticity import block_operators
     with stages("mesh (gmsh)"):
         mesh, facets = block_mesh(comm, cfg.length, cfg.height, cfg.nx, cfg.ny, cfg.pattern, cfg.mesh_size)
     with stages("assemble stiffness"):
@@ -62,7 +62,7 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
                                  f"{cfg.pattern} P{cfg.degree}, plane {cfg.plane}, E={cfg.E} {UNITS[units]['stress']}, nu={cfg.nu}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     system.extra = {"operators": ops, "flexibility": flex}
-    from app.systems.block_fields import BlockFields
+    from app.systems.block.fields import BlockFields
     system.fields = BlockFields(cfg, ops, flex, nodes)
     return system, ops, flex
 

@@ -1,6 +1,6 @@
-"""The child process that reads a user's Gmsh file (run by app/systems/gmsh_sandbox.py).
+"""The child process that reads a user's Gmsh file (run by app/systems/gmsh/sandbox.py).
 
-Run as a script, ``python -I gmsh_child.py FILE OUTDIR MAX_NODES MAX_ELEMENTS MAX_DOFS``, inside the
+Run as a script, ``python -I child.py FILE OUTDIR MAX_NODES MAX_ELEMENTS MAX_DOFS``, inside the
 sandbox (no write access outside OUTDIR, limits on time and memory): it imports only gmsh and
 numpy, opens FILE (meshing a ``.geo`` in 2D), checks the model and writes into OUTDIR
 

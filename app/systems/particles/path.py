@@ -9,9 +9,9 @@ from mpi4py import MPI
 
 from app.common.stages import Stages
 from app.loading.state import EquilibriumState
-from app.system.base import ContactNode, System
-from app.system.discrete import discrete_system
-from app.systems.particles_schema import TwoParticles
+from app.systems.base import ContactNode, System
+from app.systems.discrete import discrete_system
+from app.systems.particles.schema import TwoParticles
 
 UNITS = {"length": "mm", "force": "N", "stiffness": "N/mm", "mass": "tonne",
          "lambda2": "1/s^2", "mu": "1"}

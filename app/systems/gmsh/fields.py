@@ -1,6 +1,6 @@
-"""The Gmsh body's :class:`app.system.base.FieldSource` (``system.type: gmsh``): displacement fields
+"""The Gmsh body's :class:`app.systems.base.FieldSource` (``system.type: gmsh``): displacement fields
 from a state's contact reactions and its load parameters, for the field outputs
-(app/outputs/fields.py). The operators it uses are built by :func:`app.systems.gmsh_operators.body_operators`."""
+(app/outputs/fields.py). The operators it uses are built by :func:`app.systems.gmsh.operators.body_operators`."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -8,12 +8,12 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
-from app.systems.gmsh_schema import GmshBody
+from app.systems.gmsh.schema import GmshBody
 
 
 @dataclass
 class FieldData:
-    """What :class:`BodyFields` needs of the assembly (app/systems/gmsh_operators.py ``body_operators``)."""
+    """What :class:`BodyFields` needs of the assembly (app/systems/gmsh/operators.py ``body_operators``)."""
     V: object                                     # the displacement space (vector Lagrange)
     prescribed: dict[str, dict[int, np.ndarray]]  # curve -> component -> local unrolled DOFs (incl. ghosts)
     kept_local: np.ndarray                        # local unrolled indices of the owned kept DOFs, reduced order
@@ -24,19 +24,19 @@ class FieldData:
 
 def parameter_name(key: tuple) -> str:
     """Name of a load parameter in a state's ``load["parameters"]`` (as
-    :func:`app.systems.gmsh_body._phases` writes it)."""
+    :func:`app.systems.gmsh.path._phases` writes it)."""
     return ".".join(x for x in key if x)
 
 
 class BodyFields:
-    """The body's :class:`app.system.base.FieldSource`: fields from a state's contact reactions and
+    """The body's :class:`app.systems.base.FieldSource`: fields from a state's contact reactions and
     its load parameters (``load["parameters"]``), in the obstacle-rotated reduced DOFs.
 
     ``response``: ``K' u' = sum_j a_j f'_j + B^T r`` with the rotated unit loads ``f'_j`` and the
     reactions at the contact DOFs (already in the node frames, sign +1); ``to_function``: ``u = R u'``
     on the kept DOFs and the prescribed motions (translation + linearised rotation about the origin,
     as the parameters hold them) on the prescribed curves. ``ops`` is the body's
-    :class:`app.systems.gmsh_operators.BodyOperators`, ``flex`` its contact flexibility.
+    :class:`app.systems.gmsh.operators.BodyOperators`, ``flex`` its contact flexibility.
     """
 
     def __init__(self, cfg: GmshBody, ops, flex, gaps: np.ndarray):
@@ -58,7 +58,7 @@ class BodyFields:
         self._index = {parameter_name(k): j for k, j in ops.params.items()}
 
     def von_mises(self, u):
-        from app.system.stress import von_mises
+        from app.systems.stress import von_mises
         return von_mises(u, self.ops.field_data.mu, self.ops.field_data.lmbda, self.cfg.plane)
 
     def _parameters(self, load: dict | None) -> np.ndarray:

@@ -25,8 +25,8 @@ from app.common.stages import Stages
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility
 from app.loading.state import EquilibriumState
-from app.system.base import ContactNode, System
-from app.systems.matrices_schema import Matrices
+from app.systems.base import ContactNode, System
+from app.systems.matrices.schema import Matrices
 from app.systems.units import DISCRETE_UNITS as UNITS
 
 log = logging.getLogger(__name__)

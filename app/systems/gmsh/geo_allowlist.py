@@ -18,7 +18,7 @@ Anything else, e.g. ``SystemCall``, ``NonBlockingSystemCall``, ``OnelabRun``, ``
 ``Merge``, ``Exit``, ``Sleep``, ``Plugin``, ``Print``, options of other categories
 (``General.``, ``Solver.``: ``Solver.Executable0`` names a program), is refused with one
 :class:`GeoRefused` naming the command and its line. The check is a filter, not a parser: what
-passes is still run by Gmsh only in the sandbox of app/systems/gmsh_sandbox.py.
+passes is still run by Gmsh only in the sandbox of app/systems/gmsh/sandbox.py.
 """
 from __future__ import annotations
 

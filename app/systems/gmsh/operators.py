@@ -1,9 +1,9 @@
 """``system.type: gmsh``: the operators of a 2D body from a Gmsh file, in the obstacle frames
-(:func:`body_operators`; the System and the loading path are built by app/systems/gmsh_body.py).
+(:func:`body_operators`; the System and the loading path are built by app/systems/gmsh/path.py).
 
 Operators (DOLFINx): K and M of plane stress/strain linear elasticity with a material per
 physical surface (DG0 coefficients), reduced to the DOFs not prescribed by the program
-(``prescribed`` curves, per component). Reduced numbering as in app/system/elasticity.py: each
+(``prescribed`` curves, per component). Reduced numbering as in app/systems/elasticity.py: each
 rank keeps its owned DOFs that are not prescribed, in ascending order.
 
 Load parameters (unit right-hand sides of the reduced system, ``-K_kD u_D`` for prescribed
@@ -28,8 +28,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.common.stages import Stages
-from app.systems.gmsh_fields import FieldData
-from app.systems.gmsh_schema import GmshBody
+from app.systems.gmsh.fields import FieldData
+from app.systems.gmsh.schema import GmshBody
 
 
 class BodyError(Exception):
@@ -97,9 +97,9 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     import dolfinx.fem.petsc
     import ufl
 
-    from app.system.elasticity import lame_parameters
-    from app.system.stress import strain, stress
-    from app.systems.gmsh_mesh import read_mesh
+    from app.systems.elasticity import lame_parameters
+    from app.systems.gmsh.mesh import read_mesh
+    from app.systems.stress import strain, stress
     with stages("mesh (gmsh)"):
         mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm)
     fdim = 1

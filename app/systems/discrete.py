@@ -6,7 +6,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.common.stages import Stages
-from app.system.base import ContactNode, System
+from app.systems.base import ContactNode, System
 
 
 def petsc_from_dense(A: np.ndarray, comm: MPI.Comm) -> PETSc.Mat:
