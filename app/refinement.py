@@ -35,10 +35,10 @@ import time
 
 from mpi4py import MPI
 
-from app.analyses.classify import FREE, SLIP, classify
 from app.analyses.runner import analyse_state
 from app.common.progress import Progress
 from app.config import Scene
+from app.loading.classify import FREE, SLIP, classify
 from app.refinement_report import (  # noqa: F401 - observed_order re-exported
     QOIS,
     STAGE_GROUPS,

@@ -10,7 +10,6 @@ import time
 
 from mpi4py import MPI
 
-from app.analyses.classify import classify
 from app.analyses.curvature import attach as attach_curvature
 from app.analyses.runner import analyse_condensed_distributed, analyse_state
 from app.common.library_warnings import describe, explained, merged
@@ -18,6 +17,7 @@ from app.common.progress import Progress
 from app.common.stages import Stages
 from app.config import Scene
 from app.linalg import one_blas_thread
+from app.loading.classify import classify
 from app.systems import get as system_type
 
 

@@ -65,7 +65,7 @@ def main() -> None:
 
     def final_sufficient(system, states, cache):
         """The sufficient condition at the final state (its classification's pencils)."""
-        from app.analyses.classify import classify
+        from app.loading.classify import classify
         t = time.perf_counter()
         cls = classify(states[-1], scene.mu, scene.settings.classify_rtol)
         out = analyse(system, cls, scene.model_copy(update={"analyses": ["sufficient"]}))

@@ -27,9 +27,9 @@ def say(*a) -> None:
 
 
 def _random_pencil(s: int, seed: int):
-    from app.analyses.classify import classify
     from app.analyses.pencils import condensed_mu_pencil
     from app.common.stages import Stages
+    from app.loading.classify import classify
     from app.systems.discrete import random_contact_problem
     rng = np.random.default_rng(seed)
     mu = float(rng.uniform(0.5, 3.0))

@@ -16,10 +16,10 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.analyses.classify import classify
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
 from app.config import parse_scene
+from app.loading.classify import classify
 from app.systems.discrete import random_contact_problem
 
 

@@ -619,9 +619,9 @@ def _contact(rng, s):
     """The app's random contact system condensed onto its slip nodes (tests/test_certify.py)."""
     from mpi4py import MPI
 
-    from app.analyses.classify import classify
     from app.analyses.pencils import condensed_mu_pencil
     from app.common.stages import Stages
+    from app.loading.classify import classify
     from app.systems.discrete import random_contact_problem
     n_stick, n_free, n_int = int(rng.integers(0, 3)), int(rng.integers(0, 3)), int(rng.integers(0, 5))
     mu = float(rng.uniform(0.3, 4.0))

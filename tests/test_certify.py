@@ -15,11 +15,11 @@ from hypothesis import strategies as st
 from mpi4py import MPI
 
 from app import mceip_mu
-from app.analyses.classify import classify
 from app.analyses.enumerate import enumerate_patterns
 from app.analyses.mceip_mu import checker
 from app.analyses.pencils import condensed_mu_pencil, split_pencils
 from app.common.stages import Stages
+from app.loading.classify import classify
 from app.systems.discrete import random_contact_problem
 
 

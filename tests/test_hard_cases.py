@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import ROOT, run_cli, run_scene
 
-from app.analyses.classify import classify
+from app.loading.classify import classify
 from app.loading.state import EquilibriumState
 
 SMALL = {"name": "hard", "mu": 1.1, "system": {"type": "block", "nx": 10, "ny": 5},

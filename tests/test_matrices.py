@@ -81,11 +81,11 @@ def test_table1_mu_through_files(tmp_path, signs, count, fmt):
 def test_random_system_through_files_equals_in_memory(tmp_path):
     """K, M, contact DOFs (random order, random signs) and a classified state, written to files
     and read back, give the same analyses as the system built in memory."""
-    from app.analyses.classify import classify
     from app.analyses.pencils import dense
     from app.analyses.runner import analyse_state
     from app.common.stages import Stages
     from app.config import parse_scene
+    from app.loading.classify import classify
     from app.systems.discrete import random_contact_problem
     mu = 0.8
     analyses = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]

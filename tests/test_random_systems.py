@@ -7,10 +7,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mpi4py import MPI
 
-from app.analyses.classify import classify
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
 from app.config import parse_scene
+from app.loading.classify import classify
 from app.systems.discrete import random_contact_problem
 
 

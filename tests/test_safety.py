@@ -545,7 +545,7 @@ def _state(r_T, r_N, u_N=None):
 
 
 def test_roundoff_tangential_reaction_has_no_sign():
-    from app.analyses.classify import classify, frictionless_reason
+    from app.loading.classify import classify, frictionless_reason
     rng = np.random.default_rng(0)
     for scale in (1.0, 1e-3, 1e6):
         r_N = -scale * np.array([3.0, 5.0, 2.0, 0.0])
@@ -557,7 +557,7 @@ def test_roundoff_tangential_reaction_has_no_sign():
 
 
 def test_cone_boundary_from_both_sides_and_in_any_units():
-    from app.analyses.classify import classify
+    from app.loading.classify import classify
     mu, rtol = 1.1, 1e-8
     for scale in (1.0, 1e-3, 1e3):
         r_N = -scale * np.array([10.0, 10.0, 10.0, 10.0, 10.0])
@@ -645,8 +645,8 @@ def test_small_strain_violations_are_warned(tmp_path, edit, needle):
 
 
 def test_sane_paths_have_no_strain_warning():
+    from app.loading.sanity import check_block_path
     from app.loading.state import EquilibriumState
-    from app.sanity import check_block_path
     st = [EquilibriumState(index=i, load={"u_x": -0.1 * i, "u_y": -0.5}, u_T=np.full(3, -0.1 * i),
                            u_N=np.zeros(3), r_T=np.zeros(3), r_N=-np.ones(3)) for i in range(5)]
     assert check_block_path(st, 80.0, 40.0) == []

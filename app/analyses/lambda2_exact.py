@@ -40,9 +40,9 @@ import numpy as np
 import scipy.linalg
 
 from app.analyses.certify import in_pd_plus_nn
-from app.analyses.classify import FREE, Classification
 from app.analyses.pencils import dense
 from app.analyses.state_pencils import per_system
+from app.loading.classify import FREE, Classification
 
 #: relative margin of the PD + NN tests (rounding of the eliminations, pencil scaled to unit diagonal)
 MARGIN = 1e-8

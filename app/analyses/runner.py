@@ -11,7 +11,6 @@ from petsc4py import PETSc
 
 from app.analyses import curvature, eigen
 from app.analyses.certify import certificate, condensed_mu_result, mu_cap
-from app.analyses.classify import STICK, ZERO, Classification, frictionless_reason
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.lambda2_analysis import mceip_lambda2
 from app.analyses.mcp import search_mceip
@@ -23,6 +22,7 @@ from app.analyses.pencils import (
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, seq_aij, warm_hints
 from app.common.progress import Progress
 from app.config import Scene
+from app.loading.classify import STICK, ZERO, Classification, frictionless_reason
 from app.systems.base import System
 
 FULL_DENSE_LIMIT = 3000

@@ -14,7 +14,6 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.analyses import curvature
-from app.analyses.classify import Classification
 from app.analyses.pencils import (
     combine,
     condensed_mu_pencil,
@@ -22,6 +21,7 @@ from app.analyses.pencils import (
     reduced_space,
 )
 from app.config import Scene
+from app.loading.classify import Classification
 from app.systems.base import System
 
 

@@ -42,7 +42,7 @@ import pathlib
 import numpy as np
 from mpi4py import MPI
 
-from app.analyses.classify import Classification
+from app.loading.classify import Classification
 from app.outputs.select import analyses_of, mode_name, modes_of, select_states
 
 log = logging.getLogger(__name__)

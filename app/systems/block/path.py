@@ -17,11 +17,11 @@ import logging
 import numpy as np
 from mpi4py import MPI
 
-from app.analyses.classify import FREE, SLIP, classify
 from app.common.errors import UnreachableLoad
 from app.common.progress import Progress
 from app.common.stages import Stages
 from app.config import Scene
+from app.loading.classify import FREE, SLIP, classify
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility
 from app.loading.state import EquilibriumState
@@ -152,13 +152,10 @@ def _loading(scene: Scene, flex, n: int, stages: Stages, progress: Progress):
                        f"(tangential resultant = mu x normal resultant)")
                 break
         bar.close()
-    from app.sanity import check_block_path  # small-strain validity (warnings, never an error)
+    from app.loading.sanity import check_block_path  # small-strain validity (warnings, never an error)
     for w in check_block_path(states, cfg.length, cfg.height, UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)
     info = {"end": end, "normal_displacement_mm": depth, "normal_force_N": float(-np.sum(states[ld.normal_steps - 1].r_N)),
             "normal_steps": ld.normal_steps, "tangential_step_mm": ld.tangential_step, "failure": failure}
     return states, info
-
-
-block_path = path     # the name used before the registry (benchmarks/)

@@ -198,7 +198,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             raise UnreachableLoad(str(err)) from None
     info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
     _add_tractions(cfg, system.extra["recovery"], states)
-    from app.sanity import check_body_path  # small-strain validity (warnings, never an error)
+    from app.loading.sanity import check_body_path  # small-strain validity (warnings, never an error)
     tvec, nvec = cfg.obstacle.frame()
     # on a circle a state's u_N is minus its exact gap (app/loading/curved.py): no initial gap to add
     for w in check_body_path(states, system.fields.ops.size, tvec, nvec,

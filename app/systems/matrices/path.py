@@ -149,7 +149,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             bar.close()
         finally:
             solver.destroy()
-    from app.sanity import check_finite  # no length scale here: finiteness only (warnings, never an error)
+    from app.loading.sanity import check_finite  # no length scale here: finiteness only (warnings, never an error)
     for w in check_finite(states):
         log.warning("%s", w)
         stages.warnings.append(w)
