@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 from mpi4py import MPI
 
-from app.config import Scene, SceneError, parse_scene
-from app.config import load_scene as _load_scene_file
+from app.scene.schema import Scene, SceneError, parse_scene
+from app.scene.schema import load_scene as _load_scene_file
 from app.study_result import (
     CriticalMu,
     MceipResult,

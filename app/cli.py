@@ -212,7 +212,7 @@ def _main(args) -> int:
     if args.command is None:
         _parser().print_help()
         return 2
-    from app.config import SceneError, default_scene_path, load_scene
+    from app.scene.schema import SceneError, default_scene_path, load_scene
     try:
         scene = load_scene(args.scene or default_scene_path())
     except SceneError as err:
@@ -222,7 +222,7 @@ def _main(args) -> int:
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
         from app.sweep import main as sweep_main  # a batch of cases (app/sweep.py)
         return sweep_main(scene, args, comm)
-    from app import preflight
+    from app.scene import limits as preflight
     try:
         estimate = preflight.check(scene, args.scene or "default scene")   # arithmetic only: milliseconds
     except SceneError as err:
@@ -238,7 +238,7 @@ def _main(args) -> int:
     from app.common.logs import setup_logging
     setup_logging(args.log_level, comm.rank)           # app logs at --log-level; rank 0 only below WARNING
     import logging
-    logging.getLogger("app.preflight").info(estimate.describe())
+    logging.getLogger("app.scene.limits").info(estimate.describe())
     from app.outputs.folder import ResultsFolder
     folder = ResultsFolder(pathlib.Path(args.output or pathlib.Path("output") / scene.name), args.overwrite)
     problem = None

@@ -16,7 +16,7 @@ from typing import Any, Optional
 
 from app.common.errors import EXIT_INCOMPLETE, EXIT_OK
 from app.common.progress import Progress
-from app.config import Scene
+from app.scene.schema import Scene
 
 
 def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[Progress] = None,

@@ -37,7 +37,6 @@ from mpi4py import MPI
 
 from app.analyses.runner import analyse_state
 from app.common.progress import Progress
-from app.config import Scene
 from app.loading.classify import FREE, SLIP, classify
 from app.refinement_report import (  # noqa: F401 - observed_order re-exported
     QOIS,
@@ -47,6 +46,7 @@ from app.refinement_report import (  # noqa: F401 - observed_order re-exported
     observed_order,
     write_outputs,
 )
+from app.scene.schema import Scene
 
 
 def level_scene(scene: Scene, nx: int, degree: int, plane: str, **loading) -> Scene:

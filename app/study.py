@@ -15,9 +15,9 @@ from app.analyses.runner import analyse_condensed_distributed, analyse_state
 from app.common.library_warnings import describe, explained, merged
 from app.common.progress import Progress
 from app.common.stages import Stages
-from app.config import Scene
 from app.linalg import one_blas_thread
 from app.loading.classify import classify
+from app.scene.schema import Scene
 from app.systems import get as system_type
 
 

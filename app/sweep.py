@@ -1,8 +1,8 @@
 """Parameter sweeps: one scene file, many loading studies, run as an MPI task farm (app/taskfarm.py).
 
-Cases: app/sweep_cases.py; the combined table and plots: app/sweep_table.py.
+Cases: app/scene/sweep.py; the combined table and plots: app/sweep_table.py.
 
-A scene with a ``sweep:`` section (schema: :class:`app.config.Sweep`) is expanded into cases:
+A scene with a ``sweep:`` section (schema: :class:`app.scene.schema.Sweep`) is expanded into cases:
 the base scene with each swept key (a dotted path such as ``system.length``) set to one of its
 values, every combination (``mode: product``) or the i-th values together (``mode: zip``). Each
 case is validated as a normal scene before anything runs and gets a stable name made from its
@@ -38,9 +38,9 @@ import time
 import traceback
 from collections import deque
 
-from app.config import Scene, SceneError
+from app.scene.schema import Scene, SceneError
+from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.sweep.expand)
 from app.study_result import from_document
-from app.sweep_cases import Case, expand  # noqa: F401 - expand re-exported (app.sweep.expand)
 from app.sweep_table import case_row, error_row, summary_table, write_plots, write_tables
 from app.taskfarm import run_farm, sleep_until
 
@@ -221,7 +221,7 @@ def main(scene: Scene, args, comm) -> int:
         cases = expand(scene, source, pathlib.Path(args.scene).parent if args.scene else None)
     except SceneError as err:
         return _fail(str(err))
-    from app import preflight
+    from app.scene import limits as preflight
     try:
         for c in cases:                     # arithmetic only: refuses an over-limit case before any work
             preflight.check(c.scene, f"{source}: case {c.name}")

@@ -11,9 +11,9 @@ import pathlib
 import re
 from typing import Any
 
-from app.config import Scene
+from app.scene.schema import Scene
+from app.scene.sweep import Case, format_value
 from app.study_result import StateResult
-from app.sweep_cases import Case, format_value
 
 QUANTITIES = [   # (column, description), in table order after the swept keys
     ("status", "ok | incomplete (some states failed) | error: ..."),

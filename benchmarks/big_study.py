@@ -33,7 +33,7 @@ def main() -> None:
 
     import app.analyses.runner as runner
     import app.study as study
-    from app.config import default_scene_path, parse_scene
+    from app.scene.schema import default_scene_path, parse_scene
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
     data.update(name="bench-100k", analyses=["mceip_mu"])

@@ -61,8 +61,8 @@ def _block_pencils(s_values: list[int]) -> dict:
 def _one(kind: str, A0: np.ndarray, A1: np.ndarray, mu: float, enum_max: int, budget: float) -> dict:
     from app.analyses.certify import condensed_mu_result, mu_cap
     from app.analyses.enumerate import enumerate_patterns
-    from app.config import McpSettings
     from app.linalg import one_blas_thread
+    from app.scene.schema import McpSettings
     settings = McpSettings(certify_seconds=budget)
     cap = mu_cap(mu, settings)
     s = A0.shape[0]

@@ -39,7 +39,7 @@ def record(nx: int, steps: int):
 
     from app.common.progress import Progress
     from app.common.stages import Stages
-    from app.config import default_scene_path, parse_scene
+    from app.scene.schema import default_scene_path, parse_scene
     from app.systems.block.path import path
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)

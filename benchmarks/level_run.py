@@ -33,8 +33,8 @@ def main() -> None:
 
     import yaml
 
-    from app.config import default_scene_path
     from app.refinement import run_level
+    from app.scene.schema import default_scene_path
     data = yaml.safe_load(default_scene_path().read_text())
     data.update(name="bench", analyses=[], mceip_lambda2_mu=2.0,
                 refinement={"levels": [args.nx, 2 * args.nx],
@@ -42,7 +42,7 @@ def main() -> None:
     data["system"].update(pattern=args.pattern)
     if args.tangential_max:
         data["loading"]["tangential_max"] = args.tangential_max
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     scene = parse_scene(data)
     # compile the forms first (JIT), so the timed run is the study alone
     run_level(scene.model_copy(update={"loading": scene.loading.model_copy(

@@ -18,8 +18,8 @@ from petsc4py import PETSc
 
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
-from app.config import parse_scene
 from app.loading.classify import classify
+from app.scene.schema import parse_scene
 from app.systems.discrete import random_contact_problem
 
 

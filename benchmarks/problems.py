@@ -14,8 +14,8 @@ from mpi4py import MPI
 from app.analyses.pencils import UnsupportedState, condensed_mu_pencil
 from app.common.progress import Progress
 from app.common.stages import Stages
-from app.config import Scene, parse_scene
 from app.loading.classify import classify
+from app.scene.schema import Scene, parse_scene
 
 
 @dataclass

@@ -226,8 +226,8 @@ def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
     from app.analyses.pencils import condensed_mu_pencil
     from app.analyses.runner import seq_aij
     from app.common.stages import Stages
-    from app.config import McpSettings
     from app.loading.classify import classify
+    from app.scene.schema import McpSettings
     from app.systems.discrete import random_contact_problem
     from benchmarks.problems import block_problems
     say(f"\n== MCP search against exhaustive enumeration, MCEIP-mu, s = {s_values[0]}..{s_values[-1]} slip nodes "
@@ -319,8 +319,8 @@ def section_siconos(sizes: list[int]) -> dict:
     from app.analyses.enumerate import enumerate_mceip
     from app.analyses.mcp import RSLS, SSLS, BorderedMcp, search_mceip
     from app.analyses.runner import seq_aij
-    from app.config import McpSettings
     from app.loading.contact import FrictionalContact
+    from app.scene.schema import McpSettings
     from benchmarks.problems import block_problems
     out: dict = {"version": _siconos_version(), "contact": [], "mceip_mu": {}}
     say(f"\n== Siconos numerics {out['version']} on the same problems ==")
@@ -515,8 +515,8 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
     from threadpoolctl import threadpool_limits
 
     from app.analyses.pencils import condensed_mu_pencil
-    from app.config import default_scene_path, load_scene
     from app.loading.classify import classify
+    from app.scene.schema import default_scene_path, load_scene
     from app.study import run_study
     sys.path.insert(0, str(ROOT / "tests"))
     from test_default_answers import REFERENCE, _compare, answers
@@ -607,7 +607,7 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
 
 # -- targets ---------------------------------------------------------------------------------------
 def section_targets(big: dict | None, big_nx: int) -> dict:
-    from app.config import default_scene_path, load_scene
+    from app.scene.schema import default_scene_path, load_scene
     from app.study import run_study
     say("\n== targets ==")
     scene = load_scene(default_scene_path())

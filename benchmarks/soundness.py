@@ -819,7 +819,7 @@ def _prove_app_result(A0, A1, cap, pairs, seconds=None):
     """The state-level MCEIP-mu result as the app reports it today (search + certificate,
     ``condensed_mu_result``: the values it lists below the cap, its ``certified`` flag)."""
     from app.analyses.certify import condensed_mu_result
-    from app.config import McpSettings
+    from app.scene.schema import McpSettings
     st = McpSettings() if seconds is None else McpSettings(certify_seconds=seconds, certify_seconds_large=seconds)
     d = condensed_mu_result(A0, A1, cap, st, pairs=pairs or None)
     vals = sorted(float(x["value"]) for x in d["solutions"] if x["value"] <= cap)

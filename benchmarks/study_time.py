@@ -14,7 +14,7 @@ import time
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.config import default_scene_path, load_scene
+from app.scene.schema import default_scene_path, load_scene
 from app.study import run_study
 
 

@@ -243,7 +243,7 @@ def test_single_particle_on_a_circle(side, S):
 ])
 def test_obstacle_keys_are_validated(ob, msg):
     from app.common.validation import SceneError
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     data = scene((1, -1), 1.0)
     data["system"]["obstacle"] = ob
     with pytest.raises(SceneError) as err:

@@ -34,7 +34,7 @@ def test_scene_keys_reference_is_generated_from_the_schema():
     text = gen.generate()
     assert (ROOT / "docs" / "scene-keys.md").read_text(encoding="utf-8") == text, \
         "docs/scene-keys.md is stale: run .venv/bin/python scripts/scene_keys.py"
-    from app.config import Block, Loading, McpSettings, Scene
+    from app.scene.schema import Block, Loading, McpSettings, Scene
     for model in (Scene, Block, Loading, McpSettings):        # every key is listed
         for key in model.model_fields:
             assert f"| `{key}` |" in text, key

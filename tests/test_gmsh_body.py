@@ -333,7 +333,7 @@ def test_lumped_mass_is_positive_and_keeps_the_mass(tmp_path, degree):
 
     from app.analyses.pencils import dense
     from app.common.stages import Stages
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     from app.systems.gmsh import path as gmsh_body
     (tmp_path / "m.geo").write_text(GOOD)
     s = _err_scene(str(tmp_path / "m.geo"), prescribed={}, foundation=1e-6, degree=degree, mass="lumped",

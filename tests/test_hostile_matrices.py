@@ -81,9 +81,8 @@ def test_huge_header_refused_in_under_a_second(tmp_path, fmt):
     line = one_error_line(proc)
     assert f"system.K = '{name}'" in line and "max_dofs" in line, line
     assert time.monotonic() - t0 < 10                         # CLI start-up included
-    from app.scene_sections import Limits
     from app.systems.matrices.schema import read_matrix
-    from app.systems.schema import SystemPathError
+    from app.systems.schema import Limits, SystemPathError
     t0 = time.monotonic()
     with pytest.raises(SystemPathError, match="max_dofs"):
         read_matrix("K", name, tmp_path / name, Limits())

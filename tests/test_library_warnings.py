@@ -62,7 +62,7 @@ def test_merged_sums_counts_over_ranks():
 
 
 def test_default_study_raises_no_library_warning():
-    from app.config import default_scene_path, parse_scene
+    from app.scene.schema import default_scene_path, parse_scene
     from app.study import run_study
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)

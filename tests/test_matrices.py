@@ -84,8 +84,8 @@ def test_random_system_through_files_equals_in_memory(tmp_path):
     from app.analyses.pencils import dense
     from app.analyses.runner import analyse_state
     from app.common.stages import Stages
-    from app.config import parse_scene
     from app.loading.classify import classify
+    from app.scene.schema import parse_scene
     from app.systems.discrete import random_contact_problem
     mu = 0.8
     analyses = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]
@@ -137,7 +137,7 @@ def block_as_matrices(tmp_path_factory):
     phases are the reduced loads of CD's prescribed motion (K u = gx f_x + gy f_y + B^T r)."""
     from app.analyses.pencils import dense, gather_vec
     from app.common.stages import Stages
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     from app.systems.block.path import build_block_system
     d = tmp_path_factory.mktemp("blockm")
     base = {"name": "b", "system": BLOCK, "mu": 1.1, "analyses": ["mceip_mu"]}

@@ -90,7 +90,7 @@ def _all_modes(results: dict) -> list[tuple[int, str, int, dict]]:
 # -- the scene schema ---------------------------------------------------------------------------
 
 def test_outputs_schema_defaults_off_and_clear_errors():
-    from app.config import SceneError, parse_scene
+    from app.scene.schema import SceneError, parse_scene
     base = {"name": "x", "system": {"type": "block", "nx": 4, "ny": 2}, "mu": 1.0}
     o = parse_scene(base).outputs
     assert not (o.paraview or o.plots or o.report or o.screenshots) and not o.any
@@ -395,7 +395,7 @@ def test_condensed_and_full_mode_fields_agree(tmp_path):
     kept-space vector (MCEIP-mu solved full size, as MCEIP-lambda^2 and the sufficient condition)."""
     from mpi4py import MPI
 
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     from app.study import run_study
     fields = {}
     for method in ("condensed", "full"):

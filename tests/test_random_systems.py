@@ -9,8 +9,8 @@ from mpi4py import MPI
 
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
-from app.config import parse_scene
 from app.loading.classify import classify
+from app.scene.schema import parse_scene
 from app.systems.discrete import random_contact_problem
 
 

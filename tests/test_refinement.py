@@ -5,8 +5,8 @@ import math
 import pytest
 from mpi4py import MPI
 
-from app.config import SceneError, parse_scene
 from app.refinement import observed_order, run_level, run_refinement
+from app.scene.schema import SceneError, parse_scene
 
 TINY = {"name": "tiny-refinement", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": [],
         "system": {"type": "block", "nx": 4, "ny": 2},

@@ -325,8 +325,8 @@ def test_disk_preflight_refuses_before_the_work(tmp_path):
 
 
 def test_preflight_refuses_ten_billion_states_within_a_second(tmp_path):
-    from app import preflight
-    from app.config import SceneError, load_scene
+    from app.scene import limits as preflight
+    from app.scene.schema import SceneError, load_scene
     scene = tmp_path / "s.yaml"
     scene.write_text(BLOCK.replace("MU", "1.1").replace("tangential_step: 0.1", "tangential_step: 1.0e-9")
                      .replace("tangential_max: 1.5", "tangential_max: 10.0"))
@@ -430,7 +430,7 @@ def test_strict_input(tmp_path, text, needles):
 def test_merge_keys_are_not_duplicates():
     import yaml
 
-    from app.config import _UniqueKeyLoader
+    from app.scene.schema import _UniqueKeyLoader
     data = yaml.load("a: &b {k: 1, m: 2}\nc: {<<: *b, k: 3}\n", Loader=_UniqueKeyLoader)
     assert data["c"] == {"k": 3, "m": 2}
 

@@ -12,7 +12,7 @@ import pytest
 from petsc4py import PETSc
 
 from app.analyses import dense_mcp, eigen
-from app.scene_sections import EigSettings
+from app.scene.sections import EigSettings
 
 
 def _laplacian(n: int, shift: float) -> PETSc.Mat:

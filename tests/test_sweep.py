@@ -40,7 +40,7 @@ NOT_COMPARED = {"wall_seconds", "ran", "ranks"}
 
 
 def _scene(text: str):
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     return parse_scene(yaml.safe_load(text), "s.yaml")
 
 

@@ -7,8 +7,8 @@ from app.analyses.enumerate import enumerate_mceip
 from app.analyses.pencils import condensed_mu_pencil, dense, reduced_pencil, reduced_space, split_pencils
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
-from app.config import parse_scene
 from app.loading.classify import classify
+from app.scene.schema import parse_scene
 from app.systems.discrete import random_contact_problem
 
 

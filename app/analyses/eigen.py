@@ -14,8 +14,8 @@ from slepc4py import SLEPc
 
 from app.analyses.lambda2_bounds import inertia_negative_or_zero
 from app.analyses.pencils import combine, diag_scale, gather_vec, sym_part
-from app.config import EigSettings
 from app.linalg import configure_direct, from_options, owned, with_prefix
+from app.scene.schema import EigSettings
 
 MUMPS_MIN_DOFS = 20_000     # from this size on, shift-and-invert factorises with MUMPS even on one rank
 

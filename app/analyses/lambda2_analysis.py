@@ -19,7 +19,7 @@ from app.analyses.curvature import is_curved
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import diag_scale
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
-from app.config import Scene
+from app.scene.schema import Scene
 from app.systems.base import System
 
 

@@ -27,8 +27,8 @@ from petsc4py import PETSc
 from app.analyses.bordered_mcp import RSLS, SSLS, BorderedMcp
 from app.analyses.mcp_results import McpSolution, SearchReport
 from app.analyses.pencils import dense, diag_scale
-from app.config import McpSettings
 from app.linalg import owned
+from app.scene.schema import McpSettings
 
 __all__ = ["RSLS", "SSLS", "BorderedMcp", "McpSolution", "SearchReport", "search_mceip"]
 

@@ -21,8 +21,8 @@ from app.analyses.pencils import (
 )
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, seq_aij, warm_hints
 from app.common.progress import Progress
-from app.config import Scene
 from app.loading.classify import STICK, ZERO, Classification, frictionless_reason
+from app.scene.schema import Scene
 from app.systems.base import System
 
 FULL_DENSE_LIMIT = 3000

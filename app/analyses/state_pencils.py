@@ -20,8 +20,8 @@ from app.analyses.pencils import (
     reduced_pencil,
     reduced_space,
 )
-from app.config import Scene
 from app.loading.classify import Classification
+from app.scene.schema import Scene
 from app.systems.base import System
 
 

@@ -1,4 +1,4 @@
-"""Pydantic base model and one-line error helpers shared by the scene schema (app/config.py)
+"""Pydantic base model and one-line error helpers shared by the scene schema (app/scene/schema.py)
 and the system schemas (app/systems/).
 
 Kept free of PETSc and DOLFINx: validating a scene stays cheap.
@@ -28,7 +28,7 @@ def one_line(text: str) -> str:
 class PathError(ValueError):
     """A model-level check that blames one key: ``path`` is relative to the model validated.
 
-    :func:`app.config.format_error` turns it into ``KEY = VALUE: message``.
+    :func:`app.scene.schema.format_error` turns it into ``KEY = VALUE: message``.
     """
 
     def __init__(self, path: str, value: Any, msg: str):

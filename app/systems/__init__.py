@@ -72,7 +72,7 @@ def get(name: str) -> SystemType:
 
 
 def schemas() -> tuple[type, ...]:
-    """Schemas of the registered types, for the ``system`` union of :class:`app.config.Scene`."""
+    """Schemas of the registered types, for the ``system`` union of :class:`app.scene.schema.Scene`."""
     return tuple(t.schema for t in SYSTEM_TYPES.values())
 
 

@@ -20,7 +20,6 @@ from mpi4py import MPI
 from app.common.errors import UnreachableLoad
 from app.common.progress import Progress
 from app.common.stages import Stages
-from app.config import Scene
 from app.loading.classify import FREE, SLIP, classify
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility
@@ -81,7 +80,7 @@ def _state(index: int, phase: str, gx: float, gy: float, inc, extra: dict) -> Eq
                                                      "violation": inc.violation}, **extra})
 
 
-def path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress):
+def path(scene, comm: MPI.Comm, stages: Stages, progress: Progress):
     """Build the block and run its loading; returns (system, states, path_info). The caller owns
     the system (``system.destroy()``); it is destroyed here if the loading fails."""
     system, ops, flex = build_block_system(scene.system, comm, stages, scene.units)
@@ -93,7 +92,7 @@ def path(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress):
     return system, states, info
 
 
-def _loading(scene: Scene, flex, n: int, stages: Stages, progress: Progress):
+def _loading(scene, flex, n: int, stages: Stages, progress: Progress):
     """Press CD down, then drag it (the body of :func:`path`); returns (states, path_info)."""
     cfg: Block = scene.system
     ld = scene.loading

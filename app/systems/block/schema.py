@@ -52,13 +52,13 @@ class Block(Strict):
 
     @classmethod
     def check_scene(cls, scene: Any) -> None:
-        """Scene-level checks (called by :class:`app.config.Scene`): the loading defaults."""
+        """Scene-level checks (called by :class:`app.scene.schema.Scene`): the loading defaults."""
         if scene.loading is None:
             object.__setattr__(scene, "loading", Loading())
 
     def mesh_sizes(self) -> tuple[int, int]:
         """(DOFs, contact nodes) of the block mesh (exact for structured meshes, an estimate
-        otherwise); used by the resource pre-flight (app/preflight.py)."""
+        otherwise); used by the resource pre-flight (app/scene/limits.py)."""
         if self.pattern == "unstructured":
             h = float(self.mesh_size)
             nx = max(1, math.ceil(self.length / h))

@@ -69,8 +69,8 @@ def gmsh_initialize():
 
 
 def _limits(limits):
-    from app.scene_sections import Limits
     from app.systems.gmsh.sandbox import SandboxLimits
+    from app.systems.schema import Limits
     return SandboxLimits.from_limits(limits if limits is not None else Limits())
 
 

@@ -178,7 +178,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     except BodyError as err:          # a property of the body (its messages name their key)
         raise UnreachableLoad(str(err), key=None) from None
     n, limit = system.n_dofs, scene.settings.limits.max_dofs
-    if n > limit:          # the size of a Gmsh body is known only once it is meshed (app/preflight.py)
+    if n > limit:          # the size of a Gmsh body is known only once it is meshed (app/scene/limits.py)
         system.destroy()
         raise UnreachableLoad(f"system.file: the mesh has {n} DOFs, above settings.limits.max_dofs = {limit}; "
                               "use a coarser mesh or raise the limit", key=None)

@@ -62,7 +62,7 @@ class SandboxLimits:
 
     @classmethod
     def from_limits(cls, limits) -> "SandboxLimits":
-        """From a scene's ``settings.limits`` (app/scene_sections.py ``Limits``)."""
+        """From a scene's ``settings.limits`` (app/scene/sections.py ``Limits``)."""
         mem, _ = limits.memory_cap()
         # P1: 2 DOFs per node, about 2 triangles per node; P2 has about 4x the DOFs of P1 on the
         # same triangles, so the P1 counts bound both (the exact DOFs are checked by the pre-flight)

@@ -186,11 +186,11 @@ class GmshBody(StrictModel):
         description="the loading program: phases")
 
     def load_states(self) -> tuple[int, str]:
-        """(equilibrium states of the program, the key that sets them) for the pre-flight (app/preflight.py)."""
+        """(equilibrium states of the program, the key that sets them) for the pre-flight (app/scene/limits.py)."""
         return 1 + sum(ph.steps for ph in self.program), "system.program[].steps"
 
     def file_sizes(self) -> tuple[int, int, str]:
-        """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/preflight.py)."""
+        """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/scene/limits.py)."""
         import pathlib
 
         from app.systems.gmsh.mesh import mesh_sizes
@@ -245,7 +245,7 @@ class GmshBody(StrictModel):
         try:
             info = model_info(path, shown, context_limits(vinfo), (base_dir(vinfo), path.parent))
         except SystemPathError as err:
-            # a time or memory limit stopped Gmsh: exit status 4 (app/config.py)
+            # a time or memory limit stopped Gmsh: exit status 4 (app/scene/schema.py)
             cls = ResourcePathError if getattr(err, "resource", False) else SystemPathError
             raise cls("file", shown, err.msg) from None
         curves, surfaces = info.curves, info.surfaces

@@ -48,8 +48,8 @@ def _load(path: pathlib.Path, kind: str, limits=None):
     """Contents of a matrix or vector file, by its suffix: Matrix Market (``.mtx``, ``.mm``; may be
     sparse), NumPy ``.npy``, anything else PETSc binary (read without PETSc: its ``.info`` sidecar
     is ignored). The header is checked against ``limits`` first (app/systems/matrices/files.py)."""
-    from app.scene_sections import Limits
     from app.systems.matrices import files as matrix_files
+    from app.systems.schema import Limits
     limits = limits if limits is not None else Limits()
     cap, how = limits.memory_cap()
     matrix_files.check_header(matrix_files.header(path, kind), path, limits.max_dofs, cap, how)
@@ -194,7 +194,7 @@ class Matrices(StrictModel):
     description: str = Field("", description="a text for results.json and the summary")
 
     def load_states(self) -> tuple[int, str]:
-        """(equilibrium states, the key that sets them) for the pre-flight (app/preflight.py)."""
+        """(equilibrium states, the key that sets them) for the pre-flight (app/scene/limits.py)."""
         if self.forces is None:
             return 1, "system.state"
         return 1 + sum(ph.steps for ph in self.forces), "system.forces[].steps"
@@ -309,7 +309,7 @@ class Matrices(StrictModel):
 
     @classmethod
     def check_scene(cls, scene: Any) -> None:
-        """Scene-level checks (called by :class:`app.config.Scene`): M for the dynamic analyses,
+        """Scene-level checks (called by :class:`app.scene.schema.Scene`): M for the dynamic analyses,
         reactions inside the Coulomb cone, no block loading, no mesh outputs."""
         cfg = scene.system
         dyn = [a for a in scene.analyses if a in DYNAMIC_ANALYSES]

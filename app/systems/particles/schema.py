@@ -64,7 +64,7 @@ class TwoParticles(Strict):
 
     @classmethod
     def check_scene(cls, scene: Any) -> None:
-        """Scene-level checks (called by :class:`app.config.Scene`): a single state has no loading;
+        """Scene-level checks (called by :class:`app.scene.schema.Scene`): a single state has no loading;
         there is no mesh to draw."""
         if scene.loading is not None:
             raise PathError("loading", scene.loading.model_dump(),

@@ -1,43 +1,19 @@
-"""The sections of a scene beside its system: solver settings and resource limits, the sweep
-of a batch of cases, the outputs for people and the mesh-refinement study.
+"""The sections of a scene beside its system: solver settings (with the resource limits of
+:class:`app.systems.schema.Limits`), the sweep of a batch of cases, the outputs for people and
+the mesh-refinement study.
 
-:class:`app.config.Scene` assembles them (and re-exports them); each is a frozen pydantic model
+:class:`app.scene.schema.Scene` assembles them (and re-exports them); each is a frozen pydantic model
 whose validation errors become one line (app/common/validation.py).
 """
 from __future__ import annotations
 
-import math
-import os
 import re
 from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import Field, field_validator, model_validator
 
 from app.common.validation import PathError, Strict, one_line, show_value
-from app.systems.schema import NonNegFloat, PosFloat
-
-
-class Limits(Strict):
-    """Resource limits checked before any work starts (app/preflight.py); raise them deliberately."""
-    max_states: Annotated[int, Field(ge=1, le=10**9)] = Field(
-        100_000, description="most load states (normal_steps + tangential_max / tangential_step)")
-    max_dofs: Annotated[int, Field(ge=1, le=10**9)] = Field(2_000_000, description="most DOFs of the block mesh")
-    max_contact_nodes: Annotated[int, Field(ge=1, le=10**7)] = Field(
-        20_000, description="most contact nodes on AB")
-    max_memory_gb: Optional[Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]] = Field(
-        None, description="largest memory estimate accepted [GiB]; null: 80 % of the machine's RAM")
-    max_file_seconds: Annotated[float, Field(gt=0, le=86400, allow_inf_nan=False)] = Field(
-        60.0, description="most seconds Gmsh may take to read or mesh system.file (in its sandbox)")
-
-    def memory_cap(self) -> tuple[float, str]:
-        """(bytes, how it was set): ``max_memory_gb``, else 80 % of the machine's RAM (inf if unknown)."""
-        if self.max_memory_gb is not None:
-            return self.max_memory_gb * 2**30, f"settings.limits.max_memory_gb = {self.max_memory_gb}"
-        try:
-            ram = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        except (ValueError, OSError, AttributeError):
-            return math.inf, "no limit (RAM unknown)"
-        return 0.8 * ram, f"80 % of this machine's RAM ({ram / 2**30:.1f} GiB; set settings.limits.max_memory_gb)"
+from app.systems.schema import Limits, NonNegFloat, PosFloat
 
 
 class McpSettings(Strict):

@@ -11,7 +11,7 @@ import os
 import resource
 from dataclasses import dataclass
 
-from app.config import Scene, SceneError
+from app.scene.schema import Scene, SceneError
 
 log = logging.getLogger(__name__)
 

@@ -1,4 +1,4 @@
-"""Sweep cases: a scene with a ``sweep:`` section (schema: :class:`app.config.Sweep`) expanded
+"""Sweep cases: a scene with a ``sweep:`` section (schema: :class:`app.scene.schema.Sweep`) expanded
 into named, validated scenes (app/sweep.py runs them).
 
 Each case is the base scene with each swept key (a dotted path such as ``system.length``) set to
@@ -18,7 +18,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from app.config import Scene, SceneError, format_error, scene_context
+from app.scene.schema import Scene, SceneError, format_error, scene_context
 
 
 @dataclass(frozen=True)

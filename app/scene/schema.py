@@ -14,7 +14,7 @@ import yaml
 from pydantic import BaseModel, Field, ValidationError, field_validator, model_validator
 
 from app.common.validation import PathError, ResourcePathError, SceneError, Strict, one_line, show_value
-from app.scene_sections import (  # noqa: F401 - re-exported: app.config is where scenes are described
+from app.scene.sections import (  # noqa: F401 - re-exported: app.scene.schema is where scenes are described
     STATE_WORDS,
     EigSettings,
     Limits,
@@ -29,7 +29,7 @@ from app.scene_sections import (  # noqa: F401 - re-exported: app.config is wher
 )
 from app.systems import SYSTEM_TYPES
 from app.systems import schemas as registered_schemas
-from app.systems.block.schema import Block, Loading  # noqa: F401 - re-exported (app.config.Block)
+from app.systems.block.schema import Block, Loading  # noqa: F401 - re-exported (app.scene.schema.Block)
 from app.systems.particles.schema import TwoParticles  # noqa: F401 - re-exported
 from app.systems.schema import NonNegFloat
 
@@ -291,4 +291,4 @@ def load_scene(path: str | pathlib.Path) -> Scene:
 
 def default_scene_path() -> pathlib.Path:
     """The embedded default study (the paper's block)."""
-    return pathlib.Path(__file__).parent / "scenes" / "villechaise_block.yaml"
+    return pathlib.Path(__file__).parents[1] / "scenes" / "villechaise_block.yaml"
