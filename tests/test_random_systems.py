@@ -57,7 +57,7 @@ def test_mcp_solutions_are_true_and_enumerated(p):
 @pytest.mark.parametrize("seed", range(8))
 def test_sufficient_matches_dense_reference(seed):
     """(17)-(18) from SLEPc against scipy.linalg.eig on the same dense pencil."""
-    from app.analyses.eigen import sufficient
+    from app.analyses.conditions import sufficient
     from app.analyses.pencils import dense, reduced_pencil, reduced_space
     rng = np.random.default_rng(seed)
     mu = 3.0

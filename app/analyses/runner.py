@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses import curvature, eigen
+from app.analyses import conditions, curvature
 from app.analyses.certify import certificate, condensed_mu_result, mu_cap
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
-from app.analyses.lambda2_analysis import mceip_lambda2
+from app.analyses.mceip_lambda2.analysis import mceip_lambda2
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import (
     UnsupportedState,
@@ -34,13 +34,13 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
     M0, M1 = p.M()
     stars = p.star(scene.mu)
     with system.stages("necessary condition (19)"):
-        return eigen.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars)
+        return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars)
 
 
 def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
     Ks, Ms = p.star(scene.mu)        # shared with the necessary condition, destroyed with p
     with system.stages("sufficient condition (17)-(18)"):
-        out = eigen.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
+        out = conditions.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
     out["mu"] = scene.mu
     return out
 

@@ -51,7 +51,7 @@ class McpSettings(Strict):
         30.0, description="time limit per state for the complete list [s] (a safety limit; certify_all_nodes "
                           "is the budget)")
     # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
-    # prove "no solution" up to this many DOFs (app/analyses/lambda2_exact.py); SNES VI search otherwise
+    # prove "no solution" up to this many DOFs (app/analyses/mceip_lambda2/exact.py); SNES VI search otherwise
     lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500
     # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
     # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)

@@ -1,9 +1,9 @@
 """MCEIP-lambda^2 (12)-(14) of one classified state: proof of no solution where it can be had, else search.
 
 Order: (19) at the scene's mu (no divergence when it fails), the exact slip-node reduction
-(:mod:`app.analyses.lambda2_exact`, small systems), then the SNES VI search of
+(:mod:`app.analyses.mceip_lambda2.exact`, small systems), then the SNES VI search of
 :func:`app.analyses.mcp.search_mceip` boxed by the inertia-proven bound of
-:mod:`app.analyses.lambda2_bounds`. Every result carries ``certified`` and a ``certificate``.
+:mod:`app.analyses.mceip_lambda2.bounds`. Every result carries ``certified`` and a ``certificate``.
 """
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ import time
 
 import numpy as np
 
-from app.analyses import eigen
-from app.analyses import lambda2_bounds as l2b
-from app.analyses import lambda2_exact as l2x
+from app.analyses import conditions
 from app.analyses.certify import certificate
 from app.analyses.curvature import is_curved
+from app.analyses.mceip_lambda2 import bounds as l2b
+from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mcp import search_mceip
 from app.analyses.pencils import diag_scale
 from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
@@ -24,7 +24,7 @@ from app.systems.base import System
 
 
 def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
-    """MCEIP-lambda^2 (12)-(14) at ``scene.lambda2_mu`` with what is proven (app/analyses/lambda2_bounds.py):
+    """MCEIP-lambda^2 (12)-(14) at ``scene.lambda2_mu`` with what is proven (app/analyses/mceip_lambda2/bounds.py):
     no solution when (19) fails; otherwise no solution above an inertia-proven bound ``T``, and
     ``[0, T]`` searched by SNES VI (found, not proven). Every result has ``certified`` and a
     ``certificate``; solutions above the free-block spectrum or whose pattern does not solve its
@@ -40,7 +40,7 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: di
         M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
             if nec is None:
-                nec = eigen.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
+                nec = conditions.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
             if not nec["satisfied"]:
                 # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
                 # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
@@ -74,7 +74,7 @@ def _rayleigh_bound(nec: dict) -> float | None:
 
 def _lambda2_proof(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict | None:
     """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
-    (app/analyses/lambda2_exact.py), or None when that proof does not apply or does not succeed."""
+    (app/analyses/mceip_lambda2/exact.py), or None when that proof does not apply or does not succeed."""
     rayleigh = _rayleigh_bound(nec)
     if rayleigh is None or is_curved(p.cls):      # the exact reduction has no curvature terms
         return None
@@ -115,7 +115,7 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start
     tau = diag_scale(Ks) / diag_scale(Ms)
     # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
     # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD; an LDL^T inertia
-    # count of sym K* + T sym M* proves a smaller bound T (lambda2_bounds.py).
+    # count of sym K* + T sym M* proves a smaller bound T (app/analyses/mceip_lambda2/bounds.py).
     upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
     rayleigh = _rayleigh_bound(nec)
     if rayleigh is not None:

@@ -12,7 +12,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.lambda2_bounds import inertia_negative_or_zero
+from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
 from app.analyses.pencils import combine, diag_scale, gather_vec, sym_part
 from app.linalg import configure_direct, from_options, owned, with_prefix
 from app.scene.schema import EigSettings
