@@ -21,9 +21,7 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 from mpi4py import MPI
 
-from app.scene.schema import Scene, SceneError, parse_scene
-from app.scene.schema import load_scene as _load_scene_file
-from app.study_result import (
+from app.io.result import (
     CriticalMu,
     MceipResult,
     MceipSolution,
@@ -33,6 +31,8 @@ from app.study_result import (
     StudyResult,
     SufficientResult,
 )
+from app.scene.schema import Scene, SceneError, parse_scene
+from app.scene.schema import load_scene as _load_scene_file
 
 if TYPE_CHECKING:
     from app.analyses.mceip_mu import MuProof

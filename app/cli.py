@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     with command_line_options(petsc_options):         # PETSc options: from the command line only
         if args.command == "render":
-            from app.outputs.render import render_main
+            from app.plot.render import render_main
             return _guarded(render_main, args)
         if args.command == "check":
             return _check(args)
@@ -146,7 +146,7 @@ def _guarded(fn, args) -> int:
     print it and abort the whole job instead."""
     from mpi4py import MPI
 
-    from app.outputs.folder import CommitError
+    from app.io.folder import CommitError
     try:
         return fn(args)
     except CommitError as err:
@@ -172,7 +172,7 @@ def _check(args) -> int:
     import json
     import zipfile
 
-    from app.outputs.proofs import check_folder
+    from app.io.proofs import check_folder
     folder = pathlib.Path(args.results)
     if not (folder / "results.json").is_file():
         return _fail(f"{folder}: no results.json (give the folder a run wrote)")
@@ -239,7 +239,7 @@ def _main(args) -> int:
     setup_logging(args.log_level, comm.rank)           # app logs at --log-level; rank 0 only below WARNING
     import logging
     logging.getLogger("app.scene.limits").info(estimate.describe())
-    from app.outputs.folder import ResultsFolder
+    from app.io.folder import ResultsFolder
     folder = ResultsFolder(pathlib.Path(args.output or pathlib.Path("output") / scene.name), args.overwrite)
     problem = None
     if comm.rank == 0:
@@ -281,6 +281,6 @@ def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
         return _fail(driver.loading_error(args.scene or "default scene", err))
     final = driver.commit(folder, comm)
     if comm.rank == 0 and not args.quiet:
-        from app.outputs.summary import summary
+        from app.io.summary import summary
         print(summary(results, final))
     return driver.exit_status(results["failures"])

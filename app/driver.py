@@ -2,7 +2,7 @@
 draw what the scene asks for, write the results, and turn the outcome into an exit status.
 
 * :func:`run_and_write` -- :func:`app.study.run_study` (collective), then on rank 0 the pictures
-  (app/outputs/pictures.py) and ``results.json``/``steps.csv`` (app/outputs/results.py);
+  (app/plot/pictures.py) and ``results.json``/``steps.csv`` (app/io/results.py);
 * :func:`commit` -- every rank has written: rank 0 moves the staged folder into place;
 * :func:`exit_status` -- 0 ok, 3 some states failed (:data:`app.common.errors.EXIT_INCOMPLETE`).
 
@@ -26,16 +26,16 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
     ``extra``: keys added to the results before they are written (e.g. a sweep case's identity).
     Returns the results dictionary (on rank 0 with the pictures drawn recorded in it).
     """
-    from app.outputs.pictures import prestarted
+    from app.plot.pictures import prestarted
     from app.study import run_study
     progress = progress or Progress(enabled=False)
     with prestarted(scene, comm):     # rank 0: the drawing processes warm up during the study
         # outdir: where the scene's field outputs (if any) go, written while the system is alive
         results = run_study(scene, comm, progress, outdir=outdir)
         if comm.rank == 0:
-            from app.outputs.pictures import draw_after_run  # plots, screenshots, report (if asked)
-            from app.outputs.proofs import write_proofs
-            from app.outputs.results import write_results
+            from app.io.proofs import write_proofs
+            from app.io.results import write_results
+            from app.plot.pictures import draw_after_run  # plots, screenshots, report (if asked)
             if extra:
                 results.update(extra)
             write_proofs(results, outdir)      # before the drawing drops the in-memory pencils
@@ -46,7 +46,7 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
 
 def commit(folder, comm) -> Optional[pathlib.Path]:
     """Wait until every rank has written (MPI collective), then rank 0 commits ``folder``
-    (app/outputs/folder.py: the staged results replace the target atomically). Returns the final
+    (app/io/folder.py: the staged results replace the target atomically). Returns the final
     folder on rank 0, None elsewhere."""
     comm.Barrier()
     return folder.commit() if comm.rank == 0 else None

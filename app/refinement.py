@@ -192,7 +192,7 @@ def _warm_up(scene: Scene, comm: MPI.Comm) -> None:
 def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = None,
                    outdir: pathlib.Path | None = None, log=print) -> dict:
     """Run every level; rank 0 writes the outputs into ``outdir``. Returns the summary."""
-    from app.outputs.results import steps_csv
+    from app.io.results import steps_csv
     ref = scene.refinement
     t0 = time.perf_counter()
     _warm_up(scene, comm)

@@ -28,7 +28,7 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     ``inspect(system, states, cache)``, if given, runs after the per-state analyses while the
     system is alive (``cache``: classification key -> (first state, analyses)); what it
     returns is stored as ``results["inspection"]`` (used by app/refinement.py).
-    ``outdir``: the results folder, where the field stage (app/outputs/fields.py: ParaView
+    ``outdir``: the results folder, where the field stage (app/io/fields.py: ParaView
     files, screenshot data) writes when the scene's ``outputs`` ask for fields.
     """
     t_start = time.perf_counter()
@@ -98,9 +98,9 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, cache) if inspect is not None else None
     outputs_record = None
-    from app.outputs.fields import wants_fields
+    from app.io.fields import wants_fields
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
-        from app.outputs.fields import compute_fields
+        from app.io.fields import compute_fields
         outputs_record = compute_fields(scene, system, out_states, stages, progress, outdir)
     return {**({"inspection": inspection} if inspect is not None else {}), "scene": scene.name, "units": system.units, "system": system.description,
             "mu": scene.mu, "analyses_requested": list(scene.analyses),

@@ -38,9 +38,9 @@ import time
 import traceback
 from collections import deque
 
+from app.io.result import from_document
 from app.scene.schema import Scene, SceneError
 from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.sweep.expand)
-from app.study_result import from_document
 from app.sweep_table import case_row, error_row, summary_table, write_plots, write_tables
 from app.taskfarm import run_farm, sleep_until
 
@@ -65,7 +65,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     """Run ``case`` on ``gcomm`` (app/driver.py); the group's rank 0 writes it and returns its table row."""
     from app import driver
     from app.common.errors import UnreachableLoad
-    from app.outputs.results import atomic_write
+    from app.io.results import atomic_write
     error = None
     folder = case_dir(outdir, case)
     if gcomm.rank == 0:
@@ -240,7 +240,7 @@ def main(scene: Scene, args, comm) -> int:
     import logging
     logging.basicConfig(level=getattr(logging, args.log_level), format="%(levelname)s: %(message)s")
     outdir = pathlib.Path(args.output or pathlib.Path("output") / scene.name)
-    from app.outputs.folder import FolderLock
+    from app.io.folder import FolderLock
     lock = FolderLock(outdir)
     problem = None
     if comm.rank == 0:
@@ -265,7 +265,7 @@ def _check_writable(outdir: pathlib.Path, mark: bool = False) -> str | None:
     """A sweep writes (and resumes) in place: only into a new or empty folder, or one this app
     marked as a sweep folder; anything else is refused untouched. ``mark``: create the folder,
     its ``cases/`` and the marker (rank 0, lock held)."""
-    from app.outputs.folder import folder_state, marker_kind, write_marker
+    from app.io.folder import folder_state, marker_kind, write_marker
     state = folder_state(outdir)
     if state == "not-a-folder":
         return f"the output path {outdir} exists and is not a folder"

@@ -11,9 +11,9 @@ import pathlib
 import re
 from typing import Any
 
+from app.io.result import StateResult
 from app.scene.schema import Scene
 from app.scene.sweep import Case, format_value
-from app.study_result import StateResult
 
 QUANTITIES = [   # (column, description), in table order after the swept keys
     ("status", "ok | incomplete (some states failed) | error: ..."),
@@ -125,8 +125,8 @@ def _columns(cases: list[Case]) -> list[str]:
 def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: dict[int, dict],
                  info: dict) -> None:
     """sweep.csv and sweep.json (atomically): one row per case, finished or not."""
-    from app.outputs.results import atomic_write
-    from app.study_result import NON_FINITE_REASON, json_clean
+    from app.io.result import NON_FINITE_REASON, json_clean
+    from app.io.results import atomic_write
     cols = _columns(cases)
     table = []
     for c in cases:

@@ -32,7 +32,7 @@ MEANING = {
                "not allowed for two_particles)",
     "settings": "solver settings (the defaults reproduce the paper's numbers)",
     "sweep": "a batch of studies (app/sweep.py); null: one study",
-    "outputs": "files and pictures for people (app/outputs/); all off by default",
+    "outputs": "files and pictures for people (app/io/, app/plot/); all off by default",
     "refinement": "a mesh-refinement study of a block scene (app/refinement.py)",
     "system.type": "selects the system type; the other keys of the section depend on it",
     "outputs.states[].stick": "number of stick nodes", "outputs.states[].slip": "number of slip nodes",

@@ -246,7 +246,7 @@ def test_block_states_onset_proven(pattern):
 
 def test_proof_files_never_replace_an_existing_file(tmp_path):
     """proofs/state_<k>.npz is created exclusively: a file of that name (not this run's) is kept."""
-    from app.outputs.proofs import write_proofs
+    from app.io.proofs import write_proofs
     A0, A1 = np.eye(2), np.array([[-1.0, 0.2], [0.1, -0.5]])
     r = mceip_mu(A0, A1, 10.0)
     results = {"states": [{"index": 3, "analyses": {"mceip_mu": {"_proof": {"A0": A0, "A1": A1,

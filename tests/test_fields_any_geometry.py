@@ -1,5 +1,5 @@
 """Field outputs (ParaView files, fields.npz for the screenshots) of any body, through the system's
-field capability (app/systems/base.py ``FieldSource``; app/outputs/fields.py):
+field capability (app/systems/base.py ``FieldSource``; app/io/fields.py):
 
 * the gmsh paper block writes the built-in block's fields (P1 on the paper mesh, P2 on a coarse one);
 * the rotated block on an inclined obstacle writes the rotated fields: displacements and modes
@@ -198,7 +198,7 @@ def test_matrices_skip_default_field_outputs_and_refuse_asked_ones(tmp_path):
     (plots and report drawn); written in the scene they are a one-line error."""
     from test_matrices import particle_scene
 
-    from app.outputs.pictures import draw_after_run
+    from app.plot.pictures import draw_after_run
     from app.scene.schema import SceneError, parse_scene
     from app.scene.sections import Outputs, Screenshots
     from app.study import run_study

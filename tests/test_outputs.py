@@ -79,7 +79,7 @@ def _states_series(path: pathlib.Path):
 
 
 def _all_modes(results: dict) -> list[tuple[int, str, int, dict]]:
-    from app.outputs.select import modes_of
+    from app.io.select import modes_of
     out = []
     for s in results["states"]:
         if s.get("analyses_shared_with") is None:
@@ -117,7 +117,7 @@ def test_outputs_schema_defaults_off_and_clear_errors():
 
 
 def test_state_selection():
-    from app.outputs.select import select_states
+    from app.io.select import select_states
     cls = lambda st, sl, fr: {"stick": st, "slip": sl, "free": fr, "zero": 0}   # noqa: E731
     states = [{"index": 0, "classification": cls(5, 0, 0), "analyses_shared_with": None, "analyses": {}},
               {"index": 1, "classification": cls(5, 0, 0), "analyses_shared_with": 0, "analyses": {}},
@@ -142,7 +142,7 @@ def test_every_picture_is_drawn_and_not_blank(serial):
         svg = ET.parse(out / "plots" / f"{name}.svg").getroot()
         assert svg.tag.endswith("svg") and len(list(svg.iter())) > 50
     shots = sorted((out / "screenshots").glob("*.png"))
-    from app.outputs.select import analyses_of, modes_of
+    from app.io.select import analyses_of, modes_of
     pictured = res["outputs"]["pictured_states"]
     first_mu = next(s["index"] for s in res["states"] if s["analyses"]["mceip_mu"]["solutions"])
     assert pictured == sorted({first_mu, res["states"][-1]["index"]})
@@ -189,7 +189,7 @@ def test_recorded_stages_and_files(serial):
 
 
 def test_drawing_job_files_are_removed(serial):
-    """The job files handed to the drawing processes (app/outputs/pictures.py, worker.py) are
+    """The job files handed to the drawing processes (app/plot/pictures.py, worker.py) are
     removed before the results are committed: none is left in the results folder."""
     out, res, proc = serial
     assert sorted(p.name for p in out.rglob(".pictures-job*")) == []
@@ -198,7 +198,7 @@ def test_drawing_job_files_are_removed(serial):
 def test_fields_file_of_the_previous_release_keeps_its_obstacle(serial, tmp_path):
     """``python -m app render`` of a results folder of the previous release: its fields.npz has the
     ``block`` key instead of the geometry keys; the obstacle is then the block's line y = 0."""
-    from app.outputs.screenshots import FieldData
+    from app.plot.screenshots import FieldData
     out, res, proc = serial
     with np.load(out / "fields" / "fields.npz") as z:
         now = {k: z[k] for k in z.files}

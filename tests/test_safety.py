@@ -141,7 +141,7 @@ def test_bad_output_paths_give_one_line(tmp_path):
 
 def test_commit_failure_keeps_the_staged_results(tmp_path):
     """The target gains a user's file during the run: the commit refuses, the results stay staged."""
-    from app.outputs.folder import CommitError, ResultsFolder
+    from app.io.folder import CommitError, ResultsFolder
     out = tmp_path / "out"
     folder = ResultsFolder(out, overwrite=False)
     assert folder.check() is None
@@ -158,7 +158,7 @@ def test_commit_failure_keeps_the_staged_results(tmp_path):
 
 
 def test_commit_rename_failure_in_the_cli_keeps_results_and_exits_nonzero(tmp_path, monkeypatch, capsys):
-    import app.outputs.folder as folder_mod
+    import app.io.folder as folder_mod
     from app.cli import main
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
@@ -213,7 +213,7 @@ def test_a_users_file_named_like_the_lock_is_kept(tmp_path):
 
 
 def test_a_held_lock_refuses_the_run_and_the_sweep(tmp_path):
-    from app.outputs.folder import FolderLock
+    from app.io.folder import FolderLock
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
     sweep = tmp_path / "sw.yaml"
@@ -235,8 +235,8 @@ def _enospc(*a, **k):
 @pytest.mark.parametrize("where", ["results", "pictures", "memory"])
 def test_full_disk_or_no_memory_gives_one_line(tmp_path, monkeypatch, capsys, where):
     """ENOSPC from our writer, an HDF5-style RuntimeError, a MemoryError: one line, exit 4, nothing left."""
-    import app.outputs.pictures as pictures_mod
-    import app.outputs.results as results_mod
+    import app.io.results as results_mod
+    import app.plot.pictures as pictures_mod
     import app.study as study_mod
     from app.cli import main
     scene = tmp_path / "s.yaml"
@@ -671,7 +671,7 @@ def test_mount_point_target_is_refused_before_the_work(tmp_path):
 
 def test_someone_elses_empty_folder_in_a_sticky_folder_is_refused(tmp_path, monkeypatch):
     """As on /tmp: the rename over another user's folder would fail at the end, so it is refused first."""
-    import app.outputs.folder as folder_mod
+    import app.io.folder as folder_mod
     parent = tmp_path / "shared"
     parent.mkdir()
     os.chmod(parent, 0o1777)
@@ -686,7 +686,7 @@ def test_someone_elses_empty_folder_in_a_sticky_folder_is_refused(tmp_path, monk
 def test_failed_staging_probe_removes_only_what_this_run_created(tmp_path, existing):
     """The pre-flight's staging probe cleans up after a failure, but never a path that was there
     before (a leftover or a user's folder with the same name)."""
-    from app.outputs.folder import ResultsFolder
+    from app.io.folder import ResultsFolder
     rf = ResultsFolder(tmp_path / "out", overwrite=False)
     path = rf.staging if existing == "staging" else rf.staging.with_name(rf.staging.name + "-probe")
     (path / "sub").mkdir(parents=True)

@@ -13,7 +13,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from app.outputs.fields import _XdmfSeries
+from app.io.fields import _XdmfSeries
 
 
 def _write(path, steps, rng, part_bytes=64 * 2**20):

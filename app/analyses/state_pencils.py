@@ -137,7 +137,7 @@ def warm_hints(system: System, mu: float) -> dict:
 
 
 def keep_modes(scene: Scene) -> bool:
-    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/outputs/fields.py."""
+    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/io/fields.py."""
     outputs = getattr(scene, "outputs", None)
     return bool(outputs is not None and outputs.fields)
 

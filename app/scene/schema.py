@@ -77,7 +77,7 @@ class Scene(Strict):
     loading: Optional[Loading] = None
     settings: Settings = Settings()
     sweep: Optional[Sweep] = None   # a batch of cases (app/sweep.py); None: one study
-    outputs: Outputs = Outputs()    # files and pictures (app/outputs/); all off by default
+    outputs: Outputs = Outputs()    # files and pictures (app/io/, app/plot/); all off by default
     refinement: Optional[Refinement] = None   # a mesh-refinement study (app/refinement.py)
 
     @field_validator("name")

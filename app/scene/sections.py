@@ -206,7 +206,7 @@ class StateCounts(Strict):
 
 
 class Screenshots(Strict):
-    """Off-screen pyvista pictures of the body (app/outputs/screenshots.py)."""
+    """Off-screen pyvista pictures of the body (app/plot/screenshots.py)."""
     resolution: tuple[Annotated[int, Field(ge=100, le=8192)], Annotated[int, Field(ge=100, le=8192)]] = (1200, 800)
     field: Literal["displacement", "von_mises"] = "von_mises"
     modes: bool = True               # also draw every divergence mode found at the pictured states
@@ -214,7 +214,7 @@ class Screenshots(Strict):
 
 
 class Outputs(Strict):
-    """Files and pictures for people (app/outputs/); all off unless asked for."""
+    """Files and pictures for people (app/io/, app/plot/); all off unless asked for."""
     paraview: bool = False           # XDMF time series of the states, VTU of the modes (systems with a mesh)
     plots: bool = False              # matplotlib PNG + SVG
     report: bool = False             # report.md

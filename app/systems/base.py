@@ -9,7 +9,7 @@ Axes: the stability code works in the paper's axes (T tangential, N the body's o
 ``u_T = sign_T * u[dof_T]`` and ``u_N = sign_N * u[dof_N]``.
 
 Systems with a mesh also carry a :class:`FieldSource` (``System.fields``): what the field outputs
-(app/outputs/fields.py: ParaView files, screenshots) need to rebuild displacement fields, with no
+(app/io/fields.py: ParaView files, screenshots) need to rebuild displacement fields, with no
 knowledge of the body's shape; systems without one (matrices, two particles) have ``None``.
 """
 from __future__ import annotations

@@ -97,7 +97,7 @@ def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.P
 def no_field_outputs(scene, why: str) -> None:
     """Refuse ``outputs.paraview``/``outputs.screenshots`` written by the user for a system type
     without a mesh: one line naming the key and ``why``. When they are on only by default (not in
-    the scene), the run skips them with a "not applicable" note (app/outputs/fields.py)."""
+    the scene), the run skips them with a "not applicable" note (app/io/fields.py)."""
     given = getattr(scene.outputs, "model_fields_set", {"paraview", "screenshots"})
     for key in ("paraview", "screenshots"):
         if key in given and getattr(scene.outputs, key):

@@ -27,7 +27,7 @@ class Loading(Strict):
 
 class Block(Strict):
     """The elastic block of Villechaise and Zeghloul (the paper's section 5). Units: mm, MPa, tonne/mm^3."""
-    has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/outputs/fields.py)
+    has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/io/fields.py)
     refinable: ClassVar[bool] = True        # a mesh-refinement study (app/refinement.py)
     type: Literal["block"]
     length: PosFloat = 80.0

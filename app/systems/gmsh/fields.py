@@ -1,6 +1,6 @@
 """The Gmsh body's :class:`app.systems.base.FieldSource` (``system.type: gmsh``): displacement fields
 from a state's contact reactions and its load parameters, for the field outputs
-(app/outputs/fields.py). The operators it uses are built by :func:`app.systems.gmsh.operators.body_operators`."""
+(app/io/fields.py). The operators it uses are built by :func:`app.systems.gmsh.operators.body_operators`."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -168,7 +168,7 @@ class Phase(StrictModel):
 class GmshBody(StrictModel):
     """A 2D body meshed by Gmsh (physical groups name its curves and surfaces)."""
     type: Literal["gmsh"]
-    has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/outputs/fields.py)
+    has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/io/fields.py)
     file: str = Field(description="Gmsh .geo or .msh file, relative to the scene file")
     contact: str = Field(description="physical curve that may touch the obstacle")
     prescribed: dict[str, Literal["x", "y", "xy"]] = Field(

@@ -16,7 +16,7 @@ import pathlib
 
 import numpy as np
 
-from app.study_result import StateResult
+from app.io.result import StateResult
 
 STATUS_ORDER = ("free", "zero", "stick", "slip")
 STATUS_COLOURS = {"free": "#d9d9d9", "zero": "#9467bd", "stick": "#1f77b4", "slip": "#d62728"}
@@ -307,13 +307,13 @@ def draw_plots(results: dict, pictured: list[int], outdir: pathlib.Path) -> tupl
 
 
 def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
-    """Draw the plots of a drawing process's job (app/outputs/worker.py)."""
+    """Draw the plots of a drawing process's job (app/plot/worker.py)."""
     return draw_plots(job["results"], job["pictured"], pathlib.Path(job["plots_dir"]))
 
 
 def warm_up(_arg: str = "") -> None:
     """Import matplotlib and draw a small figure to PNG and SVG in memory (fonts loaded and
-    cached), before the plots are asked for (app/outputs/worker.py)."""
+    cached), before the plots are asked for (app/plot/worker.py)."""
     import io
     plt = _plt()
     from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: F401 - imported for status_map

@@ -12,8 +12,8 @@ Nothing assumes a rectangle or a horizontal contact side: the geometry comes fro
 contact nodes and the obstacle line saved in fields.npz.
 Drawn from ``fields/fields.npz`` and the results only, so ``python -m app render`` redraws them.
 
-In a process that has loaded DOLFINx the drawing runs in a child process (app/outputs/worker.py,
-started by app/outputs/pictures.py): DOLFINx switches the
+In a process that has loaded DOLFINx the drawing runs in a child process (app/plot/worker.py,
+started by app/plot/pictures.py): DOLFINx switches the
 interpreter to RTLD_GLOBAL library loading, after which VTK's scalar bar aborts the process
 (conflicting C++ template symbols). The child also keeps a rendering failure (no EGL/OSMesa on
 the machine, say) from taking the study's results with it.
@@ -400,10 +400,10 @@ def draw_screenshots(results: dict, pictured: list[int], cfg: dict, outdir: path
     """Every screenshot the scene asks for, drawn in this process; returns (files, notes).
 
     Not in a process that has loaded DOLFINx (see the module docstring): there
-    app/outputs/pictures.py has them drawn by a child process (app/outputs/worker.py)."""
+    app/plot/pictures.py has them drawn by a child process (app/plot/worker.py)."""
     if "dolfinx.cpp" in sys.modules:
         raise RuntimeError("screenshots cannot be drawn in a process that has loaded DOLFINx: "
-                           "use app.outputs.pictures.draw_outputs (it draws them in a child process)")
+                           "use app.plot.pictures.draw_outputs (it draws them in a child process)")
     return _draw(results, pictured, cfg, outdir, fields_path, progress)
 
 
@@ -422,7 +422,7 @@ def resolution_arg(cfg: dict) -> str:
 
 def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
           fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
-    from app.outputs.select import analyses_of, mode_name, modes_of
+    from app.io.select import analyses_of, mode_name, modes_of
     if not fields_path.exists():
         return [], [f"screenshots left out: {fields_path} is missing (the fields are computed by the run)"]
     fd = FieldData(fields_path)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pathlib
 
-from app.study_result import StudyResult
+from app.io.result import StudyResult
 
 
 def proof_word(analysis: dict) -> str:

@@ -2,7 +2,7 @@
 
 Runs on rank 0, after the study (``python -m app run``) or later on saved results
 (``python -m app render RESULTS_DIR``): it never recomputes anything. The fields the screenshots
-need were saved by the study's field stage (app/outputs/fields.py) in ``fields/fields.npz``.
+need were saved by the study's field stage (app/io/fields.py) in ``fields/fields.npz``.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import tempfile
 import time
 
 from app.common.stages import Stages
-from app.outputs.select import select_states
+from app.io.select import select_states
 
 log = logging.getLogger(__name__)
 
@@ -81,13 +81,13 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     else:                    # no DOLFINx here (e.g. python -m app render): drawn in this process
         if want_plots:
             with stages(PICTURE_STAGES[0]), _survive("plots", notes):
-                from app.outputs.plots import draw_plots
+                from app.plot.plots import draw_plots
                 _remove_old(outdir / "plots", ("*.png", "*.svg"))
                 plot_files, n = draw_plots(results, pictured, outdir / "plots")
                 notes += n
         if want_shots:
             with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
-                from app.outputs.screenshots import draw_screenshots
+                from app.plot.screenshots import draw_screenshots
                 _remove_old(outdir / "screenshots", ("*.png",))
                 shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
                                                  outdir / "fields" / "fields.npz", progress)
@@ -97,7 +97,7 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
         log.warning("%s", n)
     drawn = [p.relative_to(outdir).as_posix() for p in plot_files + shot_files]
     if cfg.get("report"):
-        from app.outputs.report import versions, write_report
+        from app.io.report import versions, write_report
         results.setdefault("versions", versions())
         results["stages"] = base + stages.as_list()      # the report lists the stages before it
         with stages(PICTURE_STAGES[2]), _survive("report", record["notes"]):
@@ -113,11 +113,11 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
 
 def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, progress, stages,
                       notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
-    """Plots and screenshots drawn by two child processes at once (app/outputs/worker.py: VTK cannot
+    """Plots and screenshots drawn by two child processes at once (app/plot/worker.py: VTK cannot
     run next to DOLFINx; the children started by :func:`prestarted` are already warm). Each
     picture stage records the drawing time its child reports."""
-    from app.outputs import worker
-    from app.outputs.screenshots import job_of, resolution_arg
+    from app.plot import worker
+    from app.plot.screenshots import job_of, resolution_arg
     t0 = time.perf_counter()
     shots_cfg = cfg.get("screenshots") or {}
     job = None
@@ -174,12 +174,12 @@ def prestarted(scene, comm):
         yield
         return
     outputs = scene.outputs
-    from app.outputs import worker
+    from app.plot import worker
     try:
         if outputs.plots:
             worker.prestart("plots")
         if outputs.screenshots is not None and meshed:
-            from app.outputs.screenshots import resolution_arg
+            from app.plot.screenshots import resolution_arg
             worker.prestart("screenshots", resolution_arg(outputs.screenshots.model_dump(mode="json")))
         yield
     finally:
@@ -194,7 +194,7 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """
     if not wants_pictures(results):
         return results
-    from app.study_result import from_document, to_document
+    from app.io.result import from_document, to_document
     data = from_document(json.loads(json.dumps(to_document(results), allow_nan=False)))
     draw_outputs(data, outdir, progress)
     return data

@@ -5,7 +5,7 @@ The same function runs inside the study (to know which fields to compute) and in
 """
 from __future__ import annotations
 
-from app.study_result import StudyResult
+from app.io.result import StudyResult
 
 MODE_PROBLEMS = (("sufficient", "sufficient"), ("mceip_mu", "mceip_mu"), ("mceip_lambda2", "mceip_lambda2"))
 

@@ -1,9 +1,9 @@
 """Drawing processes started before they are needed (pictures add at most 2 s).
 
 After a run, rank 0 draws the plots (matplotlib) and the screenshots (pyvista/VTK). They are
-drawn by child interpreters, ``python -m app.outputs.worker KIND [ARG]``:
+drawn by child interpreters, ``python -m app.plot.worker KIND [ARG]``:
 
-* VTK cannot run in a process that has loaded DOLFINx (see app/outputs/screenshots.py), and a
+* VTK cannot run in a process that has loaded DOLFINx (see app/plot/screenshots.py), and a
   drawing failure must not take the study's results with it;
 * each child imports its libraries and warms up (fonts, an OpenGL context with its shaders
   compiled) while the study runs, instead of after it;
@@ -37,7 +37,7 @@ class Worker:
         env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_"))}
         root = str(pathlib.Path(__file__).resolve().parents[2])
         env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-        self.proc = subprocess.Popen([sys.executable, "-m", "app.outputs.worker", kind] + ([arg] if arg else []),
+        self.proc = subprocess.Popen([sys.executable, "-m", "app.plot.worker", kind] + ([arg] if arg else []),
                                      env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
 
     def submit(self, job: pathlib.Path) -> "Worker":
@@ -107,9 +107,9 @@ def _main(argv: list[str]) -> int:
         pass
     kind, arg = argv[0], (argv[1] if len(argv) > 1 else "")
     if kind == "plots":
-        from app.outputs import plots as module
+        from app.plot import plots as module
     else:
-        from app.outputs import screenshots as module
+        from app.plot import screenshots as module
     module.warm_up(arg)
     line = sys.stdin.readline().strip()
     if not line:                # closed without a job: the study ended without pictures

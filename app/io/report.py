@@ -8,8 +8,8 @@ import pathlib
 
 import yaml
 
-from app.outputs.select import describe
-from app.study_result import StudyResult
+from app.io.result import StudyResult
+from app.io.select import describe
 
 PLOT_CAPTIONS = {
     "status_map": "Contact status of every node of AB (rows, A at the bottom) against the load step: "

@@ -42,8 +42,8 @@ import pathlib
 import numpy as np
 from mpi4py import MPI
 
+from app.io.select import analyses_of, mode_name, modes_of, select_states
 from app.loading.classify import Classification
-from app.outputs.select import analyses_of, mode_name, modes_of, select_states
 
 log = logging.getLogger(__name__)
 

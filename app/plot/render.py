@@ -20,8 +20,8 @@ def render_main(args) -> int:
         return 0
     outdir = pathlib.Path(args.results)
     res_file = outdir / "results.json"
-    from app.outputs.folder import MARKER, marker_kind
-    from app.study_result import from_document
+    from app.io.folder import MARKER, marker_kind
+    from app.io.result import from_document
     if res_file.is_file() and marker_kind(outdir) is None:
         # redrawing replaces the pictures in plots/ and screenshots/: only in a folder the app wrote
         print(f"error: {outdir}: not a results folder written by this app (no {MARKER}): nothing is redrawn there",
@@ -36,7 +36,7 @@ def render_main(args) -> int:
     except (OSError, ValueError) as err:
         print(f"error: {res_file}: cannot be read ({err})", file=sys.stderr)
         return 2
-    from app.outputs.pictures import draw_outputs, outputs_config, wants_pictures
+    from app.plot.pictures import draw_outputs, outputs_config, wants_pictures
     if "scene_config" not in results:
         print(f"error: {res_file}: written by an older version (no scene_config): nothing to redraw from",
               file=sys.stderr)

@@ -8,7 +8,7 @@ import os
 import pathlib
 import tempfile
 
-from app.study_result import StateResult, to_document
+from app.io.result import StateResult, to_document
 
 
 def _umask() -> int:
@@ -98,7 +98,7 @@ def steps_csv(results: dict) -> str:
 
 def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     """Write steps.csv then results.json (last: its presence marks a complete run). The MCEIP-mu
-    proofs (app/outputs/proofs.py) are written before, while the results still hold the pencils."""
+    proofs (app/io/proofs.py) are written before, while the results still hold the pencils."""
     outdir.mkdir(parents=True, exist_ok=True)
     atomic_write(outdir / "steps.csv", steps_csv(results))
     atomic_write(outdir / "results.json", json.dumps(to_document(results), indent=1, allow_nan=False))

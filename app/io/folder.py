@@ -44,7 +44,7 @@ def write_marker(folder: pathlib.Path, kind: str, entries: list[str] | None = No
     data = {"app": APP, "kind": kind, "format": FORMAT_VERSION, "version": __version__}
     if entries is not None:
         data["entries"] = sorted(entries)
-    from app.outputs.results import atomic_write
+    from app.io.results import atomic_write
     atomic_write(folder / MARKER, json.dumps(data) + "\n")
 
 
