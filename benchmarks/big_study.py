@@ -32,7 +32,7 @@ def main() -> None:
     import yaml
 
     import app.analyses.runner as runner
-    import app.study as study
+    import app.study.run as study
     from app.scene.schema import default_scene_path, parse_scene
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)

@@ -2,7 +2,7 @@
 
 Runs the paper's scene at one mesh size as a refinement level (loading path, then MCEIP-mu at
 the final state and, unless --final-only, the first solution along the path; the sufficient
-condition at mu = 2 at the final state: app/refinement.py), then times one sparse LU factorisation of K alone (MUMPS, as the
+condition at mu = 2 at the final state: app/study/refinement.py), then times one sparse LU factorisation of K alone (MUMPS, as the
 study does). Prints one JSON line (rank 0).
 
     .venv/bin/python benchmarks/level_run.py --nx 80 [--degree 1] [--pattern crossed]
@@ -33,8 +33,8 @@ def main() -> None:
 
     import yaml
 
-    from app.refinement import run_level
     from app.scene.schema import default_scene_path
+    from app.study.refinement import run_level
     data = yaml.safe_load(default_scene_path().read_text())
     data.update(name="bench", analyses=[], mceip_lambda2_mu=2.0,
                 refinement={"levels": [args.nx, 2 * args.nx],

@@ -517,7 +517,7 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
     from app.analyses.pencils import condensed_mu_pencil
     from app.loading.classify import classify
     from app.scene.schema import default_scene_path, load_scene
-    from app.study import run_study
+    from app.study.run import run_study
     sys.path.insert(0, str(ROOT / "tests"))
     from test_default_answers import REFERENCE, _compare, answers
     say("\n== speed (issue 14): machine shared with other jobs, load "
@@ -608,7 +608,7 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
 # -- targets ---------------------------------------------------------------------------------------
 def section_targets(big: dict | None, big_nx: int) -> dict:
     from app.scene.schema import default_scene_path, load_scene
-    from app.study import run_study
+    from app.study.run import run_study
     say("\n== targets ==")
     scene = load_scene(default_scene_path())
     run_study(scene, MPI.COMM_WORLD)                     # compiles the forms

@@ -31,9 +31,9 @@ MEANING = {
     "loading": "quasi-static loading of the block (a block gets the defaults when it is absent; "
                "not allowed for two_particles)",
     "settings": "solver settings (the defaults reproduce the paper's numbers)",
-    "sweep": "a batch of studies (app/sweep.py); null: one study",
+    "sweep": "a batch of studies (app/study/sweep.py); null: one study",
     "outputs": "files and pictures for people (app/io/, app/plot/); all off by default",
-    "refinement": "a mesh-refinement study of a block scene (app/refinement.py)",
+    "refinement": "a mesh-refinement study of a block scene (app/study/refinement.py)",
     "system.type": "selects the system type; the other keys of the section depend on it",
     "outputs.states[].stick": "number of stick nodes", "outputs.states[].slip": "number of slip nodes",
     "outputs.states[].free": "number of free nodes", "outputs.states[].zero": "number of zero-reaction nodes",

@@ -153,7 +153,7 @@ def test_method_trace_names_what_the_default_run_calls(tmp_path, capsys):
     def profile(frame, event, arg):
         if event == "call" and frame.f_code.co_filename.startswith(root):
             called.add((frame.f_code.co_filename[len(root):], frame.f_code.co_name))
-    from app.cli import main
+    from app.cli.main import main
     sys.setprofile(profile)
     try:
         status = main(["run", str(path), "-o", str(tmp_path / "out")])

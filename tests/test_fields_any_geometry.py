@@ -44,7 +44,7 @@ def _gmsh(file, angle_deg=0.0, point=(0.0, 0.0), degree=1, **settings):
 def _run(data: dict, out: pathlib.Path) -> tuple[dict, dict]:
     """Run a scene in this process with its field stage writing into ``out``; (results, fields.npz)."""
     from app.scene.schema import parse_scene
-    from app.study import run_study
+    from app.study.run import run_study
     out.mkdir(parents=True, exist_ok=True)
     res = run_study(parse_scene(data), MPI.COMM_WORLD, outdir=out)
     with np.load(out / "fields" / "fields.npz") as z:
@@ -201,7 +201,7 @@ def test_matrices_skip_default_field_outputs_and_refuse_asked_ones(tmp_path):
     from app.plot.pictures import draw_after_run
     from app.scene.schema import SceneError, parse_scene
     from app.scene.sections import Outputs, Screenshots
-    from app.study import run_study
+    from app.study.run import run_study
     data = particle_scene(tmp_path, (1, -1), 2.5, analyses=("necessary", "mceip_mu"))
     for key, value in (("paraview", True), ("screenshots", {})):
         with pytest.raises(SceneError, match=f"outputs.{key} = True: needs a mesh: not applicable, a matrices "

@@ -193,7 +193,7 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
     import app.systems.elasticity as elasticity
     from app.common.errors import UnreachableLoad
     from app.scene.schema import parse_scene
-    from app.study import run_study
+    from app.study.run import run_study
     original = elasticity.block_operators
 
     def no_contact(*args, **kwargs):

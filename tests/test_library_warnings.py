@@ -63,7 +63,7 @@ def test_merged_sums_counts_over_ranks():
 
 def test_default_study_raises_no_library_warning():
     from app.scene.schema import default_scene_path, parse_scene
-    from app.study import run_study
+    from app.study.run import run_study
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
     with warnings.catch_warnings():

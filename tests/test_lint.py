@@ -100,7 +100,7 @@ def test_cycle_detector_sees_a_cycle():
 
 def test_no_import_cycles_in_app():
     graph = import_graph()
-    assert "app.study" in graph and "app.scene.schema" in graph["app.study"]
+    assert "app.study.run" in graph and "app.scene.schema" in graph["app.study.run"]
     found = cycles(graph)
     assert not found, "import cycles: " + "; ".join(" <-> ".join(c) for c in found)
 

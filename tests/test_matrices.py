@@ -116,7 +116,7 @@ def test_random_system_through_files_equals_in_memory(tmp_path):
 
 
 def run_scene_in(scene):
-    from app.study import run_study
+    from app.study.run import run_study
     return run_study(scene, MPI.COMM_WORLD)
 
 

@@ -294,9 +294,9 @@ def test_render_redraws_without_recomputing(serial, tmp_path):
     pictures = sorted(p.relative_to(copy).as_posix() for p in copy.glob("*/*.png")) + ["report.md"]
     for p in pictures:
         (copy / p).unlink()
-    code = ("import sys; from app.cli import main; rc = main(['render', sys.argv[1]]); "
+    code = ("import sys; from app.cli.main import main; rc = main(['render', sys.argv[1]]); "
             "assert 'dolfinx' not in sys.modules, 'render imported DOLFINx'; "
-            "assert 'app.study' not in sys.modules; sys.exit(rc)")
+            "assert 'app.study.run' not in sys.modules; sys.exit(rc)")
     p = subprocess.run([PY, "-c", code, str(copy)], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert p.returncode == 0, p.stderr
     assert sorted(p.relative_to(copy).as_posix() for p in copy.glob("*/*.png")) + ["report.md"] == pictures
@@ -396,7 +396,7 @@ def test_condensed_and_full_mode_fields_agree(tmp_path):
     from mpi4py import MPI
 
     from app.scene.schema import parse_scene
-    from app.study import run_study
+    from app.study.run import run_study
     fields = {}
     for method in ("condensed", "full"):
         data = {**{k: v for k, v in SCENE.items() if k != "outputs"}, "analyses": ["mceip_mu"],

@@ -16,7 +16,7 @@ import yaml
 import app.analyses.runner as runner
 from app.common.progress import Progress, time_left
 from app.scene.schema import default_scene_path, parse_scene
-from app.study import run_study
+from app.study.run import run_study
 
 
 class _Recorder(io.StringIO):

@@ -2,7 +2,7 @@
 frictionless physics, physical sanity, strict input, file modes, mesh cache fallback.
 
 Each test names the acceptance point it checks. The CLI tests run ``python -m app`` in a
-subprocess (conftest.run_cli); the failure-injection tests call ``app.cli.main`` in this
+subprocess (conftest.run_cli); the failure-injection tests call ``app.cli.main.main`` in this
 process with one writer patched to fail as a full disk would.
 """
 from __future__ import annotations
@@ -159,7 +159,7 @@ def test_commit_failure_keeps_the_staged_results(tmp_path):
 
 def test_commit_rename_failure_in_the_cli_keeps_results_and_exits_nonzero(tmp_path, monkeypatch, capsys):
     import app.io.folder as folder_mod
-    from app.cli import main
+    from app.cli.main import main
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
     out = tmp_path / "out"
@@ -237,8 +237,8 @@ def test_full_disk_or_no_memory_gives_one_line(tmp_path, monkeypatch, capsys, wh
     """ENOSPC from our writer, an HDF5-style RuntimeError, a MemoryError: one line, exit 4, nothing left."""
     import app.io.results as results_mod
     import app.plot.pictures as pictures_mod
-    import app.study as study_mod
-    from app.cli import main
+    import app.study.run as study_mod
+    from app.cli.main import main
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
     out = tmp_path / "out"

@@ -1,5 +1,5 @@
-"""User-facing failures shared by the modules behind ``python -m app`` (app/cli.py, app/driver.py,
-app/sweep.py, app/refinement.py): one ``error:`` line on rank 0 and an exit status, so that none of
+"""User-facing failures shared by the modules behind ``python -m app`` (app/cli/main.py, app/study/driver.py,
+app/study/sweep.py, app/study/refinement.py): one ``error:`` line on rank 0 and an exit status, so that none of
 them imports the CLI module.
 
 Exit status: 0 ok, 2 a user mistake, 3 the study ran but some states failed, 4 the results could

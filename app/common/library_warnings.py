@@ -10,7 +10,7 @@ kept once with a count and:
   unaffected), logged at INFO;
 - otherwise logged as a WARNING naming the app function and line that called the library.
 
-:func:`app.study.run_study` lists both kinds in results.json ``library_warnings`` (merged over
+:func:`app.study.run.run_study` lists both kinds in results.json ``library_warnings`` (merged over
 the ranks, :func:`merged`) and adds the unknown ones to the study's ``warnings`` (the summary,
 the report).
 """

@@ -1,6 +1,6 @@
 """PETSc options from the command line, and the options prefixes of the app's solvers.
 
-``python -m app run scene.yaml -cd_necessary_eps_monitor`` works as in any FEniCSx code: app/cli.py
+``python -m app run scene.yaml -cd_necessary_eps_monitor`` works as in any FEniCSx code: app/cli/main.py
 splits the PETSc-style options off the command line (:func:`split_petsc_options`) and puts them in
 PETSc's options database for the run (:func:`command_line_options`); every KSP, SNES and EPS the app
 creates has one of the prefixes of :data:`PREFIXES` and reads the database after the app's own
@@ -34,7 +34,7 @@ PREFIXES = {
 
 def _petsc_style(token: str) -> bool:
     """A PETSc option name: one dash, a letter, then letters, digits and at least one underscore
-    (``-cd_necessary_eps_monitor``, ``-log_view``), never an option of app/cli.py."""
+    (``-cd_necessary_eps_monitor``, ``-log_view``), never an option of app/cli/main.py."""
     return (len(token) > 2 and token[0] == "-" and token[1].isalpha()
             and "_" in token and token[1:].replace("_", "").isalnum())
 

@@ -1,6 +1,6 @@
 """Typed, read-only views of a study's results (the ``results.json`` document).
 
-A study produces one JSON-like dictionary (:func:`app.study.run_study`; its keys are described in
+A study produces one JSON-like dictionary (:func:`app.study.run.run_study`; its keys are described in
 ``docs/method.md`` and the README). :class:`StudyResult` wraps it without changing it:
 
 * the dictionary stays the single source of truth, so :meth:`StudyResult.to_json` gives exactly
@@ -76,7 +76,7 @@ def to_document(results: Mapping) -> dict:
     Parameters
     ----------
     results
-        The results dictionary of a study (:func:`app.study.run_study`).
+        The results dictionary of a study (:func:`app.study.run.run_study`).
 
     Returns
     -------
@@ -387,7 +387,7 @@ class StudyResult:
 
     @classmethod
     def from_dict(cls, results: Mapping[str, Any]) -> "StudyResult":
-        """Wrap a results dictionary (as returned by app.study.run_study or read from results.json)."""
+        """Wrap a results dictionary (as returned by app.study.run.run_study or read from results.json)."""
         return cls(scene=str(results.get("scene", "")), system=str(results.get("system", "")),
                    mu=_float(results.get("mu")), units=results.get("units") or {},
                    analyses_requested=tuple(results.get("analyses_requested") or ()),

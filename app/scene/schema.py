@@ -76,9 +76,9 @@ class Scene(Strict):
     mceip_lambda2_mu: Optional[NonNegFloat] = None
     loading: Optional[Loading] = None
     settings: Settings = Settings()
-    sweep: Optional[Sweep] = None   # a batch of cases (app/sweep.py); None: one study
+    sweep: Optional[Sweep] = None   # a batch of cases (app/study/sweep.py); None: one study
     outputs: Outputs = Outputs()    # files and pictures (app/io/, app/plot/); all off by default
-    refinement: Optional[Refinement] = None   # a mesh-refinement study (app/refinement.py)
+    refinement: Optional[Refinement] = None   # a mesh-refinement study (app/study/refinement.py)
 
     @field_validator("name")
     @classmethod

@@ -268,7 +268,7 @@ def annotation_types(tp: Any) -> list:
 
 
 class Refinement(Strict):
-    """A mesh-refinement study of a block scene (app/refinement.py): the scene at every mesh level
+    """A mesh-refinement study of a block scene (app/study/refinement.py): the scene at every mesh level
     (nx cells along AB, ny = nx * height / length), every degree and every plane model."""
     levels: Annotated[list[Annotated[int, Field(ge=1, le=4096)]], Field(min_length=2, max_length=50)]
     degrees: Annotated[list[Literal[1, 2]], Field(min_length=1, max_length=2)] = [1]

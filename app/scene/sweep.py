@@ -1,5 +1,5 @@
 """Sweep cases: a scene with a ``sweep:`` section (schema: :class:`app.scene.schema.Sweep`) expanded
-into named, validated scenes (app/sweep.py runs them).
+into named, validated scenes (app/study/sweep.py runs them).
 
 Each case is the base scene with each swept key (a dotted path such as ``system.length``) set to
 one of its values, every combination (``mode: product``) or the i-th values together

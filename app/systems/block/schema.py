@@ -28,7 +28,7 @@ class Loading(Strict):
 class Block(Strict):
     """The elastic block of Villechaise and Zeghloul (the paper's section 5). Units: mm, MPa, tonne/mm^3."""
     has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/io/fields.py)
-    refinable: ClassVar[bool] = True        # a mesh-refinement study (app/refinement.py)
+    refinable: ClassVar[bool] = True        # a mesh-refinement study (app/study/refinement.py)
     type: Literal["block"]
     length: PosFloat = 80.0
     height: PosFloat = 40.0
@@ -78,5 +78,5 @@ class Block(Strict):
         return self.model_copy(update={"nx": nx, "ny": max(1, round(nx * self.height / self.length))})
 
     def table_columns(self) -> dict[str, float]:
-        """Extra columns of a sweep's table (app/sweep.py): the aspect ratio L/H."""
+        """Extra columns of a sweep's table (app/study/sweep.py): the aspect ratio L/H."""
         return {"L_over_H": float(f"{self.length / self.height:.12g}")}

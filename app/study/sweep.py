@@ -1,6 +1,6 @@
-"""Parameter sweeps: one scene file, many loading studies, run as an MPI task farm (app/taskfarm.py).
+"""Parameter sweeps: one scene file, many loading studies, run as an MPI task farm (app/study/taskfarm.py).
 
-Cases: app/scene/sweep.py; the combined table and plots: app/sweep_table.py.
+Cases: app/scene/sweep.py; the combined table and plots: app/study/sweep_table.py.
 
 A scene with a ``sweep:`` section (schema: :class:`app.scene.schema.Sweep`) is expanded into cases:
 the base scene with each swept key (a dotted path such as ``system.length``) set to one of its
@@ -40,9 +40,9 @@ from collections import deque
 
 from app.io.result import from_document
 from app.scene.schema import Scene, SceneError
-from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.sweep.expand)
-from app.sweep_table import case_row, error_row, summary_table, write_plots, write_tables
-from app.taskfarm import run_farm, sleep_until
+from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.study.sweep.expand)
+from app.study.sweep_table import case_row, error_row, summary_table, write_plots, write_tables
+from app.study.taskfarm import run_farm, sleep_until
 
 
 def case_dir(outdir: pathlib.Path, case: Case) -> pathlib.Path:
@@ -62,10 +62,10 @@ def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
 
 
 def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
-    """Run ``case`` on ``gcomm`` (app/driver.py); the group's rank 0 writes it and returns its table row."""
-    from app import driver
+    """Run ``case`` on ``gcomm`` (app/study/driver.py); the group's rank 0 writes it and returns its table row."""
     from app.common.errors import UnreachableLoad
     from app.io.results import atomic_write
+    from app.study import driver
     error = None
     folder = case_dir(outdir, case)
     if gcomm.rank == 0:
@@ -138,7 +138,7 @@ class Dispatcher:
 def run_cases(cases: list[Case], todo: list[int], comm, ranks_per_case: int, outdir: pathlib.Path,
               dispatcher: Dispatcher | None) -> str:
     """Run the cases ``todo`` (same list on every rank) over ``comm`` with the MPI task farm
-    (app/taskfarm.py); returns the scheduler used. ``dispatcher`` is given on rank 0 only."""
+    (app/study/taskfarm.py); returns the scheduler used. ``dispatcher`` is given on rank 0 only."""
     if comm.size > 1:
         # PETSc, SLEPc and the system types' libraries initialise collectively on the world
         # communicator when first imported: do it here on every rank, not inside the first case

@@ -38,7 +38,8 @@ from mpi4py import MPI
 from app.analyses.runner import analyse_state
 from app.common.progress import Progress
 from app.loading.classify import FREE, SLIP, classify
-from app.refinement_report import (  # noqa: F401 - observed_order re-exported
+from app.scene.schema import Scene
+from app.study.refinement_report import (  # noqa: F401 - observed_order re-exported
     QOIS,
     STAGE_GROUPS,
     analyse_convergence,
@@ -46,7 +47,6 @@ from app.refinement_report import (  # noqa: F401 - observed_order re-exported
     observed_order,
     write_outputs,
 )
-from app.scene.schema import Scene
 
 
 def level_scene(scene: Scene, nx: int, degree: int, plane: str, **loading) -> Scene:
@@ -67,7 +67,7 @@ def _mu_values(a: dict | None) -> list[float]:
 
 
 def _inspector(scene: Scene, ref):
-    """The ``inspect`` hook of :func:`app.study.run_study` that computes the level's quantities
+    """The ``inspect`` hook of :func:`app.study.run.run_study` that computes the level's quantities
     (``scene``: the level's scene; ``ref``: the refinement section)."""
     mu_fixed = ref.mu_fixed if ref.mu_fixed is not None else scene.lambda2_mu
     scene_mu = scene.model_copy(update={"analyses": ["mceip_mu"]})
@@ -158,7 +158,7 @@ def _stage_times(stages: list[dict]) -> dict:
 def run_level(scene: Scene, nx: int, degree: int, plane: str, comm: MPI.Comm,
               progress: Progress | None = None) -> tuple[dict, dict]:
     """One level: returns (the row of refinement.csv, the study's results)."""
-    from app.study import run_study
+    from app.study.run import run_study
     lvl = level_scene(scene, nx, degree, plane)
     t0 = time.perf_counter()
     res = run_study(lvl, comm, progress, inspect=_inspector(lvl, scene.refinement))
@@ -181,7 +181,7 @@ def run_level(scene: Scene, nx: int, degree: int, plane: str, comm: MPI.Comm,
 def _warm_up(scene: Scene, comm: MPI.Comm) -> None:
     """Compile the forms of every degree (JIT) on the smallest level, so that the first level's
     wall time is not the compiler's."""
-    from app.study import run_study
+    from app.study.run import run_study
     ref = scene.refinement
     for deg in ref.degrees:
         lvl = level_scene(scene, ref.levels[0], deg, ref.planes[0],
@@ -231,9 +231,9 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
 
 
 def main(scene: Scene, args, comm: MPI.Comm, folder, outdir: pathlib.Path) -> int:
-    """``python -m app run`` of a scene with a ``refinement`` section (called by app/cli.py)."""
-    from app import driver
+    """``python -m app run`` of a scene with a ``refinement`` section (called by app/cli/main.py)."""
     from app.common.errors import UnreachableLoad, fail
+    from app.study import driver
     quiet = getattr(args, "quiet", False)
     try:
         summary = run_refinement(scene, comm, Progress(enabled=False, comm=comm), outdir,

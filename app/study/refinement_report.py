@@ -1,4 +1,4 @@
-"""Convergence analysis and report of a mesh-refinement study (app/refinement.py): observed
+"""Convergence analysis and report of a mesh-refinement study (app/study/refinement.py): observed
 orders, Richardson references, the cheapest level per accuracy, and the files
 ``refinement.csv``, ``refinement.md``, ``refinement.json``, ``refinement.png``/``.svg``.
 """

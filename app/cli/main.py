@@ -220,7 +220,7 @@ def _main(args) -> int:
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
-        from app.sweep import main as sweep_main  # a batch of cases (app/sweep.py)
+        from app.study.sweep import main as sweep_main  # a batch of cases (app/study/sweep.py)
         return sweep_main(scene, args, comm)
     from app.scene import limits as preflight
     try:
@@ -268,12 +268,12 @@ def _terminate(signum, frame):
 
 
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
-    """Run the scene into the staging folder ``outdir`` and commit ``folder`` (app/driver.py)."""
-    from app import driver
+    """Run the scene into the staging folder ``outdir`` and commit ``folder`` (app/study/driver.py)."""
     from app.common.errors import UnreachableLoad
     from app.common.progress import Progress
-    if scene.refinement is not None:                          # a mesh-refinement study (app/refinement.py)
-        from app.refinement import main as refinement_main
+    from app.study import driver
+    if scene.refinement is not None:                          # a mesh-refinement study (app/study/refinement.py)
+        from app.study.refinement import main as refinement_main
         return refinement_main(scene, args, comm, folder, outdir)
     try:
         results = driver.run_and_write(scene, comm, outdir, Progress(enabled=not args.quiet, comm=comm))
