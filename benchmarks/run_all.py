@@ -224,7 +224,7 @@ def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
     from app.analyses.enumerate import enumerate_mceip
     from app.analyses.mcp import search_mceip
     from app.analyses.pencils import condensed_mu_pencil
-    from app.analyses.runner import seq_aij
+    from app.analyses.state_pencils import seq_aij
     from app.common.stages import Stages
     from app.loading.classify import classify
     from app.scene.schema import McpSettings
@@ -318,7 +318,7 @@ def section_siconos(sizes: list[int]) -> dict:
         return {"skipped": msg}
     from app.analyses.enumerate import enumerate_mceip
     from app.analyses.mcp import RSLS, SSLS, BorderedMcp, search_mceip
-    from app.analyses.runner import seq_aij
+    from app.analyses.state_pencils import seq_aij
     from app.loading.contact import FrictionalContact
     from app.scene.schema import McpSettings
     from benchmarks.problems import block_problems

@@ -24,6 +24,10 @@ from app.loading.classify import Classification
 from app.scene.schema import Scene
 from app.systems.base import System
 
+#: most DOFs of a full-size pencil the analyses turn into dense matrices (enumeration of
+#: MCEIP-lambda^2, zero-reaction nodes); refused above
+FULL_DENSE_LIMIT = 3000
+
 
 def seq_aij(A: np.ndarray) -> PETSc.Mat:
     """Small dense matrix as a sequential AIJ matrix (replicated problems run on COMM_SELF)."""

@@ -11,7 +11,8 @@ import time
 from mpi4py import MPI
 
 from app.analyses.curvature import attach as attach_curvature
-from app.analyses.runner import analyse_condensed_distributed, analyse_state
+from app.analyses.distributed import analyse_condensed_distributed
+from app.analyses.runner import analyse_state
 from app.common.library_warnings import describe, explained, merged
 from app.common.progress import Progress
 from app.common.stages import Stages
