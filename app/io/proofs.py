@@ -66,7 +66,7 @@ def check_folder(folder: pathlib.Path) -> list[StateCheck]:
     """Re-verify every stored proof of a results folder (raises ``FileNotFoundError`` when the
     folder has no results.json)."""
     from app.analyses.mceip_mu.checker import ProofLog, check_log
-    from app.io.result import from_document
+    from app.io.document import from_document
     results = from_document(json.loads((folder / "results.json").read_text(encoding="utf-8")))
     by_index = {int(st["index"]): st for st in results.get("states", [])}
     out: list[StateCheck] = []

@@ -8,7 +8,8 @@ import os
 import pathlib
 import tempfile
 
-from app.io.result import StateResult, to_document
+from app.io.document import to_document
+from app.io.result import StateResult
 
 
 def _umask() -> int:

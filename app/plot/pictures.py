@@ -194,7 +194,7 @@ def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
     """
     if not wants_pictures(results):
         return results
-    from app.io.result import from_document, to_document
+    from app.io.document import from_document, to_document
     data = from_document(json.loads(json.dumps(to_document(results), allow_nan=False)))
     draw_outputs(data, outdir, progress)
     return data

@@ -20,8 +20,8 @@ def render_main(args) -> int:
         return 0
     outdir = pathlib.Path(args.results)
     res_file = outdir / "results.json"
+    from app.io.document import from_document
     from app.io.folder import MARKER, marker_kind
-    from app.io.result import from_document
     if res_file.is_file() and marker_kind(outdir) is None:
         # redrawing replaces the pictures in plots/ and screenshots/: only in a folder the app wrote
         print(f"error: {outdir}: not a results folder written by this app (no {MARKER}): nothing is redrawn there",

@@ -38,7 +38,7 @@ import time
 import traceback
 from collections import deque
 
-from app.io.result import from_document
+from app.io.document import from_document
 from app.scene.schema import Scene, SceneError
 from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.study.sweep.expand)
 from app.study.sweep_table import case_row, error_row, summary_table, write_plots, write_tables

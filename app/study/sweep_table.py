@@ -125,7 +125,7 @@ def _columns(cases: list[Case]) -> list[str]:
 def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: dict[int, dict],
                  info: dict) -> None:
     """sweep.csv and sweep.json (atomically): one row per case, finished or not."""
-    from app.io.result import NON_FINITE_REASON, json_clean
+    from app.io.document import NON_FINITE_REASON, json_clean
     from app.io.results import atomic_write
     cols = _columns(cases)
     table = []
