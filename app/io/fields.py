@@ -42,7 +42,9 @@ import pathlib
 import numpy as np
 from mpi4py import MPI
 
+from app.io.gather import MeshGather
 from app.io.select import analyses_of, mode_name, modes_of, select_states
+from app.io.xdmf import XdmfSeries
 from app.loading.classify import Classification
 
 log = logging.getLogger(__name__)
@@ -55,77 +57,6 @@ def wants_fields(scene) -> bool:
     then gets a "not applicable" record from :func:`compute_fields`."""
     outputs = getattr(scene, "outputs", None)
     return outputs is not None and outputs.fields
-
-
-class MeshGather:
-    """Nodes and cells of the displacement space on rank 0, in a canonical (rank-independent) order."""
-
-    def __init__(self, V, length_scale: float):
-        import dolfinx.cpp
-        mesh = V.mesh
-        self.comm = mesh.comm
-        im = V.dofmap.index_map
-        self.n_own = im.size_local
-        self.gidx = np.arange(im.local_range[0], im.local_range[1], dtype=np.int64)
-        x = V.tabulate_dof_coordinates()[:self.n_own, :2]
-        tdim = mesh.topology.dim
-        self.n_cells = mesh.topology.index_map(tdim).size_local
-        ndofs = V.dofmap.dof_layout.num_dofs
-        perm = np.argsort(dolfinx.cpp.io.perm_vtk(mesh.topology.cell_type, ndofs))   # DOLFINx -> VTK order
-        local = V.dofmap.list.array.reshape(-1, ndofs)[:self.n_cells][:, perm]
-        cells = im.local_to_global(local.ravel().astype(np.int32)).reshape(local.shape)
-        parts = self.comm.gather((self.gidx, x, cells), root=0)              # MPI collective
-        self.points = self.cells = self.point_order = self.cell_order = None
-        self.cell_type = "triangle" if ndofs == 3 else "triangle6"
-        if self.comm.rank == 0:
-            g = np.concatenate([p[0] for p in parts])
-            xs = np.concatenate([p[1] for p in parts])
-            n = len(g)
-            pts = np.empty((n, 2))
-            pts[g] = xs
-            key = np.round(pts / length_scale, 9)
-            order = np.lexsort((key[:, 0], key[:, 1]))            # by y, then x
-            new_of_global = np.empty(n, dtype=np.int64)
-            new_of_global[order] = np.arange(n)
-            self.points = pts[order]
-            cells = new_of_global[np.concatenate([p[2] for p in parts])]
-            # each cell starts at its smallest vertex (a cyclic rotation: orientation and the VTK
-            # order of the mid-side nodes kept), whatever the mesh generator's local order
-            rot = (np.argmin(cells[:, :3], axis=1)[:, None] + np.arange(3)) % 3
-            cells = np.hstack([np.take_along_axis(cells[:, 3 * b:3 * b + 3], rot, axis=1)
-                               for b in range(cells.shape[1] // 3)])
-            ckey = np.sort(cells, axis=1)
-            self.cell_order = np.lexsort(ckey.T[::-1])
-            self.cells = cells[self.cell_order]
-            self.new_of_global = new_of_global
-
-    def nodal(self, values: np.ndarray) -> np.ndarray | None:
-        """(N, 2) nodal vector on rank 0 from a blocked Function array (local, with ghosts)."""
-        own = np.asarray(values)[:2 * self.n_own].reshape(-1, 2)
-        parts = self.comm.gather((self.gidx, own), root=0)                 # MPI collective
-        if self.comm.rank != 0:
-            return None
-        out = np.empty((len(self.points), 2))
-        for g, v in parts:
-            out[self.new_of_global[g]] = v
-        return out
-
-    def cellwise(self, values: np.ndarray) -> np.ndarray | None:
-        """(C,) cell values on rank 0 from this rank's owned-cell values (in local cell order)."""
-        parts = self.comm.gather(np.asarray(values)[:self.n_cells], root=0)   # MPI collective
-        if self.comm.rank != 0:
-            return None
-        return np.concatenate(parts)[self.cell_order]
-
-    def contact_points(self, xy: np.ndarray, length_scale: float) -> np.ndarray:
-        """Indices (rank 0) of the mesh nodes at the contact nodes' coordinates ``xy`` (n, 2)."""
-        from scipy.spatial import cKDTree
-        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-        dist, idx = cKDTree(self.points).query(xy)
-        if len(xy) and dist.max() > 1e-9 * length_scale:
-            k = int(np.argmax(dist))
-            raise RuntimeError(f"no mesh node at contact position ({xy[k, 0]}, {xy[k, 1]})")
-        return np.asarray(idx, dtype=np.int64)
 
 
 def _classification(entry: dict) -> Classification:
@@ -239,87 +170,6 @@ class _FieldMaker:
         return v, how
 
 
-class _XdmfSeries:
-    """meshio's XDMF time series whose HDF5 data are built in memory and written to disk by Python.
-
-    HDF5 does not survive a full disk: after a failed write its object destructors raise inside
-    h5py and the process then dies of a segmentation fault (HDF5 1.10, h5py 3.7), so a user would
-    see a crash instead of "no space left". Here HDF5 only ever writes into a ``BytesIO``; each
-    finished image goes to disk through ``open``/``write``, where a full disk is a plain
-    ``OSError(ENOSPC)``. Memory stays bounded: a new ``.h5`` part is started once a part holds
-    ``part_bytes`` of data (``states.h5`` holds the mesh and the first states, ``states.1.h5`` ...
-    the next; the ``.xdmf`` names the part of each array). Parts are written with ``"xb"``: the
-    series never overwrites a file (the folder is the study's own staging folder).
-    """
-
-    def __init__(self, path: pathlib.Path, part_bytes: int = 64 * 2**20):
-        import h5py
-        import meshio
-
-        series = self
-
-        class Writer(meshio.xdmf.TimeSeriesWriter):
-            def __enter__(self):
-                series._open_part()
-                return self
-
-            def __exit__(self, *exc):
-                if exc and exc[0] is not None:      # the study failed: nothing more is written
-                    series._discard_part()
-                    return False
-                series._close_part()
-                import xml.etree.ElementTree as ET
-                with open(self.filename, "xb") as f:
-                    ET.ElementTree(self.xdmf_file).write(f)
-                return False
-
-            def write_data(self, t, point_data=None, cell_data=None):
-                super().write_data(t, point_data=point_data, cell_data=cell_data)
-                if series._held >= series.part_bytes:
-                    series._close_part()
-                    series._open_part()
-
-            def numpy_to_xml_string(self, data):
-                series._held += np.asarray(data).nbytes
-                return super().numpy_to_xml_string(data)
-
-        self._h5py = h5py
-        self.path = pathlib.Path(path)
-        self.part_bytes = int(part_bytes)
-        self.parts: list[pathlib.Path] = []
-        self._buf = None
-        self._held = 0
-        self.writer = Writer(self.path)
-
-    def _open_part(self) -> None:
-        import io
-        k = len(self.parts)
-        name = self.path.with_suffix(".h5") if k == 0 else self.path.with_suffix(f".{k}.h5")
-        self.parts.append(name)
-        self._buf = io.BytesIO()
-        self.writer.h5_filename = str(name)
-        self.writer.h5_file = self._h5py.File(self._buf, "w")
-        self._held = 0
-
-    def _close_part(self) -> None:
-        self.writer.h5_file.close()
-        image = self._buf.getvalue()
-        self._buf = None
-        with open(self.parts[-1], "xb") as f:
-            f.write(image)
-
-    def _discard_part(self) -> None:
-        if self._buf is not None:
-            self.writer.h5_file.close()
-            self._buf = None
-
-    def __enter__(self):
-        return self.writer.__enter__()
-
-    def __exit__(self, *exc):
-        return self.writer.__exit__(*exc)
-
-
 def _pad3(v: np.ndarray) -> np.ndarray:
     return np.column_stack([v, np.zeros(len(v))])
 
@@ -343,6 +193,7 @@ def compute_fields(scene, system, out_states: list[dict], stages, progress, outd
 
 
 def _compute_fields(scene, system, out_states: list[dict], stages, progress, outdir: pathlib.Path) -> dict:
+    """The body of :func:`compute_fields` for a meshed system and an output folder."""
     outputs = scene.outputs
     comm = system.comm
     record: dict = {"notes": [], "files": []}
@@ -369,51 +220,16 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
             contact = g.contact_points(src.contact_xy, maker.scale)
             if outputs.paraview:
                 paraview_dir.mkdir(parents=True, exist_ok=True)
-        series = _XdmfSeries(paraview_dir / "states.xdmf") if (rank0 and outputs.paraview) else None
-        writer = series.__enter__() if series is not None else None
-        if writer is not None:
-            writer.write_points_cells(g.points, [(g.cell_type, g.cells)])
-        kept_u, kept_vm = {}, {}
-        worst = 0.0
-        bar = progress.bar(len(state_ids), "fields")
-        try:
-            for idx in state_ids:
-                entry = by_index[idx]
-                u, vm, mismatch = maker.state(entry)
-                worst = max(worst, mismatch)
-                if rank0:
-                    if writer is not None:
-                        writer.write_data(idx, point_data=_contact_fields(entry, u, contact, src),
-                                          cell_data={"von_mises": [vm]})
-                    if idx in pictured:
-                        kept_u[idx], kept_vm[idx] = u, vm
-                bar.update(1)
-        except BaseException as err:
-            bar.close()
-            if series is not None:
-                series.__exit__(type(err), err, err.__traceback__)
-            raise
-        bar.close()
-        if series is not None:
-            series.__exit__(None, None, None)
+        series = XdmfSeries(paraview_dir / "states.xdmf") if (rank0 and outputs.paraview) else None
+        kept_u, kept_vm, worst = _state_fields(maker, [by_index[i] for i in state_ids], pictured, contact,
+                                               series, progress)
         record["contact_displacement_check"] = worst
         log.info("fields: %d state(s) computed (contact displacements reproduced to %.2g relative)",
                  len(state_ids), worst)
         if worst > 1e-6:
             log.warning("fields: the displacement fields differ from the states' contact displacements by %.3g "
                         "(relative)", worst)
-        # modes
-        modes, meta = {}, []
-        for first in sorted(mode_firsts):
-            entry = by_index[first]
-            for problem, k, sol in modes_of(entry.get("analyses") or {}):
-                name = mode_name(first, problem, k, sol["value"])
-                v, how = maker.mode(entry, problem, sol)
-                if rank0:
-                    modes[name] = v
-                    meta.append({"name": name, "state": first, "problem": problem, "k": k,
-                                 "value": float(sol["value"]), "pattern": sol.get("pattern", []),
-                                 "x_Ts": sol.get("x_Ts", []), "built": how})
+        modes, meta = _mode_fields(maker, [by_index[first] for first in sorted(mode_firsts)])
         record["modes"] = [{"name": m["name"], "built": m["built"]} for m in meta] if rank0 else []
         if rank0:
             if outputs.paraview:
@@ -425,28 +241,86 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
                 record["files"] += (["paraview/states.xdmf"] + [f"paraview/{p.name}" for p in series.parts]
                                     + ["paraview/modes.vtu"])
             if shots is not None:
-                fdir = outdir / "fields"
-                fdir.mkdir(parents=True, exist_ok=True)
-                ids = sorted(kept_u)
-                names = [m["name"] for m in meta]
-                np.savez_compressed(
-                    fdir / "fields.npz", points=g.points, cells=g.cells, cell_type=np.array(g.cell_type),
-                    contact_points=contact, state_index=np.array(ids, dtype=np.int64),
-                    state_u=np.array([kept_u[i] for i in ids]).reshape(len(ids), len(g.points), 2),
-                    state_von_mises=np.array([kept_vm[i] for i in ids]).reshape(len(ids), len(g.cells)),
-                    mode_v=np.array([modes[n] for n in names]).reshape(len(names), len(g.points), 2),
-                    modes_json=np.array(json.dumps(meta)),
-                    contact_tangent=src.tangent, contact_normal=src.normal, length_scale=np.array(maker.scale),
-                    **({"obstacle_point": np.array(src.obstacle["point"], dtype=float),
-                        "obstacle_normal": np.array(src.obstacle["normal"], dtype=float)}
-                       if src.obstacle and "point" in src.obstacle else {}),
-                    **({"obstacle_circle": np.array([*src.obstacle["centre"], src.obstacle["radius"],
-                                                     1.0 if src.obstacle["side"] == "outside" else -1.0])}
-                       if src.obstacle and "centre" in src.obstacle else {}))
+                _write_screenshot_data(outdir / "fields", maker, contact, kept_u, kept_vm, modes, meta)
                 record["files"].append("fields/fields.npz")
             log.info("fields: %d mode(s); wrote %s", len(meta), ", ".join(record["files"]) or "nothing")
     record = comm.bcast(record, root=0)                                          # MPI collective
     return record
+
+
+def _state_fields(maker: "_FieldMaker", entries: list[dict], pictured, contact, series: XdmfSeries | None,
+                  progress) -> tuple[dict, dict, float]:
+    """The fields of the states ``entries`` (MPI collective): on rank 0 written to the ParaView
+    ``series`` (if any) and kept for the ``pictured`` states. Returns the kept displacements and
+    von Mises stresses by state index and the largest contact-displacement mismatch."""
+    g, src, rank0 = maker.gather, maker.src, maker.comm.rank == 0
+    writer = series.__enter__() if series is not None else None
+    if writer is not None:
+        writer.write_points_cells(g.points, [(g.cell_type, g.cells)])
+    kept_u, kept_vm = {}, {}
+    worst = 0.0
+    bar = progress.bar(len(entries), "fields")
+    try:
+        for entry in entries:
+            idx = entry["index"]
+            u, vm, mismatch = maker.state(entry)
+            worst = max(worst, mismatch)
+            if rank0:
+                if writer is not None:
+                    writer.write_data(idx, point_data=_contact_fields(entry, u, contact, src),
+                                      cell_data={"von_mises": [vm]})
+                if idx in pictured:
+                    kept_u[idx], kept_vm[idx] = u, vm
+            bar.update(1)
+    except BaseException as err:
+        bar.close()
+        if series is not None:
+            series.__exit__(type(err), err, err.__traceback__)
+        raise
+    bar.close()
+    if series is not None:
+        series.__exit__(None, None, None)
+    return kept_u, kept_vm, worst
+
+
+def _mode_fields(maker: "_FieldMaker", entries: list[dict]) -> tuple[dict, list[dict]]:
+    """The modes of the states ``entries`` (MPI collective): their displacements by name and
+    their descriptions (both on rank 0 only)."""
+    modes, meta = {}, []
+    for entry in entries:
+        first = entry["index"]
+        for problem, k, sol in modes_of(entry.get("analyses") or {}):
+            name = mode_name(first, problem, k, sol["value"])
+            v, how = maker.mode(entry, problem, sol)
+            if maker.comm.rank == 0:
+                modes[name] = v
+                meta.append({"name": name, "state": first, "problem": problem, "k": k,
+                             "value": float(sol["value"]), "pattern": sol.get("pattern", []),
+                             "x_Ts": sol.get("x_Ts", []), "built": how})
+    return modes, meta
+
+
+def _write_screenshot_data(fdir: pathlib.Path, maker: "_FieldMaker", contact, kept_u: dict, kept_vm: dict,
+                           modes: dict, meta: list[dict]) -> None:
+    """``fields/fields.npz``: what the screenshots and ``python -m app render`` draw (rank 0)."""
+    g, src = maker.gather, maker.src
+    fdir.mkdir(parents=True, exist_ok=True)
+    ids = sorted(kept_u)
+    names = [m["name"] for m in meta]
+    np.savez_compressed(
+        fdir / "fields.npz", points=g.points, cells=g.cells, cell_type=np.array(g.cell_type),
+        contact_points=contact, state_index=np.array(ids, dtype=np.int64),
+        state_u=np.array([kept_u[i] for i in ids]).reshape(len(ids), len(g.points), 2),
+        state_von_mises=np.array([kept_vm[i] for i in ids]).reshape(len(ids), len(g.cells)),
+        mode_v=np.array([modes[n] for n in names]).reshape(len(names), len(g.points), 2),
+        modes_json=np.array(json.dumps(meta)),
+        contact_tangent=src.tangent, contact_normal=src.normal, length_scale=np.array(maker.scale),
+        **({"obstacle_point": np.array(src.obstacle["point"], dtype=float),
+            "obstacle_normal": np.array(src.obstacle["normal"], dtype=float)}
+           if src.obstacle and "point" in src.obstacle else {}),
+        **({"obstacle_circle": np.array([*src.obstacle["centre"], src.obstacle["radius"],
+                                         1.0 if src.obstacle["side"] == "outside" else -1.0])}
+           if src.obstacle and "centre" in src.obstacle else {}))
 
 
 def _slip_frames(entry: dict, cls) -> list:
