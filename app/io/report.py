@@ -175,8 +175,26 @@ def _rel(path: pathlib.Path, outdir: pathlib.Path) -> str:
 
 def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_files: list[pathlib.Path],
                  shot_files: list[pathlib.Path], notes: list[str]) -> pathlib.Path:
+    """``report.md`` in ``outdir``: the study in brief, the classifications, the pictures, the
+    ParaView files, notes, stages, the scene and the versions."""
     cfg = results.get("scene_config") or {}
-    out = cfg.get("outputs") or {}
+    block = _block_like(results)
+    body = "block" if block else "body"
+    modes_built = sorted({m["built"] for m in (results.get("outputs") or {}).get("modes") or []})
+    L = _overview(results) + _classifications(results)
+    if plot_files:
+        L += _plots(plot_files, outdir, block)
+    if shot_files:
+        L += _screenshots(shot_files, outdir, cfg.get("outputs") or {}, pictured, body, modes_built)
+    L += _paraview(results, body, modes_built)
+    L += _closing(results, cfg, notes)
+    path_out = outdir / "report.md"
+    path_out.write_text("\n".join(L) + "\n", encoding="utf-8")
+    return path_out
+
+
+def _overview(results: dict) -> list[str]:
+    """The title and the study in a few lines (states, first instability, final state, failures)."""
     L: list[str] = []
     name = results.get("scene", "")
     L += [f"# Study report: {name}", ""]
@@ -206,7 +224,12 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
         L.append(f"- warning: {w}")
     L += [f"- wall time {_fmt(results.get('wall_seconds'), '.2f')} s. Units: "
           + ", ".join(f"{k} {v}" for k, v in (results.get("units") or {}).items()) + ".", ""]
+    return L
 
+
+def _classifications(results: dict) -> list[str]:
+    """The table of distinct classifications."""
+    L: list[str] = []
     L += ["## Distinct classifications", "",
           "Analyses depend only on the classification, so each row is computed once, at its first state, "
           "and shared by the others. Patterns list the slip nodes "
@@ -214,31 +237,42 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
           + ": `S` slips in the mode, "
           "`-` is stuck in it. Full numbers: `results.json`, one row per state: `steps.csv`.", ""]
     L += summary_table(results) + [""]
+    return L
 
-    block = _block_like(results)
-    body = "block" if block else "body"
-    if plot_files:
-        L += ["## Plots", ""]
-        for p in plot_files:
-            if p.suffix != ".png":
-                continue
-            L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{(PLOT_CAPTIONS if block else {**PLOT_CAPTIONS, **GENERIC_CAPTIONS}).get(p.stem, p.stem)}* "
-                  f"(also [{p.with_suffix('.svg').name}]({_rel(p.with_suffix('.svg'), outdir)}))", ""]
 
-    modes_built = sorted({m["built"] for m in (results.get("outputs") or {}).get("modes") or []})
-    if shot_files:
-        L += ["## Screenshots", "", "Pictured states: " + ", ".join(describe(s) for s in out.get("states", []))
-              + f" -> states {', '.join(str(i) for i in pictured)}.", ""]
-        if any(p.name.startswith("mode_") for p in shot_files):
-            L += [f"Mode shapes (drawn with the largest displacement at 12 % of the {body}'s smaller side): "
-                  + "; ".join(modes_built) + ".", ""]
-        for p in shot_files:
-            kind = "state" if p.name.startswith("state_") else "mode"
-            cap = (f"The {body} at this state (contact nodes marked by status; grey: the obstacle; thin line: "
-                   f"the undeformed {body})." if kind == "state" else
-                   "Divergence mode (shape scaled to fit; contact nodes marked; black: slip nodes stuck in the mode).")
-            L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{p.stem}*: {cap}", ""]
+def _plots(plot_files: list[pathlib.Path], outdir: pathlib.Path, block: bool) -> list[str]:
+    """The plots with their captions."""
+    L: list[str] = []
+    L += ["## Plots", ""]
+    for p in plot_files:
+        if p.suffix != ".png":
+            continue
+        L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{(PLOT_CAPTIONS if block else {**PLOT_CAPTIONS, **GENERIC_CAPTIONS}).get(p.stem, p.stem)}* "
+              f"(also [{p.with_suffix('.svg').name}]({_rel(p.with_suffix('.svg'), outdir)}))", ""]
+    return L
 
+
+def _screenshots(shot_files: list[pathlib.Path], outdir: pathlib.Path, out: dict, pictured: list[int], body: str,
+                 modes_built: list[str]) -> list[str]:
+    """The screenshots with their captions."""
+    L: list[str] = []
+    L += ["## Screenshots", "", "Pictured states: " + ", ".join(describe(s) for s in out.get("states", []))
+          + f" -> states {', '.join(str(i) for i in pictured)}.", ""]
+    if any(p.name.startswith("mode_") for p in shot_files):
+        L += [f"Mode shapes (drawn with the largest displacement at 12 % of the {body}'s smaller side): "
+              + "; ".join(modes_built) + ".", ""]
+    for p in shot_files:
+        kind = "state" if p.name.startswith("state_") else "mode"
+        cap = (f"The {body} at this state (contact nodes marked by status; grey: the obstacle; thin line: "
+               f"the undeformed {body})." if kind == "state" else
+               "Divergence mode (shape scaled to fit; contact nodes marked; black: slip nodes stuck in the mode).")
+        L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{p.stem}*: {cap}", ""]
+    return L
+
+
+def _paraview(results: dict, body: str, modes_built: list[str]) -> list[str]:
+    """What the ParaView files hold, when they were written."""
+    L: list[str] = []
     files = (results.get("outputs") or {}).get("files") or []
     if any(f.startswith("paraview/") for f in files):
         L += ["## ParaView files", "",
@@ -251,7 +285,12 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
               "`s<state>_<problem>_<k>_<value>`, normalised to max |v| = 1.", ""]
         if modes_built:
             L += ["Mode fields: " + "; ".join(modes_built) + ".", ""]
+    return L
 
+
+def _closing(results: dict, cfg: dict, notes: list[str]) -> list[str]:
+    """Notes, stages, the scene, the versions and the time of writing."""
+    L: list[str] = []
     if notes:
         L += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
 
@@ -266,7 +305,4 @@ def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_
         L += ["## Versions", "", "| software | version |", "|---|---|"]
         L += [f"| {k} | {v} |" for k, v in vers.items()] + [""]
     L += [f"Report written {datetime.datetime.now().astimezone().isoformat(timespec='seconds')}."]
-    path_out = outdir / "report.md"
-    path_out.write_text("\n".join(L) + "\n", encoding="utf-8")
-    return path_out
-
+    return L
