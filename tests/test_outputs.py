@@ -198,7 +198,7 @@ def test_drawing_job_files_are_removed(serial):
 def test_fields_file_of_the_previous_release_keeps_its_obstacle(serial, tmp_path):
     """``python -m app render`` of a results folder of the previous release: its fields.npz has the
     ``block`` key instead of the geometry keys; the obstacle is then the block's line y = 0."""
-    from app.plot.screenshots import FieldData
+    from app.plot.canvas import FieldData
     out, res, proc = serial
     with np.load(out / "fields" / "fields.npz") as z:
         now = {k: z[k] for k in z.files}
