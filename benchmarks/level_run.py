@@ -55,7 +55,7 @@ def main() -> None:
     if not args.no_factor:
         from app.linalg import lu_solver
         from app.systems.block.mesh import block_mesh
-        from app.systems.elasticity import block_operators
+        from app.systems.block.operators import block_operators
         cfg = scene.system.model_copy(update={"nx": args.nx, "ny": row["ny"], "degree": args.degree,
                                                "plane": args.plane})
         mesh, facets = block_mesh(comm, cfg.length, cfg.height, cfg.nx, cfg.ny, cfg.pattern, cfg.mesh_size)

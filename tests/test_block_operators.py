@@ -1,5 +1,5 @@
 """Tests of the block mesh (app.systems.block.mesh) and the reduced elasticity operators
-(app.systems.elasticity)."""
+(app.systems.block.operators)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.systems.block.mesh import AB, CD, LATERAL, block_mesh, structured_triangulation
-from app.systems.elasticity import block_operators, lame_parameters
+from app.systems.block.operators import block_operators, lame_parameters
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 LENGTH, HEIGHT = 80.0, 40.0
@@ -324,7 +324,7 @@ _PARALLEL_SCRIPT = textwrap.dedent("""
     import numpy as np
     from mpi4py import MPI
     from app.systems.block.mesh import block_mesh
-    from app.systems.elasticity import block_operators
+    from app.systems.block.operators import block_operators
 
     comm = MPI.COMM_WORLD
     # An exception on one rank must not leave the other one waiting in a collective

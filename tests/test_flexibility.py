@@ -22,7 +22,7 @@ from petsc4py import PETSc
 from app.linalg import lu
 from app.loading.flexibility import chunk_columns, contact_flexibility, flexibility_inverse, flexibility_matsolve
 from app.systems.block.mesh import block_mesh
-from app.systems.elasticity import block_operators
+from app.systems.block.operators import block_operators
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 
@@ -84,7 +84,7 @@ _SCRIPT = textwrap.dedent("""
     from mpi4py import MPI
     from app.linalg import lu
     from app.loading.flexibility import flexibility_matsolve
-    from app.systems.elasticity import block_operators
+    from app.systems.block.operators import block_operators
     from app.systems.block.mesh import block_mesh
     comm = MPI.COMM_WORLD
     sys.excepthook = lambda *exc: (sys.__excepthook__(*exc), sys.stderr.flush(), comm.Abort(1))

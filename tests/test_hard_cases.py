@@ -190,17 +190,17 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
     """A mesh without contact nodes on AB stops with a clear error, not a crash later on."""
     from mpi4py import MPI
 
-    import app.systems.elasticity as elasticity
+    import app.systems.block.operators as operators
     from app.common.errors import UnreachableLoad
     from app.scene.schema import parse_scene
     from app.study.run import run_study
-    original = elasticity.block_operators
+    original = operators.block_operators
 
     def no_contact(*args, **kwargs):
         ops = original(*args, **kwargs)
         ops.contact_x = ops.contact_x[:0]
         return ops
 
-    monkeypatch.setattr(elasticity, "block_operators", no_contact)
+    monkeypatch.setattr(operators, "block_operators", no_contact)
     with pytest.raises(UnreachableLoad, match="no contact nodes"):
         run_study(parse_scene(_with(nx=6, ny=3)), MPI.COMM_WORLD)

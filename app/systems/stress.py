@@ -1,4 +1,4 @@
-"""In-plane stress of 2D linear elasticity (UFL): the stiffness forms (app/systems/elasticity.py,
+"""In-plane stress of 2D linear elasticity (UFL): the stiffness forms (app/systems/block/operators.py,
 app/systems/gmsh/operators.py) and the von Mises stress of the field outputs."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ def strain(u):
 def stress(u, mu, lmbda):
     """UFL in-plane stress ``2 mu eps + lambda tr(eps) I`` of the 2D displacement ``u`` with the
     Lamé parameters of the 2D model (numbers, Constants or DG0 functions: a material per cell;
-    app/systems/elasticity.py ``lame_parameters``)."""
+    app/systems/block/operators.py ``lame_parameters``)."""
     import ufl
     eps = strain(u)
     return 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(2)

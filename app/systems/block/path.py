@@ -34,7 +34,7 @@ log = logging.getLogger(__name__)
 def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s"):
     """Mesh (Gmsh), operators (DOLFINx), factorisation and contact flexibility."""
     from app.systems.block.mesh import block_mesh
-    from app.systems.elasticity import block_operators
+    from app.systems.block.operators import block_operators
     with stages("mesh (gmsh)"):
         mesh, facets = block_mesh(comm, cfg.length, cfg.height, cfg.nx, cfg.ny, cfg.pattern, cfg.mesh_size)
     with stages("assemble stiffness"):

@@ -3,7 +3,7 @@
 
 Operators (DOLFINx): K and M of plane stress/strain linear elasticity with a material per
 physical surface (DG0 coefficients), reduced to the DOFs not prescribed by the program
-(``prescribed`` curves, per component). Reduced numbering as in app/systems/elasticity.py: each
+(``prescribed`` curves, per component). Reduced numbering as in app/systems/block/operators.py: each
 rank keeps its owned DOFs that are not prescribed, in ascending order.
 
 Load parameters (unit right-hand sides of the reduced system, ``-K_kD u_D`` for prescribed
@@ -97,7 +97,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     import dolfinx.fem.petsc
     import ufl
 
-    from app.systems.elasticity import lame_parameters
+    from app.systems.block.operators import lame_parameters
     from app.systems.gmsh.mesh import read_mesh
     from app.systems.stress import strain, stress
     with stages("mesh (gmsh)"):
