@@ -192,8 +192,8 @@ def test_equilibrium_of_resultants_with_the_reactions(paper):
 
     from app.common.stages import Stages
     from app.scene.schema import parse_scene
-    from app.systems.block.operators import lame_parameters
     from app.systems.block.path import build_block_system
+    from app.systems.elasticity import lame_parameters
     cfg = parse_scene(scene()).system
     system, ops, flex = build_block_system(cfg, MPI.COMM_WORLD, Stages())
     V = ops.V

@@ -18,7 +18,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.systems.block.mesh import AB, CD, LATERAL, block_mesh, structured_triangulation
-from app.systems.block.operators import block_operators, lame_parameters
+from app.systems.block.operators import block_operators
+from app.systems.elasticity import lame_parameters
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 LENGTH, HEIGHT = 80.0, 40.0

@@ -12,7 +12,7 @@ def strain(u):
 def stress(u, mu, lmbda):
     """UFL in-plane stress ``2 mu eps + lambda tr(eps) I`` of the 2D displacement ``u`` with the
     Lamé parameters of the 2D model (numbers, Constants or DG0 functions: a material per cell;
-    app/systems/block/operators.py ``lame_parameters``)."""
+    app/systems/elasticity.py ``lame_parameters``)."""
     import ufl
     eps = strain(u)
     return 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(2)

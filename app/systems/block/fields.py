@@ -26,7 +26,7 @@ class BlockFields:
         self.obstacle = {"point": [0.0, 0.0], "normal": [0.0, -1.0]}
 
     def von_mises(self, u):
-        from app.systems.block.operators import lame_parameters
+        from app.systems.elasticity import lame_parameters
         mu, lmbda = lame_parameters(self.cfg.E, self.cfg.nu, self.cfg.plane)
         return von_mises(u, mu, lmbda, self.cfg.plane)
 

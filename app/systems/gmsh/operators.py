@@ -97,7 +97,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     import dolfinx.fem.petsc
     import ufl
 
-    from app.systems.block.operators import lame_parameters
+    from app.systems.elasticity import lame_parameters
     from app.systems.gmsh.mesh import read_mesh
     from app.systems.stress import strain, stress
     with stages("mesh (gmsh)"):
