@@ -216,13 +216,9 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
         raise ValueError(f"thickness and density must be positive, got {thickness}, {density}")
     mu_value, lmbda_value = lame_parameters(E, nu, plane)
 
-    comm = mesh.comm
-    fdim = mesh.topology.dim - 1
     V = dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree))
     bs = V.dofmap.index_map_bs
-    index_map = V.dofmap.index_map
-    n_owned = index_map.size_local * bs
-    owned_start = index_map.local_range[0] * bs  # global index of the first owned dof
+    owned_start = V.dofmap.index_map.local_range[0] * bs  # global index of the first owned dof
 
     # Forms; parameters are Constants so that the generated code is reused
     mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(mu_value))
@@ -234,18 +230,48 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     a = dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx)
     m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx)
 
-    # Dirichlet (CD) dofs: local block indices, owned and ghost (remote=True
-    # also finds dofs of CD reachable only through another rank's facets)
-    cd_facets = facet_tags.indices[facet_tags.values == CD]
-    cd_blocks = dolfinx.fem.locate_dofs_topological(V, fdim, cd_facets)
+    cd_blocks, cd_owned = _cd_dofs(V, facet_tags)
     cd_local_x = (cd_blocks * bs).astype(np.int32)
     cd_local_y = (cd_blocks * bs + 1).astype(np.int32)
-    if comm.allreduce(cd_blocks.size, op=MPI.SUM) == 0:
-        raise ValueError(f"No facets tagged CD={CD}")
+    kept_local, reduced_index, kept = _kept_dofs(V, cd_owned)
 
-    # Kept dofs: owned minus CD, ascending; reduced numbering by exscan offset
+    # Stiffness: full assembly without bcs, then restriction
+    K_full = dolfinx.fem.petsc.assemble_matrix(a)
+    K_full.assemble()
+    K = K_full.createSubMatrix(kept, kept)
+    loads = _cd_loads(K_full, K, cd_owned, owned_start, bs, kept_local)
+    K_full.destroy()
+    cx, cdx, cdy, order = _contact_nodes(V, facet_tags, reduced_index)
+
+    return BlockOperators(mesh=mesh, facet_tags=facet_tags, V=V, K=K, kept=kept,
+                          load_x=loads[0], load_y=loads[1],
+                          contact_x=cx[order], contact_dof_x=cdx[order].astype(np.int64),
+                          contact_dof_y=cdy[order].astype(np.int64), mass_kind=mass_kind,
+                          _kept_local=kept_local, _cd_local_x=cd_local_x, _cd_local_y=cd_local_y,
+                          _mass_form=m)
+
+
+def _cd_dofs(V, facet_tags: MeshTags_int32) -> tuple[np.ndarray, np.ndarray]:
+    """The Dirichlet (CD) dofs: local block indices, owned and ghost (remote=True also finds dofs
+    of CD reachable only through another rank's facets), and the owned ones."""
+    mesh = V.mesh
+    fdim = mesh.topology.dim - 1
+    cd_facets = facet_tags.indices[facet_tags.values == CD]
+    cd_blocks = dolfinx.fem.locate_dofs_topological(V, fdim, cd_facets)
+    if mesh.comm.allreduce(cd_blocks.size, op=MPI.SUM) == 0:
+        raise ValueError(f"No facets tagged CD={CD}")
+    return cd_blocks, cd_blocks[cd_blocks < V.dofmap.index_map.size_local]
+
+
+def _kept_dofs(V, cd_owned: np.ndarray) -> tuple[np.ndarray, np.ndarray, PETSc.IS]:
+    """Kept dofs: owned minus CD, ascending; reduced numbering by exscan offset. Returns the local
+    kept dofs, the reduced index of every owned dof (-1 on CD) and the kept dofs' global IS."""
+    comm = V.mesh.comm
+    bs = V.dofmap.index_map_bs
+    index_map = V.dofmap.index_map
+    n_owned = index_map.size_local * bs
+    owned_start = index_map.local_range[0] * bs  # global index of the first owned dof
     is_dirichlet = np.zeros(n_owned, dtype=bool)
-    cd_owned = cd_blocks[cd_blocks < index_map.size_local]
     is_dirichlet[cd_owned * bs] = True
     is_dirichlet[cd_owned * bs + 1] = True
     kept_local = np.flatnonzero(~is_dirichlet).astype(np.int32)
@@ -255,15 +281,15 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     reduced_index = np.full(n_owned, -1, dtype=np.int64)
     reduced_index[kept_local] = offset + np.arange(n_kept, dtype=np.int64)
     kept = PETSc.IS().createGeneral((owned_start + kept_local).astype(PETSc.IntType), comm=comm)
+    return kept_local, reduced_index, kept
 
-    # Stiffness: full assembly without bcs, then restriction
-    K_full = dolfinx.fem.petsc.assemble_matrix(a)
-    K_full.assemble()
-    K = K_full.createSubMatrix(kept, kept)
 
-    # Loads -K_{kept,D} u_D of a unit displacement of CD in x, resp. y.
-    # Rows of K_full u_D on kept dofs are K_{kept,D} u_D (u_D vanishes off CD);
-    # kept dofs are owned, so the restriction is local.
+def _cd_loads(K_full: PETSc.Mat, K: PETSc.Mat, cd_owned: np.ndarray, owned_start: int, bs: int,
+              kept_local: np.ndarray) -> list[PETSc.Vec]:
+    """Loads -K_{kept,D} u_D of a unit displacement of CD in x, resp. y.
+
+    Rows of K_full u_D on kept dofs are K_{kept,D} u_D (u_D vanishes off CD); kept dofs are
+    owned, so the restriction is local."""
     u_D, Ku_D = K_full.createVecs()
     loads = []
     for component in range(bs):
@@ -277,12 +303,19 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
         loads.append(load)
     u_D.destroy()
     Ku_D.destroy()
-    K_full.destroy()
+    return loads
 
-    # Contact nodes on AB: owned dof-carrying nodes, gathered on every rank
+
+def _contact_nodes(V, facet_tags: MeshTags_int32, reduced_index: np.ndarray):
+    """Contact nodes on AB: owned dof-carrying nodes, gathered on every rank. Returns their x,
+    reduced x and y dofs (every rank's, concatenated) and the order of the distinct ones by x."""
+    mesh = V.mesh
+    comm = mesh.comm
+    fdim = mesh.topology.dim - 1
+    bs = V.dofmap.index_map_bs
     ab_facets = facet_tags.indices[facet_tags.values == AB]
     ab_blocks = dolfinx.fem.locate_dofs_topological(V, fdim, ab_facets)
-    ab_blocks = ab_blocks[ab_blocks < index_map.size_local]
+    ab_blocks = ab_blocks[ab_blocks < V.dofmap.index_map.size_local]
     x_contact = _snap_to_facet_points(V.tabulate_dof_coordinates()[ab_blocks, 0], mesh, ab_facets)
     local_contact = (x_contact, reduced_index[ab_blocks * bs], reduced_index[ab_blocks * bs + 1])
     if comm.allreduce(bool(np.any(local_contact[1] < 0)), op=MPI.LOR):
@@ -293,10 +326,4 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     cdy = np.concatenate([g[2] for g in gathered])
     _, unique = np.unique(cdx, return_index=True)
     order = unique[np.argsort(cx[unique], kind="stable")]
-
-    return BlockOperators(mesh=mesh, facet_tags=facet_tags, V=V, K=K, kept=kept,
-                          load_x=loads[0], load_y=loads[1],
-                          contact_x=cx[order], contact_dof_x=cdx[order].astype(np.int64),
-                          contact_dof_y=cdy[order].astype(np.int64), mass_kind=mass_kind,
-                          _kept_local=kept_local, _cd_local_x=cd_local_x, _cd_local_y=cd_local_y,
-                          _mass_form=m)
+    return cx, cdx, cdy, order
