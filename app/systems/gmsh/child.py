@@ -97,17 +97,7 @@ def check_model(gmsh) -> dict:
         raise ModelError("node numbering gmsh could not renumber 1..N")
     pos = np.empty(int(node_tags.max()) + 1, dtype=np.int64)
     pos[node_tags.astype(np.int64)] = np.arange(len(node_tags))
-    # Every meshed surface entity in exactly one physical surface; every curve in at most one.
-    for dim in (1, 2):
-        for _, ent in model.getEntities(dim):
-            groups = [name_of[(dim, g)] for g in model.getPhysicalGroupsForEntity(dim, ent)]
-            types, _, _ = model.mesh.getElements(dim, ent)
-            if len(groups) > 1:
-                kind = "surface" if dim == 2 else "curve"
-                raise ModelError(f"{kind} {ent} is in several physical groups ({', '.join(groups)}): each must be in one")
-            if dim == 2 and len(types) and not groups:
-                raise ModelError(f"surface {ent} is meshed but in no physical surface: "
-                                 "put every surface of the body in a physical surface (its material)")
+    _check_groups(model, name_of)
     # Orientation and area of every triangle
     _, conn = model.mesh.getElementsByType(GMSH_TRIANGLE)
     conn = conn.astype(np.int64)
@@ -128,6 +118,34 @@ def check_model(gmsh) -> dict:
     edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     ekeys, ecount = np.unique(edges[:, 0] * len(node_tags) + edges[:, 1], return_counts=True)
     boundary = ekeys[ecount == 1]
+    curves, surfaces, curve_nodes, inner = _group_sizes(model, name_of, pos, len(node_tags), boundary)
+    if not surfaces:
+        raise ModelError("no physical surface: define one (the body and its material)")
+    n_edges = len(ekeys)
+    bbox = [float(x[:, 0].min()), float(x[:, 1].min()), float(x[:, 0].max()), float(x[:, 1].max())]
+    return {"curves": curves, "surfaces": surfaces, "curve_nodes": curve_nodes, "inner_segments": inner, "n_nodes": int(len(node_tags)),
+            "n_triangles": int(len(area2)), "n_edges": int(n_edges), "bbox": bbox,
+            "names": [[int(d), gmsh.model.getPhysicalName(d, t) or str(t), int(t)]
+                      for d, t in gmsh.model.getPhysicalGroups()]}
+
+
+def _check_groups(model, name_of: dict) -> None:
+    """Every meshed surface entity in exactly one physical surface; every curve in at most one."""
+    for dim in (1, 2):
+        for _, ent in model.getEntities(dim):
+            groups = [name_of[(dim, g)] for g in model.getPhysicalGroupsForEntity(dim, ent)]
+            types, _, _ = model.mesh.getElements(dim, ent)
+            if len(groups) > 1:
+                kind = "surface" if dim == 2 else "curve"
+                raise ModelError(f"{kind} {ent} is in several physical groups ({', '.join(groups)}): each must be in one")
+            if dim == 2 and len(types) and not groups:
+                raise ModelError(f"surface {ent} is meshed but in no physical surface: "
+                                 "put every surface of the body in a physical surface (its material)")
+
+
+def _group_sizes(model, name_of: dict, pos: np.ndarray, n_nodes: int, boundary: np.ndarray):
+    """Per physical curve (tag, elements), its number of nodes and of line elements that are no
+    boundary edge of the body; per physical surface (tag, elements)."""
     curves, surfaces, curve_nodes, inner = {}, {}, {}, {}
     for (dim, tag), name in name_of.items():
         count, nodes, segs = 0, [], []
@@ -142,17 +160,10 @@ def check_model(gmsh) -> dict:
             curve_nodes[name] = int(len(np.unique(np.concatenate(nodes)))) if nodes else 0
             if segs:                    # line elements of the curve that are no boundary edge
                 seg = np.sort(pos[np.concatenate(segs)], axis=1)
-                inner[name] = int(np.sum(~np.isin(seg[:, 0] * len(node_tags) + seg[:, 1], boundary)))
+                inner[name] = int(np.sum(~np.isin(seg[:, 0] * n_nodes + seg[:, 1], boundary)))
         elif dim == 2:
             surfaces[name] = (int(tag), int(count))
-    if not surfaces:
-        raise ModelError("no physical surface: define one (the body and its material)")
-    n_edges = len(ekeys)
-    bbox = [float(x[:, 0].min()), float(x[:, 1].min()), float(x[:, 0].max()), float(x[:, 1].max())]
-    return {"curves": curves, "surfaces": surfaces, "curve_nodes": curve_nodes, "inner_segments": inner, "n_nodes": int(len(node_tags)),
-            "n_triangles": int(len(area2)), "n_edges": int(n_edges), "bbox": bbox,
-            "names": [[int(d), gmsh.model.getPhysicalName(d, t) or str(t), int(t)]
-                      for d, t in gmsh.model.getPhysicalGroups()]}
+    return curves, surfaces, curve_nodes, inner
 
 
 def extract(gmsh) -> dict:
