@@ -97,38 +97,15 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     import dolfinx.fem.petsc
     import ufl
 
-    from app.systems.elasticity import lame_parameters
     from app.systems.gmsh.mesh import read_mesh
     from app.systems.stress import strain, stress
     with stages("mesh (gmsh)"):
         mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm)
-    fdim = 1
-    tag_of_curve = {nm: t for (d, nm), t in names.items() if d == 1}
-    tag_of_surface = {nm: t for (d, nm), t in names.items() if d == 2}
-
-    def facets(curve: str) -> np.ndarray:
-        return facet_tags.indices[facet_tags.values == tag_of_curve[curve]]
-
-    V = dolfinx.fem.VectorFunctionSpace(mesh, ("CG", cfg.degree))
-    bs = V.dofmap.index_map_bs
-    im = V.dofmap.index_map
-    n_owned = im.size_local * bs
-    owned_start = im.local_range[0] * bs
-
-    # Materials per physical surface (DG0)
-    Q = dolfinx.fem.FunctionSpace(mesh, ("DG", 0))
-    mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
-    for name, tag in tag_of_surface.items():
-        cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
-        mat = cfg.material_of(name)
-        mu_v, lam_v = lame_parameters(mat.E, mat.nu, cfg.plane)
-        mu_f.x.array[cells] = mu_v
-        lam_f.x.array[cells] = lam_v
-        rho_f.x.array[cells] = mat.density
-    for f in (mu_f, lam_f, rho_f):
-        f.x.scatter_forward()
+    sp = _Space(comm, mesh, facet_tags, dolfinx.fem.VectorFunctionSpace(mesh, ("CG", cfg.degree)),
+                {nm: t for (d, nm), t in names.items() if d == 1}, {nm: t for (d, nm), t in names.items() if d == 2})
+    mu_f, lam_f, rho_f = _materials(cfg, sp, cell_tags)
     t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.thickness))
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    u, v = ufl.TrialFunction(sp.V), ufl.TestFunction(sp.V)
 
     with stages("assemble stiffness"):
         stiff = t * ufl.inner(stress(u, mu_f, lam_f), strain(v)) * ufl.dx
@@ -139,13 +116,82 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         K_full = dolfinx.fem.petsc.assemble_matrix(a)
         K_full.assemble()
 
-    # Prescribed DOFs (local unrolled indices incl. ghosts), per curve and component
-    dof_x = V.tabulate_dof_coordinates()[:, :2]
+    dof_x = sp.V.tabulate_dof_coordinates()[:, :2]
+    presc, kept_local, reduced, kept = _prescribed(cfg, sp, K_full)
+    K = K_full.createSubMatrix(kept, kept)
+    params, raw = _motion_loads(sp, K_full, presc, kept_local, dof_x)
+    _applied_loads(cfg, sp, v, rho_f, t, kept_local, params, raw)
+    K_full.destroy()
+
+    edges = _contact_edges(mesh, sp.facets(cfg.contact), comm)                    # MPI collective
+    tvec, nvec = cfg.obstacle.frame()
+    deepest = _clearance(cfg, sp, dof_x)
+    left_out, xy, dx_, dy_ = _contact_nodes(cfg, sp, dof_x, reduced, (K, kept))
+    R = _rotation(K, dx_, dy_, tvec, nvec, comm)
+    Kr = K.PtAP(R)
+    K.destroy()
+    loads = []
+    for vals in raw:
+        f = Kr.createVecLeft()
+        f.setArray(vals)
+        g = Kr.createVecLeft()
+        R.multTranspose(f, g)
+        f.destroy()
+        loads.append(g)
+    return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
+                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
+                         deepest=deepest, left_out=left_out,
+                         mass_form=m, mass_kind=cfg.mass, degree=cfg.degree,
+                         field_data=FieldData(V=sp.V, prescribed=presc, kept_local=kept_local, dof_x=dof_x, mu=mu_f,
+                                              lmbda=lam_f))
+
+
+class _Space:
+    """The body's vector space and its numbering, shared by the steps of :func:`body_operators`."""
+
+    def __init__(self, comm: MPI.Comm, mesh, facet_tags, V, tag_of_curve: dict, tag_of_surface: dict):
+        self.comm, self.mesh, self.facet_tags, self.V = comm, mesh, facet_tags, V
+        self.tag_of_curve, self.tag_of_surface = tag_of_curve, tag_of_surface
+        self.bs = V.dofmap.index_map_bs
+        self.im = V.dofmap.index_map
+        self.n_owned = self.im.size_local * self.bs
+        self.owned_start = self.im.local_range[0] * self.bs
+
+    def facets(self, curve: str) -> np.ndarray:
+        return self.facet_tags.indices[self.facet_tags.values == self.tag_of_curve[curve]]
+
+
+def _materials(cfg: GmshBody, sp: _Space, cell_tags):
+    """The Lamé parameters and density of every physical surface, as DG0 functions."""
+    import dolfinx.fem
+
+    from app.systems.elasticity import lame_parameters
+    Q = dolfinx.fem.FunctionSpace(sp.mesh, ("DG", 0))
+    mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
+    for name, tag in sp.tag_of_surface.items():
+        cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
+        mat = cfg.material_of(name)
+        mu_v, lam_v = lame_parameters(mat.E, mat.nu, cfg.plane)
+        mu_f.x.array[cells] = mu_v
+        lam_f.x.array[cells] = lam_v
+        rho_f.x.array[cells] = mat.density
+    for f in (mu_f, lam_f, rho_f):
+        f.x.scatter_forward()
+    return mu_f, lam_f, rho_f
+
+
+def _prescribed(cfg: GmshBody, sp: _Space, K_full: PETSc.Mat):
+    """Prescribed DOFs (local unrolled indices incl. ghosts), per curve and component, and the
+    kept DOFs: ``(prescribed, kept_local, reduced index of every owned DOF (-1: prescribed),
+    kept IS)``. Destroys ``K_full`` before raising :class:`BodyError`."""
+    import dolfinx.fem
+    comm, bs, n_owned = sp.comm, sp.bs, sp.n_owned
+    fdim = 1
     presc: dict[str, dict[int, np.ndarray]] = {}
     is_d = np.zeros(n_owned, dtype=bool)
     owner = {}
     for name, comps in cfg.prescribed.items():
-        blocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(name))
+        blocks = dolfinx.fem.locate_dofs_topological(sp.V, fdim, sp.facets(name))
         presc[name] = {}
         for c in (0, 1):
             if "xy"[c] in comps:
@@ -163,12 +209,17 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     offset = comm.exscan(kept_local.size) or 0                     # MPI collective
     reduced = np.full(n_owned, -1, dtype=np.int64)
     reduced[kept_local] = offset + np.arange(kept_local.size)
-    kept = PETSc.IS().createGeneral((owned_start + kept_local).astype(PETSc.IntType), comm=comm)
-    K = K_full.createSubMatrix(kept, kept)
+    kept = PETSc.IS().createGeneral((sp.owned_start + kept_local).astype(PETSc.IntType), comm=comm)
+    return presc, kept_local, reduced, kept
 
-    # Load parameters
+
+def _motion_loads(sp: _Space, K_full: PETSc.Mat, presc: dict, kept_local: np.ndarray, dof_x: np.ndarray):
+    """The load parameters of the prescribed motions (translations, and the rotation of a curve
+    prescribed in x and y): ``(params, raw)``, ``raw`` the reduced (unrotated) right-hand sides
+    (local part) and ``params`` (kind, curve, component) -> their index."""
+    bs, n_owned = sp.bs, sp.n_owned
     params: dict[tuple, int] = {}
-    raw: list[np.ndarray] = []               # reduced (unrotated) right-hand sides, local part
+    raw: list[np.ndarray] = []
     u_D, Ku_D = K_full.createVecs()
     try:
         for name, comp_dofs in presc.items():
@@ -193,8 +244,19 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     finally:
         u_D.destroy()
         Ku_D.destroy()
+    return params, raw
+
+
+def _applied_loads(cfg: GmshBody, sp: _Space, v, rho_f, t, kept_local: np.ndarray, params: dict,
+                   raw: list[np.ndarray]) -> None:
+    """The load parameters of the program's tractions, forces and gravity, added to ``params``
+    and ``raw`` (as :func:`_motion_loads`)."""
+    import dolfinx.fem
+    import dolfinx.fem.petsc
+    import ufl
+    comm, mesh = sp.comm, sp.mesh
     loaded = sorted({nm for ph in cfg.program for kind in ("traction", "force") for nm in getattr(ph, kind)})
-    ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=sp.facet_tags)
 
     def assemble(expr) -> np.ndarray:
         b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr))
@@ -205,7 +267,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
             b.destroy()
 
     for name in loaded:
-        tag = tag_of_curve[name]
+        tag = sp.tag_of_curve[name]
         one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
         length = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ds(tag))), op=MPI.SUM)
         for c, kind in ((0, "x"), (1, "y")):
@@ -220,12 +282,12 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
             e = ufl.as_vector([1.0, 0.0]) if c == 0 else ufl.as_vector([0.0, 1.0])
             params[("gravity", "", kind)] = len(raw)
             raw.append(assemble(rho_f * t * ufl.inner(e, v) * ufl.dx))
-    K_full.destroy()
 
-    # Contact nodes: owned, not prescribed, on the contact curve; gathered and sorted along t
-    edges = _contact_edges(mesh, facets(cfg.contact), comm)                       # MPI collective
-    # the whole body must start on its side of the obstacle line (not only the contact curve)
-    tvec, nvec = cfg.obstacle.frame()
+
+def _clearance(cfg: GmshBody, sp: _Space, dof_x: np.ndarray) -> tuple:
+    """The whole body must start on its side of the obstacle line (not only the contact curve):
+    (smallest clearance, its node, the body's size, the fraction of nodes beyond the line)."""
+    comm = sp.comm
     clear = cfg.obstacle.clearance(dof_x) if len(dof_x) else np.zeros(0)
     i = int(np.argmin(clear)) if len(clear) else 0
     mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
@@ -234,12 +296,20 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
                                   else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
     lo, hi = box[:, :2].min(axis=0), box[:, 2:].max(axis=0)
     body = float(np.max(hi - lo))
-    owned_clear = clear[:im.size_local]
+    owned_clear = clear[:sp.im.size_local]
     beyond = comm.allreduce(int(np.sum(owned_clear < -1e-10 * body)), op=MPI.SUM)    # MPI collective
     total = comm.allreduce(int(owned_clear.size), op=MPI.SUM)                        # MPI collective
-    deepest = (*deepest, body, beyond / max(total, 1))
-    cblocks = dolfinx.fem.locate_dofs_topological(V, fdim, facets(cfg.contact))
-    cblocks = cblocks[cblocks < im.size_local]
+    return (*deepest, body, beyond / max(total, 1))
+
+
+def _contact_nodes(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, reduced: np.ndarray, owned: tuple):
+    """Contact nodes: owned, not prescribed, on the contact curve; gathered and sorted along t.
+    Returns ``(left_out, xy, dof_T, dof_N)``, ``left_out`` the contact-curve nodes with one
+    prescribed component. Destroys the PETSc objects ``owned`` before raising :class:`BodyError`."""
+    import dolfinx.fem
+    comm, bs = sp.comm, sp.bs
+    cblocks = dolfinx.fem.locate_dofs_topological(sp.V, 1, sp.facets(cfg.contact))
+    cblocks = cblocks[cblocks < sp.im.size_local]
     keep = (reduced[cblocks * bs] >= 0) & (reduced[cblocks * bs + 1] >= 0)
     half = keep ^ ((reduced[cblocks * bs] >= 0) | (reduced[cblocks * bs + 1] >= 0))   # one component prescribed
     left_out = np.concatenate([g.reshape(-1, 2) for g in comm.allgather(dof_x[cblocks[half]])])   # MPI collective
@@ -250,14 +320,16 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     dx_ = np.concatenate([g[1] for g in gathered])
     dy_ = np.concatenate([g[2] for g in gathered])
     if len(dx_) == 0:
-        for obj in (K, kept):                                      # the error path owns nothing
+        for obj in owned:                                          # the error path owns nothing
             obj.destroy()
         raise BodyError(f"system.contact = '{cfg.contact}': no free node on it (all its nodes are prescribed)")
     s = cfg.obstacle.coordinate(xy)
     order = np.lexsort((xy[:, 1], xy[:, 0], s))
-    xy, dx_, dy_ = xy[order], dx_[order], dy_[order]
+    return left_out, xy[order], dx_[order], dy_[order]
 
-    # Rotation R: u_old = R u_new, identity except [[t_x, n_x], [t_y, n_y]] at contact nodes
+
+def _rotation(K: PETSc.Mat, dx_: np.ndarray, dy_: np.ndarray, tvec, nvec, comm: MPI.Comm) -> PETSc.Mat:
+    """Rotation R: u_old = R u_new, identity except [[t_x, n_x], [t_y, n_y]] at contact nodes."""
     R = PETSc.Mat().createAIJ(K.getSizes(), nnz=(2, 0), comm=comm)
     R.setUp()
     r0, r1 = R.getOwnershipRange()
@@ -274,22 +346,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         if i not in contact_rows and i not in cy:
             R.setValue(i, i, 1.0)
     R.assemble()
-    Kr = K.PtAP(R)
-    K.destroy()
-    loads = []
-    for vals in raw:
-        f = Kr.createVecLeft()
-        f.setArray(vals)
-        g = Kr.createVecLeft()
-        R.multTranspose(f, g)
-        f.destroy()
-        loads.append(g)
-    return BodyOperators(K=Kr, R=R, kept=kept, loads=loads, params=params,
-                         contact_dofs=np.column_stack([dx_, dy_]).astype(np.int64), contact_xy=xy, contact_edges=edges,
-                         deepest=deepest, left_out=left_out,
-                         mass_form=m, mass_kind=cfg.mass, degree=cfg.degree,
-                         field_data=FieldData(V=V, prescribed=presc, kept_local=kept_local, dof_x=dof_x, mu=mu_f,
-                                              lmbda=lam_f))
+    return R
 
 
 def _contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
