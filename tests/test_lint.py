@@ -244,6 +244,8 @@ def layout_problems(root: pathlib.Path | None = None) -> list[str]:
     for p in sorted((root / "app").iterdir()):
         if p.name.startswith((".", "__pycache__")):
             continue
+        if p.is_dir() and not any(q.is_file() and "__pycache__" not in q.parts for q in p.rglob("*")):
+            continue        # e.g. only the bytecode of a folder that was moved away
         if p.is_dir() and p.name in DATA_FOLDERS:
             found += [f"{q.relative_to(root)}: a module in the data folder app/{p.name}/" for q in p.rglob("*.py")]
         elif p.is_dir() and p.name not in stages:
