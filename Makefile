@@ -27,7 +27,7 @@ bench: setup
 	@bash scripts/setup_bench.sh
 	@$(PY) benchmarks/run_all.py $(BENCH_ARGS)
 
-# Parameter sweep as an MPI task farm (app/sweep.py): make sweep [SWEEP=file.yaml] [SWEEP_MPI=n]
+# Parameter sweep as an MPI task farm (app/study/sweep.py): make sweep [SWEEP=file.yaml] [SWEEP_MPI=n]
 SWEEP ?= app/scenes/sweep_aspect_ratio.yaml
 SWEEP_MPI ?= 2
 sweep: setup

@@ -7,7 +7,7 @@ The public API (:mod:`app.api`, re-exported here)::
     print(r.final.min_mu())   # 1.7048
 
 The method and its notation: ``docs/method.md``; the scene keys: ``docs/scene-keys.md``.
-The names are imported on first use, so ``python -m app`` (app/cli.py) still sets its
+The names are imported on first use, so ``python -m app`` (app/cli/main.py) still sets its
 environment (one BLAS thread per MPI rank) before numpy or MPI are loaded.
 """
 from __future__ import annotations

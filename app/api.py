@@ -21,9 +21,7 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 from mpi4py import MPI
 
-from app.config import Scene, SceneError, parse_scene
-from app.config import load_scene as _load_scene_file
-from app.study_result import (
+from app.io.result import (
     CriticalMu,
     MceipResult,
     MceipSolution,
@@ -33,6 +31,8 @@ from app.study_result import (
     StudyResult,
     SufficientResult,
 )
+from app.scene.schema import Scene, SceneError, parse_scene
+from app.scene.schema import load_scene as _load_scene_file
 
 if TYPE_CHECKING:
     from app.analyses.mceip_mu import MuProof
@@ -78,7 +78,7 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
 
     Scene -> system (two particles, or the FE block: Gmsh + DOLFINx) -> loading path ->
     classification of every equilibrium state -> the scene's analyses once per distinct
-    classification (app/study.py). Raises ``app.errors.UnreachableLoad`` when the
+    classification (app/study/run.py). Raises ``app.common.errors.UnreachableLoad`` when the
     prescribed path cannot reach the requested normal force. A scene with a ``sweep`` or
     ``refinement`` section is a batch of studies: run it with ``python -m app run``.
     """
@@ -88,5 +88,5 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
         if getattr(scene, key, None) is not None:
             raise SceneError(f"scene '{scene.name}': has a '{key}' section: it is a batch of studies, "
                              f"run it with: python -m app run SCENE")
-    from app.study import run_study as _run_study  # PETSc, and DOLFINx for a block, only when running
+    from app.study.run import run_study as _run_study  # PETSc, and DOLFINx for a block, only when running
     return StudyResult.from_dict(_run_study(scene, comm, outdir=None))

@@ -12,7 +12,7 @@ choice of factor package and its MUMPS controls exist once.
 PETSc options: every KSP, SNES and EPS the app creates has one of the options prefixes of
 :data:`PREFIXES` and reads PETSc's options database (``setFromOptions``) after the app's own
 settings, so ``python -m app run scene.yaml -cd_necessary_eps_monitor`` works as in any FEniCSx
-code; only the command line fills that database (:mod:`app.petsc_options`), never a scene
+code; only the command line fills that database (:mod:`app.common.petsc_options`), never a scene
 file. :func:`owned` is the context manager that destroys a PETSc object on every path.
 
 Also here: :func:`set_linesearch` (a SNES line search default through the options database,
@@ -27,7 +27,7 @@ from typing import Literal, Optional
 
 from petsc4py import PETSc
 
-from app.petsc_options import PREFIXES
+from app.common.petsc_options import PREFIXES
 
 Factor = Literal["lu", "cholesky"]
 

@@ -31,9 +31,10 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     import yaml
 
+    import app.analyses.distributed as distributed
     import app.analyses.runner as runner
-    import app.study as study
-    from app.config import default_scene_path, parse_scene
+    import app.study.run as study
+    from app.scene.schema import default_scene_path, parse_scene
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
     data.update(name="bench-100k", analyses=["mceip_mu"])
@@ -46,7 +47,7 @@ def main() -> None:
     t0 = time.perf_counter()
     count = [0]
     analyse = runner.analyse_state
-    mceip_mu = runner._mceip_mu
+    mceip_mu = runner.state_mceip_mu
 
     def counted(system, p, sc, s, **kw):
         """MCEIP-mu of one classification (rank 0's share under MPI), with a progress line."""
@@ -61,11 +62,12 @@ def main() -> None:
                               "values": [round(x["value"], 6) for x in out.get("solutions", [])][:4]}), flush=True)
         return out
 
-    runner._mceip_mu = counted            # analyse_condensed_distributed calls it by this name
+    runner.state_mceip_mu = counted       # analyse_state (s = 0) and analyse_condensed_distributed call it
+    distributed.state_mceip_mu = counted
 
     def final_sufficient(system, states, cache):
         """The sufficient condition at the final state (its classification's pencils)."""
-        from app.analyses.classify import classify
+        from app.loading.classify import classify
         t = time.perf_counter()
         cls = classify(states[-1], scene.mu, scene.settings.classify_rtol)
         out = analyse(system, cls, scene.model_copy(update={"analyses": ["sufficient"]}))

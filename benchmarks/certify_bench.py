@@ -27,10 +27,10 @@ def say(*a) -> None:
 
 
 def _random_pencil(s: int, seed: int):
-    from app.analyses.classify import classify
     from app.analyses.pencils import condensed_mu_pencil
-    from app.stages import Stages
-    from app.system.discrete import random_contact_problem
+    from app.common.stages import Stages
+    from app.loading.classify import classify
+    from app.systems.discrete import random_contact_problem
     rng = np.random.default_rng(seed)
     mu = float(rng.uniform(0.5, 3.0))
     system, state = random_contact_problem(rng, s + 2, 4, s, 1, mu, MPI.COMM_WORLD, Stages())
@@ -61,8 +61,8 @@ def _block_pencils(s_values: list[int]) -> dict:
 def _one(kind: str, A0: np.ndarray, A1: np.ndarray, mu: float, enum_max: int, budget: float) -> dict:
     from app.analyses.certify import condensed_mu_result, mu_cap
     from app.analyses.enumerate import enumerate_patterns
-    from app.config import McpSettings
     from app.linalg import one_blas_thread
+    from app.scene.schema import McpSettings
     settings = McpSettings(certify_seconds=budget)
     cap = mu_cap(mu, settings)
     s = A0.shape[0]

@@ -63,7 +63,7 @@ def main() -> int:
     ap.add_argument("--rtol", type=float, default=1e-8)
     args = ap.parse_args()
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-    from app.study_result import from_document  # any format version, infinities as floats
+    from app.io.document import from_document  # any format version, infinities as floats
     with open(args.before) as f:
         a = from_document(json.load(f))
     with open(args.after) as f:

@@ -1,11 +1,11 @@
-"""Benchmark: the pre-flight estimates (app/preflight.py) against measured runs.
+"""Benchmark: the pre-flight estimates (app/scene/limits.py) against measured runs.
 
 Runs the paper's block study (``analyses: [mceip_mu]``, no outputs) through the CLI on crossed
 P1 meshes ``nx x nx/2``, one process per size under ``/usr/bin/time -v``, and prints per size
 the DOFs, the measured peak resident memory, wall and CPU time (user + system: on a shared
 machine the wall time includes waiting for a core) next to the pre-flight memory and time
 estimates, with their ratios, and each stage's time (results.json ``stages``). The models'
-constants in app/preflight.py were fitted to such a table.
+constants in app/scene/limits.py were fitted to such a table.
 
     .venv/bin/python benchmarks/estimates.py [--nx 56,112,224] [--ranks 1]
 """
@@ -33,8 +33,8 @@ def scene_text(nx: int) -> str:
 
 
 def run(nx: int, ranks: int, folder: pathlib.Path) -> dict:
-    from app.config import load_scene
-    from app.preflight import estimate, time_estimate
+    from app.scene.limits import estimate, time_estimate
+    from app.scene.schema import load_scene
     path = folder / f"s{nx}.yaml"
     path.write_text(scene_text(nx))
     scene = load_scene(path)

@@ -37,10 +37,10 @@ def record(nx: int, steps: int):
     """(Kc, mu, the recorded increments (u0, u_T_prev, g_prev)) of the block's tangential path."""
     import yaml
 
-    from app.config import default_scene_path, parse_scene
-    from app.progress import Progress
-    from app.stages import Stages
-    from app.systems.block import path
+    from app.common.progress import Progress
+    from app.common.stages import Stages
+    from app.scene.schema import default_scene_path, parse_scene
+    from app.systems.block.path import path
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
     data["system"].update(nx=nx, ny=nx // 2)

@@ -2,7 +2,7 @@
 
 Runs the paper's scene at one mesh size as a refinement level (loading path, then MCEIP-mu at
 the final state and, unless --final-only, the first solution along the path; the sufficient
-condition at mu = 2 at the final state: app/refinement.py), then times one sparse LU factorisation of K alone (MUMPS, as the
+condition at mu = 2 at the final state: app/study/refinement.py), then times one sparse LU factorisation of K alone (MUMPS, as the
 study does). Prints one JSON line (rank 0).
 
     .venv/bin/python benchmarks/level_run.py --nx 80 [--degree 1] [--pattern crossed]
@@ -33,8 +33,8 @@ def main() -> None:
 
     import yaml
 
-    from app.config import default_scene_path
-    from app.refinement import run_level
+    from app.scene.schema import default_scene_path
+    from app.study.refinement import run_level
     data = yaml.safe_load(default_scene_path().read_text())
     data.update(name="bench", analyses=[], mceip_lambda2_mu=2.0,
                 refinement={"levels": [args.nx, 2 * args.nx],
@@ -42,7 +42,7 @@ def main() -> None:
     data["system"].update(pattern=args.pattern)
     if args.tangential_max:
         data["loading"]["tangential_max"] = args.tangential_max
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     scene = parse_scene(data)
     # compile the forms first (JIT), so the timed run is the study alone
     run_level(scene.model_copy(update={"loading": scene.loading.model_copy(
@@ -54,8 +54,8 @@ def main() -> None:
     factor_s = None
     if not args.no_factor:
         from app.linalg import lu_solver
-        from app.system.elasticity import block_operators
-        from app.systems.block_mesh import block_mesh
+        from app.systems.block.mesh import block_mesh
+        from app.systems.block.operators import block_operators
         cfg = scene.system.model_copy(update={"nx": args.nx, "ny": row["ny"], "degree": args.degree,
                                                "plane": args.plane})
         mesh, facets = block_mesh(comm, cfg.length, cfg.height, cfg.nx, cfg.ny, cfg.pattern, cfg.mesh_size)

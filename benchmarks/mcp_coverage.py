@@ -16,11 +16,11 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.analyses.classify import classify
 from app.analyses.runner import analyse_state
-from app.config import parse_scene
-from app.stages import Stages
-from app.system.discrete import random_contact_problem
+from app.common.stages import Stages
+from app.loading.classify import classify
+from app.scene.schema import parse_scene
+from app.systems.discrete import random_contact_problem
 
 
 def _match(sol, ref):

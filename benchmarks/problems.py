@@ -11,11 +11,11 @@ from dataclasses import dataclass
 import numpy as np
 from mpi4py import MPI
 
-from app.analyses.classify import classify
 from app.analyses.pencils import UnsupportedState, condensed_mu_pencil
-from app.config import Scene, parse_scene
-from app.progress import Progress
-from app.stages import Stages
+from app.common.progress import Progress
+from app.common.stages import Stages
+from app.loading.classify import classify
+from app.scene.schema import Scene, parse_scene
 
 
 @dataclass
@@ -65,7 +65,7 @@ def block_scene(nx: int = 20, ny: int | None = None, pattern: str = "crossed", d
 def block_problems(nx: int = 20, pattern: str = "crossed", degree: int = 1, comm=MPI.COMM_WORLD,
                    mesh_size: float | None = None, **loading) -> BlockProblems:
     """Run the block's loading path and collect its MCEIP-mu pencils and contact increments."""
-    from app.loading.block_path import block_path
+    from app.systems.block.path import path as block_path
     scene = block_scene(nx, pattern=pattern, degree=degree, mesh_size=mesh_size, **loading)
     stages = Stages()
     system, states, _ = block_path(scene, comm, stages, Progress(enabled=False))

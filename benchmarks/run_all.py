@@ -170,11 +170,11 @@ def section_scaling(sizes: list[int]) -> dict:
 
 # -- condensed vs full-size MCEIP-mu ---------------------------------------------------------------
 def section_condensed(sizes: list[int]) -> dict:
-    from app.analyses.classify import classify
     from app.analyses.runner import analyse_state
-    from app.loading.block_path import block_path
-    from app.progress import Progress
-    from app.stages import Stages
+    from app.common.progress import Progress
+    from app.common.stages import Stages
+    from app.loading.classify import classify
+    from app.systems.block.path import path as block_path
     from benchmarks.problems import block_scene
     say(f"\n== condensed slip-node pencil against the full-size MCP: MCEIP-mu at the final state, nx = {sizes} "
         f"(both with settings.mcp pattern_starts = false, pattern_eig_limit = 0: the same uniform starts and gap "
@@ -221,14 +221,14 @@ def _match(sol: dict, ref: dict) -> bool:
 
 
 def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
-    from app.analyses.classify import classify
     from app.analyses.enumerate import enumerate_mceip
     from app.analyses.mcp import search_mceip
     from app.analyses.pencils import condensed_mu_pencil
-    from app.analyses.runner import seq_aij
-    from app.config import McpSettings
-    from app.stages import Stages
-    from app.system.discrete import random_contact_problem
+    from app.analyses.state_pencils import seq_aij
+    from app.common.stages import Stages
+    from app.loading.classify import classify
+    from app.scene.schema import McpSettings
+    from app.systems.discrete import random_contact_problem
     from benchmarks.problems import block_problems
     say(f"\n== MCP search against exhaustive enumeration, MCEIP-mu, s = {s_values[0]}..{s_values[-1]} slip nodes "
         f"(block: first state of the paper path with s slip nodes, paper mesh; random: SPD systems) ==")
@@ -318,9 +318,9 @@ def section_siconos(sizes: list[int]) -> dict:
         return {"skipped": msg}
     from app.analyses.enumerate import enumerate_mceip
     from app.analyses.mcp import RSLS, SSLS, BorderedMcp, search_mceip
-    from app.analyses.runner import seq_aij
-    from app.config import McpSettings
+    from app.analyses.state_pencils import seq_aij
     from app.loading.contact import FrictionalContact
+    from app.scene.schema import McpSettings
     from benchmarks.problems import block_problems
     out: dict = {"version": _siconos_version(), "contact": [], "mceip_mu": {}}
     say(f"\n== Siconos numerics {out['version']} on the same problems ==")
@@ -514,10 +514,10 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
     import scipy.linalg
     from threadpoolctl import threadpool_limits
 
-    from app.analyses.classify import classify
     from app.analyses.pencils import condensed_mu_pencil
-    from app.config import default_scene_path, load_scene
-    from app.study import run_study
+    from app.loading.classify import classify
+    from app.scene.schema import default_scene_path, load_scene
+    from app.study.run import run_study
     sys.path.insert(0, str(ROOT / "tests"))
     from test_default_answers import REFERENCE, _compare, answers
     say("\n== speed (issue 14): machine shared with other jobs, load "
@@ -607,8 +607,8 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
 
 # -- targets ---------------------------------------------------------------------------------------
 def section_targets(big: dict | None, big_nx: int) -> dict:
-    from app.config import default_scene_path, load_scene
-    from app.study import run_study
+    from app.scene.schema import default_scene_path, load_scene
+    from app.study.run import run_study
     say("\n== targets ==")
     scene = load_scene(default_scene_path())
     run_study(scene, MPI.COMM_WORLD)                     # compiles the forms

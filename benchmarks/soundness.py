@@ -619,10 +619,10 @@ def _contact(rng, s):
     """The app's random contact system condensed onto its slip nodes (tests/test_certify.py)."""
     from mpi4py import MPI
 
-    from app.analyses.classify import classify
     from app.analyses.pencils import condensed_mu_pencil
-    from app.stages import Stages
-    from app.system.discrete import random_contact_problem
+    from app.common.stages import Stages
+    from app.loading.classify import classify
+    from app.systems.discrete import random_contact_problem
     n_stick, n_free, n_int = int(rng.integers(0, 3)), int(rng.integers(0, 3)), int(rng.integers(0, 5))
     mu = float(rng.uniform(0.3, 4.0))
     sub = np.random.default_rng(int(rng.integers(2 ** 31)))
@@ -819,7 +819,7 @@ def _prove_app_result(A0, A1, cap, pairs, seconds=None):
     """The state-level MCEIP-mu result as the app reports it today (search + certificate,
     ``condensed_mu_result``: the values it lists below the cap, its ``certified`` flag)."""
     from app.analyses.certify import condensed_mu_result
-    from app.config import McpSettings
+    from app.scene.schema import McpSettings
     st = McpSettings() if seconds is None else McpSettings(certify_seconds=seconds, certify_seconds_large=seconds)
     d = condensed_mu_result(A0, A1, cap, st, pairs=pairs or None)
     vals = sorted(float(x["value"]) for x in d["solutions"] if x["value"] <= cap)

@@ -14,8 +14,8 @@ import time
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.config import default_scene_path, load_scene
-from app.study import run_study
+from app.scene.schema import default_scene_path, load_scene
+from app.study.run import run_study
 
 
 def main() -> None:

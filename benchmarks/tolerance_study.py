@@ -62,8 +62,8 @@ def _rel(a, b) -> str:
 def run(nx_values=(20, 40), say=print) -> list[dict]:
     import yaml
 
-    from app.config import default_scene_path, parse_scene
-    from app.refinement import run_level
+    from app.scene.schema import default_scene_path, parse_scene
+    from app.study.refinement import run_level
     data = yaml.safe_load(default_scene_path().read_text())
     data.update(name="tolerances", analyses=[], mceip_lambda2_mu=2.0, refinement={"levels": [10, 20]})
     base = parse_scene(data)

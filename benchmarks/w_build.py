@@ -45,8 +45,8 @@ def main() -> None:
     dense_blocks = baseline_module(args.baseline, "app/loading/flexibility.py")._flexibility_block_solves
     from app.linalg import lu_solver
     from app.loading.flexibility import flexibility_inverse, flexibility_matsolve
-    from app.system.elasticity import block_operators
-    from app.systems.block_mesh import block_mesh
+    from app.systems.block.mesh import block_mesh
+    from app.systems.block.operators import block_operators
     mesh, facets = block_mesh(comm, 80.0, 40.0, args.nx, args.nx // 2, "crossed", None)
     ops = block_operators(mesh, facets, 5.0, 0.48, 9.6, 1.2e-9, plane="stress", degree=1, mass_kind="consistent")
     dofs = np.column_stack([ops.contact_dof_x, ops.contact_dof_y]).ravel().astype(np.int64)

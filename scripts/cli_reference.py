@@ -1,4 +1,4 @@
-"""Generate docs/cli.md, the command-line reference, from app/cli.py's argparse parser.
+"""Generate docs/cli.md, the command-line reference, from app/cli/main.py's argparse parser.
 
     .venv/bin/python scripts/cli_reference.py           # rewrite docs/cli.md
     .venv/bin/python scripts/cli_reference.py --check   # exit 1 if docs/cli.md is stale
@@ -22,14 +22,14 @@ def generate() -> str:
     os.environ["COLUMNS"] = "100"            # argparse wraps at the terminal width
     sys.path.insert(0, str(ROOT))
     try:
-        from app.cli import _parser
-        from app.petsc_options import PREFIXES
+        from app.cli.main import _parser
+        from app.common.petsc_options import PREFIXES
     finally:
         sys.path.pop(0)
     parser = _parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     out = ["# Command line", "",
-           "Generated from the argparse parser of `app/cli.py` by `scripts/cli_reference.py` (do not edit:",
+           "Generated from the argparse parser of `app/cli/main.py` by `scripts/cli_reference.py` (do not edit:",
            "run that script after changing the parser). Also installed as the `contact-divergence`",
            "console script.", "", "## python -m app", "", "```text", parser.format_help().rstrip(), "```", ""]
     for name, cmd in sub.choices.items():

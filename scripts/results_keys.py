@@ -5,7 +5,7 @@ joined with ``.``, list items are ``[]``; the dictionaries keyed by data (``by_m
 methods, ``x_c``: zero-node labels) stop the descent. tests/test_results_format.py compares the
 skeleton of a new run with the one committed in tests/data/ (taken from the previous release):
 a change of the results.json format shows up there and must be deliberate (then regenerate it
-with this script and raise ``FORMAT_VERSION`` in app/study_result.py if keys were removed or
+with this script and raise ``FORMAT_VERSION`` in app/io/document.py if keys were removed or
 changed meaning).
 """
 from __future__ import annotations

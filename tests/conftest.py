@@ -43,8 +43,8 @@ def pytest_report_header(config):
 
 def run_scene(data: dict) -> dict:
     """Run a scene given as a dict in this process; returns the results dictionary."""
-    from app.config import parse_scene
-    from app.study import run_study
+    from app.scene.schema import parse_scene
+    from app.study.run import run_study
     return run_study(parse_scene(data), MPI.COMM_WORLD)
 
 

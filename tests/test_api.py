@@ -1,4 +1,4 @@
-"""The public API (app/api.py, app/study_result.py) and the stability of results.json.
+"""The public API (app/api.py, app/io/result.py, app/io/document.py) and the stability of results.json.
 
 results.json must keep its content: only ``format_version`` is new in format 1, and format 2
 writes non-finite numbers as ``null`` listed in a ``non_finite`` block (read back by
@@ -13,7 +13,7 @@ writes non-finite numbers as ``null`` listed in a ``non_finite`` block (read bac
   except for timings and the record of the files the CLI drew.
 
 Keys that later analyses add to format 1 are listed in ``ADDED_KEYS``: adding an optional key is
-compatible, removing or changing one is not (then raise FORMAT_VERSION in app/study_result.py).
+compatible, removing or changing one is not (then raise FORMAT_VERSION in app/io/document.py).
 """
 from __future__ import annotations
 
@@ -26,7 +26,8 @@ import yaml
 from conftest import ROOT, run_cli
 
 import app
-from app.study_result import FORMAT_VERSION, CriticalMu, StudyResult, from_document, to_document
+from app.io.document import FORMAT_VERSION, from_document, to_document
+from app.io.result import CriticalMu, StudyResult
 
 DATA = pathlib.Path(__file__).parent / "data"
 #: keys that vary from run to run (wall times) or describe what the CLI drew, not what it computed

@@ -6,7 +6,7 @@ import pytest
 import yaml
 from conftest import run_scene
 
-from app.config import default_scene_path
+from app.scene.schema import default_scene_path
 
 DEFAULT = yaml.safe_load(default_scene_path().read_text())
 
@@ -101,9 +101,9 @@ def _direct_reactions(clamp_tangential: bool, gx: float, gy: float):
     from mpi4py import MPI
 
     from app.analyses.pencils import dense, gather_vec
-    from app.config import parse_scene
-    from app.stages import Stages
-    from app.systems.block import build_block_system
+    from app.common.stages import Stages
+    from app.scene.schema import parse_scene
+    from app.systems.block.path import build_block_system
     cfg = parse_scene(scene()).system
     system, ops, flex = build_block_system(cfg, MPI.COMM_WORLD, Stages())
     K = dense(ops.K)
@@ -190,10 +190,10 @@ def test_equilibrium_of_resultants_with_the_reactions(paper):
     import ufl
     from mpi4py import MPI
 
-    from app.config import parse_scene
-    from app.stages import Stages
-    from app.system.elasticity import lame_parameters
-    from app.systems.block import build_block_system
+    from app.common.stages import Stages
+    from app.scene.schema import parse_scene
+    from app.systems.block.path import build_block_system
+    from app.systems.elasticity import lame_parameters
     cfg = parse_scene(scene()).system
     system, ops, flex = build_block_system(cfg, MPI.COMM_WORLD, Stages())
     V = ops.V

@@ -1,5 +1,5 @@
-"""Tests of the block mesh (app.systems.block_mesh) and the reduced elasticity operators
-(app.system.elasticity)."""
+"""Tests of the block mesh (app.systems.block.mesh) and the reduced elasticity operators
+(app.systems.block.operators)."""
 
 from __future__ import annotations
 
@@ -17,8 +17,9 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.system.elasticity import block_operators, lame_parameters
-from app.systems.block_mesh import AB, CD, LATERAL, block_mesh, structured_triangulation
+from app.systems.block.mesh import AB, CD, LATERAL, block_mesh, structured_triangulation
+from app.systems.block.operators import block_operators
+from app.systems.elasticity import lame_parameters
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 LENGTH, HEIGHT = 80.0, 40.0
@@ -132,7 +133,7 @@ def _model_to_mesh_reference(length, height, nx, ny, pattern, mesh_size=None):
     import gmsh
     from dolfinx.io.gmshio import model_to_mesh
 
-    import app.systems.block_mesh as bm
+    import app.systems.block.mesh as bm
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     try:
@@ -170,7 +171,7 @@ def test_cached_mesh_is_the_gmsh_mesh(tmp_path, pattern, nx, ny, size):
 def test_cached_mesh_is_read_without_gmsh(tmp_path):
     """A run on a cached block mesh does not import gmsh (issue 14: start-up)."""
     block_mesh(MPI.COMM_WORLD, LENGTH, HEIGHT, 4, 2, "crossed", cache_dir=tmp_path)
-    code = ("import sys, pathlib; from mpi4py import MPI; from app.systems.block_mesh import block_mesh; "
+    code = ("import sys, pathlib; from mpi4py import MPI; from app.systems.block.mesh import block_mesh; "
             f"m, _ = block_mesh(MPI.COMM_SELF, {LENGTH}, {HEIGHT}, 4, 2, 'crossed', cache_dir=pathlib.Path({str(tmp_path)!r})); "
             "print('gmsh' in sys.modules, m.topology.index_map(2).size_global)")
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
@@ -323,8 +324,8 @@ _PARALLEL_SCRIPT = textwrap.dedent("""
     import pathlib, sys
     import numpy as np
     from mpi4py import MPI
-    from app.systems.block_mesh import block_mesh
-    from app.system.elasticity import block_operators
+    from app.systems.block.mesh import block_mesh
+    from app.systems.block.operators import block_operators
 
     comm = MPI.COMM_WORLD
     # An exception on one rank must not leave the other one waiting in a collective

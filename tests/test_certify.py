@@ -15,12 +15,12 @@ from hypothesis import strategies as st
 from mpi4py import MPI
 
 from app import mceip_mu
-from app.analyses.classify import classify
 from app.analyses.enumerate import enumerate_patterns
 from app.analyses.mceip_mu import checker, closing, prooflog, rounding
 from app.analyses.pencils import condensed_mu_pencil, split_pencils
-from app.stages import Stages
-from app.system.discrete import random_contact_problem
+from app.common.stages import Stages
+from app.loading.classify import classify
+from app.systems.discrete import random_contact_problem
 
 
 def _random_pencil(seed, n_slip, n_stick, n_free, n_int, mu):
@@ -246,7 +246,7 @@ def test_block_states_onset_proven(pattern):
 
 def test_proof_files_never_replace_an_existing_file(tmp_path):
     """proofs/state_<k>.npz is created exclusively: a file of that name (not this run's) is kept."""
-    from app.outputs.proofs import write_proofs
+    from app.io.proofs import write_proofs
     A0, A1 = np.eye(2), np.array([[-1.0, 0.2], [0.1, -0.5]])
     r = mceip_mu(A0, A1, 10.0)
     results = {"states": [{"index": 3, "analyses": {"mceip_mu": {"_proof": {"A0": A0, "A1": A1,

@@ -3,8 +3,8 @@
 Every bad scene file must give exit status 2 and ONE line ``error: <file>: <key path> = <value>:
 <what is allowed>`` on stderr, never a traceback, and ``run`` must not write results. The valid
 two-particle scene must run and write results.json / steps.csv of the documented shape. A
-hypothesis fuzz of :func:`app.config.parse_scene` / :func:`app.config.load_scene` checks that
-nothing but a :class:`~app.config.Scene` or a one-line :class:`~app.config.SceneError` comes out.
+hypothesis fuzz of :func:`app.scene.schema.parse_scene` / :func:`app.scene.schema.load_scene` checks that
+nothing but a :class:`~app.scene.schema.Scene` or a one-line :class:`~app.scene.schema.SceneError` comes out.
 """
 from __future__ import annotations
 
@@ -252,7 +252,7 @@ def test_run_two_particles_writes_results(scene_file, tmp_path):
 
 # --- fuzz of the loader (in process) ----------------------------------------------------------
 
-from app.config import Scene, SceneError, load_scene, parse_scene  # noqa: E402
+from app.scene.schema import Scene, SceneError, load_scene, parse_scene  # noqa: E402
 
 BASES = [yaml.safe_load(VALID), yaml.safe_load(BLOCK)]
 KEYS = ["name", "system", "mu", "analyses", "mceip_lambda2_mu", "loading", "settings", "type", "k", "m",

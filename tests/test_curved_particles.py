@@ -242,8 +242,8 @@ def test_single_particle_on_a_circle(side, S):
     ({"type": "circle", "radius": 2, "side": "above"}, "system.obstacle.side = 'above': Input should be 'outside' or 'inside'"),
 ])
 def test_obstacle_keys_are_validated(ob, msg):
-    from app.config import parse_scene
-    from app.validation import SceneError
+    from app.common.validation import SceneError
+    from app.scene.schema import parse_scene
     data = scene((1, -1), 1.0)
     data["system"]["obstacle"] = ob
     with pytest.raises(SceneError) as err:

@@ -14,7 +14,7 @@ import pytest
 import yaml
 from conftest import run_scene
 
-from app.config import default_scene_path
+from app.scene.schema import default_scene_path
 
 REFERENCE = pathlib.Path(__file__).parent / "data" / "default_study_answers.json"
 

@@ -34,7 +34,7 @@ def test_scene_keys_reference_is_generated_from_the_schema():
     text = gen.generate()
     assert (ROOT / "docs" / "scene-keys.md").read_text(encoding="utf-8") == text, \
         "docs/scene-keys.md is stale: run .venv/bin/python scripts/scene_keys.py"
-    from app.config import Block, Loading, McpSettings, Scene
+    from app.scene.schema import Block, Loading, McpSettings, Scene
     for model in (Scene, Block, Loading, McpSettings):        # every key is listed
         for key in model.model_fields:
             assert f"| `{key}` |" in text, key
@@ -153,7 +153,7 @@ def test_method_trace_names_what_the_default_run_calls(tmp_path, capsys):
     def profile(frame, event, arg):
         if event == "call" and frame.f_code.co_filename.startswith(root):
             called.add((frame.f_code.co_filename[len(root):], frame.f_code.co_name))
-    from app.cli import main
+    from app.cli.main import main
     sys.setprofile(profile)
     try:
         status = main(["run", str(path), "-o", str(tmp_path / "out")])

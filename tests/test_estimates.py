@@ -1,4 +1,4 @@
-"""The pre-flight estimates (app/preflight.py) against measured runs, and what ``validate`` prints.
+"""The pre-flight estimates (app/scene/limits.py) against measured runs, and what ``validate`` prints.
 
 The measured figures are serial runs of the paper's block study (``analyses: [mceip_mu]``) by
 benchmarks/estimates.py on this project's 2-core machine (peak resident memory; CPU seconds);
@@ -10,8 +10,8 @@ import pytest
 import yaml
 from conftest import run_cli
 
-from app.config import default_scene_path, parse_scene
-from app.preflight import describe_time, estimate, time_estimate
+from app.scene.limits import describe_time, estimate, time_estimate
+from app.scene.schema import default_scene_path, parse_scene
 
 #: nx, measured peak resident memory (GiB), measured CPU seconds (None: not measured)
 MEASURED = [(56, 0.226, 4.7), (112, 0.311, 8.4), (224, 0.588, 25.8), (448, 1.321, None), (708, 2.51, None)]

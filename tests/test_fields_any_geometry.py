@@ -1,5 +1,5 @@
 """Field outputs (ParaView files, fields.npz for the screenshots) of any body, through the system's
-field capability (app/system/base.py ``FieldSource``; app/outputs/fields.py):
+field capability (app/systems/base.py ``FieldSource``; app/io/fields.py):
 
 * the gmsh paper block writes the built-in block's fields (P1 on the paper mesh, P2 on a coarse one);
 * the rotated block on an inclined obstacle writes the rotated fields: displacements and modes
@@ -43,8 +43,8 @@ def _gmsh(file, angle_deg=0.0, point=(0.0, 0.0), degree=1, **settings):
 
 def _run(data: dict, out: pathlib.Path) -> tuple[dict, dict]:
     """Run a scene in this process with its field stage writing into ``out``; (results, fields.npz)."""
-    from app.config import parse_scene
-    from app.study import run_study
+    from app.scene.schema import parse_scene
+    from app.study.run import run_study
     out.mkdir(parents=True, exist_ok=True)
     res = run_study(parse_scene(data), MPI.COMM_WORLD, outdir=out)
     with np.load(out / "fields" / "fields.npz") as z:
@@ -198,10 +198,10 @@ def test_matrices_skip_default_field_outputs_and_refuse_asked_ones(tmp_path):
     (plots and report drawn); written in the scene they are a one-line error."""
     from test_matrices import particle_scene
 
-    from app.config import SceneError, parse_scene
-    from app.outputs.pictures import draw_after_run
-    from app.scene_sections import Outputs, Screenshots
-    from app.study import run_study
+    from app.plot.pictures import draw_after_run
+    from app.scene.schema import SceneError, parse_scene
+    from app.scene.sections import Outputs, Screenshots
+    from app.study.run import run_study
     data = particle_scene(tmp_path, (1, -1), 2.5, analyses=("necessary", "mceip_mu"))
     for key, value in (("paraview", True), ("screenshots", {})):
         with pytest.raises(SceneError, match=f"outputs.{key} = True: needs a mesh: not applicable, a matrices "

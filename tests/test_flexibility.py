@@ -21,8 +21,8 @@ from petsc4py import PETSc
 
 from app.linalg import lu
 from app.loading.flexibility import chunk_columns, contact_flexibility, flexibility_inverse, flexibility_matsolve
-from app.system.elasticity import block_operators
-from app.systems.block_mesh import block_mesh
+from app.systems.block.mesh import block_mesh
+from app.systems.block.operators import block_operators
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 
@@ -84,8 +84,8 @@ _SCRIPT = textwrap.dedent("""
     from mpi4py import MPI
     from app.linalg import lu
     from app.loading.flexibility import flexibility_matsolve
-    from app.system.elasticity import block_operators
-    from app.systems.block_mesh import block_mesh
+    from app.systems.block.operators import block_operators
+    from app.systems.block.mesh import block_mesh
     comm = MPI.COMM_WORLD
     sys.excepthook = lambda *exc: (sys.__excepthook__(*exc), sys.stderr.flush(), comm.Abort(1))
     mesh, facets = block_mesh(comm, 80.0, 40.0, 12, 6, "crossed", None)

@@ -22,10 +22,10 @@ GEO = ROOT / "app" / "scenes" / "gmsh" / "block.geo"
 
 def write_block_msh(path: pathlib.Path, nx: int, ny: int, pattern: str, angle_deg: float = 0.0,
                     shift=(0.0, 0.0)) -> str:
-    """The built-in block mesh (app/systems/block_mesh.py) as a .msh, rotated about A and shifted."""
+    """The built-in block mesh (app/systems/block/mesh.py) as a .msh, rotated about A and shifted."""
     import gmsh
 
-    from app.systems.block_mesh import _add_structured_model
+    from app.systems.block.mesh import _add_structured_model
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     try:
@@ -332,9 +332,9 @@ def test_lumped_mass_is_positive_and_keeps_the_mass(tmp_path, degree):
     from mpi4py import MPI
 
     from app.analyses.pencils import dense
-    from app.config import parse_scene
-    from app.stages import Stages
-    from app.systems import gmsh_body
+    from app.common.stages import Stages
+    from app.scene.schema import parse_scene
+    from app.systems.gmsh import path as gmsh_body
     (tmp_path / "m.geo").write_text(GOOD)
     s = _err_scene(str(tmp_path / "m.geo"), prescribed={}, foundation=1e-6, degree=degree, mass="lumped",
                    material={"E": 1.0, "nu": 0.3, "density": 2.5},
@@ -352,7 +352,7 @@ def test_lumped_mass_is_positive_and_keeps_the_mass(tmp_path, degree):
 def test_named_physical_groups_may_be_given_by_their_tags(tmp_path):
     """``Physical Curve("bottom") = {1}`` has the tag 1: ``contact: 1`` names it as ``contact: bottom``
     (it was an error: "no physical curve '1'"), for curves, prescribed curves, materials and phases."""
-    from app.systems.gmsh_mesh import model_info
+    from app.systems.gmsh.mesh import model_info
     (tmp_path / "m.geo").write_text(GOOD)
     info = model_info(tmp_path / "m.geo", "m.geo")
     bottom, top, body = info.curves["bottom"][0], info.curves["top"][0], info.surfaces["body"][0]
@@ -402,7 +402,7 @@ def test_traction_recovery_is_exact_on_its_space(degree):
     """Nodal forces of a traction of the displacement space (P1: linear per edge, P2: quadratic)
     are recovered exactly by the consistent recovery, a linear one also by the P2 vertex fit;
     a uniform pressure loads P2 vertices and mid-side nodes 1 : 2 (interior, equal edges)."""
-    from app.systems.contact_traction import contact_recovery
+    from app.systems.gmsh.contact_traction import contact_recovery
     rng = np.random.default_rng(3)
     xv = np.concatenate([[0.0], np.sort(rng.uniform(0, 2, 7)), [2.0]])
     c, s = math.cos(0.3), math.sin(0.3)                        # a straight curve at 0.3 rad

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import ROOT, run_cli, run_scene
 
-from app.analyses.classify import classify
+from app.loading.classify import classify
 from app.loading.state import EquilibriumState
 
 SMALL = {"name": "hard", "mu": 1.1, "system": {"type": "block", "nx": 10, "ny": 5},
@@ -175,7 +175,7 @@ def test_killed_rank_leaves_no_results_folder(tmp_path):
 
 def test_missing_cached_mesh_file_is_regenerated():
     """Meshes are generated, never read from user files: a deleted cache file is rebuilt."""
-    from app.systems.block_mesh import DEFAULT_CACHE_DIR, mesh_file_name
+    from app.systems.block.mesh import DEFAULT_CACHE_DIR, mesh_file_name
     scene = _with(nx=6, ny=3)
     first = run_scene(scene)
     path = DEFAULT_CACHE_DIR / mesh_file_name(80.0, 40.0, 6, 3, "crossed", None)
@@ -190,17 +190,17 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
     """A mesh without contact nodes on AB stops with a clear error, not a crash later on."""
     from mpi4py import MPI
 
-    import app.system.elasticity as elasticity
-    from app.config import parse_scene
-    from app.errors import UnreachableLoad
-    from app.study import run_study
-    original = elasticity.block_operators
+    import app.systems.block.operators as operators
+    from app.common.errors import UnreachableLoad
+    from app.scene.schema import parse_scene
+    from app.study.run import run_study
+    original = operators.block_operators
 
     def no_contact(*args, **kwargs):
         ops = original(*args, **kwargs)
         ops.contact_x = ops.contact_x[:0]
         return ops
 
-    monkeypatch.setattr(elasticity, "block_operators", no_contact)
+    monkeypatch.setattr(operators, "block_operators", no_contact)
     with pytest.raises(UnreachableLoad, match="no contact nodes"):
         run_study(parse_scene(_with(nx=6, ny=3)), MPI.COMM_WORLD)

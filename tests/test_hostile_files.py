@@ -74,7 +74,7 @@ def _write(tmp_path: pathlib.Path, geo: str, settings: str = "", name: str = "bo
 @pytest.mark.parametrize("statement, word", REFUSED, ids=[w + str(i) for i, (_, w) in enumerate(REFUSED)])
 def test_refused_geo_commands_change_nothing(tmp_path, statement, word):
     """Each refused command: one SceneError naming it and its line; the marker stays absent."""
-    from app.config import SceneError, load_scene
+    from app.scene.schema import SceneError, load_scene
     marker = tmp_path / "MARKER"
     scene = _write(tmp_path, BODY + statement.replace("MARKER", str(marker)) + "\n")
     with pytest.raises(SceneError) as err:
@@ -100,7 +100,7 @@ def test_cli_refuses_geo_and_marker_stays_absent(tmp_path, command, statement):
 
 def test_allowed_geo_still_runs(tmp_path):
     """Terminal Printf, options, loops, If, a macro and an Include inside the folder pass."""
-    from app.config import load_scene
+    from app.scene.schema import load_scene
     (tmp_path / "sizes.geo").write_text("lc = 2.5; // sizes\n")
     geo = ('Include "sizes.geo";\nMesh.Algorithm = 6; Geometry.Tolerance = 1e-9;\nPrintf("lc = %g", lc);\n'
            'For i In {1:3}\n  If (i == 2)\n    x = i;\n  EndIf\nEndFor\n' + BODY.replace("2.5}", "lc}"))
@@ -109,7 +109,7 @@ def test_allowed_geo_still_runs(tmp_path):
 
 
 def test_include_outside_the_folder_is_refused(tmp_path):
-    from app.config import SceneError, load_scene
+    from app.scene.schema import SceneError, load_scene
     sub = tmp_path / "scene"
     sub.mkdir()
     (tmp_path / "outside.geo").write_text("lc = 1;\n")
@@ -147,8 +147,8 @@ def test_sandbox_alone_stops_a_write(tmp_path, monkeypatch):
     """Past the allowlist (called directly here), Gmsh's own SystemCall runs in the child, but bubblewrap
     leaves it no write access outside the child's folder: the marker stays absent. Without bubblewrap
     the same file does create it (so the test can fail)."""
-    from app.scene_sections import Limits
-    from app.systems import gmsh_sandbox
+    from app.systems.gmsh import sandbox as gmsh_sandbox
+    from app.systems.schema import Limits
     if not gmsh_sandbox.bwrap_usable():
         pytest.skip("bubblewrap not usable on this machine")
     lim = gmsh_sandbox.SandboxLimits.from_limits(Limits())
@@ -179,7 +179,7 @@ def _msh(tmp_path: pathlib.Path) -> bytes:
 
 def test_msh_header_counts_refused_before_reading(tmp_path):
     """Node tags of 1e15 (a Gmsh segfault) and 1e12 declared nodes: refused from the header."""
-    from app.systems.gmsh_mesh import model_info
+    from app.systems.gmsh.mesh import model_info
     from app.systems.schema import SystemPathError
     lines = _msh(tmp_path).decode().splitlines()
     i = lines.index("$Nodes") + 1
@@ -224,10 +224,9 @@ def test_mutated_msh_fuzz_never_crashes_this_process(tmp_path):
     Gmsh's crashes stay in its child. (Two files at a time: each child starts Python and Gmsh.)"""
     from concurrent.futures import ThreadPoolExecutor
 
-    from app.scene_sections import Limits
-    from app.systems.gmsh_mesh import _read_uncached
-    from app.systems.gmsh_sandbox import SandboxLimits
-    from app.systems.schema import SystemPathError
+    from app.systems.gmsh.mesh import _read_uncached
+    from app.systems.gmsh.sandbox import SandboxLimits
+    from app.systems.schema import Limits, SystemPathError
     lim = SandboxLimits.from_limits(Limits())
     paths = []
     for case, data in _mutations(_msh(tmp_path), 200):
@@ -248,7 +247,7 @@ def test_mutated_msh_fuzz_never_crashes_this_process(tmp_path):
 
 
 def test_contact_curve_inside_the_body_is_refused(tmp_path):
-    from app.config import SceneError, load_scene
+    from app.scene.schema import SceneError, load_scene
     geo = BODY.replace('Physical Curve("AB") = {1};', 'Point(5) = {2, 1, 0, 1}; Point(6) = {8, 1, 0, 1};\n'
                        'Line(5) = {5, 6}; Line{5} In Surface{1};\nPhysical Curve("AB") = {5};\n'
                        'Physical Curve("bottom") = {1};')
@@ -264,10 +263,10 @@ def test_validate_sizes_are_the_built_systems_sizes(tmp_path, example, degree):
     from conftest import ROOT
     from mpi4py import MPI
 
-    from app import preflight
-    from app.config import load_scene
-    from app.stages import Stages
-    from app.systems import gmsh_body
+    from app.common.stages import Stages
+    from app.scene import limits as preflight
+    from app.scene.schema import load_scene
+    from app.systems.gmsh import path as gmsh_body
     ex = ROOT / "app" / "scenes" / "gmsh"
     (tmp_path / f"{example}.geo").write_text((ex / f"{example}.geo").read_text())
     data = yaml.safe_load((ex / f"{example}.yaml").read_text())
@@ -289,7 +288,7 @@ def test_validate_sizes_are_the_built_systems_sizes(tmp_path, example, degree):
     ("obstacle", "{point: [1.0e+300, 0], normal: [0, -1]}", r"less than or equal to 1e\+100"),
 ])
 def test_schema_refuses_booleans_and_overflowing_values(tmp_path, key, value, words):
-    from app.config import SceneError, load_scene
+    from app.scene.schema import SceneError, load_scene
     scene = _write(tmp_path, BODY)
     scene.write_text(scene.read_text().replace("  material:", f"  {key}: {value}\n  material:"))
     with pytest.raises(SceneError, match=words):
@@ -302,7 +301,7 @@ def test_schema_refuses_booleans_and_overflowing_values(tmp_path, key, value, wo
     ("{steps: 1, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 1.0e+300}}", r"less than or equal to 1e\+100"),
 ])
 def test_program_values_in_range(tmp_path, program, words):
-    from app.config import SceneError, load_scene
+    from app.scene.schema import SceneError, load_scene
     scene = _write(tmp_path, BODY)
     text = scene.read_text().replace("{steps: 2, displacement: {CD: {translation: [0, -0.01]}}}", program)
     scene.write_text(text)
@@ -325,8 +324,8 @@ def test_large_motion_of_a_gmsh_body_warns(tmp_path):
 def test_sandbox_removes_only_its_own_folder(tmp_path, monkeypatch):
     """The child's working folder is one the app made (mkdtemp) and the only thing it removes:
     the scene's folder and a user's folders in the temporary area are left as they were."""
-    from app.scene_sections import Limits
-    from app.systems import gmsh_sandbox
+    from app.systems.gmsh import sandbox as gmsh_sandbox
+    from app.systems.schema import Limits
     tmpdir = tmp_path / "tmp"
     tmpdir.mkdir()
     (tmpdir / "app-gmsh-users-own").mkdir()               # a user's folder named like the app's

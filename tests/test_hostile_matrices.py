@@ -60,7 +60,7 @@ def test_petsc_info_sidecar_injection_does_nothing(tmp_path, command):
 
 
 def test_petsc_binary_read_without_petsc_equals_petsc(tmp_path):
-    from app.systems.matrix_files import read_petsc
+    from app.systems.matrices.files import read_petsc
     A = sp.random(40, 40, density=0.2, random_state=1, format="csr") + sp.identity(40)
     _petsc_write(tmp_path / "A.petsc", A)
     assert abs(read_petsc(tmp_path / "A.petsc", "matrix") - A).max() == 0
@@ -81,9 +81,8 @@ def test_huge_header_refused_in_under_a_second(tmp_path, fmt):
     line = one_error_line(proc)
     assert f"system.K = '{name}'" in line and "max_dofs" in line, line
     assert time.monotonic() - t0 < 10                         # CLI start-up included
-    from app.scene_sections import Limits
-    from app.systems.matrices_schema import read_matrix
-    from app.systems.schema import SystemPathError
+    from app.systems.matrices.schema import read_matrix
+    from app.systems.schema import Limits, SystemPathError
     t0 = time.monotonic()
     with pytest.raises(SystemPathError, match="max_dofs"):
         read_matrix("K", name, tmp_path / name, Limits())

@@ -1,11 +1,11 @@
-"""What MCEIP-lambda^2 results prove (app/analyses/lambda2_bounds.py), on the paper's two-particle
+"""What MCEIP-lambda^2 results prove (app/analyses/mceip_lambda2/bounds.py), on the paper's two-particle
 system (the paper's Fig. 1), where every solution is known in closed form (Table 1)."""
 import numpy as np
 import pytest
 from conftest import run_scene
 from test_two_particles import CASES, PHI, K, M, analytic_lambda2, scene
 
-from app.analyses.lambda2_bounds import inertia_negative_or_zero, proven_upper_bound
+from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero, proven_upper_bound
 from app.analyses.state_pencils import seq_aij
 
 
@@ -21,7 +21,7 @@ def test_certificate_and_bound(signs, mu, count):
         assert l2["certified"] is True and cert["status"] == "proven" and not expected
         assert cert["interval"] == [0.0, float("inf")] and cert["rigorous"] is True
     elif l2["certified"]:
-        # shown on the exact slip-node reduction (app/analyses/lambda2_exact.py): no solution at
+        # shown on the exact slip-node reduction (app/analyses/mceip_lambda2/exact.py): no solution at
         # all; the reduction's eigen-decomposition is floating point, so not rigorous
         assert cert["status"] == "proven" and cert["interval"] == [0.0, float("inf")] and not expected
         assert cert["rigorous"] is False

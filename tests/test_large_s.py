@@ -12,9 +12,9 @@ from conftest import run_cli
 
 from app.analyses import dense_mcp
 from app.analyses.certify import condensed_mu_result
+from app.analyses.distributed import _chain_order, _chains
 from app.analyses.enumerate import enumerate_patterns
-from app.analyses.runner import _chain_order, _chains
-from app.config import McpSettings
+from app.scene.schema import McpSettings
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Library warnings inside a study are caught and explained (app/library_warnings.py), never raw.
+"""Library warnings inside a study are caught and explained (app/common/library_warnings.py), never raw.
 
 - a numpy overflow in an app function is recorded with that function, counted once per kind,
   logged as a WARNING when unknown and at INFO when known (the det overflow of the dense
@@ -15,7 +15,7 @@ import pytest
 import yaml
 from mpi4py import MPI
 
-from app.library_warnings import describe, explained, merged
+from app.common.library_warnings import describe, explained, merged
 
 
 def _overflow_twice():
@@ -26,14 +26,14 @@ def _overflow_twice():
 def test_unknown_warning_is_named_by_its_app_function(caplog):
     with warnings.catch_warnings():
         warnings.simplefilter("error")                  # nothing may escape the block
-        with caplog.at_level(logging.INFO, logger="app.library_warnings"), explained() as rec:
+        with caplog.at_level(logging.INFO, logger="app.common.library_warnings"), explained() as rec:
             _overflow_twice()
             _overflow_twice()
     (r,) = rec.as_list()
     assert r["category"] == "RuntimeWarning" and "overflow" in r["message"]
     assert r["where"].endswith("(_overflow_twice)") and "test_library_warnings.py:" in r["where"]
     assert r["count"] == 4 and r["explanation"] is None
-    logged = [x for x in caplog.records if x.name == "app.library_warnings"]
+    logged = [x for x in caplog.records if x.name == "app.common.library_warnings"]
     assert len(logged) == 1 and logged[0].levelno == logging.WARNING      # once, when first seen
     assert "_overflow_twice" in logged[0].getMessage() and "please report" in logged[0].getMessage()
 
@@ -44,13 +44,13 @@ def test_det_overflow_of_newton_step_is_explained(caplog):
     J[1, 5, :] = 0.0                       # singular: the solve fails, the determinant test runs
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        with caplog.at_level(logging.INFO, logger="app.library_warnings"), explained() as rec:
+        with caplog.at_level(logging.INFO, logger="app.common.library_warnings"), explained() as rec:
             dense_mcp._newton_steps(J, np.ones((2, 150)))
     if not rec.as_list():
         pytest.skip("the Newton step no longer computes a determinant that overflows")
     (r,) = rec.as_list()
     assert r["message"] == "overflow encountered in det" and r["explanation"]
-    assert [x.levelno for x in caplog.records if x.name == "app.library_warnings"] == [logging.INFO]
+    assert [x.levelno for x in caplog.records if x.name == "app.common.library_warnings"] == [logging.INFO]
     assert "answers unaffected" in describe(r)
 
 
@@ -62,8 +62,8 @@ def test_merged_sums_counts_over_ranks():
 
 
 def test_default_study_raises_no_library_warning():
-    from app.config import default_scene_path, parse_scene
-    from app.study import run_study
+    from app.scene.schema import default_scene_path, parse_scene
+    from app.study.run import run_study
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
     with warnings.catch_warnings():

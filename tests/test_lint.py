@@ -1,8 +1,10 @@
 """Static checks: ruff (pyflakes, import order, docstrings of the public API; configured in
-pyproject.toml) and no import cycle between the modules of app/."""
+pyproject.toml), no import cycle between the modules of app/, the layout of app/ (one folder per
+stage of the data flow, imports only down the stages) and the size limits of modules and functions."""
 from __future__ import annotations
 
 import ast
+import fnmatch
 import pathlib
 import shutil
 import subprocess
@@ -27,18 +29,22 @@ def test_ruff_passes():
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
-def _module_name(path: pathlib.Path) -> str:
-    parts = path.relative_to(ROOT).with_suffix("").parts
+def _module_name(path: pathlib.Path, root: pathlib.Path | None = None) -> str:
+    parts = path.relative_to(root or ROOT).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def import_graph() -> dict[str, set[str]]:
-    """Module -> the app modules it imports, at module level or inside functions (a lazy import
-    still ties the two modules together)."""
-    modules = {_module_name(p): p for p in (ROOT / "app").rglob("*.py")}
-    graph: dict[str, set[str]] = {m: set() for m in modules}
-    for mod, path in modules.items():
+def app_imports(root: pathlib.Path | None = None) -> list[tuple[str, str, int, str]]:
+    """Every import of an app module by a module of app/, at module level or inside functions (a
+    lazy import still ties the two modules together): ``(module, file, line, imported module)``,
+    the imported name resolved to the module (or package) that defines it."""
+    root = root or ROOT
+    modules = {_module_name(p, root): p for p in (root / "app").rglob("*.py")}
+    out: list[tuple[str, str, int, str]] = []
+    seen: set[tuple[str, str, int, str]] = set()
+    for mod, path in sorted(modules.items()):
         is_pkg = path.name == "__init__.py"
+        rel = str(path.relative_to(root))
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             names: list[str] = []
             if isinstance(node, ast.Import):
@@ -53,8 +59,18 @@ def import_graph() -> dict[str, set[str]]:
             for n in names:
                 while n and n not in modules:
                     n = n.rpartition(".")[0]
-                if n and n != mod and not mod.startswith(n + "."):   # a package's own __init__ is not a cycle
-                    graph[mod].add(n)
+                hit = (mod, rel, node.lineno, n)
+                if n and n != mod and not mod.startswith(n + ".") and hit not in seen:   # (a package's own
+                    seen.add(hit)                                                      # __init__ is no cycle)
+                    out.append(hit)
+    return out
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the app modules it imports (:func:`app_imports`)."""
+    graph: dict[str, set[str]] = {_module_name(p): set() for p in (ROOT / "app").rglob("*.py")}
+    for mod, _, _, n in app_imports():
+        graph[mod].add(n)
     return graph
 
 
@@ -100,7 +116,7 @@ def test_cycle_detector_sees_a_cycle():
 
 def test_no_import_cycles_in_app():
     graph = import_graph()
-    assert "app.study" in graph and "app.config" in graph["app.study"]
+    assert "app.study.run" in graph and "app.scene.schema" in graph["app.study.run"]
     found = cycles(graph)
     assert not found, "import cycles: " + "; ".join(" <-> ".join(c) for c in found)
 
@@ -164,3 +180,137 @@ def test_no_private_names_imported_across_modules():
                 found += [f"{path.relative_to(ROOT)}:{node.lineno} {node.module}.{a.name}" for a in node.names
                           if a.name.startswith("_") and not a.name.startswith("__")]
     assert not found, "private names imported: " + ", ".join(found)
+
+
+# ---- the layout of app/ ----------------------------------------------------------------------
+
+#: The stages of app/, top to bottom, one folder each. A module may import modules of its own
+#: stage and of the stages below it, never above (lazy imports inside functions included); the
+#: stages of one row are peers. The scene is above the systems because ``Scene.system`` is the
+#: union of the registered system types' schemas (app/systems/<type>/schema.py); the systems are
+#: above loading because each type's ``path`` runs the contact toolbox of app/loading/.
+STAGES: list[tuple[str, ...]] = [("cli",), ("study",), ("analyses", "io", "plot"), ("scene",), ("systems",),
+                                 ("loading",), ("common",)]
+#: Modules directly in app/, outside the stages: the package and the public API may import any
+#: stage (and no stage imports them); linalg and version may be imported by any stage, so they
+#: themselves import nothing of app/ but app/common/.
+TOP_LEVEL = {"app": "api", "app.__main__": "api", "app.api": "api", "app.linalg": "shared", "app.version": "shared"}
+#: Folders of app/ that hold data, not modules.
+DATA_FOLDERS = {"scenes"}
+MODULE_MAX_LINES = 400
+FUNCTION_MAX_LINES = 80
+#: Exemptions from the size limits (glob patterns of paths): none.
+SIZE_EXEMPT: tuple[str, ...] = ()
+
+
+def _rank(module: str) -> int | None:
+    """Row of ``module``'s stage in :data:`STAGES` (0 is the top), None outside the stages."""
+    if module in TOP_LEVEL:
+        return None
+    parts = module.split(".")
+    for i, row in enumerate(STAGES):
+        if len(parts) > 1 and parts[1] in row:
+            return i
+    return None
+
+
+def upward_imports(root: pathlib.Path | None = None) -> list[str]:
+    """Imports that break :data:`STAGES`: one line each, naming the file, line, both modules."""
+    found = []
+    names = " -> ".join("(" + ", ".join(r) + ")" if len(r) > 1 else r[0] for r in STAGES)
+    for mod, rel, line, target in app_imports(root):
+        kind, tkind = TOP_LEVEL.get(mod), TOP_LEVEL.get(target)
+        if kind == "api":
+            continue
+        if tkind == "api":
+            found.append(f"{rel}:{line}: {mod} imports {target}, which may import every stage (no stage imports it)")
+        elif tkind == "shared":
+            continue
+        elif kind == "shared":
+            if _rank(target) != len(STAGES) - 1:
+                found.append(f"{rel}:{line}: {mod} (importable by every stage) imports {target}: only app.common may be")
+        elif _rank(target) is not None and _rank(mod) is not None and _rank(target) < _rank(mod):
+            found.append(f"{rel}:{line}: {mod} imports {target}: {target.split('.')[1]} is above "
+                         f"{mod.split('.')[1]} in the stages {names}")
+    return found
+
+
+def layout_problems(root: pathlib.Path | None = None) -> list[str]:
+    """Folders of app/ that are not a stage, and modules directly in app/ that are not listed."""
+    root = root or ROOT
+    stages = {s for row in STAGES for s in row}
+    found = []
+    for p in sorted((root / "app").iterdir()):
+        if p.name.startswith((".", "__pycache__")):
+            continue
+        if p.is_dir() and not any(q.is_file() and "__pycache__" not in q.parts for q in p.rglob("*")):
+            continue        # e.g. only the bytecode of a folder that was moved away
+        if p.is_dir() and p.name in DATA_FOLDERS:
+            found += [f"{q.relative_to(root)}: a module in the data folder app/{p.name}/" for q in p.rglob("*.py")]
+        elif p.is_dir() and p.name not in stages:
+            found.append(f"{p.relative_to(root)}/: not one of the stages ({', '.join(sorted(stages))})")
+        elif p.is_file() and p.suffix == ".py" and _module_name(p, root) not in TOP_LEVEL:
+            found.append(f"{p.relative_to(root)}: a module outside the stages (put it in one of the stage folders)")
+    return found
+
+
+def size_problems(root: pathlib.Path | None = None) -> list[str]:
+    """Modules over :data:`MODULE_MAX_LINES` lines and functions (methods and nested functions
+    included, decorators not) over :data:`FUNCTION_MAX_LINES`, outside :data:`SIZE_EXEMPT`."""
+    root = root or ROOT
+    found = []
+    for path in sorted((root / "app").rglob("*.py")):
+        rel = str(path.relative_to(root))
+        if any(fnmatch.fnmatch(rel, pattern) for pattern in SIZE_EXEMPT):
+            continue
+        text = path.read_text(encoding="utf-8")
+        n = len(text.splitlines())
+        if n > MODULE_MAX_LINES:
+            found.append(f"{rel}: {n} lines (at most {MODULE_MAX_LINES})")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                length = node.end_lineno - node.lineno + 1
+                if length > FUNCTION_MAX_LINES:
+                    found.append(f"{rel}:{node.lineno}: function {node.name} has {length} lines "
+                                 f"(at most {FUNCTION_MAX_LINES})")
+    return found
+
+
+def test_layout_checks_see_what_they_forbid(tmp_path):
+    """The checks name an upward import (lazy too), a stray folder, a loose module, a long
+    function and a long module (on a small fake app/)."""
+    app = tmp_path / "app"
+    for d in ("common", "loading", "study", "cli", "misc"):
+        (app / d).mkdir(parents=True)
+        (app / d / "__init__.py").write_text("")
+    (app / "__init__.py").write_text("")
+    (app / "common" / "errors.py").write_text("def f():\n    from app.study.run import g\n    return g\n")
+    (app / "loading" / "state.py").write_text("from app.common.errors import f\n" + "\n" * 400)
+    (app / "study" / "run.py").write_text("from app.cli.main import x\n\n\ndef g():\n" + "    pass\n" * 80)
+    (app / "cli" / "main.py").write_text("from app.study.run import g\nx = 1\n")
+    (app / "helpers.py").write_text("")
+    assert upward_imports(tmp_path) == [
+        "app/common/errors.py:2: app.common.errors imports app.study.run: study is above common in the stages "
+        "cli -> study -> (analyses, io, plot) -> scene -> systems -> loading -> common",
+        "app/study/run.py:1: app.study.run imports app.cli.main: cli is above study in the stages "
+        "cli -> study -> (analyses, io, plot) -> scene -> systems -> loading -> common"]
+    assert [p.split(":")[0] for p in layout_problems(tmp_path)] == ["app/helpers.py", "app/misc/"]
+    assert size_problems(tmp_path) == ["app/loading/state.py: 401 lines (at most 400)",
+                                       "app/study/run.py:4: function g has 81 lines (at most 80)"]
+
+
+def test_imports_run_down_the_stages():
+    """cli -> study -> (analyses, io, plot) -> scene -> systems -> loading -> common: no module
+    imports one of a stage above its own (:data:`STAGES`)."""
+    found = upward_imports()
+    assert not found, "imports against the stages:\n" + "\n".join(found)
+
+
+def test_every_folder_of_app_is_a_stage():
+    found = layout_problems()
+    assert not found, "layout of app/:\n" + "\n".join(found)
+
+
+def test_modules_and_functions_are_small():
+    found = size_problems()
+    assert not found, "too long:\n" + "\n".join(found)

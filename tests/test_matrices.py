@@ -27,7 +27,7 @@ def _write_mtx(path, A):
 
 def particle_scene(tmp_path, signs, mu, analyses=("mceip_lambda2", "mceip_mu", "enumerate", "sufficient", "necessary"),
                    fmt="mtx"):
-    from app.systems.particles import particle_matrices
+    from app.systems.particles.path import particle_matrices
     Kd, Md = particle_matrices(KP, MP, PHI)
     if fmt == "mtx":
         k, m = _write_mtx(tmp_path / "K.mtx", Kd), _write_mtx(tmp_path / "M.mtx", Md)
@@ -81,12 +81,12 @@ def test_table1_mu_through_files(tmp_path, signs, count, fmt):
 def test_random_system_through_files_equals_in_memory(tmp_path):
     """K, M, contact DOFs (random order, random signs) and a classified state, written to files
     and read back, give the same analyses as the system built in memory."""
-    from app.analyses.classify import classify
     from app.analyses.pencils import dense
     from app.analyses.runner import analyse_state
-    from app.config import parse_scene
-    from app.stages import Stages
-    from app.system.discrete import random_contact_problem
+    from app.common.stages import Stages
+    from app.loading.classify import classify
+    from app.scene.schema import parse_scene
+    from app.systems.discrete import random_contact_problem
     mu = 0.8
     analyses = ["necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"]
     for seed in range(4):
@@ -116,7 +116,7 @@ def test_random_system_through_files_equals_in_memory(tmp_path):
 
 
 def run_scene_in(scene):
-    from app.study import run_study
+    from app.study.run import run_study
     return run_study(scene, MPI.COMM_WORLD)
 
 
@@ -136,9 +136,9 @@ def block_as_matrices(tmp_path_factory):
     """The 10 x 5 block (built-in path) and the same block exported as a matrices scene whose force
     phases are the reduced loads of CD's prescribed motion (K u = gx f_x + gy f_y + B^T r)."""
     from app.analyses.pencils import dense, gather_vec
-    from app.config import parse_scene
-    from app.stages import Stages
-    from app.systems.block import build_block_system
+    from app.common.stages import Stages
+    from app.scene.schema import parse_scene
+    from app.systems.block.path import build_block_system
     d = tmp_path_factory.mktemp("blockm")
     base = {"name": "b", "system": BLOCK, "mu": 1.1, "analyses": ["mceip_mu"]}
     ref = run_scene(base)

@@ -67,16 +67,16 @@ ONE_RANK_FAILS = """
 import sys
 sys.path.insert(0, {root!r})
 from mpi4py import MPI
-import app.analyses.runner as runner
-from app.config import parse_scene
-from app.study import run_study
+import app.analyses.distributed as distributed
+from app.scene.schema import parse_scene
+from app.study.run import run_study
 comm = MPI.COMM_WORLD
-real = runner._mceip_mu
+real = distributed.state_mceip_mu
 def failing(*a, **k):
     if comm.rank == 1 and k.get("replicated", True) is False:
         raise ValueError("a bug on rank 1")
     return real(*a, **k)
-runner._mceip_mu = failing
+distributed.state_mceip_mu = failing
 scene = parse_scene({{"name": "fails", "system": {{"type": "block", "nx": 16, "ny": 8}}, "mu": 1.1,
                      "analyses": ["mceip_mu"],
                      "settings": {{"mcp": {{"search_full_max": 3, "certify_enumerate_max": 3}}}}}})

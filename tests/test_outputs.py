@@ -79,7 +79,7 @@ def _states_series(path: pathlib.Path):
 
 
 def _all_modes(results: dict) -> list[tuple[int, str, int, dict]]:
-    from app.outputs.select import modes_of
+    from app.io.select import modes_of
     out = []
     for s in results["states"]:
         if s.get("analyses_shared_with") is None:
@@ -90,7 +90,7 @@ def _all_modes(results: dict) -> list[tuple[int, str, int, dict]]:
 # -- the scene schema ---------------------------------------------------------------------------
 
 def test_outputs_schema_defaults_off_and_clear_errors():
-    from app.config import SceneError, parse_scene
+    from app.scene.schema import SceneError, parse_scene
     base = {"name": "x", "system": {"type": "block", "nx": 4, "ny": 2}, "mu": 1.0}
     o = parse_scene(base).outputs
     assert not (o.paraview or o.plots or o.report or o.screenshots) and not o.any
@@ -117,7 +117,7 @@ def test_outputs_schema_defaults_off_and_clear_errors():
 
 
 def test_state_selection():
-    from app.outputs.select import select_states
+    from app.io.select import select_states
     cls = lambda st, sl, fr: {"stick": st, "slip": sl, "free": fr, "zero": 0}   # noqa: E731
     states = [{"index": 0, "classification": cls(5, 0, 0), "analyses_shared_with": None, "analyses": {}},
               {"index": 1, "classification": cls(5, 0, 0), "analyses_shared_with": 0, "analyses": {}},
@@ -142,7 +142,7 @@ def test_every_picture_is_drawn_and_not_blank(serial):
         svg = ET.parse(out / "plots" / f"{name}.svg").getroot()
         assert svg.tag.endswith("svg") and len(list(svg.iter())) > 50
     shots = sorted((out / "screenshots").glob("*.png"))
-    from app.outputs.select import analyses_of, modes_of
+    from app.io.select import analyses_of, modes_of
     pictured = res["outputs"]["pictured_states"]
     first_mu = next(s["index"] for s in res["states"] if s["analyses"]["mceip_mu"]["solutions"])
     assert pictured == sorted({first_mu, res["states"][-1]["index"]})
@@ -189,7 +189,7 @@ def test_recorded_stages_and_files(serial):
 
 
 def test_drawing_job_files_are_removed(serial):
-    """The job files handed to the drawing processes (app/outputs/pictures.py, worker.py) are
+    """The job files handed to the drawing processes (app/plot/pictures.py, worker.py) are
     removed before the results are committed: none is left in the results folder."""
     out, res, proc = serial
     assert sorted(p.name for p in out.rglob(".pictures-job*")) == []
@@ -198,7 +198,7 @@ def test_drawing_job_files_are_removed(serial):
 def test_fields_file_of_the_previous_release_keeps_its_obstacle(serial, tmp_path):
     """``python -m app render`` of a results folder of the previous release: its fields.npz has the
     ``block`` key instead of the geometry keys; the obstacle is then the block's line y = 0."""
-    from app.outputs.screenshots import FieldData
+    from app.plot.canvas import FieldData
     out, res, proc = serial
     with np.load(out / "fields" / "fields.npz") as z:
         now = {k: z[k] for k in z.files}
@@ -294,9 +294,9 @@ def test_render_redraws_without_recomputing(serial, tmp_path):
     pictures = sorted(p.relative_to(copy).as_posix() for p in copy.glob("*/*.png")) + ["report.md"]
     for p in pictures:
         (copy / p).unlink()
-    code = ("import sys; from app.cli import main; rc = main(['render', sys.argv[1]]); "
+    code = ("import sys; from app.cli.main import main; rc = main(['render', sys.argv[1]]); "
             "assert 'dolfinx' not in sys.modules, 'render imported DOLFINx'; "
-            "assert 'app.study' not in sys.modules; sys.exit(rc)")
+            "assert 'app.study.run' not in sys.modules; sys.exit(rc)")
     p = subprocess.run([PY, "-c", code, str(copy)], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert p.returncode == 0, p.stderr
     assert sorted(p.relative_to(copy).as_posix() for p in copy.glob("*/*.png")) + ["report.md"] == pictures
@@ -324,7 +324,7 @@ def test_progress_and_log_lines(serial):
 def test_progress_bar_on_a_terminal_and_quiet():
     from types import SimpleNamespace
 
-    from app.progress import Progress
+    from app.common.progress import Progress
 
     class Tty(io.StringIO):
         def isatty(self):
@@ -395,8 +395,8 @@ def test_condensed_and_full_mode_fields_agree(tmp_path):
     kept-space vector (MCEIP-mu solved full size, as MCEIP-lambda^2 and the sufficient condition)."""
     from mpi4py import MPI
 
-    from app.config import parse_scene
-    from app.study import run_study
+    from app.scene.schema import parse_scene
+    from app.study.run import run_study
     fields = {}
     for method in ("condensed", "full"):
         data = {**{k: v for k, v in SCENE.items() if k != "outputs"}, "analyses": ["mceip_mu"],

@@ -13,7 +13,7 @@ import yaml
 from conftest import ROOT, one_error_line, run_cli, run_scene
 from petsc4py import PETSc
 
-from app.petsc_options import PREFIXES, split_petsc_options
+from app.common.petsc_options import PREFIXES, split_petsc_options
 
 BLOCK = yaml.safe_load("""\
 name: block
@@ -81,8 +81,8 @@ def _failing_from_options(monkeypatch, module, prefix: str) -> None:
 
 
 @pytest.mark.parametrize("analysis, module, prefix", [
-    ("sufficient", "app.analyses.eigen", "cd_sufficient_"),
-    ("necessary", "app.analyses.eigen", "cd_necessary_"),
+    ("sufficient", "app.analyses.conditions", "cd_sufficient_"),
+    ("necessary", "app.analyses.conditions", "cd_necessary_"),
 ], ids=["sufficient", "necessary"])
 def test_a_failing_analysis_leaks_nothing(monkeypatch, analysis, module, prefix):
     import importlib

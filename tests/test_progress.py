@@ -1,4 +1,4 @@
-"""Progress of the MCEIP-mu stage (app/progress.py ``Progress.tasks``, hooked in app/analyses/runner.py).
+"""Progress of the MCEIP-mu stage (app/common/progress.py ``Progress.tasks``, hooked in app/analyses/distributed.py).
 
 A study whose per-classification MCEIP-mu is made slow (it sleeps) must still print a progress
 line at least every 5 s, naming the classifications done, the s running now, the last result and
@@ -13,10 +13,10 @@ from types import SimpleNamespace
 import pytest
 import yaml
 
-import app.analyses.runner as runner
-from app.config import default_scene_path, parse_scene
-from app.progress import Progress, time_left
-from app.study import run_study
+import app.analyses.distributed as distributed
+from app.common.progress import Progress, time_left
+from app.scene.schema import default_scene_path, parse_scene
+from app.study.run import run_study
 
 
 class _Recorder(io.StringIO):
@@ -70,7 +70,7 @@ def test_slow_mceip_mu_prints_a_line_at_least_every_5_s(monkeypatch):
     data.update(analyses=["mceip_mu"])
     data["loading"].update(tangential_max=3.0)
     scene = parse_scene(data)
-    real, calls = runner._mceip_mu, []
+    real, calls = distributed.state_mceip_mu, []
 
     def slow(*args, **kwargs):
         if kwargs.get("replicated", True) is False:      # the MCEIP-mu stage (not the s = 0 states)
@@ -79,7 +79,7 @@ def test_slow_mceip_mu_prints_a_line_at_least_every_5_s(monkeypatch):
                 time.sleep(6.5)                  # each longer than the 5 s interval
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(runner, "_mceip_mu", slow)
+    monkeypatch.setattr(distributed, "state_mceip_mu", slow)
     rec = _Recorder()
     t0 = time.perf_counter()
     from mpi4py import MPI

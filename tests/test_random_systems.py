@@ -7,11 +7,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mpi4py import MPI
 
-from app.analyses.classify import classify
 from app.analyses.runner import analyse_state
-from app.config import parse_scene
-from app.stages import Stages
-from app.system.discrete import random_contact_problem
+from app.common.stages import Stages
+from app.loading.classify import classify
+from app.scene.schema import parse_scene
+from app.systems.discrete import random_contact_problem
 
 
 def _scene(mu, analyses):
@@ -57,7 +57,7 @@ def test_mcp_solutions_are_true_and_enumerated(p):
 @pytest.mark.parametrize("seed", range(8))
 def test_sufficient_matches_dense_reference(seed):
     """(17)-(18) from SLEPc against scipy.linalg.eig on the same dense pencil."""
-    from app.analyses.eigen import sufficient
+    from app.analyses.conditions import sufficient
     from app.analyses.pencils import dense, reduced_pencil, reduced_space
     rng = np.random.default_rng(seed)
     mu = 3.0

@@ -1,12 +1,12 @@
-"""The refinement study (app/refinement.py): a tiny two-level study, the order estimator, the schema."""
+"""The refinement study (app/study/refinement.py): a tiny two-level study, the order estimator, the schema."""
 import csv
 import math
 
 import pytest
 from mpi4py import MPI
 
-from app.config import SceneError, parse_scene
-from app.refinement import observed_order, run_level, run_refinement
+from app.scene.schema import SceneError, parse_scene
+from app.study.refinement import observed_order, run_level, run_refinement
 
 TINY = {"name": "tiny-refinement", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": [],
         "system": {"type": "block", "nx": 4, "ny": 2},

@@ -2,7 +2,7 @@
 frictionless physics, physical sanity, strict input, file modes, mesh cache fallback.
 
 Each test names the acceptance point it checks. The CLI tests run ``python -m app`` in a
-subprocess (conftest.run_cli); the failure-injection tests call ``app.cli.main`` in this
+subprocess (conftest.run_cli); the failure-injection tests call ``app.cli.main.main`` in this
 process with one writer patched to fail as a full disk would.
 """
 from __future__ import annotations
@@ -141,7 +141,7 @@ def test_bad_output_paths_give_one_line(tmp_path):
 
 def test_commit_failure_keeps_the_staged_results(tmp_path):
     """The target gains a user's file during the run: the commit refuses, the results stay staged."""
-    from app.outputs.folder import CommitError, ResultsFolder
+    from app.io.folder import CommitError, ResultsFolder
     out = tmp_path / "out"
     folder = ResultsFolder(out, overwrite=False)
     assert folder.check() is None
@@ -158,8 +158,8 @@ def test_commit_failure_keeps_the_staged_results(tmp_path):
 
 
 def test_commit_rename_failure_in_the_cli_keeps_results_and_exits_nonzero(tmp_path, monkeypatch, capsys):
-    import app.outputs.folder as folder_mod
-    from app.cli import main
+    import app.io.folder as folder_mod
+    from app.cli.main import main
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
     out = tmp_path / "out"
@@ -213,7 +213,7 @@ def test_a_users_file_named_like_the_lock_is_kept(tmp_path):
 
 
 def test_a_held_lock_refuses_the_run_and_the_sweep(tmp_path):
-    from app.outputs.folder import FolderLock
+    from app.io.folder import FolderLock
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
     sweep = tmp_path / "sw.yaml"
@@ -235,10 +235,10 @@ def _enospc(*a, **k):
 @pytest.mark.parametrize("where", ["results", "pictures", "memory"])
 def test_full_disk_or_no_memory_gives_one_line(tmp_path, monkeypatch, capsys, where):
     """ENOSPC from our writer, an HDF5-style RuntimeError, a MemoryError: one line, exit 4, nothing left."""
-    import app.outputs.pictures as pictures_mod
-    import app.outputs.results as results_mod
-    import app.study as study_mod
-    from app.cli import main
+    import app.io.results as results_mod
+    import app.plot.pictures as pictures_mod
+    import app.study.run as study_mod
+    from app.cli.main import main
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
     out = tmp_path / "out"
@@ -325,8 +325,8 @@ def test_disk_preflight_refuses_before_the_work(tmp_path):
 
 
 def test_preflight_refuses_ten_billion_states_within_a_second(tmp_path):
-    from app import preflight
-    from app.config import SceneError, load_scene
+    from app.scene import limits as preflight
+    from app.scene.schema import SceneError, load_scene
     scene = tmp_path / "s.yaml"
     scene.write_text(BLOCK.replace("MU", "1.1").replace("tangential_step: 0.1", "tangential_step: 1.0e-9")
                      .replace("tangential_max: 1.5", "tangential_max: 10.0"))
@@ -430,7 +430,7 @@ def test_strict_input(tmp_path, text, needles):
 def test_merge_keys_are_not_duplicates():
     import yaml
 
-    from app.config import _UniqueKeyLoader
+    from app.scene.schema import _UniqueKeyLoader
     data = yaml.load("a: &b {k: 1, m: 2}\nc: {<<: *b, k: 3}\n", Loader=_UniqueKeyLoader)
     assert data["c"] == {"k": 3, "m": 2}
 
@@ -484,7 +484,7 @@ def test_mesh_cache_falls_back_to_the_user_cache(tmp_path, monkeypatch):
     root cannot create): new meshes go to $XDG_CACHE_HOME/contact-divergence/meshes."""
     from mpi4py import MPI
 
-    import app.systems.block_mesh as bm
+    import app.systems.block.mesh as bm
     blocker = tmp_path / "install"
     blocker.write_text("a file, not a folder")
     monkeypatch.setattr(bm, "DEFAULT_CACHE_DIR", blocker / "meshes")
@@ -545,7 +545,7 @@ def _state(r_T, r_N, u_N=None):
 
 
 def test_roundoff_tangential_reaction_has_no_sign():
-    from app.analyses.classify import classify, frictionless_reason
+    from app.loading.classify import classify, frictionless_reason
     rng = np.random.default_rng(0)
     for scale in (1.0, 1e-3, 1e6):
         r_N = -scale * np.array([3.0, 5.0, 2.0, 0.0])
@@ -557,7 +557,7 @@ def test_roundoff_tangential_reaction_has_no_sign():
 
 
 def test_cone_boundary_from_both_sides_and_in_any_units():
-    from app.analyses.classify import classify
+    from app.loading.classify import classify
     mu, rtol = 1.1, 1e-8
     for scale in (1.0, 1e-3, 1e3):
         r_N = -scale * np.array([10.0, 10.0, 10.0, 10.0, 10.0])
@@ -645,8 +645,8 @@ def test_small_strain_violations_are_warned(tmp_path, edit, needle):
 
 
 def test_sane_paths_have_no_strain_warning():
+    from app.loading.sanity import check_block_path
     from app.loading.state import EquilibriumState
-    from app.sanity import check_block_path
     st = [EquilibriumState(index=i, load={"u_x": -0.1 * i, "u_y": -0.5}, u_T=np.full(3, -0.1 * i),
                            u_N=np.zeros(3), r_T=np.zeros(3), r_N=-np.ones(3)) for i in range(5)]
     assert check_block_path(st, 80.0, 40.0) == []
@@ -671,7 +671,7 @@ def test_mount_point_target_is_refused_before_the_work(tmp_path):
 
 def test_someone_elses_empty_folder_in_a_sticky_folder_is_refused(tmp_path, monkeypatch):
     """As on /tmp: the rename over another user's folder would fail at the end, so it is refused first."""
-    import app.outputs.folder as folder_mod
+    import app.io.folder as folder_mod
     parent = tmp_path / "shared"
     parent.mkdir()
     os.chmod(parent, 0o1777)
@@ -686,7 +686,7 @@ def test_someone_elses_empty_folder_in_a_sticky_folder_is_refused(tmp_path, monk
 def test_failed_staging_probe_removes_only_what_this_run_created(tmp_path, existing):
     """The pre-flight's staging probe cleans up after a failure, but never a path that was there
     before (a leftover or a user's folder with the same name)."""
-    from app.outputs.folder import ResultsFolder
+    from app.io.folder import ResultsFolder
     rf = ResultsFolder(tmp_path / "out", overwrite=False)
     path = rf.staging if existing == "staging" else rf.staging.with_name(rf.staging.name + "-probe")
     (path / "sub").mkdir(parents=True)

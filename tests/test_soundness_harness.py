@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from app.analyses.classify import classify
 from app.analyses.enumerate import enumerate_patterns
 from app.analyses.pencils import condensed_mu_pencil
-from app.stages import Stages
-from app.system.discrete import random_contact_problem
+from app.common.stages import Stages
+from app.loading.classify import classify
+from app.systems.discrete import random_contact_problem
 from benchmarks.soundness import Truth, ground_truth, judge, make_pencil
 
 

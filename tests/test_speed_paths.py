@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from petsc4py import PETSc
 
-from app.analyses import dense_mcp, eigen
-from app.scene_sections import EigSettings
+from app.analyses import conditions, dense_mcp
+from app.scene.sections import EigSettings
 
 
 def _laplacian(n: int, shift: float) -> PETSc.Mat:
@@ -35,7 +35,7 @@ def test_min_sym_eig_with_any_hint(hint):
     h = {None: None, "exact": exact, "inside": 1.7, "far below": -50.0}[hint]
     A = _laplacian(n, shift)
     try:
-        lam = eigen.min_sym_eig(A, EigSettings(), h)
+        lam = conditions.min_sym_eig(A, EigSettings(), h)
     finally:
         A.destroy()
     assert lam == pytest.approx(exact, rel=1e-9, abs=1e-9)

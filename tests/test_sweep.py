@@ -1,4 +1,4 @@
-"""Parameter sweeps (app/sweep.py): expansion into named cases, bad sweep sections, the MPI task
+"""Parameter sweeps (app/study/sweep.py): expansion into named cases, bad sweep sections, the MPI task
 farm (same per-case numbers on 1 rank and on 3 ranks in groups), restart after a kill."""
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ NOT_COMPARED = {"wall_seconds", "ran", "ranks"}
 
 
 def _scene(text: str):
-    from app.config import parse_scene
+    from app.scene.schema import parse_scene
     return parse_scene(yaml.safe_load(text), "s.yaml")
 
 
@@ -53,7 +53,7 @@ def _env():
 
 
 def test_product_expands_in_order_with_stable_names():
-    from app.sweep import expand
+    from app.study.sweep import expand
     cases = expand(_scene(SWEEP))
     assert [c.name for c in cases] == NAMES
     assert [c.index for c in cases] == list(range(6))
@@ -72,7 +72,7 @@ def test_product_expands_in_order_with_stable_names():
 
 
 def test_zip_ranges_and_nested_keys():
-    from app.sweep import expand
+    from app.study.sweep import expand
     text = SWEEP.split("sweep:")[0] + """\
 sweep:
   mode: zip
@@ -174,7 +174,7 @@ def test_ranks_per_case_needs_a_sweep_and_enough_ranks(tmp_path):
 def test_two_particle_sweep_table_restart_and_changed_case(tmp_path):
     """Table rows against the per-case results.json; a second run skips everything; a case whose
     scene changed (hash) is run again, the others are not."""
-    from app.sweep import expand, run_sweep
+    from app.study.sweep import expand, run_sweep
     text = TWO + "sweep: {parameters: {system.signs: [[1, -1], [1, 1], [-1, 1]]}}\n"
     scene = _scene(text)
     cases = expand(scene)

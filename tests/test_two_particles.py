@@ -129,7 +129,7 @@ def test_mu_only_scene_builds_no_mass_matrix():
 
 
 def test_necessary_condition_matches_dense_symmetric_part():
-    from app.systems.particles import particle_matrices
+    from app.systems.particles.path import particle_matrices
     mu = 2.5
     Kd, _ = particle_matrices(K, M, PHI)
     c, s = math.cos(math.radians(PHI)), math.sin(math.radians(PHI))

@@ -13,14 +13,14 @@ import subprocess
 import numpy as np
 import pytest
 
-from app.outputs.fields import _XdmfSeries
+from app.io.xdmf import XdmfSeries
 
 
 def _write(path, steps, rng, part_bytes=64 * 2**20):
     pts = rng.random((50, 2))
     cells = rng.integers(0, 50, (80, 3))
     data = [(rng.random((50, 3)), rng.random(80)) for _ in range(steps)]
-    series = _XdmfSeries(path, part_bytes=part_bytes)
+    series = XdmfSeries(path, part_bytes=part_bytes)
     with series as w:
         w.write_points_cells(pts, [("triangle", cells)])
         for k, (u, vm) in enumerate(data):

@@ -3,13 +3,13 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from app.analyses.classify import classify
 from app.analyses.enumerate import enumerate_mceip
 from app.analyses.pencils import condensed_mu_pencil, dense, reduced_pencil, reduced_space, split_pencils
 from app.analyses.runner import analyse_state
-from app.config import parse_scene
-from app.stages import Stages
-from app.system.discrete import random_contact_problem
+from app.common.stages import Stages
+from app.loading.classify import classify
+from app.scene.schema import parse_scene
+from app.systems.discrete import random_contact_problem
 
 
 def _scene(mu, analyses):

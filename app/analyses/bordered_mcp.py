@@ -12,8 +12,8 @@ from petsc4py import PETSc
 
 from app.analyses.mcp_results import McpSolution
 from app.analyses.pencils import axpy_structure
-from app.config import McpSettings
 from app.linalg import configure_direct, from_options, lu_solver, set_linesearch, with_prefix
+from app.scene.schema import McpSettings
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
 MAX_LIFT_FACTORS = 16   # factorisations of A_ff(t) kept per problem (lifts at a t already seen reuse them)

@@ -27,6 +27,15 @@ def certificate(method: str, interval: tuple[float, float], status: str, seconds
             "rigorous": bool(rigorous)}
 
 
+def enumeration_certificate(sols: list[dict]) -> dict:
+    """``certified``/``certificate`` of a finished exhaustive enumeration: every support was solved."""
+    for x in sols:
+        x["certified"] = True
+    return {"certified": True, "certificate": certificate("exhaustive enumeration (24)-(26), batched LAPACK",
+                                                          (0.0, np.inf), "proven", None,
+                                                          {"solutions": len(sols)}, gap=0.0)}
+
+
 def in_pd_plus_nn(S: np.ndarray) -> bool:
     """Proven: the symmetric ``S`` is in ``PD + NN`` (so strictly copositive). Exact power-of-two
     diagonal scaling, splits ``N = theta * (positive off-diagonal part)``, ``theta`` in
@@ -124,6 +133,27 @@ def _solution_dict(value, x, support, comp, a0, a1, norms: tuple[float, float]) 
 
 
 def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
+    """The ``mceip_mu`` block of results.json: the solutions, the proof's claims, the search."""
+    sols = _solutions(A0, A1, cap, proof, cands, found_by, comp)
+    if proof is None:
+        result, cert, onset, complete, certified = _unproven(sols)
+    else:
+        result, cert, onset, complete, certified = _proven(proof, sols, cap, settings)
+    out = {"solutions": sols, "result": result, "certified": certified, "onset": onset, "complete": complete,
+           "certificate": cert,
+           "search": {"method": "dense semismooth Newton (min-function), batched over starts",
+                      "attempts": rep.starts, "converged": rep.converged,
+                      "rejected_by_exact_check": rep.rejected, "seconds": round(rep.seconds, 4),
+                      "found": len(cands), "intervals": ["[0, inf)"], "complete": certified, "note": rep.note}}
+    if proof is not None:
+        out["_proof"] = {"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
+                         "log": proof.log.to_json(), "pairs": [list(p) for p in proof.log.pairs]}
+    return out
+
+
+def _solutions(A0, A1, cap, proof, cands, found_by, comp) -> list[dict]:
+    """The solutions in the proof (with their enclosures) and the search's candidates it did not
+    rule out, sorted by value and pattern."""
     from app.analyses.enumerate import pencil_scale
     sc = pencil_scale(A0)
     a0, a1 = A0 / sc, A1 / sc
@@ -157,62 +187,60 @@ def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
                   "found_count": len(c.found_by) if c else 1})
         sols.append(d)
     sols.sort(key=lambda d: (d["value"], d["pattern"]))
-    above = sum(1 for d in sols if d["value"] > cap)
-    if proof is None:
-        result = (f"{len(sols)} distinct solution(s) found" if sols else "no solution found") + \
-                 " (not proven: certification switched off, settings.mcp.certify = false)"
-        cert = certificate("none", (0.0, 0.0), "not attempted", 0.0)
-        onset = {"proven": False, "status": "not attempted", "value": None, "enclosure": None}
-        complete = {"proven": False, "status": "not attempted", "interval": [0.0, 0.0], "count": None}
-        certified = False
-    else:
-        o, a = proof.onset, proof.all
-        if o.proven and o.value is not None:
-            pat = next((d["pattern"] for d in sols if abs(d["value"] - o.value) <= 1e-9 * max(1.0, o.value)), [])
-            result = (f"proven onset: mu = {o.value:.10g} (pattern {''.join('S' if q == 'slip' else '-' for q in pat)}, "
-                      f"enclosure [{o.enclosure[0]:.10g}, {o.enclosure[1]:.10g}])")
-        elif o.proven:
-            result = f"proven: no critical mu in [0, {cap:.6g}]"
-        else:
-            result = f"onset {o.status}"
-        if a.proven:
-            result += f"; proven complete: {len(a.values)} critical value(s) in [0, {cap:.6g}]"
-        elif proof.s <= settings.certify_all_max:
-            result += (f"; list {a.status} (budget certify_all_nodes = {settings.certify_all_nodes} tree nodes, "
-                       f"certify_all_seconds = {settings.certify_all_seconds:g} s)")
-        else:
-            result += f"; list not attempted (s = {proof.s} > certify_all_max = {settings.certify_all_max})"
-        if above:
-            result += f"; {above} more found above the cap (not proven)"
-        certified = bool(proof.certified)
-        if certified:
-            status = "proven"
-        elif o.proven:
-            status = "onset proven; list " + ("ill-conditioned" if proof.ill_conditioned else "not proven")
-        else:
-            status = "ill-conditioned" if proof.ill_conditioned else "not proven within budget"
-        cert = certificate(proof.method, (0.0, cap) if certified else a.interval, status, proof.seconds,
-                           {"s": proof.s, "cap": float(cap), "nodes": proof.nodes, "lower_bound": proof.lower_bound,
-                            "check_seconds": round(proof.check_seconds, 4), "candidates": proof.candidates,
-                            "checker": "accepted" if certified else ("onset accepted" if o.proven else "rejected")},
-                           gap=0.0 if certified else (cap - a.interval[1]) / cap)
-        cert["cap"] = float(cap)
-        cert["onset"] = o.value if o.proven else None
-        ill = [d["value"] for d in sols if d.get("ill_conditioned")]
-        if ill:
-            cert["ill_conditioned"] = ill
-        onset = {"proven": o.proven, "status": o.status, "value": o.value,
-                 "enclosure": list(o.enclosure) if o.enclosure else None}
-        complete = {"proven": a.proven, "status": a.status, "interval": list(a.interval),
-                    "count": len(a.values) if a.proven else None}
-    out = {"solutions": sols, "result": result, "certified": certified, "onset": onset, "complete": complete,
-           "certificate": cert,
-           "search": {"method": "dense semismooth Newton (min-function), batched over starts",
-                      "attempts": rep.starts, "converged": rep.converged,
-                      "rejected_by_exact_check": rep.rejected, "seconds": round(rep.seconds, 4),
-                      "found": len(cands), "intervals": ["[0, inf)"], "complete": certified, "note": rep.note}}
-    if proof is not None:
-        out["_proof"] = {"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
-                         "log": proof.log.to_json(), "pairs": [list(p) for p in proof.log.pairs]}
-    return out
+    return sols
 
+
+def _unproven(sols: list[dict]):
+    """(result, certificate, onset, complete, certified) when certification is switched off."""
+    result = (f"{len(sols)} distinct solution(s) found" if sols else "no solution found") + \
+             " (not proven: certification switched off, settings.mcp.certify = false)"
+    cert = certificate("none", (0.0, 0.0), "not attempted", 0.0)
+    onset = {"proven": False, "status": "not attempted", "value": None, "enclosure": None}
+    complete = {"proven": False, "status": "not attempted", "interval": [0.0, 0.0], "count": None}
+    certified = False
+    return result, cert, onset, complete, certified
+
+
+def _proven(proof, sols: list[dict], cap: float, settings):
+    """(result, certificate, onset, complete, certified) of a proof (:mod:`app.analyses.mceip_mu`)."""
+    above = sum(1 for d in sols if d["value"] > cap)
+    o, a = proof.onset, proof.all
+    if o.proven and o.value is not None:
+        pat = next((d["pattern"] for d in sols if abs(d["value"] - o.value) <= 1e-9 * max(1.0, o.value)), [])
+        result = (f"proven onset: mu = {o.value:.10g} (pattern {''.join('S' if q == 'slip' else '-' for q in pat)}, "
+                  f"enclosure [{o.enclosure[0]:.10g}, {o.enclosure[1]:.10g}])")
+    elif o.proven:
+        result = f"proven: no critical mu in [0, {cap:.6g}]"
+    else:
+        result = f"onset {o.status}"
+    if a.proven:
+        result += f"; proven complete: {len(a.values)} critical value(s) in [0, {cap:.6g}]"
+    elif proof.s <= settings.certify_all_max:
+        result += (f"; list {a.status} (budget certify_all_nodes = {settings.certify_all_nodes} tree nodes, "
+                   f"certify_all_seconds = {settings.certify_all_seconds:g} s)")
+    else:
+        result += f"; list not attempted (s = {proof.s} > certify_all_max = {settings.certify_all_max})"
+    if above:
+        result += f"; {above} more found above the cap (not proven)"
+    certified = bool(proof.certified)
+    if certified:
+        status = "proven"
+    elif o.proven:
+        status = "onset proven; list " + ("ill-conditioned" if proof.ill_conditioned else "not proven")
+    else:
+        status = "ill-conditioned" if proof.ill_conditioned else "not proven within budget"
+    cert = certificate(proof.method, (0.0, cap) if certified else a.interval, status, proof.seconds,
+                       {"s": proof.s, "cap": float(cap), "nodes": proof.nodes, "lower_bound": proof.lower_bound,
+                        "check_seconds": round(proof.check_seconds, 4), "candidates": proof.candidates,
+                        "checker": "accepted" if certified else ("onset accepted" if o.proven else "rejected")},
+                       gap=0.0 if certified else (cap - a.interval[1]) / cap)
+    cert["cap"] = float(cap)
+    cert["onset"] = o.value if o.proven else None
+    ill = [d["value"] for d in sols if d.get("ill_conditioned")]
+    if ill:
+        cert["ill_conditioned"] = ill
+    onset = {"proven": o.proven, "status": o.status, "value": o.value,
+             "enclosure": list(o.enclosure) if o.enclosure else None}
+    complete = {"proven": a.proven, "status": a.status, "interval": list(a.interval),
+                "count": len(a.values) if a.proven else None}
+    return result, cert, onset, complete, certified

@@ -26,7 +26,7 @@ from typing import Optional
 
 import numpy as np
 
-from app.analyses.classify import SLIP, Classification
+from app.loading.classify import SLIP, Classification
 
 IDENTITY = (1.0, 0.0, 0.0, 1.0)
 

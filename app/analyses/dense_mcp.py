@@ -150,6 +150,48 @@ def _newton_steps(J: np.ndarray, b: np.ndarray) -> np.ndarray:
     return d
 
 
+def _jacobian(a0: np.ndarray, a1: np.ndarray, Zi: np.ndarray, y: np.ndarray, g: np.ndarray, xa1: np.ndarray,
+              eye: np.ndarray, ones_row: np.ndarray) -> np.ndarray:
+    """Generalised Jacobians of ``Phi`` at the rows ``Zi = (x, mu)`` (``y = A(mu) x``,
+    ``g = e^T x - 1``, ``xa1 = A1 x`` there): the pencil's row where ``x_i > y_i``, ``e_i`` else."""
+    m, n1 = Zi.shape
+    s = n1 - 1
+    x, mu = Zi[:, :s], Zi[:, s]
+    J = np.empty((m, n1, n1))
+    # rows of the pencil: d y / d (x, mu) = [A(mu), A1 x]; rows e_i where x_i <= y_i
+    np.multiply(mu[:, None, None], a1[None], out=J[:, :s, :s])
+    J[:, :s, :s] += a0[None]
+    J[:, :s, s] = xa1
+    use_x = x <= y
+    ri, ci = np.nonzero(use_x)
+    J[ri, ci, :] = eye[ci]
+    use_mu = mu <= g
+    J[:, s, :] = np.where(use_mu[:, None], eye[s][None], ones_row[None])
+    return J
+
+
+def _backtrack(phi, Zi: np.ndarray, d: np.ndarray, base: np.ndarray, moved: np.ndarray, new: tuple, nm: np.ndarray):
+    """The halvings 1/2 ... 1/2^11 of the Newton step ``d`` for the rows that rejected the full
+    step (``~moved``), all at once; the first accepted one is taken. Updates ``moved``, the new
+    iterates and their ``phi`` values (``new = (Z, F, y, g, xa1)``) and norms ``nm`` in place."""
+    todo = np.flatnonzero(~moved)
+    if not len(todo):
+        return
+    n1 = Zi.shape[1]
+    steps = 0.5 ** np.arange(1, 12)
+    Zt = (Zi[todo, None, :] + steps[None, :, None] * d[todo, None, :]).reshape(-1, n1)
+    Ft, yt, gt, xt = phi(Zt)
+    nt = np.linalg.norm(Ft, axis=1).reshape(len(todo), len(steps))
+    okt = np.isfinite(nt) & (nt <= (1 - 1e-4 * steps[None, :]) * base[todo, None])
+    hit = okt.any(axis=1)
+    first = np.argmax(okt, axis=1)[hit]
+    rows, pick = todo[hit], np.flatnonzero(hit) * len(steps) + first
+    moved[rows] = True
+    for arr, trial in zip(new, (Zt, Ft, yt, gt, xt)):
+        arr[rows] = trial[pick]
+    nm[rows] = nt[hit, first]
+
+
 def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int = 60,
                       tol: float = 1e-13, stagnation_its: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Batched semismooth Newton on ``min(x, A(mu) x) = 0, min(mu, e^T x - 1) = 0`` from the rows
@@ -186,19 +228,8 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         idx = np.flatnonzero(active)
         if not len(idx):
             break
-        m = len(idx)
         Zi = Z[idx]
-        x, mu = Zi[:, :s], Zi[:, s]
-        J = np.empty((m, n1, n1))
-        # rows of the pencil: d y / d (x, mu) = [A(mu), A1 x]; rows e_i where x_i <= y_i
-        np.multiply(mu[:, None, None], a1[None], out=J[:, :s, :s])
-        J[:, :s, :s] += a0[None]
-        J[:, :s, s] = xa1[idx]
-        use_x = x <= y[idx]
-        ri, ci = np.nonzero(use_x)
-        J[ri, ci, :] = eye[ci]
-        use_mu = mu <= g[idx]
-        J[:, s, :] = np.where(use_mu[:, None], eye[s][None], ones_row[None])
+        J = _jacobian(a0, a1, Zi, y[idx], g[idx], xa1[idx], eye, ones_row)
         d = _newton_steps(J, -F[idx])
         # monotone backtracking on |Phi|: the full step for every row, then the halvings
         # 1/2 ... 1/2^11 of the rows that rejected it, all at once (the first accepted one is taken)
@@ -207,19 +238,7 @@ def semismooth_newton(a0: np.ndarray, a1: np.ndarray, Z: np.ndarray, max_it: int
         Fm, ym, gm, xm = phi(newZ)
         nm = np.linalg.norm(Fm, axis=1)
         moved = np.isfinite(nm) & (nm <= (1 - 1e-4) * base)
-        todo = np.flatnonzero(~moved)
-        if len(todo):
-            steps = 0.5 ** np.arange(1, 12)
-            Zt = (Zi[todo, None, :] + steps[None, :, None] * d[todo, None, :]).reshape(-1, n1)
-            Ft, yt, gt, xt = phi(Zt)
-            nt = np.linalg.norm(Ft, axis=1).reshape(len(todo), len(steps))
-            okt = np.isfinite(nt) & (nt <= (1 - 1e-4 * steps[None, :]) * base[todo, None])
-            hit = okt.any(axis=1)
-            first = np.argmax(okt, axis=1)[hit]
-            rows, pick = todo[hit], np.flatnonzero(hit) * len(steps) + first
-            moved[rows] = True
-            newZ[rows], Fm[rows], ym[rows], gm[rows], xm[rows] = Zt[pick], Ft[pick], yt[pick], gt[pick], xt[pick]
-            nm[rows] = nt[hit, first]
+        _backtrack(phi, Zi, d, base, moved, (newZ, Fm, ym, gm, xm), nm)
         im = idx[moved]
         Z[im] = newZ[moved]
         F[im], y[im], g[im], xa1[im], nrm[im] = Fm[moved], ym[moved], gm[moved], xm[moved], nm[moved]
@@ -253,15 +272,7 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
     a0, a1 = A0 / scale, A1 / scale
     large = full_max is not None and s > full_max
     if large:
-        Z0, labels = _reduced_starts(a0, a1, list(mu0s), pairs, one_node)
-        rows, wl = [], []
-        for x, mu in warm or []:            # first, so that the evidence (found_by[:8]) shows them
-            x = np.maximum(np.asarray(x, dtype=float), 0.0)
-            if x.shape == (s,) and x.sum() > 0 and np.isfinite(mu) and mu >= 0:
-                rows.append(np.append(x / x.sum(), mu))
-                wl.append(f"previous classification's solution (mu={mu:.6g})")
-        if rows:
-            Z0, labels = np.vstack([np.array(rows), Z0]), wl + labels
+        Z0, labels = _large_starts(a0, a1, mu0s, pairs, one_node, warm)
         note = (f"reduced start set (s = {s} > search_full_max = {full_max}): uniform x and x on {one_node} "
                 "evenly spaced unknowns with every mu0, and the all-slip eigenvectors (25); "
                 f"runs stagnating for {stagnation_its} iterations stopped")
@@ -271,9 +282,43 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
         note = None
     Z, nrm, its = semismooth_newton(a0, a1, Z0, max_it=max_it, stagnation_its=stagnation_its if large else 0)
     conv = np.flatnonzero(np.isfinite(nrm) & (nrm <= 1e-9) & (Z[:, s] >= 0))
+    cache: dict[tuple, list[PatternSolution]] = {}
+    found, rejected = _exact_candidates(A0, A1, Z, nrm, its, conv, labels, pairs, t_max, cache)
+    _neighbours(A0, A1, found, set(cache), pairs, t_max, neighbour_rounds)
+    cands = sorted(found.values(), key=lambda c: c.exact.value)
+    rep = DenseSearchReport(candidates=cands, starts=len(Z0), converged=len(conv), rejected=rejected,
+                            seconds=time.perf_counter() - t0)
+    if note:
+        rep.note = f"{rep.note}; {note}"
+    return rep
+
+
+def _large_starts(a0: np.ndarray, a1: np.ndarray, mu0s, pairs: list[tuple[int, int]], one_node: int,
+                  warm: list[tuple[np.ndarray, float]] | None) -> tuple[np.ndarray, list[str]]:
+    """The reduced start set of a large problem, the ``warm`` starts first (so that the evidence,
+    ``found_by[:8]``, shows them)."""
+    s = a0.shape[0]
+    Z0, labels = _reduced_starts(a0, a1, list(mu0s), pairs, one_node)
+    rows, wl = [], []
+    for x, mu in warm or []:
+        x = np.maximum(np.asarray(x, dtype=float), 0.0)
+        if x.shape == (s,) and x.sum() > 0 and np.isfinite(mu) and mu >= 0:
+            rows.append(np.append(x / x.sum(), mu))
+            wl.append(f"previous classification's solution (mu={mu:.6g})")
+    if rows:
+        Z0, labels = np.vstack([np.array(rows), Z0]), wl + labels
+    return Z0, labels
+
+
+def _exact_candidates(A0: np.ndarray, A1: np.ndarray, Z: np.ndarray, nrm: np.ndarray, its: np.ndarray,
+                      conv: np.ndarray, labels: list[str], pairs: list[tuple[int, int]], t_max: float,
+                      cache: dict) -> tuple[dict[tuple, Candidate], int]:
+    """The converged runs ``conv`` re-solved exactly on their supports (eq. (25), checks (26)):
+    ``(candidates by (value, support), number of runs rejected)``; ``cache`` keeps every support's
+    exact solutions."""
+    s = A0.shape[0]
     found: dict[tuple, Candidate] = {}
     rejected = 0
-    cache: dict[tuple, list[PatternSolution]] = {}
     for b in conv:
         x = Z[b, :s].copy()
         for ia, ib in pairs:
@@ -306,11 +351,16 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
         if c is None:
             c = found[k] = Candidate(exact=ex, newton_value=mu, newton_residual=float(nrm[b]), iterations=int(its[b]))
         c.found_by.append(f"semismooth Newton from {labels[b]} ({its[b]} it.)")
-    # Pattern neighbourhoods: the exact eigenpairs (25) of every support one flip away from a
-    # found one (batched), repeated while they give new solutions.
-    tried = set(cache)
+    return found, rejected
+
+
+def _neighbours(A0: np.ndarray, A1: np.ndarray, found: dict[tuple, Candidate], tried: set,
+                pairs: list[tuple[int, int]], t_max: float, rounds: int) -> None:
+    """Pattern neighbourhoods: the exact eigenpairs (25) of every support one flip away from a
+    found one (batched), repeated while they give new solutions (added to ``found``)."""
+    s = A0.shape[0]
     frontier = [k for _, k in found]
-    for _ in range(neighbour_rounds):
+    for _ in range(rounds):
         nxt = []
         for key in frontier:
             base = np.array(key)
@@ -332,9 +382,3 @@ def search(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]] | None =
                 found[k] = Candidate(exact=ex, newton_value=float("nan"), newton_residual=float("nan"), iterations=0,
                                      found_by=["exact eigenpair (25) of a pattern one flip from a found one"])
                 frontier.append(k[1])
-    cands = sorted(found.values(), key=lambda c: c.exact.value)
-    rep = DenseSearchReport(candidates=cands, starts=len(Z0), converged=len(conv), rejected=rejected,
-                            seconds=time.perf_counter() - t0)
-    if note:
-        rep.note = f"{rep.note}; {note}"
-    return rep

@@ -188,22 +188,57 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
         from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
         proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, deadline=time.perf_counter() + seconds)
     if proof is None or not proof.proven:
-        first = sols[0]["value"] if sols else None
-        why = ("" if proof is None else
-               f"; the exact proof left {len(proof.undecided)} support(s) undecided, e.g. {proof.undecided[0][1]}")
-        result = ((f"{len(sols)} solution(s) found, smallest mu = {first:.10g}" if sols else "no solution found")
-                  + " (found by exhaustive floating-point enumeration of the quadratic pattern problems, not proven"
-                  + (f": s = {s} > {PROOF_MAX_S}, the exact proof not attempted" if proof is None and certify and s > PROOF_MAX_S
-                     else "") + why + ")")
-        return {"solutions": sols, "result": result, "certified": False,
-                "onset": {"proven": False, "status": "found, not proven", "value": first, "enclosure": None},
-                "complete": {"proven": False, "status": "found, not proven", "interval": [0.0, 0.0], "count": None},
-                "certificate": certificate("none (floating-point enumeration)", (0.0, 0.0),
-                                           "not proven: exhaustive floating-point enumeration of the 2^s supports",
-                                           time.perf_counter() - t0, {"s": s, "cap": float(cap), "solutions": len(sols),
-                                                                      **({"undecided": len(proof.undecided)} if proof else {})}),
-                "search": search, "quadratic": True}
-    # the proof is complete on [0, cap]: its list replaces the candidates there
+        return _unproven(sols, search, proof, s, cap, certify, t0)
+    out, rejected = _proven_list(A0, A1, A2, sols, proof, cap)
+    out.sort(key=lambda d: (d["value"], d["pattern"]))
+    on = proof.onset
+    pat = "".join("S" if i in on.support else "-" for i in range(s)) if on else ""
+    result = ((f"proven onset: mu = {on.value:.10g} (pattern {pat}, enclosure [{on.enclosure[0]:.10g}, "
+               f"{on.enclosure[1]:.10g}])" if on else f"proven: no critical mu in [0, {cap:.6g}]")
+              + f"; proven complete: {len(proof.solutions)} critical value(s) in [0, {cap:.6g}]"
+              + (f"; {sum(1 for d in out if d['value'] > cap)} more found above the cap (not proven)"
+                 if any(d["value"] > cap for d in out) else ""))
+    method = ("exact determinant polynomial of every support (rational arithmetic), its real roots isolated, "
+              "the signs of the null vector and of y by ball arithmetic (FLINT)")
+    return {"solutions": out, "result": result, "certified": True,
+            "onset": {"proven": True, "status": "proven", "value": on.value if on else None,
+                      "enclosure": list(on.enclosure) if on else None},
+            "complete": {"proven": True, "status": "proven", "interval": [0.0, float(cap)], "count": len(proof.solutions)},
+            "certificate": {**certificate(method, (0.0, cap), "proven", time.perf_counter() - t0,
+                                          {"s": s, "cap": float(cap), "supports": proof.supports,
+                                           "proof_seconds": round(proof.seconds, 4),
+                                           "rejected_floating_point_candidates": rejected}, gap=0.0),
+                            "cap": float(cap), "onset": on.value if on else None},
+            "search": {**search, "complete": True}, "quadratic": True}
+
+
+def _unproven(sols: list[dict], search: dict, proof, s: int, cap: float, certify: bool, t0: float) -> dict:
+    """The record when the exact proof was not attempted or left supports undecided: the
+    enumerated solutions, found, not proven."""
+    from app.analyses.certify import certificate  # the certificate record's format only
+    first = sols[0]["value"] if sols else None
+    why = ("" if proof is None else
+           f"; the exact proof left {len(proof.undecided)} support(s) undecided, e.g. {proof.undecided[0][1]}")
+    result = ((f"{len(sols)} solution(s) found, smallest mu = {first:.10g}" if sols else "no solution found")
+              + " (found by exhaustive floating-point enumeration of the quadratic pattern problems, not proven"
+              + (f": s = {s} > {PROOF_MAX_S}, the exact proof not attempted" if proof is None and certify and s > PROOF_MAX_S
+                 else "") + why + ")")
+    return {"solutions": sols, "result": result, "certified": False,
+            "onset": {"proven": False, "status": "found, not proven", "value": first, "enclosure": None},
+            "complete": {"proven": False, "status": "found, not proven", "interval": [0.0, 0.0], "count": None},
+            "certificate": certificate("none (floating-point enumeration)", (0.0, 0.0),
+                                       "not proven: exhaustive floating-point enumeration of the 2^s supports",
+                                       time.perf_counter() - t0, {"s": s, "cap": float(cap), "solutions": len(sols),
+                                                                  **({"undecided": len(proof.undecided)} if proof else {})}),
+            "search": search, "quadratic": True}
+
+
+def _proven_list(A0, A1, A2, sols: list[dict], proof, cap: float) -> tuple[list[dict], int]:
+    """The proof is complete on ``[0, cap]``: its list replaces the floating-point candidates
+    there (each matched one ``certified`` with its enclosure, the others dropped as rounding
+    artefacts, the proven ones the enumeration missed added). Returns the solutions and the
+    number of dropped candidates."""
+    s = A0.shape[0]
     out, rejected = [], 0
     unmatched = list(proof.solutions)
     for d in sols:
@@ -225,26 +260,7 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
         out.append({"value": p.value, "x_Ts": x, "pattern": ["slip" if i in p.support else "stick" for i in range(s)],
                     "certified": True, "enclosure": list(p.enclosure), "found_by": ["exact proof"], "found_count": 1,
                     "iterations": 0, "ill_conditioned": False})
-    out.sort(key=lambda d: (d["value"], d["pattern"]))
-    on = proof.onset
-    pat = "".join("S" if i in on.support else "-" for i in range(s)) if on else ""
-    result = ((f"proven onset: mu = {on.value:.10g} (pattern {pat}, enclosure [{on.enclosure[0]:.10g}, "
-               f"{on.enclosure[1]:.10g}])" if on else f"proven: no critical mu in [0, {cap:.6g}]")
-              + f"; proven complete: {len(proof.solutions)} critical value(s) in [0, {cap:.6g}]"
-              + (f"; {sum(1 for d in out if d['value'] > cap)} more found above the cap (not proven)"
-                 if any(d["value"] > cap for d in out) else ""))
-    method = ("exact determinant polynomial of every support (rational arithmetic), its real roots isolated, "
-              "the signs of the null vector and of y by ball arithmetic (FLINT)")
-    return {"solutions": out, "result": result, "certified": True,
-            "onset": {"proven": True, "status": "proven", "value": on.value if on else None,
-                      "enclosure": list(on.enclosure) if on else None},
-            "complete": {"proven": True, "status": "proven", "interval": [0.0, float(cap)], "count": len(proof.solutions)},
-            "certificate": {**certificate(method, (0.0, cap), "proven", time.perf_counter() - t0,
-                                          {"s": s, "cap": float(cap), "supports": proof.supports,
-                                           "proof_seconds": round(proof.seconds, 4),
-                                           "rejected_floating_point_candidates": rejected}, gap=0.0),
-                            "cap": float(cap), "onset": on.value if on else None},
-            "search": {**search, "complete": True}, "quadratic": True}
+    return out, rejected
 
 
 def _null_vector(A0, A1, A2, support, mu) -> list[float]:

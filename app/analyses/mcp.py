@@ -27,8 +27,8 @@ from petsc4py import PETSc
 from app.analyses.bordered_mcp import RSLS, SSLS, BorderedMcp
 from app.analyses.mcp_results import McpSolution, SearchReport
 from app.analyses.pencils import dense, diag_scale
-from app.config import McpSettings
 from app.linalg import owned
+from app.scene.schema import McpSettings
 
 __all__ = ["RSLS", "SSLS", "BorderedMcp", "McpSolution", "SearchReport", "search_mceip"]
 
@@ -101,17 +101,42 @@ def _search(op: BorderedMcp, S0: PETSc.Mat, S1: PETSc.Mat, comp: np.ndarray, pro
     # positions of split pairs within x_c (a pattern with both a and b active is degenerate)
     cpos = {int(c): k for k, c in enumerate(comp)}
     cpairs = [(cpos[a], cpos[b]) for a, b in (pairs or [])]
-    report = SearchReport(problem=problem, solutions=[])
-    done: set = set()
-    tol = settings.accept_tol
-    top = t_upper / tau if np.isfinite(t_upper) else PETSc.INFINITY
+    run = _Runs(op, comp, problem, settings, tau, t_upper)
+    report = run.report
     dense_ops = None
     if op.n <= settings.pattern_eig_limit:
         dense_ops = (dense(S0), dense(S1))
+    x0s = _global_starts(run, s, t_upper)
+    expanded: set[tuple[bool, ...]] = set()
+    searched: set[tuple[float, float]] = set()
+    for _ in range(settings.shift_rounds):
+        n_before = len(report.solutions)
+        if dense_ops is not None:
+            _pattern_neighbourhoods(run, dense_ops, s, cpairs, expanded)
+        _gaps(run, x0s, dense_ops is not None, searched)
+        if len(report.solutions) == n_before:
+            break
+    return report
 
-    def attempt(method: str, x0: np.ndarray, label: str, t0: float, tbar: float = 0.0,
+
+class _Runs:
+    """The SNES VI runs of one search on the scaled problem ``op``, and its report: a run is a
+    deterministic function of its start, bounds and method, so an identical run is not repeated."""
+
+    def __init__(self, op: BorderedMcp, comp: np.ndarray, problem: str, settings: McpSettings, tau: float,
+                 t_upper: float):
+        self.op, self.comp, self.settings, self.tau = op, comp, settings, tau
+        self.report = SearchReport(problem=problem, solutions=[])
+        self.done: set = set()
+        self.tol = settings.accept_tol
+        self.top = t_upper / tau if np.isfinite(t_upper) else PETSc.INFINITY
+
+    def attempt(self, method: str, x0: np.ndarray, label: str, t0: float, tbar: float = 0.0,
                 sigma: float = 1.0, zeta_max: float | None = None,
                 x_start: np.ndarray | None = None) -> McpSolution | None:
+        """One run from ``x0`` (or the lifted ``x_start``) and ``t0`` on ``t = tbar + sigma zeta``,
+        ``0 <= zeta <= zeta_max``; the new solution it found, if any (added to the report)."""
+        op, top, report = self.op, self.top, self.report
         if zeta_max is None:
             zeta_max = top - tbar if sigma > 0 else tbar
         t0 = min(t0, 0.5 * (tbar + top)) if np.isfinite(top) else t0
@@ -121,12 +146,32 @@ def _search(op: BorderedMcp, S0: PETSc.Mat, S1: PETSc.Mat, comp: np.ndarray, pro
         key = (method, zeta0, tbar, sigma, zeta_max,
                (x0 / max(np.sum(x0), 1e-300)).tobytes() + np.float64(t0).tobytes() if x_start is None
                else x_start.tobytes())
-        if key in done:
+        if key in self.done:
             report.skipped_identical += 1
             return None
-        done.add(key)
+        self.done.add(key)
         if x_start is None:
             x_start = op.lift(x0 / max(np.sum(x0), 1e-300), t0)
+        x, t, reason, its, tag = self._solve(method, x0, zeta0, tbar, sigma, zeta_max, x_start)
+        report.attempts += 1
+        stats = report.by_method.setdefault(tag, {"attempts": 0, "converged": 0, "accepted": 0})
+        stats["attempts"] += 1
+        if reason > 0:
+            report.converged += 1
+            stats["converged"] += 1
+        zeta = (t - tbar) * sigma
+        if (tbar > 0 and zeta <= 1e-12 * max(tbar, 1.0)) or (np.isfinite(zeta_max) and zeta >= zeta_max * (1 - 1e-12)):
+            return None  # stopped on an artificial bound of a shifted search: not a solution
+        sol = op.check(x, t, self.tol)
+        if sol is None:
+            return None
+        return self._accept(sol, t, its, f"{tag} from {label}, t0={t0 * self.tau:.6g}", stats)
+
+    def _solve(self, method: str, x0: np.ndarray, zeta0: float, tbar: float, sigma: float, zeta_max: float,
+               x_start: np.ndarray):
+        """``(x, t, reason, its, tag)`` of one run; a semismooth result is polished by the
+        reduced-space solver (``tag``: the method or methods)."""
+        op, settings, comp = self.op, self.settings, self.comp
         x, t, reason, its = op.solve(method, x0, zeta0, tbar, sigma, zeta_max, settings,
                                      x_full=x_start * op.c)
         tag = method
@@ -139,28 +184,22 @@ def _search(op: BorderedMcp, S0: PETSc.Mat, S1: PETSc.Mat, comp: np.ndarray, pro
                 x, t, reason, its2 = op.solve(RSLS, xs, zeta, tbar, sigma, zeta_max, settings, x_full=xp)
                 its += its2
                 tag = f"{SSLS}+{RSLS}"
-        report.attempts += 1
-        stats = report.by_method.setdefault(tag, {"attempts": 0, "converged": 0, "accepted": 0})
-        stats["attempts"] += 1
-        if reason > 0:
-            report.converged += 1
-            stats["converged"] += 1
-        zeta = (t - tbar) * sigma
-        if (tbar > 0 and zeta <= 1e-12 * max(tbar, 1.0)) or (np.isfinite(zeta_max) and zeta >= zeta_max * (1 - 1e-12)):
-            return None  # stopped on an artificial bound of a shifted search: not a solution
-        sol = op.check(x, t, tol)
-        if sol is None:
-            return None
+        return x, t, reason, its, tag
+
+    def _accept(self, sol: McpSolution, t: float, its: int, found_by: str, stats: dict) -> McpSolution | None:
+        """A checked solution, polished on the unshifted problem; None if it was already found."""
+        op, comp, report = self.op, self.comp, self.report
         # Final polish on the unshifted problem: a true solution is a fixed point of it.
-        x2, t2, reason2, its2 = op.solve(RSLS, sol.x[comp], t, 0.0, 1.0, PETSc.INFINITY, settings, x_full=sol.x * op.c)
-        sol2 = op.check(x2, t2, tol) if reason2 > 0 else None
+        x2, t2, reason2, its2 = op.solve(RSLS, sol.x[comp], t, 0.0, 1.0, PETSc.INFINITY, self.settings,
+                                         x_full=sol.x * op.c)
+        sol2 = op.check(x2, t2, self.tol) if reason2 > 0 else None
         if sol2 is not None and abs(sol2.value - sol.value) <= 1e-6 * max(1.0, sol.value):
             sol, its = sol2, its + its2
         report.accepted += 1
         stats["accepted"] += 1
-        sol.value *= tau
+        sol.value *= self.tau
         sol.iterations = its
-        sol.found_by.append(f"{tag} from {label}, t0={t0 * tau:.6g}")
+        sol.found_by.append(found_by)
         for old in report.solutions:
             if _same(old, sol, 1e-7):
                 old.found_by.extend(sol.found_by)
@@ -168,6 +207,11 @@ def _search(op: BorderedMcp, S0: PETSc.Mat, S1: PETSc.Mat, comp: np.ndarray, pro
         report.solutions.append(sol)
         return sol
 
+
+def _global_starts(run: _Runs, s: int, t_upper: float) -> list[tuple[str, np.ndarray]]:
+    """Phase 1: uniform ``x_Ts`` with the configured ``t0``, then the one-node starts with their
+    least-squares ``t0``, both methods each; returns the starts ``(label, x0)``."""
+    op, settings, report = run.op, run.settings, run.report
     uniform = np.ones(s)
     x0s = [("uniform x_Ts", uniform)]
     if settings.pattern_starts and s > 1:
@@ -178,64 +222,69 @@ def _search(op: BorderedMcp, S0: PETSc.Mat, S1: PETSc.Mat, comp: np.ndarray, pro
     report.intervals.append(f"[0, {t_upper:.10g}]" if np.isfinite(t_upper) else "[0, inf)")
     for t0 in settings.starts:
         for method in (RSLS, SSLS):
-            attempt(method, uniform, "uniform x_Ts", t0)
+            run.attempt(method, uniform, "uniform x_Ts", t0)
     for label, x0 in x0s:
         t0, xs = op.consistent_t(x0 / np.sum(x0))
         if t0 is not None:
             for method in (RSLS, SSLS):
-                attempt(method, x0, label + " (least-squares t0)", t0, x_start=xs)
+                run.attempt(method, x0, label + " (least-squares t0)", t0, x_start=xs)
+    return x0s
 
-    expanded: set[tuple[bool, ...]] = set()
-    searched: set[tuple[float, float]] = set()
-    for _ in range(settings.shift_rounds):
-        n_before = len(report.solutions)
-        # Phase 2: pattern neighbourhoods.
-        if dense_ops is not None:
-            if "pattern eigenvector starts" not in report.starts:
-                report.starts.append("pattern eigenvector starts")
-            # Nothing found yet: expand around the all-slip pattern instead (phases 2-3 must
-            # run even when the first starts found nothing).
-            bases = ([tuple(p == "slip" for p in sol.pattern) for sol in report.solutions]
-                     or [tuple(True for _ in range(s))])
-            for base in bases:
-                on = [i for i in range(s) if base[i]]
-                off = [i for i in range(s) if not base[i]]
-                # the pattern itself, one node flipped, and one slip node swapped with a stick node
-                moves = [()] + [(j,) for j in range(s)] + [(i, j) for i in on for j in off]
-                for move in moves:
-                    pat = list(base)
-                    for j in move:
-                        pat[j] = not pat[j]
-                    pat = tuple(pat)
-                    if pat in expanded or not any(pat) or any(pat[a] and pat[b] for a, b in cpairs):
-                        continue
-                    expanded.add(pat)
-                    slip = np.flatnonzero(pat)
-                    for t0, xc in _pattern_eig_starts(*dense_ops, op.comp, slip):
-                        attempt(RSLS, xc, "eigenvector of pattern " + "".join("S" if q else "-" for q in pat), t0)
-        # Phase 3: gaps between the values found (paper section 4).
-        values = sorted({round(sol.value / tau, 12) for sol in report.solutions})
-        edges = [0.0] + [v for v in values for _ in (0, 1)] + [top if np.isfinite(top) else np.inf]
-        for lo, hi in zip(edges[0::2], edges[1::2]):
-            lo = lo * (1 + 1e-6)
-            hi = hi * (1 - 1e-6) if np.isfinite(hi) else hi
-            key = (round(lo, 12), round(hi, 12))
-            if hi <= lo or key in searched:
+
+def _pattern_neighbourhoods(run: _Runs, dense_ops, s: int, cpairs: list[tuple[int, int]],
+                            expanded: set[tuple[bool, ...]]) -> None:
+    """Phase 2: the eigenvectors of the patterns of the solutions found (the all-slip pattern
+    when none is), of those with one node flipped and one slip node swapped with a stick node."""
+    report = run.report
+    if "pattern eigenvector starts" not in report.starts:
+        report.starts.append("pattern eigenvector starts")
+    # Nothing found yet: expand around the all-slip pattern instead (phases 2-3 must
+    # run even when the first starts found nothing).
+    bases = ([tuple(p == "slip" for p in sol.pattern) for sol in report.solutions]
+             or [tuple(True for _ in range(s))])
+    for base in bases:
+        on = [i for i in range(s) if base[i]]
+        off = [i for i in range(s) if not base[i]]
+        # the pattern itself, one node flipped, and one slip node swapped with a stick node
+        moves = [()] + [(j,) for j in range(s)] + [(i, j) for i in on for j in off]
+        for move in moves:
+            pat = list(base)
+            for j in move:
+                pat[j] = not pat[j]
+            pat = tuple(pat)
+            if pat in expanded or not any(pat) or any(pat[a] and pat[b] for a, b in cpairs):
                 continue
-            searched.add(key)
-            report.intervals.append(f"[{lo * tau:.10g}, {hi * tau:.10g}]" if np.isfinite(hi)
-                                    else f"[{lo * tau:.10g}, inf)")
-            zmax = hi - lo if np.isfinite(hi) else PETSc.INFINITY
-            guesses = [0.5 * (lo + hi)] if np.isfinite(hi) else [2.0 * lo + 1.0, 10.0 * lo + 10.0]
-            for t0 in guesses:
-                for method in (RSLS, SSLS):
-                    attempt(method, uniform, "uniform x_Ts, t in gap", t0, tbar=lo, sigma=1.0, zeta_max=zmax)
-            gap_starts = [(label, x0) for label, x0 in x0s[1:] if label.startswith("x_Ts on")]
-            for label, x0 in (gap_starts if dense_ops is not None else []):  # one-node starts again, boxed in the gap
-                t_ls, xs = op.consistent_t(x0 / np.sum(x0), t_guess=guesses[0])
-                t0 = t_ls if t_ls is not None and lo <= t_ls <= hi else guesses[0]
-                attempt(RSLS, x0, f"{label}, t in gap", t0, tbar=lo, sigma=1.0, zeta_max=zmax,
+            expanded.add(pat)
+            slip = np.flatnonzero(pat)
+            for t0, xc in _pattern_eig_starts(*dense_ops, run.op.comp, slip):
+                run.attempt(RSLS, xc, "eigenvector of pattern " + "".join("S" if q else "-" for q in pat), t0)
+
+
+def _gaps(run: _Runs, x0s: list[tuple[str, np.ndarray]], one_node_starts: bool,
+          searched: set[tuple[float, float]]) -> None:
+    """Phase 3 (the paper's section 4): every interval between the values found, searched with
+    ``t = lo + zeta``, ``0 <= zeta <= hi - lo``."""
+    op, tau, top, report = run.op, run.tau, run.top, run.report
+    uniform = x0s[0][1]
+    values = sorted({round(sol.value / tau, 12) for sol in report.solutions})
+    edges = [0.0] + [v for v in values for _ in (0, 1)] + [top if np.isfinite(top) else np.inf]
+    for lo, hi in zip(edges[0::2], edges[1::2]):
+        lo = lo * (1 + 1e-6)
+        hi = hi * (1 - 1e-6) if np.isfinite(hi) else hi
+        key = (round(lo, 12), round(hi, 12))
+        if hi <= lo or key in searched:
+            continue
+        searched.add(key)
+        report.intervals.append(f"[{lo * tau:.10g}, {hi * tau:.10g}]" if np.isfinite(hi)
+                                else f"[{lo * tau:.10g}, inf)")
+        zmax = hi - lo if np.isfinite(hi) else PETSc.INFINITY
+        guesses = [0.5 * (lo + hi)] if np.isfinite(hi) else [2.0 * lo + 1.0, 10.0 * lo + 10.0]
+        for t0 in guesses:
+            for method in (RSLS, SSLS):
+                run.attempt(method, uniform, "uniform x_Ts, t in gap", t0, tbar=lo, sigma=1.0, zeta_max=zmax)
+        gap_starts = [(label, x0) for label, x0 in x0s[1:] if label.startswith("x_Ts on")]
+        for label, x0 in (gap_starts if one_node_starts else []):  # one-node starts again, boxed in the gap
+            t_ls, xs = op.consistent_t(x0 / np.sum(x0), t_guess=guesses[0])
+            t0 = t_ls if t_ls is not None and lo <= t_ls <= hi else guesses[0]
+            run.attempt(RSLS, x0, f"{label}, t in gap", t0, tbar=lo, sigma=1.0, zeta_max=zmax,
                         x_start=xs if t_ls is not None and lo <= t_ls <= hi else None)
-        if len(report.solutions) == n_before:
-            break
-    return report

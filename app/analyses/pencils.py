@@ -20,8 +20,8 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.analyses.classify import FREE, SLIP, STICK, ZERO, Classification
-from app.system.base import System
+from app.loading.classify import FREE, SLIP, STICK, ZERO, Classification
+from app.systems.base import System
 
 
 class UnsupportedState(Exception):

@@ -14,15 +14,19 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.analyses import curvature
-from app.analyses.classify import Classification
 from app.analyses.pencils import (
     combine,
     condensed_mu_pencil,
     reduced_pencil,
     reduced_space,
 )
-from app.config import Scene
-from app.system.base import System
+from app.loading.classify import Classification
+from app.scene.schema import Scene
+from app.systems.base import System
+
+#: most DOFs of a full-size pencil the analyses turn into dense matrices (enumeration of
+#: MCEIP-lambda^2, zero-reaction nodes); refused above
+FULL_DENSE_LIMIT = 3000
 
 
 def seq_aij(A: np.ndarray) -> PETSc.Mat:
@@ -137,7 +141,7 @@ def warm_hints(system: System, mu: float) -> dict:
 
 
 def keep_modes(scene: Scene) -> bool:
-    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/outputs/fields.py."""
+    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/io/fields.py."""
     outputs = getattr(scene, "outputs", None)
     return bool(outputs is not None and outputs.fields)
 

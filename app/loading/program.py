@@ -12,7 +12,7 @@ scaled by ``c`` so that the normal resultant ``-sum r_N`` is F at its end; the l
 phase (``fixed``: forces, tractions, gravity) are applied as given. When the phase starts from the
 unloaded state with zero gaps and no loads (in it or before), every increment is positively homogeneous in ``c``
 (docs/method.md section 5): one trial run gives the exact factor, as for the built-in block
-(app/loading/block_path.py), and the same two runs are made here. Otherwise ``c`` is bracketed
+(app/systems/block/path.py), and the same two runs are made here. Otherwise ``c`` is bracketed
 (doubled until the force is passed, e.g. to close gaps) and found by regula falsi (Illinois); either way the reached force is checked to 1e-10 relative.
 """
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from app.analyses.classify import FREE, SLIP, classify
+from app.loading.classify import FREE, SLIP, classify
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.state import EquilibriumState
 

@@ -18,10 +18,10 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from app.systems.block_schema import Block
-from app.systems.gmsh_schema import GmshBody
-from app.systems.matrices_schema import Matrices
-from app.systems.particles_schema import TwoParticles
+from app.systems.block.schema import Block
+from app.systems.gmsh.schema import GmshBody
+from app.systems.matrices.schema import Matrices
+from app.systems.particles.schema import TwoParticles
 
 
 @dataclass(frozen=True)
@@ -43,7 +43,7 @@ class SystemType:
         return importlib.import_module(self.module)
 
     def build(self, cfg: Any, comm, stages):
-        """The :class:`app.system.base.System` of ``cfg`` (MPI collective)."""
+        """The :class:`app.systems.base.System` of ``cfg`` (MPI collective)."""
         return self._impl().build(cfg, comm, stages)
 
     def preload(self) -> None:
@@ -72,17 +72,17 @@ def get(name: str) -> SystemType:
 
 
 def schemas() -> tuple[type, ...]:
-    """Schemas of the registered types, for the ``system`` union of :class:`app.config.Scene`."""
+    """Schemas of the registered types, for the ``system`` union of :class:`app.scene.schema.Scene`."""
     return tuple(t.schema for t in SYSTEM_TYPES.values())
 
 
-register(SystemType("two_particles", TwoParticles, "app.systems.particles",
+register(SystemType("two_particles", TwoParticles, "app.systems.particles.path",
                     "the paper's two-particle system (section 5, Fig. 1): one state in impending slip"))
-register(SystemType("block", Block, "app.systems.block",
+register(SystemType("block", Block, "app.systems.block.path",
                     "the elastic block of Villechaise and Zeghloul: Gmsh + DOLFINx, press CD then drag it",
                     contact_line="AB", position_axis="position along AB, x [{length}] (A at x = 0)"))
-register(SystemType("matrices", Matrices, "app.systems.matrices",
+register(SystemType("matrices", Matrices, "app.systems.matrices.path",
                     "K (and M) from Matrix Market or PETSc binary files, contact DOF pairs"))
-register(SystemType("gmsh", GmshBody, "app.systems.gmsh_body",
+register(SystemType("gmsh", GmshBody, "app.systems.gmsh.path",
                     "a 2D body from a Gmsh .geo/.msh file, a straight obstacle, a loading program",
                     position_axis="tangential coordinate s along the obstacle [{length}]"))

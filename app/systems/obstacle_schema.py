@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from app.validation import PathError
+from app.common.validation import PathError
 
 
 def check_circle_keys(model: Any, circle_keys: tuple[str, ...], line_keys: tuple[str, ...]) -> None:

@@ -1,18 +1,20 @@
 """Shared pieces of the system schemas registered in :mod:`app.systems`.
 
 Kept free of PETSc and DOLFINx so that validating a scene stays cheap. File paths in a scene are
-relative to the scene file: :func:`app.config.load_scene` passes the scene's folder as the
+relative to the scene file: :func:`app.scene.schema.load_scene` passes the scene's folder as the
 validation context ``{"base_dir": ...}``; without it (a scene given as a dict) paths are taken
 relative to the current directory.
 """
 from __future__ import annotations
 
+import math
+import os
 import pathlib
-from typing import Annotated
+from typing import Annotated, Optional
 
 from pydantic import Field, ValidationInfo
 
-from app.validation import PathError, ResourcePathError, Strict  # noqa: F401 - ResourcePathError re-exported
+from app.common.validation import PathError, ResourcePathError, Strict  # noqa: F401 - ResourcePathError re-exported
 
 #: the largest magnitude of a number in a scene (README "Scene files"): finite, and small enough that
 #: products of a few such numbers (E x displacement x area, ...) stay finite in double precision
@@ -22,7 +24,7 @@ NonNegFloat = Annotated[float, Field(ge=0, le=MAGNITUDE_MAX, allow_inf_nan=False
 Finite = Annotated[float, Field(ge=-MAGNITUDE_MAX, le=MAGNITUDE_MAX, allow_inf_nan=False)]
 
 
-#: the one strict base model of every scene section (app/validation.py): unknown keys refused,
+#: the one strict base model of every scene section (app/common/validation.py): unknown keys refused,
 #: booleans never taken for numbers
 StrictModel = Strict
 
@@ -34,6 +36,31 @@ def base_dir(info: ValidationInfo | None) -> pathlib.Path:
     """Folder that relative file paths of the scene are resolved against."""
     ctx = getattr(info, "context", None) or {}
     return pathlib.Path(ctx.get("base_dir") or ".")
+
+
+# The scene's ``settings.limits`` section, defined here (not in app/scene/sections.py) because the
+# system schemas read their files (matrices, Gmsh models) under these limits while a scene is validated.
+class Limits(Strict):
+    """Resource limits checked before any work starts (app/scene/limits.py); raise them deliberately."""
+    max_states: Annotated[int, Field(ge=1, le=10**9)] = Field(
+        100_000, description="most load states (normal_steps + tangential_max / tangential_step)")
+    max_dofs: Annotated[int, Field(ge=1, le=10**9)] = Field(2_000_000, description="most DOFs of the block mesh")
+    max_contact_nodes: Annotated[int, Field(ge=1, le=10**7)] = Field(
+        20_000, description="most contact nodes on AB")
+    max_memory_gb: Optional[Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]] = Field(
+        None, description="largest memory estimate accepted [GiB]; null: 80 % of the machine's RAM")
+    max_file_seconds: Annotated[float, Field(gt=0, le=86400, allow_inf_nan=False)] = Field(
+        60.0, description="most seconds Gmsh may take to read or mesh system.file (in its sandbox)")
+
+    def memory_cap(self) -> tuple[float, str]:
+        """(bytes, how it was set): ``max_memory_gb``, else 80 % of the machine's RAM (inf if unknown)."""
+        if self.max_memory_gb is not None:
+            return self.max_memory_gb * 2**30, f"settings.limits.max_memory_gb = {self.max_memory_gb}"
+        try:
+            ram = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        except (ValueError, OSError, AttributeError):
+            return math.inf, "no limit (RAM unknown)"
+        return 0.8 * ram, f"80 % of this machine's RAM ({ram / 2**30:.1f} GiB; set settings.limits.max_memory_gb)"
 
 
 def context_limits(info: ValidationInfo | None):
@@ -70,7 +97,7 @@ def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.P
 def no_field_outputs(scene, why: str) -> None:
     """Refuse ``outputs.paraview``/``outputs.screenshots`` written by the user for a system type
     without a mesh: one line naming the key and ``why``. When they are on only by default (not in
-    the scene), the run skips them with a "not applicable" note (app/outputs/fields.py)."""
+    the scene), the run skips them with a "not applicable" note (app/io/fields.py)."""
     given = getattr(scene.outputs, "model_fields_set", {"paraview", "screenshots"})
     for key in ("paraview", "screenshots"):
         if key in given and getattr(scene.outputs, key):

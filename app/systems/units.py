@@ -1,4 +1,4 @@
-"""Names of the units of a scene's consistent unit system (``units``, app/config.py), as the
+"""Names of the units of a scene's consistent unit system (``units``, app/scene/schema.py), as the
 systems report them (results.json ``units``, axis labels): labels only, no conversion."""
 from __future__ import annotations
 

@@ -1,0 +1,201 @@
+"""The deferred condensed MCEIP-mu of every distinct classification, spread over the MPI ranks.
+
+:func:`app.analyses.runner.analyse_state` leaves the condensed MCEIP-mu of each classification
+``{"deferred": true}``; :func:`analyse_condensed_distributed` runs them in chains (warm starts
+along the path), one rank per chain, and gathers the answers on every rank.
+"""
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.analyses.mceip_mu.live import LIVE
+from app.analyses.pencils import UnsupportedState
+from app.analyses.runner import ANALYSES, state_mceip_mu
+from app.analyses.state_pencils import StatePencils
+from app.common.progress import Progress
+from app.loading.classify import ZERO, Classification
+from app.scene.schema import Scene
+from app.systems.base import System
+
+
+def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple[Classification, dict]],
+                                  comm, progress=None) -> list[dict]:
+    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict, in path order).
+
+    The jobs with more than ``mcp.search_full_max`` slip nodes are cut into chains of at most
+    ``mcp.warm_chain`` consecutive classifications, each job of a chain warm-started from the
+    previous job's solutions (neighbouring classifications differ by about one node); every
+    other job is a chain of its own (:func:`_chains`). Each chain runs on one
+    rank alone (dense s x s work on COMM_SELF objects); under MPI the ranks take the next chain
+    from a shared counter (one-sided atomic fetch-and-add on rank 0's window), the most expensive
+    chains first, so a rank that finishes early takes more. The chains do not depend on the
+    number of ranks, and the results are gathered on every rank (``allgather``), so the output is
+    the same on any number of ranks. Fills each analyses dict in place (key order as in
+    :func:`app.analyses.runner.analyse_state`); returns the failures.
+
+    ``progress`` (an :class:`app.common.progress.Progress`): rank 0 shows the classifications done over
+    all ranks, the one it runs now (its s), the last it finished (proven or not) and the time
+    left estimated from the cost model of :func:`_cost`."""
+    system.contact_schur()        # collective the first time: built on every rank before the split
+    mcp = scene.settings.mcp
+    slips = [len(cls.slip) for cls, _ in jobs]
+    chains = _chains(slips, mcp.warm_chain, mcp.search_full_max)
+    order = _chain_order(slips, chains)
+    mine: dict[int, dict] = {}
+    total_cost = float(sum(_cost(s) for s in slips))
+
+    def run_chain(c: int, tasks, counter=None) -> None:
+        for k in chains[c]:
+            cls = jobs[k][0]
+            warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k != chains[c][0] else None
+            LIVE.reset()
+            tasks.start(f"s = {slips[k]}", detail=LIVE.text)
+            p = StatePencils(system, cls)
+            try:
+                mine[k] = state_mceip_mu(system, p, scene, slips[k], replicated=False, warm=warm)
+            except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+                mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
+            finally:
+                p.destroy()
+            if counter is not None:
+                counter.add_done(_cost(slips[k]))                        # one-sided, rank 0's window
+            tasks.finish(f"s = {slips[k]} {_proof_word(mine[k])}", _cost(slips[k]))
+
+    def tasks(done=None):
+        shown = progress or Progress(enabled=False, comm=comm)
+        return shown.tasks(len(jobs), "MCEIP-mu", unit="classification", total_cost=total_cost, done=done)
+
+    if comm.size == 1:
+        with tasks() as t:
+            for c in order:
+                run_chain(c, t)
+    else:
+        error = None
+        with _SharedCounter(comm) as counter:                           # MPI collective (window)
+            with tasks(counter.done if comm.rank == 0 else None) as t:
+                try:
+                    while (i := counter.next()) < len(order):           # one-sided, rank 0's window
+                        run_chain(order[i], t, counter)
+                except Exception as err:      # this rank stops taking chains; the collectives stay matched
+                    error = err
+                comm.Barrier()        # MPI collective: every rank done (rank 0 keeps reporting meanwhile)
+        _raise_on_every_rank(comm, error)                                # MPI collective
+    failures = []
+    for part in comm.allgather(mine):                                    # MPI collective
+        for k, d in part.items():
+            out = jobs[k][1]
+            out["mceip_mu"] = d
+            for name in [n for n in ANALYSES if n in out]:               # canonical key order
+                out[name] = out.pop(name)
+            if d.get("failed"):
+                failures.append((k, d["reason"]))
+    return failures
+
+
+def _raise_on_every_rank(comm, error: Exception | None) -> None:
+    """An unexpected error on some rank is raised on every rank (MPI collective): the failing rank
+    re-raises its own, the others a RuntimeError naming it, so that no rank waits in a later
+    collective for one that has left."""
+    what = comm.allgather(None if error is None else f"{type(error).__name__}: {error}")     # MPI collective
+    if error is not None:
+        raise error
+    failed = [(r, w) for r, w in enumerate(what) if w is not None]
+    if failed:
+        r, w = failed[0]
+        raise RuntimeError(f"MCEIP-mu failed on rank {r}: {w}")
+
+
+class _SharedCounter:
+    """Counters on rank 0 that every rank increments atomically (MPI one-sided ``Fetch_and_op``
+    under a passive-target lock: no participation of rank 0 needed, it may be computing): the
+    next chain to take, and the classifications done with their cost (for progress only)."""
+
+    NEXT, DONE, DONE_COST = 0, 1, 2
+
+    def __init__(self, comm):
+        from mpi4py import MPI
+        self._MPI = MPI
+        self.comm = comm
+        self.win = MPI.Win.Allocate(24 if comm.rank == 0 else 0, 8, comm=comm)   # MPI collective
+        if comm.rank == 0:
+            self._local = np.frombuffer(self.win.tomemory(), dtype=np.int64)
+            self._local[:] = 0
+        comm.Barrier()                                                     # MPI collective: counters set
+
+    def _add(self, slot: int, value: int) -> int:
+        add, got = np.array([value], dtype=np.int64), np.zeros(1, dtype=np.int64)
+        self.win.Lock(0, self._MPI.LOCK_SHARED)
+        self.win.Fetch_and_op(add, got, 0, slot, self._MPI.SUM)
+        self.win.Unlock(0)
+        return int(got[0])
+
+    def next(self) -> int:
+        """The next chain index (each index is handed out once over all ranks)."""
+        return self._add(self.NEXT, 1)
+
+    def add_done(self, cost: float) -> None:
+        """One classification done, of (relative) ``cost``."""
+        self._add(self.DONE, 1)
+        self._add(self.DONE_COST, int(round(cost)))
+
+    def done(self) -> tuple[int, float]:
+        """(classifications done, their cost) as last seen in rank 0's window memory (rank 0
+        only; a plain read without MPI, so any thread may call it: a display value)."""
+        return int(self._local[self.DONE]), float(self._local[self.DONE_COST])
+
+    def __enter__(self) -> "_SharedCounter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.comm.Barrier()                                                # MPI collective
+        self.win.Free()                                                    # MPI collective
+
+
+def _chains(slip_counts: list[int], chain: int, full_max: int) -> list[list[int]]:
+    """Jobs (in path order) grouped into chains: runs of at most ``chain`` consecutive jobs with
+    more than ``full_max`` slip nodes (where warm starts are used); every other job alone (finer
+    work units balance the ranks better). Depends on the jobs and settings only, not on the ranks."""
+    out: list[list[int]] = []
+    for k, s in enumerate(slip_counts):
+        if s > full_max and out and len(out[-1]) < chain and slip_counts[out[-1][-1]] > full_max \
+                and out[-1][-1] == k - 1:
+            out[-1].append(k)
+        else:
+            out.append([k])
+    return out
+
+
+def _chain_order(slip_counts: list[int], chains: list[list[int]]) -> list[int]:
+    """The chains by decreasing estimated cost, the sum of :func:`_cost` (the dense search and
+    certificate are cubic in s): big chains first balance the ranks."""
+    cost = [sum(_cost(slip_counts[k]) for k in c) for c in chains]
+    return sorted(range(len(chains)), key=lambda c: (-cost[c], c))
+
+
+def _cost(s: int) -> int:
+    """Estimated relative cost of the condensed MCEIP-mu of a classification with ``s`` slip nodes."""
+    return (s + 1) ** 3
+
+
+def _proof_word(d: dict) -> str:
+    """How a finished MCEIP-mu result reads in a progress line."""
+    if d.get("failed"):
+        return "failed"
+    return "proven" if d.get("certified") else "not proven"
+
+
+def _warm_starts(prev: Classification, prev_result: dict | None, cls: Classification) -> list[tuple[np.ndarray, float]]:
+    """The previous classification's solutions as starts ``(x_Ts, mu)`` on ``cls``'s slip nodes
+    (a node that does not slip in ``cls`` is dropped, a new slip node starts at 0)."""
+    if not prev_result or prev_result.get("failed") or ZERO in prev.status or ZERO in cls.status:
+        return []
+    where = {int(node): j for j, node in enumerate(cls.slip)}
+    out = []
+    for sol in prev_result.get("solutions", []):
+        x = np.zeros(len(where))
+        for node, v in zip(prev.slip, sol.get("x_Ts", [])):
+            if int(node) in where:
+                x[where[int(node)]] = v
+        out.append((x, float(sol["value"])))
+    return out

@@ -1,0 +1,164 @@
+"""MCEIP-lambda^2 (12)-(14) of one classified state: proof of no solution where it can be had, else search.
+
+Order: (19) at the scene's mu (no divergence when it fails), the exact slip-node reduction
+(:mod:`app.analyses.mceip_lambda2.exact`, small systems), then the SNES VI search of
+:func:`app.analyses.mcp.search_mceip` boxed by the inertia-proven bound of
+:mod:`app.analyses.mceip_lambda2.bounds`. Every result carries ``certified`` and a ``certificate``.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from app.analyses import conditions
+from app.analyses.certify import certificate
+from app.analyses.curvature import is_curved
+from app.analyses.mceip_lambda2 import bounds as l2b
+from app.analyses.mceip_lambda2 import exact as l2x
+from app.analyses.mcp import search_mceip
+from app.analyses.pencils import diag_scale
+from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
+from app.scene.schema import Scene
+from app.systems.base import System
+
+
+def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
+    """MCEIP-lambda^2 (12)-(14) at ``scene.lambda2_mu`` with what is proven (app/analyses/mceip_lambda2/bounds.py):
+    no solution when (19) fails; otherwise no solution above an inertia-proven bound ``T``, and
+    ``[0, T]`` searched by SNES VI (found, not proven). Every result has ``certified`` and a
+    ``certificate``; solutions above the free-block spectrum or whose pattern does not solve its
+    restricted eigenproblem are labelled ill-conditioned."""
+    mu = scene.lambda2_mu
+    t_start = time.perf_counter()
+    if s == 0:
+        d = no_slip()
+        d["certified"] = True
+        d["certificate"] = certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0)
+    else:
+        K0, K1 = p.K()
+        M0, M1 = p.M()
+        with system.stages("MCEIP-lambda2 (12)-(14)"):
+            if nec is None:
+                nec = conditions.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
+            if not nec["satisfied"]:
+                # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
+                # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
+                d = {"solutions": [], "result": "no solution (proved by the necessary condition (19))", "search": {
+                    "complete": True, "necessary_condition": nec,
+                    "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
+                            "which proves that (12)-(14) has no solution"}}
+                d["certified"] = True
+                rigorous = l2b.verified_sign_argument(K0, K1, M0, M1, mu,
+                                                      scene.settings.mcp.lambda2_exact_max_dofs)   # MPI collective
+                d["certificate"] = certificate(
+                    "sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19)"
+                    + ("; both proven PD by verified dense Cholesky factorisations" if rigorous else
+                       "; PD from floating-point eigenvalues (SLEPc), not verified"),
+                    (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
+                    {"min_eig_K_sym": nec["min_eig_K_sym"], "min_eig_M_sym": nec["min_eig_M_sym"]}, gap=0.0,
+                    rigorous=rigorous)
+            else:
+                d = _lambda2_search(p, scene, nec, mu, t_start)
+    d["mu"] = mu
+    return d
+
+
+def _rayleigh_bound(nec: dict) -> float | None:
+    """``-min eig sym K* / min eig sym M*`` (widened by 1e-6): ``x^T (lambda^2 M* + K*) x = x^T y = 0``
+    at a solution bounds lambda^2 by it when sym M*(mu) is PD (and sym K*(mu) is not); else None."""
+    if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
+        return -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+    return None
+
+
+def _lambda2_proof(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict | None:
+    """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
+    (app/analyses/mceip_lambda2/exact.py), or None when that proof does not apply or does not succeed."""
+    rayleigh = _rayleigh_bound(nec)
+    if rayleigh is None or is_curved(p.cls):      # the exact reduction has no curvature terms
+        return None
+    dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
+    if dc is None:
+        return None
+    proven, T, detail = l2x.prove_no_solution(dc, p.cls, mu, rayleigh)
+    comm = p.system.comm
+    if comm.size > 1:
+        proven, T, detail = comm.bcast((proven, T, detail), root=0)                 # MPI collective
+    if not proven:
+        return None
+    how = ("sign argument on the exact slip-node reduction S(t) (free DOFs eliminated through the (K, M) "
+           "eigen-decomposition): sym S(t) certified copositive on [0, T] by intervals (concave + convex "
+           "split, PD + NN at the ends), and the Schur complement of sym(K* + T M*) PD with sym M* PD for t >= T")
+    bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
+                       "Rayleigh-quotient bound -min eig sym K* / min eig sym M*)",
+             "rayleigh_bound": rayleigh, "proven_bound": T}
+    d = {"solutions": [], "result": "proven: no solution with lambda^2 >= 0",
+         "search": {"attempts": 0, "converged": 0, "accepted": 0, "by_method": {}, "intervals": [],
+                    "starts": [], "identical_runs_skipped": 0, "complete": True,
+                    "note": "no search needed: " + how,
+                    "necessary_condition": nec, "lambda2_upper_bound": T, "upper_bound": bound},
+         "certified": True}
+    # the reduction rests on a floating-point eigen-decomposition of (K, M) without a rigorous
+    # error bound: its PD + NN tests are verified, the reduction itself is not
+    d["certificate"] = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
+                                   {**detail, "T": T, "eigen_decomposition_seconds": round(dc.seconds, 4)}, gap=0.0,
+                                   rigorous=False)
+    return d
+
+
+def _lambda2_search(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict:
+    proof = _lambda2_proof(p, scene, nec, mu, t_start)
+    if proof is not None:
+        return proof
+    Ks, Ms = p.star(mu)        # shared with the conditions (19), (17)-(18); destroyed with p
+    tau = diag_scale(Ks) / diag_scale(Ms)
+    # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
+    # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD; an LDL^T inertia
+    # count of sym K* + T sym M* proves a smaller bound T (app/analyses/mceip_lambda2/bounds.py).
+    upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
+    rayleigh = _rayleigh_bound(nec)
+    if rayleigh is not None:
+        hints = warm_hints(p.system, mu)
+        prev = hints.get("lambda2_bound")
+        upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh, guess=None if prev is None else 1.05 * prev)
+        hints["lambda2_bound"] = upper       # warm start for the next classification
+        bound = {"method": "sym K* + T sym M* PD by an LDL^T inertia count, bisected from the "
+                           "Rayleigh-quotient bound -min eig sym K* / min eig sym M*",
+                 "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
+    rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
+                       t_upper=upper)
+    d = rep.as_dict()
+    if keep_modes(scene):
+        attach_vectors(d, rep)
+    d["search"]["necessary_condition"] = nec
+    d["search"]["lambda2_upper_bound"] = upper
+    d["search"]["upper_bound"] = bound
+    omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if d["solutions"] else None
+    for sol in d["solutions"]:
+        sol["certified"] = False
+        why = []
+        if omega2 is not None and sol["value"] > omega2:
+            why.append(f"lambda^2 above the free-block spectrum (max omega^2 = {omega2:.6g}): the mode "
+                       "decays by orders of magnitude between nodes, unresolvable in double precision")
+        if not sol.get("pattern_verified", True):
+            why.append("the pattern does not solve its restricted eigenproblem (25)-(26) to the tolerance")
+        sol["ill_conditioned"] = bool(why)
+        if why:
+            sol["conditioning"] = "; ".join(why)
+    if omega2 is not None:
+        d["search"]["free_block_max_omega2"] = omega2
+    clean = [x for x in d["solutions"] if not x["ill_conditioned"]]
+    if len(clean) < len(d["solutions"]):
+        d["result"] = (f"{len(clean)} clean solution(s) and {len(d['solutions']) - len(clean)} "
+                       "ill-conditioned one(s) found (not proven)")
+    hi = upper if np.isfinite(upper) else np.inf
+    d["certified"] = False
+    d["certificate"] = certificate(
+        bound["method"] if np.isfinite(upper) else "none",
+        (hi, np.inf) if np.isfinite(hi) else (0.0, 0.0),
+        ("proven: no solution with lambda^2 in the interval; " if np.isfinite(hi) else "") +
+        f"not proven: [0, {hi:.6g}] searched by SNES VI (solutions found there are not proven complete)",
+        time.perf_counter() - t_start,
+        {"proven_empty": [hi, np.inf] if np.isfinite(hi) else None, "searched_not_proven": [0.0, hi]})
+    return d

@@ -1,0 +1,114 @@
+"""The analyses of a state with zero-reaction contact nodes (the paper's set Z): the rate
+conditions (9) of those nodes are complementarity conditions, so the pencils are split
+(:func:`app.analyses.pencils.split_pencils`) and searched or enumerated with them."""
+from __future__ import annotations
+
+import numpy as np
+
+from app.analyses.certify import certificate, condensed_mu_result, enumeration_certificate, mu_cap
+from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
+from app.analyses.mcp import search_mceip
+from app.analyses.pencils import UnsupportedState, dense, split_pencils
+from app.analyses.state_pencils import FULL_DENSE_LIMIT, seq_aij
+from app.loading.classify import ZERO, Classification
+from app.scene.schema import Scene
+from app.systems.base import System
+
+
+def _describe(sol: dict, labels: list[str], cls: Classification) -> dict:
+    """Re-express a solution over x_c = (slip x_T..., zero a, b, x_N...) per node."""
+    xc = np.asarray(sol["x_Ts"])
+    big = max(float(np.max(np.abs(xc))), 1e-300)
+    by = dict(zip(labels, xc))
+    slip = [i for i, st in enumerate(cls.status) if st == "slip"]
+    zero = [i for i, st in enumerate(cls.status) if st == ZERO]
+    out = dict(sol)
+    out["x_c"] = {k: float(v) for k, v in by.items()}
+    out["x_Ts"] = [float(by[f"T{i}"]) for i in slip]
+    out["pattern"] = ["slip" if by[f"T{i}"] > 0 else "stick" for i in slip]   # slip where x_Ts > 0
+    out["zero_nodes"] = []
+    for i in zero:
+        a, b, xn = by[f"a{i}"], by[f"b{i}"], by[f"N{i}"]
+        out["zero_nodes"].append({"id": i, "a": float(a), "b": float(b), "x_N": float(xn),
+                                  "tangential": "slides +T" if a > 1e-8 * big else "slides -T" if b > 1e-8 * big else "sticks",
+                                  "normal": "separates" if xn > 1e-8 * big else "stays in contact"})
+    return out
+
+
+def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -> dict:
+    """MCEIP-mu, MCEIP-lambda^2 and enumeration with the rate conditions (9) of the Z nodes."""
+    settings = scene.settings
+    out: dict = {}
+    why = ("zero-reaction contact nodes present: with them the conditions (17)-(19) are not linear "
+           "eigenproblems (the rate conditions (9) are complementarity conditions); see mceip_mu/mceip_lambda2")
+    for name in ("necessary", "sufficient"):
+        if name in scene.analyses:
+            out[name] = {"failed": True, "reason": f"UnsupportedState: {why}"}
+    mu_l = scene.lambda2_mu
+    wants_l2 = "mceip_lambda2" in scene.analyses or ("enumerate" in scene.analyses and "lambda2" in settings.enumerate_problems)
+    full = None
+    if wants_l2:
+        if system.n_dofs > FULL_DENSE_LIMIT:
+            full = UnsupportedState(f"{system.n_dofs} DOFs: MCEIP-lambda2 with zero-reaction nodes uses dense "
+                                    f"pencils, refused above {FULL_DENSE_LIMIT}")
+        else:
+            Kd, Md = dense(system.K), dense(system.mass())
+            Kp, Mp = split_pencils(system, cls, Kd), split_pencils(system, cls, Md)
+            full = (Kp.A0 + mu_l * Kp.A1, Mp.A0 + mu_l * Mp.A1, Kp)
+    cond = split_pencils(system, cls) if ("mceip_mu" in scene.analyses or "enumerate" in scene.analyses) else None
+
+    def search(A0, A1, sp, problem, tau=None):
+        M0, M1 = seq_aij(A0), seq_aij(A1)
+        try:
+            d = search_mceip(M0, M1, sp.comp, problem, settings.mcp, value_scale=tau, pairs=sp.pairs).as_dict()
+        finally:
+            M0.destroy()
+            M1.destroy()
+        d["solutions"] = [_describe(x, sp.labels, cls) for x in d["solutions"]]
+        d["x_c_labels"] = sp.labels
+        d["zero_nodes_handled"] = "rate conditions (9): v_T = a - b, complementarity in (a, b, x_N)"
+        return d
+
+    if "mceip_mu" in scene.analyses:
+        with system.stages("MCEIP-mu (21)-(23)"):
+            # the split pencil has no x_f: dense search + certificate as for the plain condensed pencil
+            d = condensed_mu_result(cond.A0, cond.A1, mu_cap(scene.mu, settings.mcp), settings.mcp, pairs=cond.pairs)
+            if system.comm.size > 1:
+                d = system.comm.bcast(d, root=0)                               # MPI collective (see runner.state_mceip_mu)
+            d["solutions"] = [_describe(x, cond.labels, cls) for x in d["solutions"]]
+            d["x_c_labels"] = cond.labels
+            d["zero_nodes_handled"] = "rate conditions (9): v_T = a - b, complementarity in (a, b, x_N)"
+            out["mceip_mu"] = d
+            out["mceip_mu"]["method"] = "condensed"
+    if "mceip_lambda2" in scene.analyses:
+        if isinstance(full, Exception):
+            out["mceip_lambda2"] = {"failed": True, "reason": f"UnsupportedState: {full}"}
+        else:
+            Ks, Ms, sp = full
+            tau = float(np.max(np.abs(np.diag(Ks)))) / max(float(np.max(np.abs(np.diag(Ms)))), 1e-300)
+            with system.stages("MCEIP-lambda2 (12)-(14)"):
+                out["mceip_lambda2"] = search(Ks, Ms, sp, "lambda2", tau)
+            out["mceip_lambda2"]["mu"] = mu_l
+            out["mceip_lambda2"].update(certified=False, certificate=certificate(
+                "none (zero-reaction nodes: dense SNES VI search only)", (0.0, 0.0),
+                "not proven: searched by SNES VI", 0.0))
+    if "enumerate" in scene.analyses:
+        problems = {}
+        with system.stages("enumeration (24)-(26)"):
+            for problem in settings.enumerate_problems:
+                try:
+                    if problem == "mu":
+                        sp, A0, A1 = cond, cond.A0, cond.A1
+                    else:
+                        if isinstance(full, Exception):
+                            raise TooManySlipNodes(str(full))
+                        A0, A1, sp = full
+                    sols = enumerate_mceip(A0, A1, sp.comp, settings.enumerate_max_slip, pairs=sp.pairs)
+                    problems[problem] = {"problem": problem, "complete": True,
+                                         **enumeration_certificate(sols),
+                                         "solutions": [_describe(x, sp.labels, cls) for x in sols],
+                                         **({"mu": mu_l} if problem == "lambda2" else {})}
+                except TooManySlipNodes as err:
+                    problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err)}
+        out["enumerate"] = {**problems[settings.enumerate_problems[0]], "problems": problems}
+    return out

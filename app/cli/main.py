@@ -1,0 +1,286 @@
+"""Command line: ``python -m app run|validate|render|check`` (also the ``contact-divergence`` console script).
+
+Exit status: 0 success, 2 a user mistake (bad scene file, unwritable output folder, a folder
+holding other files, a scene over the resource limits), 3 the study ran but some states failed
+(listed in results.json "failures"), 4 the results could not be written (disk full, out of
+memory, final rename failed; staged results are kept and their place printed).
+Under ``mpirun`` every rank computes, only rank 0 prints and writes.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import pathlib
+import signal
+import sys
+
+from app.common.errors import EXIT_WRITE
+from app.common.errors import fail as _fail
+
+DESCRIPTION = """\
+Divergence instabilities of elastic bodies in frictional contact.
+
+A scene file (YAML) describes a system (the paper's two-particle system or a finite element
+block pressed and dragged on a rigid flat obstacle), the friction coefficient mu and the
+analyses wanted at every equilibrium state:
+  necessary      eq. (19): smallest eigenvalues of the symmetric parts of K*(mu), M*(mu)
+  sufficient     eqs. (17)-(18): real eigenpairs lambda^2 > 0 with x_Ts >= 0 (SLEPc)
+  mceip_mu       eqs. (21)-(23): critical friction coefficients and modes (proven up to mu_cap)
+  mceip_lambda2  eqs. (12)-(14): divergence rates lambda^2 and modes (SNES VI MCP search)
+  enumerate      eqs. (24)-(26): exhaustive stick/slip enumeration (exact, small problems)
+Units: mm, N, MPa, tonne, s (so lambda^2 is in 1/s^2).
+"""
+
+EPILOG = """\
+examples:
+  python -m app run                         # the paper's block study (embedded default)
+  python -m app run scene.yaml -o out/      # results in out/results.json and out/steps.csv
+  mpirun -n 2 python -m app run scene.yaml  # same numbers, in parallel
+  python -m app validate scene.yaml         # check a scene file without running it
+  python -m app check out/                  # re-verify the MCEIP-mu proofs stored in out/proofs
+  mpirun -n 4 python -m app run sweep.yaml --ranks-per-case 2   # a scene with a 'sweep' section:
+                                            # its cases farmed out to groups of 2 ranks
+PETSc options: any PETSc/SLEPc option, placed after the scene file, reaches the app's solvers by
+  their prefixes cd_loading_, cd_flex_, cd_necessary_, cd_sufficient_, cd_lambda2_, cd_inertia_,
+  cd_mcp_, cd_mcp_free_, cd_spd_check_ (e.g. -cd_necessary_eps_monitor, -cd_loading_snes_monitor)
+exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json),
+  4 the results could not be written (disk full, out of memory, final rename failed: see the error line)
+"""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line ``error: ...`` (exit status 2) instead of usage plus message."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {message} (see: {self.prog} --help)\n")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="python -m app", description=DESCRIPTION, epilog=EPILOG,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    from app.version import __version__
+    p.add_argument("--version", action="version", version=f"contact-divergence {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    run = sub.add_parser("run", help="run a loading study and write its results",
+                         description="Run a loading study: every equilibrium state is classified "
+                                     "and gets the scene's analyses.\n"
+                                     "Units: mm, N, MPa, tonne, s (so lambda^2 is in 1/s^2).",
+                         epilog="check a scene file first with: python -m app validate SCENE\n"
+                                "exit status: 0 ok, 2 bad input, 3 study incomplete (see results.json)",
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
+    run.add_argument("scene", nargs="?", help="scene YAML file (default: the embedded paper study)")
+    run.add_argument("-o", "--output", help="results folder (default: output/<scene name>)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the results this app wrote earlier in the output folder (atomically, at the "
+                          "end of the run); a folder holding other files is never replaced")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no summary")
+    run.add_argument("--ranks-per-case", type=int, default=None, metavar="K",
+                     help="sweep scenes (a 'sweep' section): MPI ranks per case; the ranks form groups of K "
+                          "that take cases as they become free (default 1)")
+    run.add_argument("--log-level", default="WARNING",
+                     choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")
+    ren = sub.add_parser("render", help="redraw the plots, screenshots and report of a results folder",
+                         description="Redraw every picture the scene's 'outputs' asked for (plots, "
+                                     "screenshots, report.md) from a results folder, without recomputing "
+                                     "the study (the screenshots use the fields saved by the run).")
+    ren.add_argument("results", help="results folder (the one holding results.json)")
+    ren.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no list of files")
+    ren.add_argument("--log-level", default="WARNING",
+                     choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")
+    val = sub.add_parser("validate", help="check a scene file and print what it asks for",
+                         description="Check a scene file without running it (exit status 0 ok, 2 bad "
+                                     "input); then run it with: python -m app run SCENE")
+    val.add_argument("scene", help="scene YAML file")
+    chk = sub.add_parser("check", help="re-verify the MCEIP-mu proofs stored in a results folder",
+                         description="Re-run the independent proof checker on every proof stored in a "
+                                     "results folder (proofs/state_<k>.npz: the condensed pencil and its proof "
+                                     "log) and compare what it accepts with what results.json claims.",
+                         epilog="exit status: 0 every claim re-verified, 1 a claim was not, 2 bad input")
+    chk.add_argument("results", help="results folder (the one holding results.json and proofs/)")
+    chk.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
+    return p
+
+
+def _no_space(err: BaseException) -> bool:
+    """A full disk or quota, however the library reports it (OSError errno, h5py/HDF5 or meshio text)."""
+    import errno
+    if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
+        return True
+    text = str(err).lower()
+    return isinstance(err, (OSError, RuntimeError)) and ("no space left" in text or "disk quota" in text)
+
+
+def _write_error(err: BaseException) -> str | None:
+    """The one-line message for a resource failure while running/writing, or None if it is not one."""
+    if isinstance(err, MemoryError):
+        return ("out of memory (MemoryError): the study does not fit in this machine's memory; use a coarser "
+                "mesh (system.nx) or fewer states (loading.tangential_step), or lower settings.limits.max_memory_gb "
+                "so the pre-flight refuses such scenes")
+    if _no_space(err):
+        where = getattr(err, "filename", None)
+        return f"no space left on the device{f' (writing {where})' if where else ''}: the results were not written"
+    return None
+
+
+def main(argv: list[str] | None = None) -> int:
+    if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
+        # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from app.common.petsc_options import command_line_options, split_petsc_options
+    try:
+        argv, petsc_options = split_petsc_options(sys.argv[1:] if argv is None else list(argv))
+    except ValueError as err:
+        return _fail(str(err))
+    args = _parser().parse_args(argv)
+    with command_line_options(petsc_options):         # PETSc options: from the command line only
+        if args.command == "render":
+            from app.plot.render import render_main
+            return _guarded(render_main, args)
+        if args.command == "check":
+            return _check(args)
+        return _guarded(_main, args)
+
+
+def _guarded(fn, args) -> int:
+    """Under mpirun an exception on one rank would leave the others waiting forever:
+    print it and abort the whole job instead."""
+    from mpi4py import MPI
+
+    from app.io.folder import CommitError
+    try:
+        return fn(args)
+    except CommitError as err:
+        return _fail(str(err), EXIT_WRITE)
+    except (MemoryError, OSError, RuntimeError) as err:
+        msg = _write_error(err)
+        if msg is None:
+            return _unexpected()
+        print(f"error: {msg}", file=sys.stderr, flush=True)      # every rank that hit it: one line each
+        if MPI.COMM_WORLD.size > 1:
+            MPI.COMM_WORLD.Abort(EXIT_WRITE)
+        return EXIT_WRITE
+    except KeyboardInterrupt:
+        if MPI.COMM_WORLD.size > 1:
+            MPI.COMM_WORLD.Abort(130)
+        raise
+    except Exception:
+        return _unexpected()
+
+
+def _check(args) -> int:
+    """``python -m app check RESULTS``: every stored proof re-verified by the checker."""
+    import json
+    import zipfile
+
+    from app.io.proofs import check_folder
+    folder = pathlib.Path(args.results)
+    if not (folder / "results.json").is_file():
+        return _fail(f"{folder}: no results.json (give the folder a run wrote)")
+    try:
+        checks = check_folder(folder)
+    except (OSError, ValueError, KeyError, json.JSONDecodeError, zipfile.BadZipFile) as err:
+        return _fail(f"{folder}: cannot read the stored proofs: {type(err).__name__}: {err}")
+    bad = [c for c in checks if not c.ok]
+    if not args.quiet:
+        for c in checks:
+            claims = f"onset {'re-verified' if c.onset_accepted else 'REJECTED' if c.onset_claimed else 'not claimed'}, " \
+                     f"list {'re-verified' if c.all_accepted else 'REJECTED' if c.all_claimed else 'not claimed'}"
+            extra = "" if c.values_match else ", values differ from results.json"
+            print(f"state {c.state} (s = {c.s}): {claims}{extra}" + (f" ({'; '.join(c.errors)})" if not c.ok else ""))
+    if not checks:
+        print(f"{folder}: no stored proofs (proofs/ is empty or absent)")
+        return 0
+    print(f"{folder}: {len(checks) - len(bad)} of {len(checks)} stored proofs re-verified"
+          + ("" if not bad else f"; {len(bad)} rejected"))
+    return 1 if bad else 0
+
+
+def _unexpected() -> int:
+    """An unexpected error, called from its ``except`` block: re-raised when serial; under mpirun
+    printed and the whole job aborted (the other ranks would otherwise wait forever)."""
+    from mpi4py import MPI
+    if MPI.COMM_WORLD.size == 1:
+        raise                      # the exception being handled
+    import traceback
+    traceback.print_exc()
+    print(f"error: rank {MPI.COMM_WORLD.rank} failed; aborting all ranks", file=sys.stderr, flush=True)
+    MPI.COMM_WORLD.Abort(1)
+    return 1
+
+
+def _main(args) -> int:
+    if args.command is None:
+        _parser().print_help()
+        return 2
+    from app.scene.schema import SceneError, default_scene_path, load_scene
+    try:
+        scene = load_scene(args.scene or default_scene_path())
+    except SceneError as err:
+        return _fail(str(err), err.exit_code)
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
+        from app.study.sweep import main as sweep_main  # a batch of cases (app/study/sweep.py)
+        return sweep_main(scene, args, comm)
+    from app.scene import limits as preflight
+    try:
+        estimate = preflight.check(scene, args.scene or "default scene")   # arithmetic only: milliseconds
+    except SceneError as err:
+        return _fail(str(err))
+    if args.command == "validate":
+        if comm.rank == 0:
+            timing = preflight.describe_time(scene, estimate)
+            print(f"{args.scene}: ok: scene '{scene.name}', system {scene.system.type}, mu = {scene.mu}, "
+                  f"analyses: {', '.join(scene.analyses)}; {estimate.describe()[len('pre-flight: '):]}"
+                  + (f"; {timing}" if timing else ""))
+        return 0
+
+    from app.common.logs import setup_logging
+    setup_logging(args.log_level, comm.rank)           # app logs at --log-level; rank 0 only below WARNING
+    import logging
+    logging.getLogger("app.scene.limits").info(estimate.describe())
+    from app.io.folder import ResultsFolder
+    folder = ResultsFolder(pathlib.Path(args.output or pathlib.Path("output") / scene.name), args.overwrite)
+    problem = None
+    if comm.rank == 0:
+        try:
+            problem = folder.check() or preflight.check_disk(scene, estimate, folder.staging, folder.final)
+        except OSError as err:                                # e.g. a path too long for the filesystem
+            problem = f"cannot use the output folder {folder.final}: {err.strerror or err}"
+        if problem:
+            folder.abort()
+    problem = comm.bcast(problem, root=0)                     # MPI collective
+    if problem:
+        return _fail(problem)
+    # Everything is written into the staging folder (created and probed by check()) and moved into
+    # place at the very end; the lock on the folder is held until then.
+    outdir = folder.staging
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _run(args, scene, comm, folder, outdir)
+    finally:
+        if comm.rank == 0:
+            folder.abort()              # interrupted or failed: drop the partial files (kept if the commit failed)
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
+    """Run the scene into the staging folder ``outdir`` and commit ``folder`` (app/study/driver.py)."""
+    from app.common.errors import UnreachableLoad
+    from app.common.progress import Progress
+    from app.study import driver
+    if scene.refinement is not None:                          # a mesh-refinement study (app/study/refinement.py)
+        from app.study.refinement import main as refinement_main
+        return refinement_main(scene, args, comm, folder, outdir)
+    try:
+        results = driver.run_and_write(scene, comm, outdir, Progress(enabled=not args.quiet, comm=comm))
+    except UnreachableLoad as err:   # raised identically on every rank
+        return _fail(driver.loading_error(args.scene or "default scene", err))
+    final = driver.commit(folder, comm)
+    if comm.rank == 0 and not args.quiet:
+        from app.io.summary import summary
+        print(summary(results, final))
+    return driver.exit_status(results["failures"])

@@ -1,0 +1,128 @@
+"""The ``results.json`` document: a study's results dictionary as JSON data and back.
+
+:func:`to_document` writes it (numbers that are not finite become ``null``, listed in the
+``non_finite`` block), :func:`from_document` reads a document of any format version back into a
+results dictionary (infinities as floats again). This module imports neither PETSc nor DOLFINx.
+"""
+from __future__ import annotations
+
+import json
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+#: version of the results.json format, written as its ``format_version`` key (1: non-finite
+#: numbers written as the strings ``"inf"``/``"-inf"``; 2: written as ``null``, each listed with
+#: its value under the top-level key ``non_finite``). :func:`from_document` reads both.
+FORMAT_VERSION = 2
+
+#: why a number of results.json is ``null`` (the ``non_finite`` block says which and what it is)
+NON_FINITE_REASON = ("JSON has no infinity or NaN: these numbers are written as null; 'values' maps the "
+                     "JSON pointer of each to its value (+inf, -inf or nan)")
+
+def _pointer_token(key: Any) -> str:
+    return str(key).replace("~", "~0").replace("/", "~1")
+
+
+def json_clean(obj, non_finite: dict | None = None, path: str = ""):
+    """Return ``obj`` as JSON data (what results.json holds).
+
+    Keys starting with ``_`` (in-memory data such as mode vectors) are dropped, numpy scalars
+    become Python numbers and non-finite floats ``None``; when ``non_finite`` is a dict, the JSON
+    pointer (RFC 6901, relative to ``path``) of each of those is recorded in it with its value
+    (``"+inf"``, ``"-inf"`` or ``"nan"``).
+    """
+    if isinstance(obj, dict):
+        return {k: json_clean(v, non_finite, f"{path}/{_pointer_token(k)}")
+                for k, v in obj.items() if not str(k).startswith("_")}
+    if isinstance(obj, (list, tuple)):
+        return [json_clean(v, non_finite, f"{path}/{i}") for i, v in enumerate(obj)]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        if non_finite is not None:
+            non_finite[path] = "nan" if math.isnan(obj) else ("+inf" if obj > 0 else "-inf")
+        return None
+    return obj
+
+
+def to_document(results: Mapping) -> dict:
+    """The results.json document of a results dictionary.
+
+    ``format_version``, the results as JSON data (:func:`json_clean`) and, when some numbers are
+    not finite, the ``non_finite`` block (``reason``, and ``values``: JSON pointer ->
+    ``"+inf"``/``"-inf"``/``"nan"``).
+
+    Parameters
+    ----------
+    results
+        The results dictionary of a study (:func:`app.study.run.run_study`).
+
+    Returns
+    -------
+    dict
+        JSON data with only finite numbers (``json.dumps(..., allow_nan=False)`` accepts it).
+    """
+    non_finite: dict[str, str] = {}
+    doc = {"format_version": FORMAT_VERSION, **json_clean(dict(results), non_finite)}
+    doc.pop("non_finite", None)
+    if non_finite:
+        doc["non_finite"] = {"reason": NON_FINITE_REASON, "values": non_finite}
+    return doc
+
+
+_NON_FINITE = {"+inf": math.inf, "inf": math.inf, "-inf": -math.inf, "nan": math.nan}
+
+
+def _strings_to_floats(obj):
+    if isinstance(obj, dict):
+        return {k: _strings_to_floats(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_strings_to_floats(v) for v in obj]
+    if isinstance(obj, str) and obj in ("inf", "-inf"):
+        return _NON_FINITE[obj]
+    return obj
+
+
+def from_document(doc: Mapping) -> dict:
+    """The results dictionary of a results.json document of any format version.
+
+    Its non-finite numbers are floats again (format 1: the strings ``"inf"``/``"-inf"``; format 2:
+    the ``non_finite`` block, which the returned dictionary no longer holds).
+
+    Parameters
+    ----------
+    doc
+        A parsed results.json (``json.loads`` of the file).
+
+    Returns
+    -------
+    dict
+        A new dictionary; ``doc`` is not changed.
+
+    Raises
+    ------
+    ValueError
+        For a format version newer than this app's, or a ``non_finite`` pointer that names no number.
+    """
+    version = doc.get("format_version", 0)
+    if not isinstance(version, int) or version > FORMAT_VERSION:
+        raise ValueError(f"results.json format_version = {version!r}: this app reads formats up to {FORMAT_VERSION}")
+    if version < 2:
+        return _strings_to_floats(dict(doc))
+    out = json.loads(json.dumps(dict(doc)))            # a deep copy of the JSON data
+    block = out.pop("non_finite", None) or {}
+    for pointer, value in (block.get("values") or {}).items():
+        *parents, last = [t.replace("~1", "/").replace("~0", "~") for t in pointer.split("/")[1:]]
+        node: Any = out
+        try:
+            for token in parents:
+                node = node[int(token)] if isinstance(node, list) else node[token]
+            key = int(last) if isinstance(node, list) else last
+            if node[key] is not None or value not in _NON_FINITE:
+                raise ValueError
+            node[key] = _NON_FINITE[value]
+        except (KeyError, IndexError, TypeError, ValueError):
+            raise ValueError(f"results.json non_finite: {pointer} = {value!r} names no null number") from None
+    return out

@@ -1,0 +1,96 @@
+"""The MCEIP-mu proofs of a run, stored beside results.json so that they can be re-checked.
+
+``proofs/state_<k>.npz`` holds, for the first state ``k`` of each distinct classification whose
+condensed MCEIP-mu was proven (or partly proven), the pencil ``A0``, ``A1`` and the proof log
+(JSON text, format in docs/proofs.md). :func:`check_folder` re-verifies every log with the
+independent checker and compares what it accepts with what results.json claims.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+import pathlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.io.results import file_mode  # one-way: results.py does not import this module
+
+FOLDER = "proofs"
+
+
+def write_proofs(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Write one ``.npz`` per proven classification (the private ``_proof`` key of its
+    ``mceip_mu`` analysis, which results.json leaves out). Returns the files written."""
+    written: list[pathlib.Path] = []
+    seen: set[int] = set()
+    for st in results.get("states", []):
+        a = (st.get("analyses") or {}).get("mceip_mu") or {}
+        proof = a.get("_proof")
+        if not proof or id(proof) in seen:
+            continue
+        seen.add(id(proof))
+        folder = outdir / FOLDER
+        folder.mkdir(exist_ok=True)
+        path = folder / f"state_{int(st['index'])}.npz"
+        buf = io.BytesIO()
+        np.savez_compressed(buf, A0=proof["A0"], A1=proof["A1"], log=np.array(json.dumps(proof["log"])))
+        # exclusive create: a file of that name (not this run's) is never overwritten
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, file_mode())
+        with os.fdopen(fd, "wb") as f:
+            f.write(buf.getvalue())
+        written.append(path)
+    return written
+
+
+@dataclass
+class StateCheck:
+    """The re-check of one stored proof against results.json."""
+    state: int
+    s: int
+    onset_claimed: bool
+    onset_accepted: bool
+    all_claimed: bool
+    all_accepted: bool
+    values_match: bool
+    errors: list[str]
+
+    @property
+    def ok(self) -> bool:
+        return (self.onset_accepted or not self.onset_claimed) and (self.all_accepted or not self.all_claimed) \
+            and self.values_match
+
+
+def check_folder(folder: pathlib.Path) -> list[StateCheck]:
+    """Re-verify every stored proof of a results folder (raises ``FileNotFoundError`` when the
+    folder has no results.json)."""
+    from app.analyses.mceip_mu.checker import check_log
+    from app.analyses.mceip_mu.prooflog import ProofLog
+    from app.io.document import from_document
+    results = from_document(json.loads((folder / "results.json").read_text(encoding="utf-8")))
+    by_index = {int(st["index"]): st for st in results.get("states", [])}
+    out: list[StateCheck] = []
+    for path in sorted((folder / FOLDER).glob("state_*.npz"), key=lambda p: int(p.stem.split("_")[1])):
+        k = int(path.stem.split("_")[1])
+        with np.load(path, allow_pickle=False) as z:
+            A0, A1 = z["A0"], z["A1"]
+            log = ProofLog.from_json(json.loads(str(z["log"])))
+        rep = check_log(A0, A1, log)
+        a = ((by_index.get(k) or {}).get("analyses") or {}).get("mceip_mu") or {}
+        onset_claimed = bool((a.get("onset") or {}).get("proven"))
+        all_claimed = bool(a.get("certified"))
+        match = True
+        if all_claimed and rep.all_ok:
+            claimed = sorted(float(d["value"]) for d in a.get("solutions", []) if d.get("certified"))
+            match = len(claimed) == len(rep.solutions) and all(
+                lo <= v <= hi or abs(v - 0.5 * (lo + hi)) <= 1e-9 * max(1.0, abs(v))
+                for v, (_, lo, hi) in zip(claimed, rep.solutions))
+        if onset_claimed and rep.onset_ok:
+            v = (a.get("onset") or {}).get("value")
+            if v is not None and rep.onset is not None:
+                match = match and rep.onset[0] <= float(v) <= rep.onset[1]
+            elif (v is None) != (rep.onset is None):
+                match = False
+        out.append(StateCheck(k, log.s, onset_claimed, rep.onset_ok, all_claimed, rep.all_ok, match, rep.errors[:3]))
+    return out

@@ -1,0 +1,106 @@
+"""results.json and steps.csv (docs/method.md section 6), written atomically by rank 0."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import pathlib
+import tempfile
+
+from app.io.document import to_document
+from app.io.result import StateResult
+
+
+def _umask() -> int:
+    """The process umask (read without changing it where /proc allows, else set and restored)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def file_mode() -> int:
+    """The mode a plain ``open(path, "w")`` gives: 0666 minus the umask (as the plots and report get)."""
+    return 0o666 & ~_umask()
+
+
+def atomic_write(path: pathlib.Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename, so
+    that ``path`` is either absent, the old file, or complete (never half-written).
+
+    The file gets the usual mode (0666 minus the umask), not mkstemp's 0600. A full disk raises
+    OSError(ENOSPC) and leaves no temporary file behind."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, file_mode())
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        pathlib.Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+STEP_COLUMNS = ["index", "phase", "u_x_CD_mm", "u_y_CD_mm", "normal_resultant_N", "tangential_resultant_N",
+                "n_free", "n_zero", "n_stick", "n_slip", "necessary_min_eig_K_sym", "necessary_satisfied",
+                "sufficient_max_lambda2_per_s2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",
+                "shared_with", "analysis_seconds", "step", "load_parameters"]
+
+
+def step_rows(results: dict) -> list[dict]:
+    """One row per state for steps.csv."""
+    rows = []
+    for st in results["states"]:
+        a = st.get("analyses", {})
+        load = st.get("load", {})
+        res = StateResult.from_dict(st)
+        mu_sols = [] if res.mceip_mu is None else [float(v) for v in res.mceip_mu.values]
+        l2_sols = [] if res.mceip_lambda2 is None else [float(v) for v in res.mceip_lambda2.values]
+        suff = a.get("sufficient", {}).get("lambda2", [])
+        nec = a.get("necessary", {})
+        c = st["classification"]
+        rows.append({
+            "index": st["index"], "phase": load.get("phase", ""), "step": load.get("step", ""),
+            # a loading program's parameters (a body from Gmsh: motions, loads, gravity), name=value;...
+            "load_parameters": ";".join(f"{k}={v!r}" for k, v in (load.get("parameters") or {}).items()),
+            "u_x_CD_mm": load.get("u_x", ""), "u_y_CD_mm": load.get("u_y", ""),
+            "normal_resultant_N": load.get("normal_resultant", ""),
+            "tangential_resultant_N": load.get("tangential_resultant", ""),
+            "n_free": c["free"], "n_zero": c["zero"], "n_stick": c["stick"], "n_slip": c["slip"],
+            "necessary_min_eig_K_sym": nec.get("min_eig_K_sym", ""),
+            "necessary_satisfied": nec.get("satisfied", ""),
+            "sufficient_max_lambda2_per_s2": max(suff) if suff else "",
+            "mceip_mu_min": min(mu_sols) if mu_sols else "",
+            "mceip_mu_count": len(mu_sols) if "solutions" in (a.get("mceip_mu") or {}) else "",
+            "mceip_lambda2_max": max(l2_sols) if l2_sols else "",
+            "shared_with": "" if st.get("analyses_shared_with") is None else st["analyses_shared_with"],
+            "analysis_seconds": st.get("analysis_seconds", ""),
+        })
+    return rows
+
+
+def steps_csv(results: dict) -> str:
+    """The text of steps.csv: a header and one row per state (:func:`step_rows`)."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS)
+    w.writeheader()
+    w.writerows(step_rows(results))
+    return buf.getvalue()
+
+
+def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Write steps.csv then results.json (last: its presence marks a complete run). The MCEIP-mu
+    proofs (app/io/proofs.py) are written before, while the results still hold the pencils."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    atomic_write(outdir / "steps.csv", steps_csv(results))
+    atomic_write(outdir / "results.json", json.dumps(to_document(results), indent=1, allow_nan=False))
+    return [outdir / "steps.csv", outdir / "results.json"]

@@ -1,0 +1,85 @@
+"""Which states the scene's ``outputs.states`` selects, from the results alone.
+
+The same function runs inside the study (to know which fields to compute) and in
+``python -m app render`` (to redraw them), so both agree.
+"""
+from __future__ import annotations
+
+from app.io.result import StudyResult
+
+MODE_PROBLEMS = (("sufficient", "sufficient"), ("mceip_mu", "mceip_mu"), ("mceip_lambda2", "mceip_lambda2"))
+
+
+def _plain(sel):
+    """A selector as plain data (the pydantic model or its JSON dump)."""
+    if hasattr(sel, "model_dump"):
+        sel = sel.model_dump()
+    if isinstance(sel, dict):
+        sel = {k: v for k, v in sel.items() if v is not None}
+    return sel
+
+
+def describe(sel) -> str:
+    sel = _plain(sel)
+    if isinstance(sel, dict):
+        return "first state with " + ", ".join(f"{v} {k}" for k, v in sel.items())
+    if isinstance(sel, int):
+        return f"state {sel}"
+    return {"final": "final state", "first_mceip_mu": "first state with an MCEIP-mu solution",
+            "all_distinct": "first state of every distinct classification"}.get(sel, str(sel))
+
+
+def select_states(states: list[dict], selectors) -> tuple[list[int], list[str]]:
+    """State indices chosen by ``selectors`` (sorted, unique) and a note for each selector that
+    chose nothing."""
+    by_index = {s["index"]: s for s in states}
+    chosen: list[int] = []
+    notes: list[str] = []
+    for raw in selectors:
+        sel = _plain(raw)
+        found: list[int] = []
+        if isinstance(sel, int):
+            found = [sel] if sel in by_index else []
+        elif sel == "final":
+            found = [states[-1]["index"]] if states else []
+        elif sel == "first_mceip_mu":
+            first = StudyResult.from_dict({"states": states}).first_instability()
+            found = [] if first is None else [first.index]
+        elif sel == "all_distinct":
+            found = [s["index"] for s in states if s.get("analyses_shared_with") is None]
+        elif isinstance(sel, dict):
+            found = [s["index"] for s in states
+                     if all(s["classification"].get(k) == v for k, v in sel.items())][:1]
+        if not found:
+            notes.append(f"outputs.states: {describe(sel)}: no such state in this study "
+                         f"({len(states)} states, indices 0 to {len(states) - 1})")
+        chosen += found
+    return sorted(set(chosen)), notes
+
+
+def analyses_of(states: list[dict], index: int) -> tuple[dict, int]:
+    """The analyses of state ``index`` and the index of the state they were computed at."""
+    by_index = {s["index"]: s for s in states}
+    st = by_index[index]
+    first = st.get("analyses_shared_with")
+    first = index if first is None else first
+    return st.get("analyses") or {}, first
+
+
+def modes_of(analyses: dict) -> list[tuple[str, int, dict]]:
+    """Every divergence mode of one state's analyses: (problem, number, solution dict).
+
+    problem is ``sufficient`` (eigenpairs of (17)-(18)), ``mceip_mu`` or ``mceip_lambda2``.
+    """
+    out = []
+    for key, problem in MODE_PROBLEMS:
+        a = analyses.get(key) or {}
+        sols = a.get("modes", []) if key == "sufficient" else a.get("solutions", [])
+        for k, sol in enumerate(sols):
+            out.append((problem, k, sol))
+    return out
+
+
+def mode_name(first: int, problem: str, k: int, value: float) -> str:
+    """Field name of a mode: its state, problem, number and eigenvalue, e.g. ``s0237_mceip_mu_0_60.8058``."""
+    return f"s{first:04d}_{problem}_{k}_{value:.6g}"

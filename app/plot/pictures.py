@@ -1,0 +1,200 @@
+"""Draw what the scene's ``outputs`` ask for (plots, screenshots, report) from the results alone.
+
+Runs on rank 0, after the study (``python -m app run``) or later on saved results
+(``python -m app render RESULTS_DIR``): it never recomputes anything. The fields the screenshots
+need were saved by the study's field stage (app/io/fields.py) in ``fields/fields.npz``.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import pathlib
+import sys
+import tempfile
+import time
+
+from app.common.stages import Stages
+from app.io.select import select_states
+
+log = logging.getLogger(__name__)
+
+PICTURE_STAGES = ("plots (matplotlib)", "screenshots (pyvista)", "report")
+
+
+def outputs_config(results: dict) -> dict:
+    return ((results.get("scene_config") or {}).get("outputs")) or {}
+
+
+def wants_pictures(results: dict) -> bool:
+    cfg = outputs_config(results)
+    return bool(cfg.get("plots") or cfg.get("screenshots") or cfg.get("report"))
+
+
+def _remove_old(folder: pathlib.Path, patterns: tuple[str, ...]) -> None:
+    """Remove the pictures an earlier run or render left in one of the app's own picture folders."""
+    if folder.is_dir():
+        for pat in patterns:
+            for p in folder.glob(pat):
+                p.unlink()
+
+
+@contextlib.contextmanager
+def _survive(what: str, notes: list[str]):
+    """A picture that cannot be drawn is a note, not a lost study: the results are still written."""
+    try:
+        yield
+    except Exception as err:          # noqa: BLE001 - any drawing failure
+        log.warning("%s failed", what, exc_info=True)
+        notes.append(f"{what} failed ({type(err).__name__}: {err}); the results are complete: "
+                     f"redraw with python -m app render")
+
+
+def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str]:
+    """Draw every picture asked for; returns the files drawn (relative to ``outdir``) and updates
+    ``results["outputs"]`` (files, notes, pictured states) and ``results["stages"]``.
+
+    ``results`` must be JSON-like (as read back from results.json) so that a run and a later
+    render draw the same pictures.
+    """
+    cfg = outputs_config(results)
+    record = results.setdefault("outputs", {"notes": [], "files": []})
+    record.setdefault("notes", [])
+    record.setdefault("files", [])
+    if not wants_pictures(results):
+        return []
+    stages = Stages()
+    # the run's stages; picture stages of an earlier drawing are replaced by this one's
+    base = [s for s in results.get("stages", []) if s["name"] not in PICTURE_STAGES]
+    pictured, notes = select_states(results["states"], cfg.get("states") or ["final"])
+    record["pictured_states"] = pictured
+    notes = [n for n in notes if n not in record["notes"]]
+    plot_files, shot_files = [], []
+    want_plots = bool(cfg.get("plots"))
+    want_shots = bool(cfg.get("screenshots")) and not record.get("fields_not_applicable")    # e.g. no mesh (matrices)
+    if "dolfinx.cpp" in sys.modules:
+        # after a run: two child processes draw the plots and the screenshots at the same time
+        if want_plots or want_shots:
+            plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
+                                                       want_plots, want_shots)
+    else:                    # no DOLFINx here (e.g. python -m app render): drawn in this process
+        if want_plots:
+            with stages(PICTURE_STAGES[0]), _survive("plots", notes):
+                from app.plot.plots import draw_plots
+                _remove_old(outdir / "plots", ("*.png", "*.svg"))
+                plot_files, n = draw_plots(results, pictured, outdir / "plots")
+                notes += n
+        if want_shots:
+            with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
+                from app.plot.screenshots import draw_screenshots
+                _remove_old(outdir / "screenshots", ("*.png",))
+                shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
+                                                 outdir / "fields" / "fields.npz", progress)
+                notes += n
+    record["notes"] += notes
+    for n in notes:
+        log.warning("%s", n)
+    drawn = [p.relative_to(outdir).as_posix() for p in plot_files + shot_files]
+    if cfg.get("report"):
+        from app.io.report import versions, write_report
+        results.setdefault("versions", versions())
+        results["stages"] = base + stages.as_list()      # the report lists the stages before it
+        with stages(PICTURE_STAGES[2]), _survive("report", record["notes"]):
+            rep = write_report(results, outdir, pictured, plot_files, shot_files, record["notes"])
+            drawn.append(rep.relative_to(outdir).as_posix())
+    results["stages"] = base + stages.as_list()
+    record["files"] = list(dict.fromkeys(record["files"] + drawn))
+    for st in stages.as_list():
+        log.info("%s: %.2f s", st["name"], st["seconds"])
+    log.info("pictures: drew %d file(s)", len(drawn))
+    return drawn
+
+
+def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, progress, stages,
+                      notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
+    """Plots and screenshots drawn by two child processes at once (app/plot/worker.py: VTK cannot
+    run next to DOLFINx; the children started by :func:`prestarted` are already warm). Each
+    picture stage records the drawing time its child reports."""
+    from app.plot import worker
+    from app.plot.screenshots import job_of, resolution_arg
+    t0 = time.perf_counter()
+    shots_cfg = cfg.get("screenshots") or {}
+    job = None
+    running, out = [], {}
+    try:
+        with _survive("plots and screenshots", notes):
+            if want_plots:
+                _remove_old(outdir / "plots", ("*.png", "*.svg"))
+            if want_shots:
+                _remove_old(outdir / "screenshots", ("*.png",))
+            data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
+                          progress)
+            # a new file of this run's own (exclusive create), removed below
+            fd, name = tempfile.mkstemp(dir=outdir, prefix=".pictures-job-", suffix=".json")
+            job = pathlib.Path(name)
+            with os.fdopen(fd, "w") as f:
+                json.dump({**data, "plots_dir": str(outdir / "plots")}, f)
+            for stage, kind, want, arg in ((PICTURE_STAGES[1], "screenshots", want_shots, resolution_arg(shots_cfg)),
+                                           (PICTURE_STAGES[0], "plots", want_plots, "")):
+                if want:
+                    running.append((stage, worker.take(kind, arg).submit(job)))
+            worker.close_unused()
+            for stage, child in running:
+                files, n, seconds = child.wait()
+                notes += n
+                out[stage] = files
+                stages.records[stage] = {"name": stage, "count": 1,
+                                         "seconds": time.perf_counter() - t0 if seconds is None else seconds}
+    finally:
+        for _, child in running:
+            child.close()
+        if job is not None:
+            job.unlink(missing_ok=True)
+    log.info("plots and screenshots: %.2f s after the run (drawn at the same time by two processes)",
+             time.perf_counter() - t0)
+    return out.get(PICTURE_STAGES[0], []), out.get(PICTURE_STAGES[1], [])
+
+
+def _draws(scene) -> bool:
+    """The scene's outputs ask for plots or screenshots (drawn by child processes after a run)."""
+    outputs = getattr(scene, "outputs", None)
+    return outputs is not None and bool(outputs.plots or outputs.screenshots is not None)
+
+
+@contextlib.contextmanager
+def prestarted(scene, comm):
+    """Around a study whose results rank 0 will draw: on rank 0, the drawing processes of the
+    plots and the screenshots are started first, so that they import matplotlib and VTK and warm
+    up while the study runs; those not used are stopped at the end."""
+    # the children draw only in a process that has loaded DOLFINx (:func:`draw_outputs`): a meshed
+    # system's study loads it; a mesh-less system's pictures (particles, matrices) are drawn here
+    meshed = getattr(scene.system, "has_fields", False)
+    if comm.rank != 0 or not _draws(scene) or not (meshed or "dolfinx.cpp" in sys.modules):
+        yield
+        return
+    outputs = scene.outputs
+    from app.plot import worker
+    try:
+        if outputs.plots:
+            worker.prestart("plots")
+        if outputs.screenshots is not None and meshed:
+            from app.plot.screenshots import resolution_arg
+            worker.prestart("screenshots", resolution_arg(outputs.screenshots.model_dump(mode="json")))
+        yield
+    finally:
+        worker.close_unused()
+
+
+def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
+    """After a run (rank 0): the results as JSON data, with the pictures drawn if the scene asks.
+
+    The drawing works on the results as they will be read back from results.json, so a later
+    ``render`` draws exactly the same pictures.
+    """
+    if not wants_pictures(results):
+        return results
+    from app.io.document import from_document, to_document
+    data = from_document(json.loads(json.dumps(to_document(results), allow_nan=False)))
+    draw_outputs(data, outdir, progress)
+    return data

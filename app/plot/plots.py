@@ -1,0 +1,328 @@
+"""Plots of a study (matplotlib, PNG and SVG), drawn from the results alone.
+
+* ``status_map``: the status of every contact node (free, zero, stick, slip) against the load
+  step: how slip spreads along AB;
+* ``reactions``: normal and tangential reactions along AB at the pictured states, with the
+  Coulomb limits +-mu |r_N|;
+* ``mceip_mu``: the smallest MCEIP-mu value (every value as dots) and the number of slip nodes
+  against the load step, with the scene's mu;
+* ``necessary``: the smallest eigenvalue of sym K*(mu) (necessary condition (19)) against the
+  load step: the condition holds where it is <= 0.
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+
+from app.io.result import StateResult
+
+STATUS_ORDER = ("free", "zero", "stick", "slip")
+STATUS_COLOURS = {"free": "#d9d9d9", "zero": "#9467bd", "stick": "#1f77b4", "slip": "#d62728"}
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _num(v) -> float:
+    """A results.json number (written 'inf'/None for non-finite values) as a float."""
+    if v is None:
+        return math.nan
+    if isinstance(v, str):
+        return {"inf": math.inf, "-inf": -math.inf}.get(v, math.nan)
+    return float(v)
+
+
+def _save(fig, path: pathlib.Path) -> list[pathlib.Path]:
+    """The figure as PNG (150 dpi) and SVG, both cropped to the tight box of the PNG's layout.
+
+    The tight box is computed once (``bbox_inches="tight"`` lays the figure out once more per
+    file: 4 layouts instead of 2 for the two files)."""
+    import matplotlib
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dpi = fig.dpi
+    fig.dpi = 150                                  # the PNG's resolution, as savefig(dpi=150) sets it
+    try:
+        renderer = fig.canvas.get_renderer()
+        fig.draw_without_rendering()               # final layout (ticks, colour bars, twin axes)
+        box = fig.get_tightbbox(renderer).padded(matplotlib.rcParams["savefig.pad_inches"])
+    finally:
+        fig.dpi = dpi
+    out = []
+    for ext in ("png", "svg"):
+        p = path.with_suffix("." + ext)
+        fig.savefig(p, dpi=150 if ext == "png" else None, bbox_inches=box)
+        out.append(p)
+    _plt().close(fig)
+    return out
+
+
+def _tangential_start(states: list[dict]) -> int | None:
+    for s in states:
+        if (s.get("load") or {}).get("phase") == "tangential":
+            return s["index"]
+    return None
+
+
+def _mark_phases(ax, states: list[dict]) -> None:
+    """The block's tangential loading, or where each phase of a loading program after the first starts."""
+    t0 = _tangential_start(states)
+    starts = [(t0, "tangential loading")] if t0 is not None else []
+    prev = None
+    for s in states if t0 is None else ():
+        load = s.get("load") or {}
+        ph = load.get("phase")
+        if isinstance(ph, int) and prev is not None and ph != prev:
+            starts.append((s["index"], load.get("name") or f"phase {ph}"))
+        prev = ph
+    for i, label in starts:
+        ax.axvline(i - 0.5, color="0.4", lw=0.8, ls=":")
+        ax.annotate(f"{label} ->", (i - 0.5, 0.0), xycoords=("data", "axes fraction"),
+                    xytext=(3, 3), textcoords="offset points", va="bottom", fontsize=8, color="0.3")
+
+
+def _title(results: dict, what: str) -> str:
+    return f"{results.get('scene', '')}: {what}"
+
+
+def _system_type(results: dict):
+    """The registered system type of a results dictionary (app/systems/), None if unknown."""
+    from app.systems import SYSTEM_TYPES
+    return SYSTEM_TYPES.get(((results.get("scene_config") or {}).get("system") or {}).get("type", "block"))
+
+
+def _contact_line(results: dict) -> str | None:
+    """Name of the contact side (the block's AB), None when the system type has none."""
+    kind = _system_type(results)
+    return kind.contact_line if kind is not None else None
+
+
+def _position_label(results: dict) -> str | None:
+    """Axis label of the contact nodes' ``x`` when it is a position (block: along AB; gmsh body:
+    along the obstacle's tangent), None when nodes are only numbered (particles, matrices)."""
+    kind = _system_type(results)
+    length = results.get("units", {}).get("length", "mm")
+    return kind.position_axis.format(length=length) if kind is not None and kind.position_axis else None
+
+
+def _few_states(ax, idx: np.ndarray) -> None:
+    """A study of one or a few states: integer ticks on the state axis."""
+    if len(idx) <= 3:
+        ax.set_xticks(idx)
+        ax.set_xlim(idx.min() - 0.5, idx.max() + 0.5)
+
+
+def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    import matplotlib
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+    states = results["states"]
+    n = len(states[0]["nodes"])
+    codes = np.array([[STATUS_ORDER.index(nd["status"]) for nd in s["nodes"]] for s in states]).T
+    xs = np.array([nd["x"] for nd in states[0]["nodes"]])
+    idx = np.array([s["index"] for s in states])
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    cmap = ListedColormap([STATUS_COLOURS[k] for k in STATUS_ORDER])
+    # node rows at their positions along AB: edges halfway between neighbours; nodes that do not
+    # increase strictly along it (e.g. a contact curve folding back over the obstacle) as numbered rows
+    label, line = _position_label(results), _contact_line(results)
+    if label and n > 1 and np.any(np.diff(xs) <= 0):
+        xs, label, line = np.arange(n, dtype=float), None, None
+    if n > 1:
+        mid = 0.5 * (xs[1:] + xs[:-1])
+        yedges = np.concatenate([[xs[0] - (mid[0] - xs[0])], mid, [xs[-1] + (xs[-1] - mid[-1])]])
+    else:
+        yedges = np.array([xs[0] - 0.5, xs[0] + 0.5])
+    xedges = np.concatenate([idx - 0.5, [idx[-1] + 0.5]])
+    # what pcolormesh(xedges, yedges, codes) draws, as one rectangle per run of equal status along a
+    # node's row: the same picture, but the SVG holds ~100 rectangles instead of n x states quads
+    rects, colours = [], []
+    for r, row in enumerate(codes):
+        cut = np.flatnonzero(np.diff(row)) + 1
+        for a, b in zip(np.concatenate([[0], cut]), np.concatenate([cut, [len(row)]])):
+            x0, x1, y0, y1 = xedges[a], xedges[b], yedges[r], yedges[r + 1]
+            rects.append([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+            colours.append(cmap(BoundaryNorm(np.arange(-0.5, 4.5), 4)(row[a])))
+    runs = PolyCollection(rects, facecolors=colours, edgecolors="none", antialiaseds=False,
+                          snap=matplotlib.rcParams["pcolormesh.snap"])
+    ax.add_collection(runs)
+    runs.sticky_edges.x[:] = [xedges.min(), xedges.max()]
+    runs.sticky_edges.y[:] = [yedges.min(), yedges.max()]
+    length = results.get("units", {}).get("length", "mm")
+    ax.set_xlabel("load step (state index)")
+    ax.hlines(yedges[1:-1], xedges[0], xedges[-1], colors="white", linewidth=0.6)    # one row per node
+    if n <= 12 or not label:
+        ax.set_yticks(xs)
+        ax.set_yticklabels([f"{x:g}" for x in xs] if label else [f"node {i}" for i in range(n)])
+    ax.set_ylabel(f"contact node position x [{length}] ({line[0]} at the bottom)" if line
+                  else label or "contact node")
+    _few_states(ax, idx)
+    _mark_phases(ax, states)
+    present = sorted({s for row in codes for s in row})
+    ax.legend(handles=[Patch(color=STATUS_COLOURS[STATUS_ORDER[k]], label=STATUS_ORDER[k]) for k in present],
+              loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.set_title(_title(results, f"contact status of the {n} contact nodes along the loading"))
+    return _save(fig, outdir / "status_map")
+
+
+def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    by_index = {s["index"]: s for s in results["states"]}
+    ids = [i for i in pictured if i in by_index] or [results["states"][-1]["index"]]
+    mu = _num(results.get("mu"))
+    units = results.get("units", {})
+    force = units.get("force", "N")
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    many = len(ids) > 8
+    cmap = plt.get_cmap("viridis")
+    for k, i in enumerate(ids):
+        s = by_index[i]
+        x = np.array([nd["x"] for nd in s["nodes"]])
+        rn = -np.array([nd["r_N"] for nd in s["nodes"]])
+        rt = np.array([nd["r_T"] for nd in s["nodes"]])
+        c = cmap(k / max(len(ids) - 1, 1)) if many else f"C{k % 10}"
+        cl = s["classification"]
+        label = None if many else f"state {i} ({cl['stick']} stick / {cl['slip']} slip / {cl['free']} free)"
+        a1.plot(x, rn, "-o", color=c, ms=3.5, lw=1.2, label=label)
+        a2.plot(x, rt, "-o", color=c, ms=3.5, lw=1.2)
+        if np.isfinite(mu):
+            a2.plot(x, mu * rn, ls="--", color=c, lw=0.8, alpha=0.7)
+            a2.plot(x, -mu * rn, ls="--", color=c, lw=0.8, alpha=0.7)
+        slip = np.array([nd["status"] == "slip" for nd in s["nodes"]])
+        a2.plot(x[slip], rt[slip], "s", mfc="none", mec=STATUS_COLOURS["slip"], ms=6)
+    a1.set_ylabel(f"normal reaction -r_N [{force}]\n(compression > 0)")
+    a2.set_ylabel(f"tangential reaction r_T [{force}]\n(dashed: +-mu |r_N|)")
+    a2.set_xlabel(_position_label(results) or "contact node")
+    if not _position_label(results):
+        a2.set_xticks(x)
+    for a in (a1, a2):
+        a.axhline(0, color="0.5", lw=0.6)
+        a.grid(alpha=0.3)
+    if many:
+        sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(min(ids), max(ids)))
+        fig.colorbar(sm, ax=(a1, a2), label="state index")
+    else:
+        a1.legend(fontsize=8)
+    a2.plot([], [], "s", mfc="none", mec=STATUS_COLOURS["slip"], label="slip nodes (on the Coulomb limit)")
+    a2.plot([], [], "--", color="0.4", lw=0.8, label="Coulomb limits +-mu |r_N|")
+    a2.legend(fontsize=8, loc="best")
+    line = _contact_line(results)
+    where = f"along {line}" if line else "along the obstacle" if _position_label(results) else "at the contact nodes"
+    a1.set_title(_title(results, f"reactions {where} (mu = {results.get('mu')})"))
+    return _save(fig, outdir / "reactions")
+
+
+def mceip_mu(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    states = results["states"]
+    idx = np.array([s["index"] for s in states])
+    nslip = np.array([s["classification"]["slip"] for s in states])
+    best = np.full(len(states), np.nan)
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    allx, ally = [], []
+    for k, s in enumerate(states):
+        vals = [float(v) for v in StateResult.from_dict(s).mu_values()]
+        if vals:
+            best[k] = min(vals)
+            allx += [s["index"]] * len(vals)
+            ally += vals
+    positive = np.concatenate([best[np.isfinite(best) & (best > 0)], [v for v in ally if v > 0]])
+    ax.plot(allx, ally, ".", color="0.6", ms=3, label="every MCEIP-mu value found")
+    ax.plot(idx, best, "-", color="C0", lw=1.6, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
+            label="smallest MCEIP-mu value")
+    mu = _num(results.get("mu"))
+    if np.isfinite(mu):
+        ax.axhline(mu, color="C3", ls="--", lw=1.2, label=f"scene mu = {mu:g}")
+    if len(positive) and positive.max() / max(positive.min(), 1e-300) > 50:
+        ax.set_yscale("log")
+    ax.set_xlabel("load step (state index)")
+    ax.set_ylabel("critical friction coefficient mu (MCEIP-mu)")
+    _mark_phases(ax, states)
+    ax2 = ax.twinx()
+    ax2.step(idx, nslip, where="mid", color="C2", lw=1.0, alpha=0.8, marker="s" if len(idx) <= 3 else None,
+             label="slip nodes")
+    _few_states(ax, idx)
+    ax2.set_ylabel("number of slip nodes", color="C2")
+    ax2.tick_params(axis="y", colors="C2")
+    ax2.set_ylim(0, max(1, nslip.max()) * 1.05)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=4, frameon=False)
+    if not np.isfinite(best).any():
+        ax.text(0.5, 0.5, "no MCEIP-mu solution at any state", transform=ax.transAxes, ha="center", color="0.3")
+    ax.grid(alpha=0.3)
+    ax.set_title(_title(results, "MCEIP-mu (transition to divergence) along the loading"))
+    return _save(fig, outdir / "mceip_mu")
+
+
+def necessary(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    plt = _plt()
+    states = results["states"]
+    idx = np.array([s["index"] for s in states])
+    lamK = np.array([_num(((s.get("analyses") or {}).get("necessary") or {}).get("min_eig_K_sym")) for s in states])
+    lamM = np.array([_num(((s.get("analyses") or {}).get("necessary") or {}).get("min_eig_M_sym")) for s in states])
+    units = results.get("units", {})
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    ax.plot(idx, lamK, "-", color="C0", lw=1.5, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
+            label="smallest eigenvalue of sym K*(mu)")
+    _few_states(ax, idx)
+    ax.axhline(0, color="0.3", lw=0.8)
+    sat = np.array([bool(((s.get("analyses") or {}).get("necessary") or {}).get("satisfied")) for s in states])
+    if sat.any():
+        ax.fill_between(idx, 0, 1, where=sat, transform=ax.get_xaxis_transform(), color="C3", alpha=0.08,
+                        step="mid", label="necessary condition (19) holds")
+    finite = lamK[np.isfinite(lamK)]
+    if len(finite) and np.abs(finite).max() > 100 * max(np.abs(finite[finite != 0]).min(initial=1.0), 1e-300):
+        ax.set_yscale("symlog", linthresh=max(np.abs(finite[finite != 0]).min(initial=1.0), 1e-12))
+    if np.isfinite(lamM).any() and np.nanmin(lamM) < 0:
+        ax.text(0.99, 0.02, f"sym M*(mu) is indefinite at some states (min {np.nanmin(lamM):.3g})",
+                transform=ax.transAxes, ha="right", fontsize=8, color="C3")
+    ax.set_xlabel("load step (state index)")
+    ax.set_ylabel(f"min eig sym K*(mu) [{units.get('stiffness', 'N/mm')}]")
+    _mark_phases(ax, states)
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3)
+    ax.set_title(_title(results, f"necessary condition (19) at mu = {results.get('mu')}"))
+    return _save(fig, outdir / "necessary")
+
+
+def draw_plots(results: dict, pictured: list[int], outdir: pathlib.Path) -> tuple[list[pathlib.Path], list[str]]:
+    """Every plot the results allow and the scene asked for; returns (files, notes for the report)."""
+    files, notes = [], []
+    files += status_map(results, outdir)
+    files += reactions(results, pictured, outdir)
+    asked = results.get("analyses_requested", [])
+    if "mceip_mu" in asked:                  # the analyses' plots only when the scene asked for them
+        files += mceip_mu(results, outdir)   # (no warning otherwise: that was the user's choice)
+    if "necessary" in asked:
+        files += necessary(results, outdir)
+    return files, notes
+
+
+def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
+    """Draw the plots of a drawing process's job (app/plot/worker.py)."""
+    return draw_plots(job["results"], job["pictured"], pathlib.Path(job["plots_dir"]))
+
+
+def warm_up(_arg: str = "") -> None:
+    """Import matplotlib and draw a small figure to PNG and SVG in memory (fonts loaded and
+    cached), before the plots are asked for (app/plot/worker.py)."""
+    import io
+    plt = _plt()
+    from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: F401 - imported for status_map
+    from matplotlib.patches import Patch  # noqa: F401
+    fig, ax = plt.subplots(figsize=(2, 1.5))
+    ax.plot([0, 1], [0, 1], "-o", label="warm-up \u03bc")
+    ax.set_yscale("log")
+    ax.legend(fontsize=8)
+    ax.set_title("warm-up")
+    for ext in ("png", "svg"):
+        fig.savefig(io.BytesIO(), format=ext, dpi=150 if ext == "png" else None, bbox_inches="tight")
+    plt.close(fig)

@@ -1,0 +1,222 @@
+"""Off-screen pyvista pictures of the body (no display or X server needed).
+
+* ``state_XXXX_<field>.png``: the body deformed at a pictured state (true scale unless
+  ``screenshots.scale``), coloured by |u| or the von Mises stress with a colour bar, the
+  undeformed outline (the mesh's boundary edges), the obstacle (a hatched strip along its line,
+  on the side its normal points to), and the contact nodes marked by status;
+* ``mode_<name>.png``: a divergence mode drawn like the paper's Figs. 2-3: the mesh displaced by
+  the mode shape (scaled to fit), coloured by the mode amplitude, the contact nodes marked (stick,
+  slip nodes that slip in the mode, slip nodes stuck in the mode, free), eigenvalue in the title.
+
+Nothing assumes a rectangle or a horizontal contact side: the geometry comes from the mesh, the
+contact nodes and the obstacle line saved in fields.npz.
+Drawn from ``fields/fields.npz`` and the results only, so ``python -m app render`` redraws them.
+
+In a process that has loaded DOLFINx the drawing runs in a child process (app/plot/worker.py,
+started by app/plot/pictures.py): DOLFINx switches the
+interpreter to RTLD_GLOBAL library loading, after which VTK's scalar bar aborts the process
+(conflicting C++ template symbols). The child also keeps a rendering failure (no EGL/OSMesa on
+the machine, say) from taking the study's results with it.
+"""
+from __future__ import annotations
+
+import pathlib
+import sys
+
+import numpy as np
+
+from app.plot.canvas import (
+    FieldData,
+    add_body,
+    bar_args,
+    close_plotters,
+    finish,
+    font_size,
+    import_pyvista,
+    markers,
+    plotter,
+    text,
+    truetype_font,
+)
+
+PROBLEM_TITLE = {"mceip_mu": "MCEIP-\u03bc mode: \u03bc", "mceip_lambda2": "MCEIP-\u03bb\u00b2 mode: \u03bb\u00b2",
+                 "sufficient": "sufficient condition (17)-(18) mode: \u03bb\u00b2"}
+
+
+def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, path: pathlib.Path,
+                  units: dict, scene: str) -> pathlib.Path:
+    k = fd.state_index.index(state["index"])
+    u = fd.state_u[k]
+    grid = fd.grid(scale * u)
+    pl = plotter(res)
+    if field == "von_mises":
+        grid.cell_data["von Mises"] = fd.state_vm[k]
+        name, bar = "von Mises", f"von Mises stress [{units.get('stress', 'MPa')}]"
+    else:
+        grid.point_data["u"] = np.linalg.norm(u, axis=1)
+        name, bar = "u", f"displacement magnitude [{units.get('length', 'mm')}]"
+    add_body(pl, fd, grid, scale * u, scalars=name, cmap="viridis", scalar_bar_args=bar_args(bar, "%.3g", res))
+    pts = fd.points + scale * u
+    groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip", "free", "zero")}
+    for nd, j in zip(state["nodes"], fd.contact):
+        groups[nd["status"]].append(int(j))
+    legend = markers(pl, pts, groups, size=max(9.0, res[0] / 100))
+    c = state["classification"]
+    load = state.get("load") or {}
+    length = units.get("length", "mm")
+    if "u_x" in load:
+        where = f"CD moved by u_x = {load['u_x']:.4g} {length}, u_y = {load['u_y']:.4g} {length}"
+    elif "parameters" in load:       # a loading program: the phase and its load parameters
+        where = (f"phase '{load.get('name', load.get('phase', ''))}', step {load.get('step', '')}: "
+                 + ", ".join(f"{k} = {v:.4g}" for k, v in load["parameters"].items()))
+    else:
+        where = ""
+    title = [f"{scene}: state {state['index']}, {c['stick']} stick / {c['slip']} slip / {c['free']} free"
+             + (f" / {c['zero']} zero" if c.get("zero") else ""),
+             where + ("" if scale == 1.0 else f"; displacements drawn x{scale:g}")]
+    return finish(pl, fd, pts, title, legend, path, res)
+
+
+def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path, scene: str,
+                 units: dict | None = None) -> pathlib.Path:
+    v = fd.mode(meta["name"])
+    amp = 0.12 * fd.small                        # max mode displacement drawn: 12 % of the smaller side
+    grid = fd.grid(amp * v)
+    grid.point_data["mode"] = np.linalg.norm(v, axis=1)
+    pl = plotter(res)
+    add_body(pl, fd, grid, amp * v, scalars="mode", cmap="plasma",
+              scalar_bar_args=bar_args("mode displacement magnitude (max 1)", "%.2f", res))
+    pts = fd.points + amp * v
+    groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip_mode", "stuck_mode", "free", "zero")}
+    pattern = list(meta.get("pattern") or [])
+    slip_k = 0
+    stuck_nodes = []
+    for pos, (nd, j) in enumerate(zip(state["nodes"], fd.contact)):
+        st = nd["status"]
+        if st == "slip":
+            in_mode = pattern[slip_k] if slip_k < len(pattern) else "slip"
+            slip_k += 1
+            groups["slip_mode" if in_mode == "slip" else "stuck_mode"].append(int(j))
+            if in_mode != "slip":
+                stuck_nodes.append(pos + 1)
+        else:
+            groups[st].append(int(j))
+    legend = markers(pl, pts, groups, size=max(9.0, res[0] / 100))
+    c = state["classification"]
+    what = PROBLEM_TITLE.get(meta["problem"], meta["problem"])
+    if not truetype_font():      # VTK's own font has no Greek letters
+        what = what.replace("\u03bc", "mu").replace("\u03bb\u00b2", "lambda^2")
+    stuck = (f"{len(stuck_nodes)} of {c['slip']} slip nodes stuck in the mode (node{'s' if len(stuck_nodes) > 1 else ''} "
+             + ", ".join(str(k) for k in stuck_nodes) + " numbered along the obstacle)") if stuck_nodes else \
+        f"all {c['slip']} slip nodes slip in the mode"
+    unit = "" if meta["problem"] == "mceip_mu" else " " + (units or {}).get("lambda2", "1/s^2")
+    title = [f"{what} = {meta['value']:.6g}{unit}",
+             f"{scene}: state {meta['state']}, {c['stick']} stick / {c['slip']} slip / {c['free']} free; {stuck}"]
+    return finish(pl, fd, pts, title, legend, path, res)
+
+
+def draw_screenshots(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
+                     fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
+    """Every screenshot the scene asks for, drawn in this process; returns (files, notes).
+
+    Not in a process that has loaded DOLFINx (see the module docstring): there
+    app/plot/pictures.py has them drawn by a child process (app/plot/worker.py)."""
+    if "dolfinx.cpp" in sys.modules:
+        raise RuntimeError("screenshots cannot be drawn in a process that has loaded DOLFINx: "
+                           "use app.plot.pictures.draw_outputs (it draws them in a child process)")
+    return _draw(results, pictured, cfg, outdir, fields_path, progress)
+
+
+def job_of(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields_path: pathlib.Path,
+           progress=None) -> dict:
+    """The job of a drawing process (JSON data)."""
+    return {"results": results, "pictured": pictured, "cfg": cfg, "outdir": str(outdir), "fields": str(fields_path),
+            "progress": bool(progress is not None and getattr(progress, "enabled", False))}
+
+
+def resolution_arg(cfg: dict) -> str:
+    """The pictures' resolution as the drawing process's argument ``WxH``."""
+    w, h = cfg.get("resolution") or (1200, 800)
+    return f"{int(w)}x{int(h)}"
+
+
+def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
+          fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
+    from app.io.select import analyses_of, mode_name, modes_of
+    if not fields_path.exists():
+        return [], [f"screenshots left out: {fields_path} is missing (the fields are computed by the run)"]
+    fd = FieldData(fields_path)
+    res = tuple(cfg.get("resolution") or (1200, 800))
+    field = cfg.get("field", "von_mises")
+    scale = float(cfg.get("scale", 1.0))
+    units = results.get("units", {})
+    scene = results.get("scene", "")
+    by_index = {s["index"]: s for s in results["states"]}
+    files, notes = [], []
+    jobs = []
+    for i in pictured:
+        if i not in fd.state_index:
+            notes.append(f"screenshot of state {i} left out: its field is not in {fields_path.name}")
+            continue
+        jobs.append(("state", i, None))
+        if cfg.get("modes", True):
+            analyses, first = analyses_of(results["states"], i)
+            for problem, k, sol in modes_of(analyses):
+                name = mode_name(first, problem, k, _value(sol["value"]))
+                if name in [j[2] for j in jobs if j[0] == "mode"]:
+                    continue
+                jobs.append(("mode", i, name))
+    known = {m["name"]: m for m in fd.modes}
+    bar = progress.bar(len(jobs), "screenshots", unit="picture") if progress is not None else None
+    try:
+        for kind, i, name in jobs:
+            if kind == "state":
+                files.append(state_picture(fd, by_index[i], field, res, scale,
+                                           outdir / f"state_{i:04d}_{field}.png", units, scene))
+            elif name in known:
+                meta = known[name]
+                files.append(mode_picture(fd, meta, by_index[meta["state"]], res, outdir / f"mode_{name}.png",
+                                          scene, units))
+            else:
+                notes.append(f"screenshot of mode {name} left out: its field is not in {fields_path.name}")
+            if bar is not None:
+                bar.update(1)
+    finally:
+        close_plotters()
+        if bar is not None:
+            bar.close()
+    return files, notes
+
+
+def _value(v) -> float:
+    return float(v)
+
+
+def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
+    """Draw a job of :func:`job_of` (in the drawing process)."""
+    import types
+    progress = None
+    if job["progress"]:
+        from app.common.progress import Progress
+        progress = Progress(enabled=True, comm=types.SimpleNamespace(rank=0))
+    return _draw(job["results"], job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
+                 pathlib.Path(job["fields"]), progress)
+
+
+def warm_up(size: str) -> None:
+    """Import what the pictures use and render a small scene like theirs (mesh with scalars and
+    edges, spheres, lines, text in the TrueType font, scalar bar) in the plotter of resolution
+    ``size`` (``WxH``) that they will reuse: OpenGL context and shaders are then ready."""
+    res = tuple(int(v) for v in size.split("x"))
+    pv = import_pyvista()
+    pl = plotter(res)
+    grid = pv.UnstructuredGrid(np.array([3, 0, 1, 2]), np.array([pv.CellType.TRIANGLE], dtype=np.uint8),
+                               np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]))
+    grid.point_data["s"] = np.arange(3.0)
+    pl.add_mesh(grid, scalars="s", cmap="viridis", show_edges=True, edge_color="#303030", line_width=0.5,
+                scalar_bar_args=bar_args("s", "%.3g", res))
+    pl.add_points(np.array([[0.5, 0.0, 0.05]]), color="#1f77b4", point_size=10.0, render_points_as_spheres=True)
+    pl.add_mesh(pv.Line((0.0, 0.0, 0.01), (1.0, 1.0, 0.01)), color="#666666", line_width=1.5)
+    text(pl, "\u03bc warm-up", 0.01, 0.9, font_size(res))
+    pl.suppress_rendering = False
+    pl.screenshot(None, return_img=True)

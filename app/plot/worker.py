@@ -1,0 +1,125 @@
+"""Drawing processes started before they are needed (pictures add at most 2 s).
+
+After a run, rank 0 draws the plots (matplotlib) and the screenshots (pyvista/VTK). They are
+drawn by child interpreters, ``python -m app.plot.worker KIND [ARG]``:
+
+* VTK cannot run in a process that has loaded DOLFINx (see app/plot/screenshots.py), and a
+  drawing failure must not take the study's results with it;
+* each child imports its libraries and warms up (fonts, an OpenGL context with its shaders
+  compiled) while the study runs, instead of after it;
+* the plots and the screenshots are drawn at the same time, one child each.
+
+A child warms up, then reads one job file name on its standard input (EOF: no job, it exits),
+draws, and prints ``{"files": [...], "notes": [...], "seconds": ...}`` as its last line.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import time
+
+KINDS = ("plots", "screenshots")
+NICE = 5              # niceness added to the drawing processes
+
+
+class Worker:
+    """One drawing child process of ``kind`` ("plots" or "screenshots"; ``arg``: the screenshots'
+    resolution ``WxH``)."""
+
+    def __init__(self, kind: str, arg: str = ""):
+        if kind not in KINDS:
+            raise ValueError(f"unknown drawing process kind {kind!r}")
+        self.kind, self.arg = kind, arg
+        # not an MPI process: drop the launcher's variables so nothing in the child joins the MPI job
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_"))}
+        root = str(pathlib.Path(__file__).resolve().parents[2])
+        env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        self.proc = subprocess.Popen([sys.executable, "-m", "app.plot.worker", kind] + ([arg] if arg else []),
+                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+
+    def submit(self, job: pathlib.Path) -> "Worker":
+        """Hand over the job file (the child starts drawing; does not wait)."""
+        try:
+            self.proc.stdin.write(f"{job}\n")
+            self.proc.stdin.close()
+        except BrokenPipeError:         # the child died while warming up: wait() reports its status
+            pass
+        return self
+
+    def wait(self) -> tuple[list[pathlib.Path], list[str], float | None]:
+        """(files, notes, drawing seconds) once the child has finished; a failure is a note."""
+        stdout = self.proc.stdout.read()
+        self.proc.stdout.close()
+        code = self.proc.wait()
+        if code != 0 or not stdout.strip():
+            return [], [f"{self.kind} failed: the drawing process exited with status {code} (its messages are "
+                        f"above); the results are complete, redraw with: python -m app render"], None
+        out = json.loads(stdout.strip().splitlines()[-1])
+        return [pathlib.Path(f) for f in out["files"]], out["notes"], out["seconds"]
+
+    def close(self) -> None:
+        """Stop a child that got no job (its standard input closes: it exits)."""
+        if self.proc.poll() is None:
+            try:
+                if not self.proc.stdin.closed:
+                    self.proc.stdin.close()
+                self.proc.wait(timeout=10)
+            except (subprocess.TimeoutExpired, BrokenPipeError):
+                self.proc.kill()
+                self.proc.wait()
+        for f in (self.proc.stdin, self.proc.stdout):
+            if f is not None and not f.closed:
+                f.close()
+
+
+_STARTED: dict[tuple[str, str], Worker] = {}
+
+
+def prestart(kind: str, arg: str = "") -> None:
+    """Start a ``kind`` child now; :func:`take` hands it out, :func:`close_unused` stops it."""
+    if (kind, arg) not in _STARTED:
+        _STARTED[(kind, arg)] = Worker(kind, arg)
+
+
+def take(kind: str, arg: str = "") -> Worker:
+    """The child started by :func:`prestart` for (kind, arg), else a new one."""
+    return _STARTED.pop((kind, arg), None) or Worker(kind, arg)
+
+
+def close_unused() -> None:
+    """Stop every child started by :func:`prestart` and not taken."""
+    while _STARTED:
+        _STARTED.popitem()[1].close()
+
+
+def _main(argv: list[str]) -> int:
+    import signal
+    # Ctrl-C is for the run: this child ends when the run closes its standard input (or dies)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # below the study's priority: it warms up while the study runs and must not slow it down
+    # (after the study the run only waits for it)
+    try:
+        os.nice(NICE)
+    except OSError:
+        pass
+    kind, arg = argv[0], (argv[1] if len(argv) > 1 else "")
+    if kind == "plots":
+        from app.plot import plots as module
+    else:
+        from app.plot import screenshots as module
+    module.warm_up(arg)
+    line = sys.stdin.readline().strip()
+    if not line:                # closed without a job: the study ended without pictures
+        return 0
+    job = json.loads(pathlib.Path(line).read_text())
+    t0 = time.perf_counter()
+    files, notes = module.draw_job(job)
+    print(json.dumps({"files": [str(f) for f in files], "notes": notes, "seconds": time.perf_counter() - t0}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_main(sys.argv[1:]))

@@ -1,0 +1,248 @@
+"""Mesh-refinement study of a block scene: what accuracy costs (scene section ``refinement``).
+
+The scene's block study runs at every mesh level (``nx`` cells along AB, ``ny = nx * height /
+length`` so the cells stay square), every element degree and every plane model asked for. At
+each level the quantities a user of a contact-stability study cares about are recorded with the
+wall time of every stage:
+
+- ``final_mu``: the smallest MCEIP-mu (21)-(23) at the final state of the path;
+- ``first_mu_ux``: the CD displacement u_x of the first state (first distinct classification
+  along the path) at which MCEIP-mu has a solution, with that solution (``first_mu``);
+- ``lambda2``: the largest admissible lambda^2 of the sufficient condition (17)-(18) at the final
+  state's classification with the friction coefficient ``mu_fixed``;
+- ``depth``: the CD normal displacement giving the requested normal force (the compliance);
+- ``tangential_resultant``: the tangential resultant on AB at CD u_x = -``resultant_at``;
+- ``sliding_ux``: the CD u_x at which gross sliding starts (end of the path).
+
+For each series (degree, plane) the observed order of convergence is estimated from the three
+finest levels, ``p = log(|q3 - q2| / |q2 - q1|) / log(r)``, and, when the differences are
+monotone with ``p > 0``, a Richardson-extrapolated reference ``q1 + (q1 - q2) / (r^p - 1)``;
+otherwise the finest level is the reference and the note says why. Outputs (rank 0):
+``refinement.csv`` (one row per level), ``refinement.json``, ``refinement.md`` (tables, orders,
+the cheapest level reaching 10 %, 1 % and 0.1 %), ``refinement.png``/``.svg`` (relative error
+against wall time, log-log: the accuracy-cost front) and each level's ``steps.csv``.
+
+The first solution is found by scanning the distinct classifications along the path in order
+(one MCEIP-mu search each, up to the first with a solution: ``first_solution: scan``), or not
+at all (``none``). A bisection would be cheaper but assumes that once MCEIP-mu has a solution
+it keeps having one along the path: this study shows that this is false on meshes finer than
+the paper's (a solution with one slip node appears at the first slip, then disappears).
+"""
+from __future__ import annotations
+
+import pathlib
+import time
+
+from mpi4py import MPI
+
+from app.analyses.runner import analyse_state
+from app.common.progress import Progress
+from app.loading.classify import FREE, SLIP, classify
+from app.scene.schema import Scene
+from app.study.refinement_report import (  # noqa: F401 - observed_order re-exported
+    QOIS,
+    STAGE_GROUPS,
+    analyse_convergence,
+    fmt,
+    observed_order,
+    write_outputs,
+)
+
+
+def level_scene(scene: Scene, nx: int, degree: int, plane: str, **loading) -> Scene:
+    """The scene at one mesh level (square cells), with the refinement section removed."""
+    cfg = scene.system
+    ny = max(1, int(round(nx * cfg.height / cfg.length)))
+    system = cfg.model_copy(update={"nx": nx, "ny": ny, "degree": degree, "plane": plane})
+    update = {"system": system, "refinement": None, "name": f"{scene.name}-P{degree}-{plane}-nx{nx}"}
+    if loading:
+        update["loading"] = scene.loading.model_copy(update=loading)
+    return scene.model_copy(update=update)
+
+
+def _mu_values(a: dict | None) -> list[float]:
+    if not a or a.get("failed"):
+        return []
+    return sorted(s["value"] for s in a.get("solutions", []))
+
+
+def _inspector(scene: Scene, ref):
+    """The ``inspect`` hook of :func:`app.study.run.run_study` that computes the level's quantities
+    (``scene``: the level's scene; ``ref``: the refinement section)."""
+    mu_fixed = ref.mu_fixed if ref.mu_fixed is not None else scene.lambda2_mu
+    scene_mu = scene.model_copy(update={"analyses": ["mceip_mu"]})
+    scene_suff = scene.model_copy(update={"analyses": ["sufficient"], "mu": mu_fixed})
+
+    def inspect(system, states, cache) -> dict:
+        rtol = scene.settings.classify_rtol
+        seen, order = {}, []
+        for st in states:
+            cls = classify(st, scene.mu, rtol)
+            if cls.key not in seen:
+                seen[cls.key] = cls
+                if len(cls.slip) > 0:
+                    order.append((st, cls))
+        searched: dict = {}
+
+        def mu_solutions(cls) -> list[float]:
+            if cls.key not in searched:
+                done = cache.get(cls.key)
+                if done is not None and "mceip_mu" in done[1]:
+                    searched[cls.key] = _mu_values(done[1]["mceip_mu"])
+                else:
+                    searched[cls.key] = _mu_values(analyse_state(system, cls, scene_mu).get("mceip_mu"))
+            return searched[cls.key]
+
+        out: dict = {"mu_fixed": mu_fixed, "distinct_with_slip": len(order),
+                     "contact_nodes": len(system.nodes), "dofs": system.n_dofs}
+        final = states[-1]
+        fcls = classify(final, scene.mu, rtol)
+        out["final_label"] = fcls.label()
+        vals = mu_solutions(fcls) if len(fcls.slip) else []
+        out["final_mu"] = vals[0] if vals else None
+        out["final_mu_count"] = len(vals)
+
+        # First distinct classification along the path with an MCEIP-mu solution.
+        first, checked = None, 0
+        if ref.first_solution == "scan":
+            for i, (_, cls) in enumerate(order):
+                checked += 1
+                if mu_solutions(cls):
+                    first = i
+                    break
+        out["first_method"] = f"{ref.first_solution}: {checked} of {len(order)} classifications searched"
+        if first is not None:
+            st, cls = order[first]
+            out.update(first_mu_ux=float(st.load["u_x"]), first_mu=mu_solutions(cls)[0],
+                       first_mu_state=st.index, first_mu_label=cls.label())
+        else:
+            out.update(first_mu_ux=None, first_mu=None, first_mu_state=None, first_mu_label=None)
+
+        # Sufficient condition at mu_fixed on the final state's classification.
+        lam = None
+        if len(fcls.slip):
+            a = analyse_state(system, fcls, scene_suff).get("sufficient", {})
+            out["lambda2_eigensolver"] = a.get("eigensolver", a.get("reason"))
+            lam = max(a["lambda2"]) if a.get("lambda2") else None
+        out["lambda2"] = lam
+
+        # Resultants at the fixed load and the load at gross sliding.
+        tang = [s for s in states if s.load.get("phase") == "tangential"]
+        out["tangential_resultant"] = None
+        if tang:
+            best = min(tang, key=lambda s: abs(abs(s.load["u_x"]) - ref.resultant_at))
+            if abs(abs(best.load["u_x"]) - ref.resultant_at) <= 0.5 * scene.loading.tangential_step + 1e-12:
+                out["tangential_resultant"] = float(best.load["tangential_resultant"])
+                out["normal_resultant"] = float(best.load["normal_resultant"])
+        contact = [s for s in fcls.status if s != FREE]
+        out["sliding_ux"] = (float(final.load["u_x"]) if final.load.get("phase") == "tangential" and contact
+                             and all(s == SLIP for s in contact) else None)
+        return out
+
+    return inspect
+
+
+def _stage_times(stages: list[dict]) -> dict:
+    out = {k: 0.0 for k in STAGE_GROUPS}
+    out["t_other"] = 0.0
+    for st in stages:
+        for key, names in STAGE_GROUPS.items():
+            if st["name"] in names:
+                out[key] += st["seconds"]
+                break
+        else:
+            out["t_other"] += st["seconds"]
+    return out
+
+
+def run_level(scene: Scene, nx: int, degree: int, plane: str, comm: MPI.Comm,
+              progress: Progress | None = None) -> tuple[dict, dict]:
+    """One level: returns (the row of refinement.csv, the study's results)."""
+    from app.study.run import run_study
+    lvl = level_scene(scene, nx, degree, plane)
+    t0 = time.perf_counter()
+    res = run_study(lvl, comm, progress, inspect=_inspector(lvl, scene.refinement))
+    wall = time.perf_counter() - t0
+    q = res["inspection"]
+    n_contact, n_dofs = q["contact_nodes"], q["dofs"]
+    row = {"degree": degree, "plane": plane, "pattern": lvl.system.pattern, "nx": nx, "ny": lvl.system.ny,
+           "h_mm": lvl.system.length / nx, "contact_nodes": n_contact, "dofs": n_dofs,
+           "states": len(res["states"]), "distinct": res["distinct_classifications"],
+           "depth": res["path"].get("normal_displacement_mm"),
+           **{k: q.get(k) for k in ("final_mu", "first_mu_ux", "first_mu", "lambda2",
+                                    "tangential_resultant", "sliding_ux")},
+           "first_mu_label": q.get("first_mu_label"), "final_label": q.get("final_label"),
+           "first_method": q.get("first_method"), "path_end": res["path"].get("end"),
+           "wall_s": wall, **_stage_times(res["stages"])}
+    return row, res
+
+
+# -- convergence ---------------------------------------------------------------------------------
+def _warm_up(scene: Scene, comm: MPI.Comm) -> None:
+    """Compile the forms of every degree (JIT) on the smallest level, so that the first level's
+    wall time is not the compiler's."""
+    from app.study.run import run_study
+    ref = scene.refinement
+    for deg in ref.degrees:
+        lvl = level_scene(scene, ref.levels[0], deg, ref.planes[0],
+                          tangential_max=scene.loading.tangential_step)
+        run_study(lvl.model_copy(update={"analyses": ["sufficient"]}), comm)
+
+
+def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = None,
+                   outdir: pathlib.Path | None = None, log=print) -> dict:
+    """Run every level; rank 0 writes the outputs into ``outdir``. Returns the summary."""
+    from app.io.results import steps_csv
+    ref = scene.refinement
+    t0 = time.perf_counter()
+    _warm_up(scene, comm)
+    rows, failures, skipped = [], [], []
+    for plane in ref.planes:
+        for deg in ref.degrees:
+            for nx in ref.levels:
+                if ref.max_contact_nodes is not None and deg * nx + 1 > ref.max_contact_nodes:
+                    if plane == ref.planes[0]:
+                        skipped.append(f"P{deg} nx={nx} ({deg * nx + 1} contact nodes > max_contact_nodes = "
+                                       f"{ref.max_contact_nodes})")
+                    continue
+                row, res = run_level(scene, nx, deg, plane, comm, progress)
+                rows.append(row)
+                failures += [{**f, "level": f"P{deg} {plane} nx={nx}"} for f in res["failures"]]
+                if comm.rank == 0:
+                    log(f"refinement: P{deg} {plane} nx={nx}: {row['dofs']} DOFs, {row['contact_nodes']} contact nodes, "
+                        f"final mu {fmt(row['final_mu'])}, first at u_x {fmt(row['first_mu_ux'], 4)}, "
+                        f"lambda^2 {fmt(row['lambda2'], 5)}, {row['wall_s']:.1f} s")
+                    if outdir is not None:
+                        d = outdir / "levels" / f"P{deg}-{plane}-nx{nx}"
+                        d.mkdir(parents=True, exist_ok=True)
+                        (d / "steps.csv").write_text(steps_csv(res))
+    conv = analyse_convergence(rows)
+    cfg = scene.system
+    summary = {"scene": scene.name, "mu": scene.mu,
+               "mu_fixed": ref.mu_fixed if ref.mu_fixed is not None else scene.lambda2_mu,
+               "system": (f"block {cfg.length}x{cfg.height}x{cfg.thickness} mm, {cfg.pattern}, E={cfg.E} MPa, "
+                          f"nu={cfg.nu}, loading {scene.loading.model_dump()}"),
+               "levels": ref.levels, "degrees": ref.degrees, "planes": ref.planes,
+               "mpi_ranks": comm.size, "rows": rows, "convergence": conv, "failures": failures, "skipped": skipped,
+               "wall_seconds": time.perf_counter() - t0, "quantities": {k: v[0] for k, v in QOIS.items()}}
+    if comm.rank == 0 and outdir is not None:
+        summary["files"] = [str(p) for p in write_outputs(summary, outdir)]
+    return summary
+
+
+def main(scene: Scene, args, comm: MPI.Comm, folder, outdir: pathlib.Path) -> int:
+    """``python -m app run`` of a scene with a ``refinement`` section (called by app/cli/main.py)."""
+    from app.common.errors import UnreachableLoad, fail
+    from app.study import driver
+    quiet = getattr(args, "quiet", False)
+    try:
+        summary = run_refinement(scene, comm, Progress(enabled=False, comm=comm), outdir,
+                                 log=(lambda *a: None) if quiet else (lambda *a: print(*a, flush=True)))
+    except UnreachableLoad as err:   # raised identically on every rank
+        return fail(driver.loading_error(getattr(args, "scene", None) or "scene", err))
+    final = driver.commit(folder, comm)                       # MPI collective: rank 0 has written
+    if comm.rank == 0 and not quiet:
+        print(f"refinement study '{scene.name}': {len(summary['rows'])} levels in "
+              f"{summary['wall_seconds']:.1f} s; results in {final}/ (refinement.md, refinement.csv, "
+              f"refinement.png)")
+    return driver.exit_status(summary["failures"])

@@ -1,0 +1,124 @@
+"""The discrete system seen by the stability code (docs/method.md sections 1 and 6).
+
+One abstraction serves the two-particle scene and the finite element block: PETSc stiffness and
+(lazily built) mass matrices, the contact candidate nodes with their tangential and normal DOFs,
+and the dense Schur complement of K onto the contact DOFs (the inverse of the contact
+flexibility W = B K^-1 B^T) used by the exact condensation of MCEIP-mu.
+
+Axes: the stability code works in the paper's axes (T tangential, N the body's outward normal),
+``u_T = sign_T * u[dof_T]`` and ``u_N = sign_N * u[dof_N]``.
+
+Systems with a mesh also carry a :class:`FieldSource` (``System.fields``): what the field outputs
+(app/io/fields.py: ParaView files, screenshots) need to rebuild displacement fields, with no
+knowledge of the body's shape; systems without one (matrices, two particles) have ``None``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Optional, Protocol
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from app.common.stages import Stages
+
+
+@dataclass(frozen=True)
+class ContactNode:
+    """A contact candidate node: its position along the contact side and its two DOFs."""
+    id: int
+    x: float
+    dof_T: int
+    dof_N: int
+    sign_T: int = 1
+    sign_N: int = 1
+
+
+class FieldSource(Protocol):
+    """Displacement fields of a meshed system, in the system's own DOFs (collective methods).
+
+    ``response(load, r)`` solves ``K u = f(load) + B^T r`` (paper eq. (3)) with the factorised K:
+    ``f(load)`` the right-hand side of the state's prescribed loading (prescribed displacements,
+    tractions, body force; ``load`` is a state's ``load`` record, None for no loading) and ``r``
+    the contact reactions in paper axes (T_0, N_0, T_1, ...). ``to_function(u, load)`` adds the
+    prescribed displacements of that loading and returns the whole field as a DOLFINx Function of
+    ``V`` (node frames rotated back to x/y). ``contact_xy``, ``tangent`` and ``normal`` are the
+    contact nodes' coordinates and their own unit tangent and outward normal in global x/y
+    (``u = t u_T + n u_N`` at node i), ``gaps`` their initial gaps (a state's ``u_N`` is the
+    normal displacement minus the gap), ``W`` the contact flexibility in paper axes.
+    ``obstacle`` is the rigid line (``point``, ``normal``: the body's outward normal) or circle
+    (``centre``, ``radius``, ``side``) when there is one.
+    """
+    V: object
+    length_scale: float
+    contact_xy: np.ndarray
+    tangent: np.ndarray
+    normal: np.ndarray
+    gaps: np.ndarray
+    W: np.ndarray
+    obstacle: Optional[dict]
+
+    def von_mises(self, u) -> object:
+        """UFL expression of the von Mises stress of the displacement ``u`` (the body's materials)."""
+
+    def response(self, load: Optional[dict], r: np.ndarray) -> PETSc.Vec:
+        """Displacement in the system's DOFs (the caller destroys the vector)."""
+
+    def to_function(self, u: PETSc.Vec, load: Optional[dict]):
+        """The whole displacement field, prescribed DOFs included."""
+
+
+@dataclass
+class System:
+    """Elastic system with frictional contact candidates (paper eq. (3)-(7))."""
+    comm: MPI.Comm
+    K: PETSc.Mat
+    nodes: list[ContactNode]
+    units: dict[str, str]
+    stages: Stages
+    build_mass: Callable[[], PETSc.Mat]
+    build_contact_schur: Callable[[], np.ndarray]
+    description: str = ""
+    extra: dict = field(default_factory=dict)
+    fields: Optional[FieldSource] = None     # displacement fields (None: no mesh)
+    _M: Optional[PETSc.Mat] = field(default=None, repr=False)
+    _Sc: Optional[np.ndarray] = field(default=None, repr=False)
+
+    @property
+    def n_dofs(self) -> int:
+        return self.K.getSize()[0]
+
+    def mass(self) -> PETSc.Mat:
+        """Mass matrix M, assembled on first use only (recorded as the stage 'assemble mass matrix')."""
+        if self._M is None:
+            with self.stages("assemble mass matrix"):
+                self._M = self.build_mass()
+        return self._M
+
+    def contact_schur(self) -> np.ndarray:
+        """Dense Schur complement of K onto all contact DOFs, paper axes, order (T_0, N_0, T_1, ...).
+
+        Replicated on every rank. Equals W^-1 with W = B K^-1 B^T the contact flexibility.
+        """
+        if self._Sc is None:
+            with self.stages("contact Schur complement"):
+                self._Sc = self.build_contact_schur()
+        return self._Sc
+
+    def __enter__(self) -> "System":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.destroy()
+
+    def destroy(self) -> None:
+        for name in ("flexibility", "operators"):   # a builder's factorisation and operators (its K is self.K)
+            obj = self.extra.get(name)
+            if obj is not None and hasattr(obj, "destroy"):
+                obj.destroy()
+        for obj in self.extra.get("owned", ()):     # PETSc objects a builder handed over
+            obj.destroy()
+        self.K.destroy()
+        if self._M is not None:
+            self._M.destroy()

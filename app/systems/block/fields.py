@@ -1,0 +1,41 @@
+"""The built-in block's :class:`app.systems.base.FieldSource`: fields from the contact reactions
+and the prescribed motion of CD (``load["u_x"]``, ``load["u_y"]``)."""
+from __future__ import annotations
+
+from typing import Optional
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.systems.stress import von_mises
+
+
+class BlockFields:
+    """Fields of the block (paper axes: T = +x, N = -y on AB, the line y = 0 the obstacle)."""
+
+    def __init__(self, cfg, ops, flex, nodes):
+        self.cfg, self.ops, self.flex = cfg, ops, flex
+        self.V = ops.V
+        self.length_scale = float(max(cfg.length, cfg.height))
+        n = len(nodes)
+        self.contact_xy = np.column_stack([[nd.x for nd in nodes], np.zeros(n)])
+        self.tangent = np.column_stack([[float(nd.sign_T) for nd in nodes], np.zeros(n)])
+        self.normal = np.column_stack([np.zeros(n), [float(nd.sign_N) for nd in nodes]])
+        self.gaps = np.zeros(n)
+        self.W = flex.W
+        self.obstacle = {"point": [0.0, 0.0], "normal": [0.0, -1.0]}
+
+    def von_mises(self, u):
+        from app.systems.elasticity import lame_parameters
+        mu, lmbda = lame_parameters(self.cfg.E, self.cfg.nu, self.cfg.plane)
+        return von_mises(u, mu, lmbda, self.cfg.plane)
+
+    @staticmethod
+    def _cd(load: Optional[dict]) -> tuple[float, float]:
+        return (0.0, 0.0) if load is None else (float(load["u_x"]), float(load["u_y"]))
+
+    def response(self, load: Optional[dict], r: np.ndarray) -> PETSc.Vec:
+        return self.flex.field(*self._cd(load), r)
+
+    def to_function(self, u: PETSc.Vec, load: Optional[dict]):
+        return self.ops.to_function(u, *self._cd(load))

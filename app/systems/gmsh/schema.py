@@ -1,0 +1,312 @@
+"""Scene schema of ``system.type: gmsh``: a 2D elastic body from a Gmsh file, a straight rigid
+obstacle, and a loading program.
+
+    system:
+      type: gmsh
+      file: block.geo              # .geo (meshed in 2D by gmsh) or .msh, relative to the scene file
+      contact: AB                  # physical curve that may touch the obstacle
+      prescribed: {CD: xy}         # physical curves whose displacement components the program prescribes
+      material: {E: 5.0, nu: 0.48, density: 1.2e-9}   # or materials: {<physical surface>: {...}}
+      degree: 1                    # P1 or P2
+      plane: stress                # or strain
+      thickness: 9.6
+      obstacle: {point: [0, 0], normal: [0, -1]}      # a straight line; normal: the body's outward normal
+      # or: obstacle: {type: circle, centre: [40, -200], radius: 200, side: outside}
+      program:                     # phases; each starts from the end of the previous one
+        - {steps: 10, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 55}}
+        - {steps: 310, displacement: {CD: {translation: [-6.2, 0]}}}
+
+A body that no prescribed curve holds (e.g. resting on an inclined plane under gravity) has rigid
+motions that only the obstacle stops; the contact solver needs a non-singular K, so such a body
+needs ``foundation: k``: an elastic foundation ``k t int u.v dx`` on the whole body. Choose k
+small against E / L^2 (e.g. 1e-6 of it): it carries a fraction of the load of order k L^2 / E
+while the body sticks, and lets a body slide (by excess force / k) when friction cannot hold it.
+
+Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase loads them
+(``traction`` per unit length, or ``force``: a total force spread uniformly over the curve).
+``gravity`` adds the body force density x acceleration. ``until: {normal_force: F}`` scales the
+phase's increments so that the normal resultant on the contact curve is F at its end (exact in one
+rescaling when the phase starts from the unloaded, touching state: the incremental problems are
+then positively homogeneous; otherwise bracketing and regula falsi). A circle obstacle has exact gaps
+and frames (docs/method.md section 8); its increments are never homogeneous. Not modelled: other curves, two
+deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
+``contact`` curve.
+"""
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, ClassVar, Literal, Optional
+
+import numpy as np
+from pydantic import Field, ValidationInfo, field_validator, model_validator
+
+from app.systems.schema import (
+    Finite,
+    PosFloat,
+    ResourcePathError,
+    StrictModel,
+    SystemPathError,
+    base_dir,
+    context_limits,
+    resolve_file,
+)
+
+Vec2 = tuple[Finite, Finite]
+
+
+class Material(StrictModel):
+    """Isotropic linear elastic material (E [stress], nu, density [mass/length^3])."""
+    E: PosFloat
+    nu: Annotated[float, Field(gt=-1.0, lt=0.5, allow_inf_nan=False)]
+    density: PosFloat = 1.2e-9
+
+
+class Obstacle(StrictModel):
+    """The rigid obstacle. ``type: line`` (the default): a straight line through ``point``;
+    ``normal`` is the body's outward normal at contact (pointing into the obstacle; need not be a
+    unit vector), or ``angle_deg``: the line's slope, i.e. the normal (0, -1) rotated
+    counter-clockwise by that angle (exact for any angle). ``type: circle``: a circle of centre
+    ``centre`` and radius ``radius``, the body ``outside`` it (a convex cylinder) or ``inside`` it
+    (a concave bore); gaps, frames and curvature at the contact points are exact (docs/method.md
+    section 8), the contact DOFs stay in the global axes (t = +x, n = -y)."""
+    type: Literal["line", "circle"] = Field("line", description="line (straight) or circle")
+    point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length] (type line)")
+    normal: Vec2 = Field((0.0, -1.0), description="the body's outward normal at contact (into the obstacle) (type line)")
+    angle_deg: Optional[Finite] = Field(None, description="or: the line's slope, the normal (0, -1) rotated by it [deg] "
+                                        "(type line)")
+    centre: Optional[Vec2] = Field(None, description="centre of the circle [length] (type circle)")
+    radius: Optional[PosFloat] = Field(None, description="radius of the circle [length] (type circle)")
+    side: Optional[Literal["outside", "inside"]] = Field(
+        None, description="where the body is: outside (convex cylinder) or inside (concave bore) (type circle)")
+
+    @model_validator(mode="after")
+    def _one_way(self) -> "Obstacle":
+        from app.systems.obstacle_schema import check_circle_keys
+        check_circle_keys(self, ("centre", "radius", "side"), ("point", "normal", "angle_deg"))
+        if self.angle_deg is not None and "normal" in self.model_fields_set:
+            raise SystemPathError("angle_deg", self.angle_deg, "give either normal or angle_deg, not both")
+        return self
+
+    @field_validator("normal")
+    @classmethod
+    def _nonzero(cls, v: Vec2) -> Vec2:
+        if max(abs(v[0]), abs(v[1])) < 1e-100:
+            raise ValueError("the normal must be a non-zero vector [nx, ny] (components up to 1e-100 count as 0)")
+        return v
+
+    def frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit tangent t and outward normal n of the contact DOFs, with t = (-n_y, n_x) (for
+        n = -y, t = +x); for a circle the global axes (each node's contact frame is then its own,
+        app/loading/curved.py)."""
+        if self.type == "circle":
+            return np.array([1.0, 0.0]), np.array([0.0, -1.0])
+        if self.angle_deg is not None:
+            a = math.radians(self.angle_deg)
+            n = np.array([math.sin(a), -math.cos(a)])
+        else:
+            n = np.array(self.normal, dtype=float)
+            n /= np.max(np.abs(n))              # scaled first: no overflow or underflow in the norm
+            n /= np.linalg.norm(n)
+        return np.array([-n[1], n[0]]), n
+
+    def circle(self, ref=None):
+        """The :class:`app.loading.curved.Circle` of a circle obstacle (anchored in the direction
+        of the point ``ref``), None for a line."""
+        if self.type != "circle":
+            return None
+        from app.loading.curved import Circle
+        return Circle(self.centre, self.radius, self.side, ref)
+
+    def clearance(self, xy: np.ndarray) -> np.ndarray:
+        """Gaps of the points ``xy`` (n, 2): ``(p - x) . n`` for a line, exact for a circle."""
+        if self.type == "circle":
+            xy = np.atleast_2d(xy)
+            return self.circle(np.mean(xy, axis=0)).gap(xy)
+        return (np.array(self.point) - np.asarray(xy)) @ self.frame()[1]
+
+    def coordinate(self, xy: np.ndarray) -> np.ndarray:
+        """Tangential coordinate of the points ``xy`` along the obstacle: ``(x - p) . t`` for a
+        line, for a circle the arc coordinate from the direction of their mean."""
+        if self.type == "circle":
+            xy = np.atleast_2d(xy)
+            return self.circle(np.mean(xy, axis=0)).arc(xy)
+        return (np.asarray(xy) - np.array(self.point)) @ self.frame()[0]
+
+    def describe(self) -> str:
+        if self.type == "circle":
+            return "obstacle " + self.circle().describe()
+        return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
+
+
+class Motion(StrictModel):
+    """Increment of a prescribed curve's displacement during a phase: a rigid translation and an
+    optional (linearised) rotation ``rotation_deg`` about ``about``."""
+    translation: Vec2 = Field((0.0, 0.0), description="rigid translation increment [length]")
+    rotation_deg: Annotated[float, Field(ge=-3600, le=3600, allow_inf_nan=False)] = Field(
+        0.0, description="rotation increment, linearised, counter-clockwise [deg] (at most ten turns)")
+    about: Vec2 = Field((0.0, 0.0), description="centre of the rotation [length]")
+
+
+class Until(StrictModel):
+    """Force control of a displacement phase: scale it to reach this normal resultant on the contact curve."""
+    normal_force: PosFloat = Field(description="normal resultant on the contact curve at the phase's end [force]")
+
+
+class Phase(StrictModel):
+    """One phase of the loading program, applied in ``steps`` equal increments."""
+    name: str = Field("", description="a label of the phase (results.json load.name)")
+    steps: Annotated[int, Field(ge=1, le=100000)] = Field(1, description="equal increments of the phase")
+    displacement: dict[str, Motion] = Field({}, description="motion increments of prescribed curves")
+    traction: dict[str, Vec2] = Field({}, description="uniform traction increments on curves [stress]")
+    force: dict[str, Vec2] = Field({}, description="total force increments, spread uniformly over curves [force]")
+    gravity: Optional[Vec2] = Field(None, description="acceleration increment of the body force [length/time^2]")
+    until: Optional[Until] = Field(None, description="force control: scale the phase's motion to reach it")
+    stop_at_gross_sliding: bool = Field(True, description="end the path when every node in contact slips "
+                                        "(never with mu = 0, where every node in contact slips)")
+
+
+class GmshBody(StrictModel):
+    """A 2D body meshed by Gmsh (physical groups name its curves and surfaces)."""
+    type: Literal["gmsh"]
+    has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/io/fields.py)
+    file: str = Field(description="Gmsh .geo or .msh file, relative to the scene file")
+    contact: str = Field(description="physical curve that may touch the obstacle")
+    prescribed: dict[str, Literal["x", "y", "xy"]] = Field(
+        {}, description="physical curves whose displacement components the program prescribes")
+    material: Optional[Material] = Field(None, description="one material for the whole body")
+    materials: dict[str, Material] = Field({}, description="or: a material per physical surface")
+    degree: Literal[1, 2] = 1
+    plane: Literal["stress", "strain"] = "stress"
+    thickness: PosFloat = 1.0
+    mass: Literal["consistent", "lumped"] = "consistent"
+    obstacle: Obstacle = Field(Obstacle(), description="the rigid obstacle: a straight line (default) or a circle")
+    foundation: Optional[PosFloat] = Field(None, description="weak elastic foundation for a body nothing holds "
+                                           "[stress/length]")
+    program: Annotated[list[Phase], Field(min_length=1, max_length=1000)] = Field(
+        description="the loading program: phases")
+
+    def load_states(self) -> tuple[int, str]:
+        """(equilibrium states of the program, the key that sets them) for the pre-flight (app/scene/limits.py)."""
+        return 1 + sum(ph.steps for ph in self.program), "system.program[].steps"
+
+    def file_sizes(self) -> tuple[int, int, str]:
+        """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/scene/limits.py)."""
+        import pathlib
+
+        from app.systems.gmsh.mesh import mesh_sizes
+        dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, dict(self.prescribed), self.contact)
+        return dofs, contact, "system.file"
+
+    @model_validator(mode="before")
+    @classmethod
+    def _tags_as_names(cls, data: Any, info: ValidationInfo) -> Any:
+        """Unnamed physical groups are named by their tag: accept ``contact: 3`` for ``'3'``; a named
+        group may also be given by its tag (``contact: 1`` for ``Physical Curve("AB", 1)``)."""
+        if not isinstance(data, dict):
+            return data
+        alias = {1: {}, 2: {}}
+        try:
+            from app.systems.gmsh.mesh import model_info
+            path = resolve_file("", data.get("file"), info)
+            mi = model_info(path, path.name, context_limits(info), (base_dir(info), path.parent))
+            for dim, groups in ((1, mi.curves), (2, mi.surfaces)):
+                alias[dim] = {str(tag): name for name, (tag, _) in groups.items() if str(tag) not in groups}
+        except Exception:     # noqa: BLE001 - a bad file is reported by the file validator
+            pass
+
+        def one(v: Any, dim: int = 1) -> Any:
+            v = str(v) if isinstance(v, int) and not isinstance(v, bool) else v
+            return alias[dim].get(v, v) if isinstance(v, str) else v
+
+        def names(d: Any, dim: int = 1) -> Any:
+            return {one(k, dim): v for k, v in d.items()} if isinstance(d, dict) else d
+        data = dict(data)
+        if "contact" in data:
+            data["contact"] = one(data["contact"])
+        for key, dim in (("prescribed", 1), ("materials", 2)):
+            data[key] = names(data[key], dim) if key in data else data.get(key, {})
+        if isinstance(data.get("program"), list):
+            data["program"] = [dict(ph, **{k: names(ph[k]) for k in ("displacement", "traction", "force") if k in ph})
+                               if isinstance(ph, dict) else ph for ph in data["program"]]
+        return data
+
+    @field_validator("file", mode="before")
+    @classmethod
+    def _file(cls, v: Any, info: ValidationInfo) -> Any:
+        return str(resolve_file("", v, info))
+
+    @model_validator(mode="after")
+    def _groups(self, vinfo: ValidationInfo) -> "GmshBody":
+        import pathlib
+
+        from app.systems.gmsh.mesh import model_info
+        path = pathlib.Path(self.file)
+        shown = path.name
+        try:
+            info = model_info(path, shown, context_limits(vinfo), (base_dir(vinfo), path.parent))
+        except SystemPathError as err:
+            # a time or memory limit stopped Gmsh: exit status 4 (app/scene/schema.py)
+            cls = ResourcePathError if getattr(err, "resource", False) else SystemPathError
+            raise cls("file", shown, err.msg) from None
+        curves, surfaces = info.curves, info.surfaces
+
+        def curve(key: str, name: str) -> None:
+            if name not in curves:
+                allowed = ", ".join(sorted(curves)) or "none: the file defines no physical curve"
+                raise SystemPathError(key, name, f"no physical curve '{name}' in {shown}; physical curves: {allowed}")
+            if curves[name][1] == 0:
+                raise SystemPathError(key, name, f"the physical curve '{name}' has no mesh elements")
+
+        curve("contact", self.contact)
+        inner = info.inner_segments.get(self.contact, 0)
+        if inner:
+            raise SystemPathError("contact", self.contact, f"{inner} of the {curves[self.contact][1]} segments of the "
+                                  f"physical curve '{self.contact}' lie inside the body, not on its boundary: the "
+                                  "contact curve must be part of the body's boundary")
+        for name in self.prescribed:
+            curve(f"prescribed.{name}", name)
+            if name == self.contact:
+                raise SystemPathError(f"prescribed.{name}", self.prescribed[name],
+                                      "the contact curve cannot also be prescribed")
+        if (self.material is None) == (not self.materials):
+            raise SystemPathError("material", None, "give either 'material' (one material for the whole body) or "
+                                  f"'materials' (one per physical surface: {', '.join(sorted(surfaces))})")
+        if self.materials:
+            for name in self.materials:
+                if name not in surfaces:
+                    raise SystemPathError(f"materials.{name}", None, f"no physical surface '{name}' in {shown}; "
+                                          f"physical surfaces: {', '.join(sorted(surfaces))}")
+            missing = sorted(set(surfaces) - set(self.materials))
+            if missing:
+                raise SystemPathError("materials", sorted(self.materials), f"no material for the physical surface "
+                                      f"'{missing[0]}': give one for each of {', '.join(sorted(surfaces))}")
+        for i, ph in enumerate(self.program):
+            for name, m in ph.displacement.items():
+                key = f"program.{i}.displacement.{name}"
+                if name not in self.prescribed:
+                    raise SystemPathError(key, None, f"'{name}' is not a prescribed curve: list it under "
+                                          f"prescribed (with its components x, y or xy)")
+                comp = self.prescribed[name]
+                if comp != "xy" and (m.rotation_deg != 0 or m.translation[1 if comp == "x" else 0] != 0):
+                    raise SystemPathError(key, m.model_dump(), f"only the {comp} component of '{name}' is prescribed: "
+                                          "rotations and the other translation component need xy")
+            for kind in ("traction", "force"):
+                for name in getattr(ph, kind):
+                    curve(f"program.{i}.{kind}.{name}", name)
+                    if name in self.prescribed:
+                        raise SystemPathError(f"program.{i}.{kind}.{name}", None,
+                                              f"'{name}' is prescribed (displacement control): load another curve")
+            if ph.until is not None and not ph.displacement:
+                raise SystemPathError(f"program.{i}.until", ph.until.model_dump(), "needs a displacement in the "
+                                      "same phase (it scales the phase's prescribed motion)")
+        return self
+
+    def material_of(self, surface: str) -> Material:
+        return self.material if self.material is not None else self.materials[surface]
+
+    @classmethod
+    def check_scene(cls, scene: Any) -> None:
+        """Scene-level checks: no block loading (ParaView files and screenshots work for any body)."""
+        if scene.loading is not None:
+            raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a gmsh system: give "
+                                  "system.program (the phases of the loading)")

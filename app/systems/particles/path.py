@@ -1,0 +1,59 @@
+"""``system.type: two_particles``: the two-particle system of the paper, section 5 and Fig. 1
+(the paper's Fig. 1 and Table 1; docs/method.md section 4), and its single equilibrium state."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from mpi4py import MPI
+
+from app.common.stages import Stages
+from app.loading.state import EquilibriumState
+from app.systems.base import ContactNode, System
+from app.systems.discrete import discrete_system
+from app.systems.particles.schema import TwoParticles
+
+UNITS = {"length": "mm", "force": "N", "stiffness": "N/mm", "mass": "tonne",
+         "lambda2": "1/s^2", "mu": "1"}
+
+
+def particle_matrices(k: float, m: float, phi_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Dense K and M of the paper's Fig. 1, DOFs (u_T1, u_N1, u_T2, u_N2)."""
+    c, s = math.cos(math.radians(phi_deg)), math.sin(math.radians(phi_deg))
+    K = k * np.array([[c * c + 1, -c * s, -1.0, 0.0],
+                      [-c * s, s * s + 1, 0.0, 0.0],
+                      [-1.0, 0.0, c * c + 1, c * s],
+                      [0.0, 0.0, c * s, s * s + 1]])
+    return K, m * np.eye(4)
+
+
+def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages) -> System:
+    """System of the two-particle scene: both particles are contact nodes, no interior DOFs."""
+    K, M = particle_matrices(cfg.k, cfg.m, cfg.phi_deg)
+    nodes = [ContactNode(id=0, x=0.0, dof_T=0, dof_N=1), ContactNode(id=1, x=1.0, dof_T=2, dof_N=3)]
+    ob = cfg.obstacle
+    where = "" if ob.type == "line" else f", on a circle of radius {ob.radius} mm ({ob.side})"
+    system = discrete_system(K, M, nodes, comm, stages, UNITS,
+                             f"two particles, k={cfg.k} N/mm, m={cfg.m} tonne, phi={cfg.phi_deg} deg{where}")
+    if ob.type != "line":      # the curvature terms of the pencils (app/analyses/curvature.py)
+        system.extra["curvature"] = np.full(2, ob.curvature())
+    return system
+
+
+def path(scene, comm: MPI.Comm, stages: Stages, progress=None):
+    """The paper's two-particle state: both particles in impending slip with signs S1, S2.
+
+    The scene fixes the signs and the normal reaction P (``normal_reaction``, default 1 N):
+    r_N = -P, r_T = S mu P. On the straight line the pencils do not depend on P; on a circle
+    they do, through kappa P (docs/method.md section 8).
+    Returns ``(system, [state], path_info)``.
+    """
+    cfg: TwoParticles = scene.system
+    with stages("build system"):
+        system = build(cfg, comm, stages)
+    S = np.array(cfg.signs, dtype=float)
+    mu_state = max(scene.mu, 1e-300)
+    P = cfg.normal_reaction
+    state = EquilibriumState(index=0, load={}, u_T=np.zeros(2), u_N=np.zeros(2),
+                             r_T=S * mu_state * P, r_N=-P * np.ones(2))
+    return system, [state], {"end": "single equilibrium state"}
