@@ -156,6 +156,9 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
 #: the proof of app/analyses/mceip_mu_quadratic_proof.py is attempted up to this many slip nodes
 #: (exact determinants of every support: 0.3 s at s = 8, 1.4 s at s = 10 on the development machine)
 PROOF_MAX_S = 10
+#: the proofs/ record of a quadratic proof: the pencil and the claim's cap; the exact proof is
+#: deterministic, so re-checking it is proving it again from the stored pencil
+QUADRATIC_FORMAT = "mceip-mu-quadratic/1"
 
 
 def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_slip: int,
@@ -209,7 +212,11 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
                                            "proof_seconds": round(proof.seconds, 4),
                                            "rejected_floating_point_candidates": rejected}, gap=0.0),
                             "cap": float(cap), "onset": on.value if on else None},
-            "search": {**search, "complete": True}, "quadratic": True}
+            "search": {**search, "complete": True}, "quadratic": True,
+            # the pencil travels to proofs/ (app/io/proofs.py), where `app check` proves it again
+            "_proof": {"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
+                       "A2": np.asarray(A2, dtype=float),
+                       "log": {"format": QUADRATIC_FORMAT, "cap": float(cap), "max_s": PROOF_MAX_S}}}
 
 
 def _unproven(sols: list[dict], search: dict, proof, s: int, cap: float, certify: bool, t0: float) -> dict:

@@ -3,7 +3,9 @@
 ``proofs/state_<k>.npz`` holds, for the first state ``k`` of each distinct classification whose
 condensed MCEIP-mu was proven (or partly proven), the pencil ``A0``, ``A1`` and the proof log
 (JSON text, format in docs/proofs.md). :func:`check_folder` re-verifies every log with the
-independent checker and compares what it accepts with what results.json claims.
+independent checker and compares what it accepts with what results.json claims. A curved
+obstacle's quadratic pencil (``A2`` too, log format ``mceip-mu-quadratic/1``) is proven again
+from the stored pencil by the exact proof of :mod:`app.analyses.mceip_mu_quadratic_proof`.
 """
 from __future__ import annotations
 
@@ -35,7 +37,8 @@ def write_proofs(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
         folder.mkdir(exist_ok=True)
         path = folder / f"state_{int(st['index'])}.npz"
         buf = io.BytesIO()
-        np.savez_compressed(buf, A0=proof["A0"], A1=proof["A1"], log=np.array(json.dumps(proof["log"])))
+        extra = {"A2": proof["A2"]} if "A2" in proof else {}
+        np.savez_compressed(buf, A0=proof["A0"], A1=proof["A1"], log=np.array(json.dumps(proof["log"])), **extra)
         # exclusive create: a file of that name (not this run's) is never overwritten
         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, file_mode())
         with os.fdopen(fd, "wb") as f:
@@ -73,11 +76,15 @@ def check_folder(folder: pathlib.Path) -> list[StateCheck]:
     out: list[StateCheck] = []
     for path in sorted((folder / FOLDER).glob("state_*.npz"), key=lambda p: int(p.stem.split("_")[1])):
         k = int(path.stem.split("_")[1])
+        a = ((by_index.get(k) or {}).get("analyses") or {}).get("mceip_mu") or {}
         with np.load(path, allow_pickle=False) as z:
             A0, A1 = z["A0"], z["A1"]
-            log = ProofLog.from_json(json.loads(str(z["log"])))
+            raw = json.loads(str(z["log"]))
+            if "A2" in z.files:
+                out.append(_check_quadratic(k, A0, A1, z["A2"], raw, a))
+                continue
+            log = ProofLog.from_json(raw)
         rep = check_log(A0, A1, log)
-        a = ((by_index.get(k) or {}).get("analyses") or {}).get("mceip_mu") or {}
         onset_claimed = bool((a.get("onset") or {}).get("proven"))
         all_claimed = bool(a.get("certified"))
         match = True
@@ -94,3 +101,29 @@ def check_folder(folder: pathlib.Path) -> list[StateCheck]:
                 match = False
         out.append(StateCheck(k, log.s, onset_claimed, rep.onset_ok, all_claimed, rep.all_ok, match, rep.errors[:3]))
     return out
+
+
+def _check_quadratic(k: int, A0, A1, A2, log: dict, a: dict) -> StateCheck:
+    """Prove a stored quadratic pencil again (exact arithmetic, no time limit) and compare the
+    proven list in ``[0, cap]`` with the certified solutions of results.json."""
+    from app.analyses.mceip_mu_quadratic import QUADRATIC_FORMAT
+    from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+    s = A0.shape[0]
+    claimed = bool(a.get("certified"))
+    if log.get("format") != QUADRATIC_FORMAT:
+        return StateCheck(k, s, claimed, False, claimed, False, False,
+                          [f"proof format {log.get('format')!r}, expected {QUADRATIC_FORMAT!r}"])
+    proof = prove_quadratic(A0, A1, A2, float(log["cap"]), max_s=int(log["max_s"]))
+    ok = proof is not None and proof.proven
+    errors = [] if ok else ["the exact proof does not decide every support" if proof else
+                            f"s = {s} is above the stored max_s = {log['max_s']}"]
+    match = True
+    if ok and claimed:
+        values = sorted(float(d["value"]) for d in a.get("solutions", []) if d.get("certified"))
+        got = sorted(proof.solutions, key=lambda p: p.enclosure[0])
+        match = len(values) == len(got) and all(p.enclosure[0] <= v <= p.enclosure[1] for v, p in zip(values, got))
+        onset = (a.get("onset") or {}).get("value")
+        if (onset is None) != (proof.onset is None) or (
+                onset is not None and not proof.onset.enclosure[0] <= float(onset) <= proof.onset.enclosure[1]):
+            match = False
+    return StateCheck(k, s, claimed, ok, claimed, ok, match, errors)
