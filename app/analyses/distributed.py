@@ -30,7 +30,8 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     rank alone (dense s x s work on COMM_SELF objects); under MPI the ranks take the next chain
     from a shared counter (one-sided atomic fetch-and-add on rank 0's window), the most expensive
     chains first, so a rank that finishes early takes more. The chains do not depend on the
-    number of ranks, and the results are gathered on every rank (``allgather``), so the output is
+    number of ranks, and the results are gathered on every rank (``allgather``; the stored pencils
+    on rank 0 only, which writes them), so the output is
     the same on any number of ranks. Fills each analyses dict in place (key order as in
     :func:`app.analyses.runner.analyse_state`); returns the failures.
 
@@ -82,8 +83,16 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
                 comm.Barrier()        # MPI collective: every rank done (rank 0 keeps reporting meanwhile)
         _raise_on_every_rank(comm, error)                                # MPI collective
     failures = []
+    # the stored pencils (``_proof``, hundreds of MB at large s) go to rank 0 only, which writes
+    # proofs/; everything else to every rank
+    proofs = {k: d.pop("_proof") for k, d in mine.items() if "_proof" in d}
+    gathered = comm.gather(proofs, root=0)                               # MPI collective
+    if comm.rank == 0:
+        proofs = {k: v for part in gathered for k, v in part.items()}
     for part in comm.allgather(mine):                                    # MPI collective
         for k, d in part.items():
+            if comm.rank == 0 and k in proofs:
+                d["_proof"] = proofs[k]
             out = jobs[k][1]
             out["mceip_mu"] = d
             for name in [n for n in ANALYSES if n in out]:               # canonical key order
