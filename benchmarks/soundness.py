@@ -66,19 +66,15 @@ planted near-solutions that are not solutions).
 Provers go through one adapter ``prove(A0, A1, cap, pairs) -> (onset_status, onset_value,
 all_status, values)``, statuses "proven" / "not proven" / "ill-conditioned": ``mceip_mu`` (the
 new engine, ``app.mceip_mu``: ``r.onset.proven``, ``r.onset.value``, ``r.all.proven``,
-``r.all.values``, ``r.ill_conditioned``), ``certify`` (today's ``certify_mu`` as the app calls
-it: copositivity bound, enumeration up to s = 14, SCIP above) and ``certify-scip`` (SCIP forced,
-``enumerate_max = 0``, as tests/test_certify.py does) and ``app-result`` (the state's MCEIP-mu
-result as the app reports it: ``condensed_mu_result``, search + certificate, the values it keeps
-below the cap). For certify_mu a proven certificate
-listing an ill-conditioned solution is "ill-conditioned"; it proves both claims at once.
-``auto`` takes ``mceip_mu`` when the app has it.
+``r.all.values``, ``r.ill_conditioned``) and ``app-result`` (the state's MCEIP-mu result as the
+app reports it: ``condensed_mu_result``, search + certificate, the values it keeps below the
+cap). ``auto`` is ``mceip_mu``.
 
 The dense series (:func:`section_dense`): onset proof time on ``A0 = B B^T + s I``,
 ``A1 = 3 N(0, 1)``, cap 10, at s = 10, 20, 30, ... until the first s not proven within 60 s.
 
     .venv/bin/python benchmarks/soundness.py [--quick | --n N] [--start I]
-        [--prover auto|mceip_mu|certify|certify-scip|app-result] [--no-dense] [--limit SECONDS]
+        [--prover auto|mceip_mu|app-result] [--no-dense] [--limit SECONDS]
 """
 from __future__ import annotations
 
@@ -801,20 +797,6 @@ def _prove_mceip_mu(A0, A1, cap, pairs, seconds=None):
     return on, val, al, sorted(float(x) for x in r.all.values)
 
 
-def _certify(enumerate_max):
-    def prove(A0, A1, cap, pairs, seconds=None):
-        from app.analyses.certify import certify_mu
-        kw = {} if enumerate_max is None else {"enumerate_max": enumerate_max}
-        cert = certify_mu(A0, A1, cap, seconds=60.0 if seconds is None else seconds, pairs=pairs or None, **kw)
-        # the certificate's own list (it may hold a value a rounding above the cap: the claim is
-        # read as certify_mu makes it, not through the app's later ``value <= cap`` filter)
-        vals = sorted(float(p.value) for p in cert.solutions)
-        ill = any(p.ill_conditioned for p in cert.solutions)
-        st = "ill-conditioned" if (cert.proven and ill) else ("proven" if cert.proven else "not proven")
-        return st, (vals[0] if vals else None), st, vals
-    return prove
-
-
 def _prove_app_result(A0, A1, cap, pairs, seconds=None):
     """The state-level MCEIP-mu result as the app reports it today (search + certificate,
     ``condensed_mu_result``: the values it lists below the cap, its ``certified`` flag)."""
@@ -828,19 +810,12 @@ def _prove_app_result(A0, A1, cap, pairs, seconds=None):
     return status, d["certificate"].get("onset"), status, vals
 
 
-PROVERS = {"mceip_mu": _prove_mceip_mu, "certify": _certify(None), "certify-scip": _certify(0),
-           "app-result": _prove_app_result}
+PROVERS = {"mceip_mu": _prove_mceip_mu, "app-result": _prove_app_result}
 
 
 def get_prover(name: str = "auto"):
-    """``(name, prove)``: ``auto`` is ``app.mceip_mu`` when it exists, else today's certify_mu."""
-    if name == "auto":
-        try:
-            from app import mceip_mu  # noqa: F401
-            name = "mceip_mu"
-        except ImportError:
-            name = "certify"
-    return name, PROVERS[name]
+    """``(name, prove)``: ``auto`` is ``mceip_mu``."""
+    return ("mceip_mu" if name == "auto" else name), PROVERS["mceip_mu" if name == "auto" else name]
 
 
 # =================================================================================================
