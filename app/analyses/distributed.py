@@ -82,14 +82,24 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
                     error = err
                 comm.Barrier()        # MPI collective: every rank done (rank 0 keeps reporting meanwhile)
         _raise_on_every_rank(comm, error)                                # MPI collective
+    return _gather(comm, jobs, mine)                                     # MPI collective
+
+
+def _gather(comm, jobs: list[tuple[Classification, dict]], mine: dict[int, dict]) -> list:
+    """Every rank's answers into the jobs' analyses dicts on every rank (MPI collective); the
+    stored pencils (``_proof``, hundreds of MB at large s) on rank 0 only, which writes proofs/.
+    Returns the failures ``(job, reason)``."""
     failures = []
-    # the stored pencils (``_proof``, hundreds of MB at large s) go to rank 0 only, which writes
-    # proofs/; everything else to every rank
-    proofs = {k: d.pop("_proof") for k, d in mine.items() if "_proof" in d}
-    gathered = comm.gather(proofs, root=0)                               # MPI collective
-    if comm.rank == 0:
-        proofs = {k: v for part in gathered for k, v in part.items()}
-    for part in comm.allgather(mine):                                    # MPI collective
+    proofs: dict = {}
+    if comm.size == 1:
+        parts = [mine]                      # nothing to send (and no copy of the pencils)
+    else:
+        proofs = {k: d.pop("_proof") for k, d in mine.items() if "_proof" in d}
+        gathered = comm.gather(proofs, root=0)                           # MPI collective
+        if comm.rank == 0:
+            proofs = {k: v for part in gathered for k, v in part.items()}
+        parts = comm.allgather(mine)                                     # MPI collective
+    for part in parts:
         for k, d in part.items():
             if comm.rank == 0 and k in proofs:
                 d["_proof"] = proofs[k]
