@@ -1,3 +1,5 @@
+import contextlib
+import errno
 import os
 import pathlib
 import subprocess
@@ -87,3 +89,31 @@ def scene_file(tmp_path):
         p.write_text(text)
         return p
     return write
+
+
+@contextlib.contextmanager
+def tmpfs(path: pathlib.Path, size: str):
+    """A tmpfs of ``size`` mounted at ``path`` (created) for the block, unmounted after it; the test
+    is skipped where tmpfs cannot be mounted."""
+    path.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a tmpfs here")
+    try:
+        yield path
+    finally:
+        subprocess.run(["umount", str(path)], capture_output=True)
+
+
+def fill_disk(folder: pathlib.Path) -> pathlib.Path:
+    """Write zeros to ``folder/fill`` until the file system is full (ENOSPC); returns the file."""
+    path = folder / "fill"
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT)
+    try:
+        while True:
+            os.write(fd, b"\0" * 65536)
+    except OSError as err:
+        assert err.errno == errno.ENOSPC
+    finally:
+        os.close(fd)
+    return path

@@ -7,7 +7,6 @@ process with one writer patched to fail as a full disk would.
 """
 from __future__ import annotations
 
-import contextlib
 import errno
 import hashlib
 import json
@@ -19,7 +18,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import PY, ROOT, run_cli
+from conftest import PY, ROOT, fill_disk, run_cli, tmpfs
 
 TP = """\
 name: tp
@@ -263,25 +262,11 @@ def test_full_disk_or_no_memory_gives_one_line(tmp_path, monkeypatch, capsys, wh
     _no_litter(tmp_path)
 
 
-@contextlib.contextmanager
-def _tmpfs(path: pathlib.Path, size: str):
-    """A tmpfs of ``size`` mounted at ``path`` (created) for the block, unmounted after it; the test
-    is skipped where tmpfs cannot be mounted."""
-    path.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-                      capture_output=True).returncode != 0:
-        pytest.skip("cannot mount a tmpfs here")
-    try:
-        yield path
-    finally:
-        subprocess.run(["umount", str(path)], capture_output=True)
-
-
 @pytest.mark.slow
 def test_full_tmpfs_during_the_run(tmp_path):
     """A real full disk (a 64 MB tmpfs filled once the run is writing its fields): one line, exit 4,
     the staging folder removed. Skipped where tmpfs cannot be mounted."""
-    with _tmpfs(tmp_path / "mnt", "64m") as mnt:
+    with tmpfs(tmp_path / "mnt", "64m") as mnt:
         proc = None
         try:
             scene = tmp_path / "s.yaml"
@@ -292,14 +277,7 @@ def test_full_tmpfs_during_the_run(tmp_path):
             t0 = time.time()
             while not list(mnt.glob(".out.partial-*/paraview")) and proc.poll() is None and time.time() - t0 < 120:
                 time.sleep(0.005)
-            fd = os.open(mnt / "fill", os.O_WRONLY | os.O_CREAT)
-            try:
-                while True:
-                    os.write(fd, b"\0" * 65536)
-            except OSError as err:
-                assert err.errno == errno.ENOSPC
-            finally:
-                os.close(fd)
+            fill_disk(mnt)
             stdout, stderr = proc.communicate(timeout=300)
             (mnt / "fill").unlink()
             assert proc.returncode == 4, (stdout, stderr)
@@ -312,7 +290,7 @@ def test_full_tmpfs_during_the_run(tmp_path):
 
 
 def test_disk_preflight_refuses_before_the_work(tmp_path):
-    with _tmpfs(tmp_path / "mnt", "1m") as mnt:
+    with tmpfs(tmp_path / "mnt", "1m") as mnt:
         scene = tmp_path / "s.yaml"
         scene.write_text(TP)
         line = _one_error_line(run_cli("run", str(scene), "-o", str(mnt / "out"), "-q"))
@@ -661,7 +639,7 @@ def test_sane_paths_have_no_strain_warning():
 
 
 def test_mount_point_target_is_refused_before_the_work(tmp_path):
-    with _tmpfs(tmp_path / "mnt", "8m") as mnt:
+    with tmpfs(tmp_path / "mnt", "8m") as mnt:
         scene = tmp_path / "s.yaml"
         scene.write_text(TP)
         line = _one_error_line(run_cli("run", str(scene), "-o", str(mnt), "-q", "--overwrite"))

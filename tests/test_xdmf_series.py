@@ -7,11 +7,10 @@ split into several ``.h5`` parts reads back the same in meshio and in VTK's XDMF
 from __future__ import annotations
 
 import errno
-import os
-import subprocess
 
 import numpy as np
 import pytest
+from conftest import fill_disk, tmpfs
 
 from app.io.xdmf import XdmfSeries
 
@@ -60,22 +59,8 @@ def test_series_refuses_to_overwrite(tmp_path):
 
 def test_full_disk_is_an_oserror_not_a_crash(tmp_path):
     """Deterministic form of the full-tmpfs run test: the disk is full before the series is written."""
-    mnt = tmp_path / "mnt"
-    mnt.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mnt)],
-                      capture_output=True).returncode != 0:
-        pytest.skip("cannot mount a tmpfs here")
-    try:
-        fd = os.open(mnt / "fill", os.O_WRONLY | os.O_CREAT)
-        try:
-            while True:
-                os.write(fd, b"\0" * 65536)
-        except OSError as err:
-            assert err.errno == errno.ENOSPC
-        finally:
-            os.close(fd)
+    with tmpfs(tmp_path / "mnt", "1m") as mnt:
+        fill_disk(mnt)
         with pytest.raises(OSError) as err:
             _write(mnt / "states.xdmf", 40, np.random.default_rng(3))
         assert err.value.errno == errno.ENOSPC
-    finally:
-        subprocess.run(["umount", str(mnt)], capture_output=True)

@@ -1,7 +1,7 @@
 """Warnings raised by libraries inside a study, explained instead of printed raw.
 
 numpy reports floating-point trouble as a ``RuntimeWarning`` located in its own source
-("numpy/linalg/linalg.py:2139: RuntimeWarning: overflow encountered in det"), which tells a user
+(e.g. "numpy/linalg/linalg.py:2139: RuntimeWarning: overflow encountered in det"), which tells a user
 neither what the app was doing nor whether an answer is affected. Inside :func:`explained` every
 warning is caught instead; each distinct one (category, message, the calling app function) is
 kept once with a count and:
@@ -26,13 +26,9 @@ from dataclasses import dataclass, field
 
 log = logging.getLogger(__name__)
 
-#: (message, app function) -> why the warning there does not affect the answers
-KNOWN: dict[tuple[str, str], str] = {
-    ("overflow encountered in det", "_newton_steps"):
-        "the batched Newton step of the dense MCEIP-mu search tells singular Jacobians from the others "
-        "by their determinants; a determinant whose magnitude exceeds the double range is not zero, so "
-        "that Jacobian gets the ordinary solve, as it would without the overflow (answers unaffected)",
-}
+#: (message, app function) -> why the warning there does not affect the answers (none known today:
+#: the dense search's singular-Jacobian test uses slogdet, which cannot overflow as det did)
+KNOWN: dict[tuple[str, str], str] = {}
 
 _LIBRARY_DIRS = tuple({os.path.dirname(os.__file__), os.path.dirname(warnings.__file__)})
 
