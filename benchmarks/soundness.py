@@ -788,7 +788,9 @@ def _prove_mceip_mu(A0, A1, cap, pairs, seconds=None, want_all=True):
     kw = {}
     if seconds is not None and "seconds" in inspect.signature(mceip_mu).parameters:
         kw["seconds"] = seconds
-    r = mceip_mu(A0, A1, cap=cap, pairs=pairs, want_all=want_all, **kw)
+    if not want_all:
+        kw["want_all"] = False
+    r = mceip_mu(A0, A1, cap=cap, pairs=pairs, **kw)
     ill = bool(getattr(r, "ill_conditioned", False))
     on_ill = bool(getattr(r.onset, "ill_conditioned", ill))
     all_ill = bool(getattr(r.all, "ill_conditioned", ill))
