@@ -17,8 +17,9 @@ Running (``mpirun -n P python -m app run sweep.yaml --ranks-per-case K``):
   index of the next case, so a long case never holds up the others. If the MPI library does not
   provide ``MPI_THREAD_MULTIPLE``, rank 0 is a dedicated dispatcher instead (the other ranks
   work). With one rank the cases simply run one after the other;
-* the group's rank 0 writes the case into ``OUTDIR/cases/<case name>/`` (``steps.csv``, then
-  ``results.json`` atomically: its presence marks a complete case). ``results.json`` carries
+* the group's rank 0 writes the case into a hidden staging folder and renames it to
+  ``OUTDIR/cases/<case name>/`` when it is written: a case folder is always complete (a killed
+  sweep leaves only staging folders, removed when the case runs again). ``results.json`` carries
   ``sweep_case`` with a hash of the case scene: a restarted sweep skips every case whose
   ``results.json`` is there with the same hash and runs only the others;
 * world rank 0 keeps ``OUTDIR/sweep.csv`` and ``OUTDIR/sweep.json`` (one row per case with its
@@ -62,19 +63,28 @@ def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
 
 
 def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
-    """Run ``case`` on ``gcomm`` (app/study/driver.py); the group's rank 0 writes it and returns its table row."""
+    """Run ``case`` on ``gcomm`` (app/study/driver.py); the group's rank 0 writes it and returns its table row.
+
+    The case is written into a hidden staging folder beside its final one and moved into place
+    when written (:func:`_commit_case`), so a killed sweep leaves no half-written case folder: a
+    restart runs the case again into a new staging folder."""
     from app.common.errors import UnreachableLoad
     from app.io.results import atomic_write
     from app.study import driver
     error = None
     folder = case_dir(outdir, case)
+    staging = None
     if gcomm.rank == 0:
-        folder.mkdir(parents=True, exist_ok=True)
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        _remove_unfinished(folder)
+        staging = folder.parent / f".{folder.name}.partial-{os.getpid()}-{time.time_ns()}"
+        staging.mkdir()
+    staging = gcomm.bcast(staging, root=0)                                 # MPI collective (group)
     identity = {"sweep_case": {"sweep": case.scene.name, "name": case.name, "index": case.index,
                                "values": case.values, "scene_hash": case.scene_hash}}
     try:
         try:
-            results = driver.run_and_write(case.scene, gcomm, folder, extra=identity)
+            results = driver.run_and_write(case.scene, gcomm, staging, extra=identity)
         except UnreachableLoad as err:   # raised identically on every rank of the group
             error = f"loading: {err}"
     except Exception as err:             # noqa: BLE001
@@ -85,10 +95,31 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     if gcomm.rank != 0:
         return None
     if error is not None:
-        atomic_write(folder / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
-        return error_row(case, error)
-    (folder / "error.json").unlink(missing_ok=True)
-    return case_row(results, case)
+        atomic_write(staging / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
+    _commit_case(staging, folder)
+    return error_row(case, error) if error is not None else case_row(results, case)
+
+
+def _remove_unfinished(folder: pathlib.Path) -> None:
+    """Staging folders of ``folder``'s case left by a killed run of this sweep (the sweep folder
+    is locked: none is in use)."""
+    import shutil
+    for p in [*folder.parent.glob(f".{folder.name}.partial-*"), *folder.parent.glob(f".{folder.name}.old-*")]:
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p)
+
+
+def _commit_case(staging: pathlib.Path, folder: pathlib.Path) -> None:
+    """Move the written case into place; an earlier run's folder of the same case (an error, or a
+    case scene that changed) is replaced."""
+    import shutil
+    if folder.exists():
+        old = folder.parent / f".{folder.name}.old-{os.getpid()}-{time.time_ns()}"
+        os.rename(folder, old)
+        os.rename(staging, folder)
+        shutil.rmtree(old)
+    else:
+        os.rename(staging, folder)
 
 
 class Dispatcher:
