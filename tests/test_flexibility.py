@@ -83,7 +83,7 @@ _SCRIPT = textwrap.dedent("""
     import numpy as np
     from mpi4py import MPI
     from app.linalg import lu
-    from app.loading.flexibility import flexibility_matsolve
+    from app.loading.flexibility import flexibility_gathered, flexibility_matsolve
     from app.systems.block.operators import block_operators
     from app.systems.block.mesh import block_mesh
     comm = MPI.COMM_WORLD
@@ -95,6 +95,9 @@ _SCRIPT = textwrap.dedent("""
     with lu(ops.K, prefix="cd_flex_") as ksp:
         W = flexibility_matsolve(ksp, ops.K, dofs, signs, chunk_bytes=8 * ops.K.getSize()[0] * 5)
     assert all(np.array_equal(w, W) for w in comm.allgather(W))      # replicated on every rank
+    Wg = flexibility_gathered(ops.K, dofs, signs)                     # K on rank 0, selected inverse entries
+    assert Wg is not None and all(np.array_equal(w, Wg) for w in comm.allgather(Wg))
+    np.testing.assert_allclose(Wg, W, rtol=0, atol=1e-13 * np.abs(W).max())
     if comm.rank == 0:
         np.save(sys.argv[1], W)
 """)
