@@ -14,7 +14,7 @@ from app.scene.limits import describe_time, estimate, time_estimate
 from app.scene.schema import default_scene_path, parse_scene
 
 #: nx, measured peak resident memory (GiB), measured CPU seconds (None: not measured)
-MEASURED = [(56, 0.226, 4.7), (112, 0.311, 8.4), (224, 0.588, 25.8), (448, 1.321, None), (708, 2.51, None)]
+MEASURED = [(56, 0.245, 3.7), (112, 0.309, 4.6), (224, 0.483, 8.9), (448, 1.283, 37.3), (708, 2.76, 121.2)]
 
 
 def _scene(nx: int, analyses=("mceip_mu",)):
