@@ -46,7 +46,8 @@ ADDED_KEYS = {"format_version", "certified", "certificate", "ill_conditioned", "
               "limits", "max_states", "max_dofs", "max_contact_nodes", "max_memory_gb",   # scene_config.settings.limits
               # the proven MCEIP-mu (issue 18): the two claims, proven enclosures and margins, new settings
               "onset", "complete", "enclosure", "proven_min_x_Ts", "proven_margin_y_stick", "certify_all_max",
-              "certify_all_seconds"}
+              "certify_all_seconds",
+              "time"}   # units.time: the two particles' units are the scene's (app/systems/units.py)
 
 TWO_PARTICLES = """\
 name: two-particles

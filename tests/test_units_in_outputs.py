@@ -61,6 +61,20 @@ def test_si_steps_csv_headers_name_the_scenes_units(si_outputs):
     assert [float(r["u_x_CD [m]"]) for r in rows] == [s["load"]["u_x"] for s in doc["states"]]
 
 
+def test_two_particles_units_are_the_scenes():
+    """The two particles' units block follows the scene's ``units`` (it said mm in an SI scene)."""
+    scene = {"name": "tp", "system": {"type": "two_particles", "k": 1000.0, "m": 2.0, "phi_deg": 35.0,
+                                      "signs": [1, -1]}, "mu": 2.5, "analyses": ["mceip_mu"]}
+    mm, si = run_scene(scene), run_scene({**scene, "units": "m-N-Pa-kg-s"})
+    assert mm["units"]["length"] == "mm" and mm["units"]["stiffness"] == "N/mm" and "N/mm" in mm["system"]
+    assert si["units"] == {"length": "m", "force": "N", "stiffness": "N/m", "mass": "kg", "time": "s",
+                           "lambda2": "1/s^2", "mu": "1"}
+    assert "k=1000.0 N/m," in si["system"] and "kg" in si["system"]
+    a, b = (r["states"][0]["analyses"]["mceip_mu"] for r in (mm, si))     # labels only: the same answers
+    assert [(x["value"], x["pattern"]) for x in a["solutions"]] == [(x["value"], x["pattern"]) for x in b["solutions"]]
+    assert a["certificate"]["status"] == b["certificate"]["status"] and a["solutions"]
+
+
 def test_csv_header_convention():
     units = {"length": "mm", "force": "N", "mu": "1"}
     assert csv_header("u_x_CD", "length", units) == "u_x_CD [mm]"
