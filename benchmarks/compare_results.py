@@ -8,7 +8,9 @@ SCIP's node count) is easy to tell apart from answers.
 
     .venv/bin/python benchmarks/compare_results.py BEFORE/results.json AFTER/results.json [--rtol 1e-8]
 
-Exit status 0 when nothing differs, 1 otherwise.
+Both files are read with ``app.io.document.from_document``, so files of older formats compare
+with newer ones under the newer key names (format 3: ``path.normal_displacement_mm`` is
+``normal_displacement``, ...). Exit status 0 when nothing differs, 1 otherwise.
 """
 from __future__ import annotations
 

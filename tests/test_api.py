@@ -46,7 +46,8 @@ ADDED_KEYS = {"format_version", "certified", "certificate", "ill_conditioned", "
               "limits", "max_states", "max_dofs", "max_contact_nodes", "max_memory_gb",   # scene_config.settings.limits
               # the proven MCEIP-mu (issue 18): the two claims, proven enclosures and margins, new settings
               "onset", "complete", "enclosure", "proven_min_x_Ts", "proven_margin_y_stick", "certify_all_max",
-              "certify_all_seconds"}
+              "certify_all_seconds",
+              "time"}   # units.time: the two particles' units are the scene's (app/systems/units.py)
 
 TWO_PARTICLES = """\
 name: two-particles
@@ -89,7 +90,7 @@ def test_two_particles_results_json_unchanged(scene_file, tmp_path):
     assert proc.returncode == 0, proc.stderr
     text = (tmp_path / "out" / "results.json").read_text()
     doc = json.loads(text, parse_constant=lambda c: pytest.fail(f"results.json holds {c}"))
-    assert doc["format_version"] == FORMAT_VERSION == 2 and '"inf"' not in text
+    assert doc["format_version"] == FORMAT_VERSION == 3 and '"inf"' not in text
     assert doc["non_finite"]["values"] and "JSON has no infinity" in doc["non_finite"]["reason"]
     new = from_document(doc)
     old = from_document(json.loads((DATA / "results_two_particles_v0.json").read_text()))
@@ -171,8 +172,8 @@ def test_non_finite_numbers_are_null_with_a_reason():
     assert back["a/b~c"] == [1.5, math.inf] and "non_finite" not in from_document(doc)
     v1 = {"format_version": 1, "states": [{"interval": [0.0, "inf"], "low": "-inf", "name": "infinite"}]}
     assert from_document(v1)["states"][0] == {"interval": [0.0, math.inf], "low": -math.inf, "name": "infinite"}
-    with pytest.raises(ValueError, match="format_version = 3"):
-        from_document({"format_version": 3})
+    with pytest.raises(ValueError, match="format_version = 4"):
+        from_document({"format_version": 4})
     with pytest.raises(ValueError, match="names no null number"):
         from_document({"format_version": 2, "a": 1.0, "non_finite": {"values": {"/a": "+inf"}}})
     assert to_document({"a": 1.0}) == {"format_version": FORMAT_VERSION, "a": 1.0}     # no block when all finite

@@ -150,9 +150,9 @@ def block_as_matrices(tmp_path_factory):
     xs = [nd.x for nd in system.nodes]
     system.destroy()
     ops.destroy()
-    depth = ref["path"]["normal_displacement_mm"]
+    depth = ref["path"]["normal_displacement"]
     ntan = len(ref["states"]) - ref["path"]["normal_steps"]
-    step = ref["path"]["tangential_step_mm"]
+    step = ref["path"]["tangential_step"]
     np.save(d / "fy.npy", -depth * fy)
     data = {"name": "bm", "mu": 1.1, "analyses": ["mceip_mu"],
             "system": {"type": "matrices", "K": "K.mtx", "contact": contact, "positions": xs,

@@ -32,6 +32,7 @@ def test_two_level_refinement_writes_table_plot_and_csv(tmp_path):
     with open(tmp_path / "refinement.csv") as f:
         table = list(csv.DictReader(f))
     assert len(table) == 2 and "err_final_mu" in table[0] and "t_factor_W" in table[0]
+    assert {"h [mm]", "depth [mm]", "lambda2 [1/s^2]", "tangential_resultant [N]", "final_mu"} <= table[0].keys()
     md = (tmp_path / "refinement.md").read_text()
     assert "fewer than 3 levels" in md                     # two levels: no order claimed
     assert (tmp_path / "levels" / "P1-stress-nx8" / "steps.csv").exists()

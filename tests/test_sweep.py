@@ -195,6 +195,8 @@ def test_two_particle_sweep_table_restart_and_changed_case(tmp_path):
     assert (tmp_path / "plots" / "system.signs.png").stat().st_size > 1000
     csv_lines = (tmp_path / "sweep.csv").read_text().splitlines()
     assert len(csv_lines) == 4 and csv_lines[0].startswith("case,index,system.signs,status,")
+    assert ",final_u_x [mm]," in csv_lines[0] and ",first_mceip_mu_u_x [mm]," in csv_lines[0]
+    assert doc["units"]["length"] == "mm" and "[length]" in doc["columns"]["final_u_x"]
 
     mtimes = {c.name: (tmp_path / "cases" / c.name / "results.json").stat().st_mtime_ns for c in cases}
     assert run_sweep(scene, cases, MPI.COMM_WORLD, tmp_path, quiet=True) == 0

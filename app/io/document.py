@@ -14,8 +14,14 @@ import numpy as np
 
 #: version of the results.json format, written as its ``format_version`` key (1: non-finite
 #: numbers written as the strings ``"inf"``/``"-inf"``; 2: written as ``null``, each listed with
-#: its value under the top-level key ``non_finite``). :func:`from_document` reads both.
-FORMAT_VERSION = 2
+#: its value under the top-level key ``non_finite``; 3: no unit in a key name, the units are the
+#: top-level ``units`` block's, see :data:`RENAMED`). :func:`from_document` reads all three.
+FORMAT_VERSION = 3
+
+#: keys of ``path`` renamed in format 3 (old name -> new name): the unit left the name for the
+#: ``units`` block (it said "mm" and "N" whatever the scene's units were)
+RENAMED = {"path": {"normal_displacement_mm": "normal_displacement", "normal_force_N": "normal_force",
+                    "tangential_step_mm": "tangential_step"}}
 
 #: why a number of results.json is ``null`` (the ``non_finite`` block says which and what it is)
 NON_FINITE_REASON = ("JSON has no infinity or NaN: these numbers are written as null; 'values' maps the "
@@ -66,6 +72,7 @@ def to_document(results: Mapping) -> dict:
     """
     non_finite: dict[str, str] = {}
     doc = {"format_version": FORMAT_VERSION, **json_clean(dict(results), non_finite)}
+    doc["format_version"] = FORMAT_VERSION      # this format's, also for results read from an older file
     doc.pop("non_finite", None)
     if non_finite:
         doc["non_finite"] = {"reason": NON_FINITE_REASON, "values": non_finite}
@@ -85,11 +92,22 @@ def _strings_to_floats(obj):
     return obj
 
 
+def _renamed(out: dict, version: int) -> dict:
+    """``out`` with the keys of :data:`RENAMED` under their format 3 names (formats before 3)."""
+    if version >= 3:
+        return out
+    for section, names in RENAMED.items():
+        if isinstance(out.get(section), dict):
+            out[section] = {names.get(k, k): v for k, v in out[section].items()}
+    return out
+
+
 def from_document(doc: Mapping) -> dict:
     """The results dictionary of a results.json document of any format version.
 
-    Its non-finite numbers are floats again (format 1: the strings ``"inf"``/``"-inf"``; format 2:
-    the ``non_finite`` block, which the returned dictionary no longer holds).
+    Its non-finite numbers are floats again (format 1: the strings ``"inf"``/``"-inf"``; formats 2
+    and 3: the ``non_finite`` block, which the returned dictionary no longer holds), and the keys of
+    formats 1 and 2 that carried a unit have their format 3 names (:data:`RENAMED`).
 
     Parameters
     ----------
@@ -110,7 +128,7 @@ def from_document(doc: Mapping) -> dict:
     if not isinstance(version, int) or version > FORMAT_VERSION:
         raise ValueError(f"results.json format_version = {version!r}: this app reads formats up to {FORMAT_VERSION}")
     if version < 2:
-        return _strings_to_floats(dict(doc))
+        return _renamed(_strings_to_floats(dict(doc)), version)
     out = json.loads(json.dumps(dict(doc)))            # a deep copy of the JSON data
     block = out.pop("non_finite", None) or {}
     for pointer, value in (block.get("values") or {}).items():
@@ -125,4 +143,4 @@ def from_document(doc: Mapping) -> dict:
             node[key] = _NON_FINITE[value]
         except (KeyError, IndexError, TypeError, ValueError):
             raise ValueError(f"results.json non_finite: {pointer} = {value!r} names no null number") from None
-    return out
+    return _renamed(out, version)                      # after the pointers, which use the file's names

@@ -50,10 +50,21 @@ def atomic_write(path: pathlib.Path, text: str) -> None:
         raise
 
 
-STEP_COLUMNS = ["index", "phase", "u_x_CD_mm", "u_y_CD_mm", "normal_resultant_N", "tangential_resultant_N",
+STEP_COLUMNS = ["index", "phase", "u_x_CD", "u_y_CD", "normal_resultant", "tangential_resultant",
                 "n_free", "n_zero", "n_stick", "n_slip", "necessary_min_eig_K_sym", "necessary_satisfied",
-                "sufficient_max_lambda2_per_s2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",
+                "sufficient_max_lambda2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",
                 "shared_with", "analysis_seconds", "step", "load_parameters"]
+
+#: the quantity (a key of results.json ``units``) of the steps.csv columns that have a unit
+STEP_UNITS = {"u_x_CD": "length", "u_y_CD": "length", "normal_resultant": "force", "tangential_resultant": "force",
+              "sufficient_max_lambda2": "lambda2", "mceip_lambda2_max": "lambda2"}
+
+
+def csv_header(column: str, quantity: str | None, units: dict) -> str:
+    """A CSV column's header: ``column [unit]`` with the unit of ``quantity`` in the scene's
+    ``units`` (``u_x_CD [mm]``, ``u_x_CD [m]``), the bare name when it has none (or is ``1``)."""
+    unit = units.get(quantity) if quantity else None
+    return f"{column} [{unit}]" if unit and unit != "1" else column
 
 
 def step_rows(results: dict) -> list[dict]:
@@ -72,13 +83,13 @@ def step_rows(results: dict) -> list[dict]:
             "index": st["index"], "phase": load.get("phase", ""), "step": load.get("step", ""),
             # a loading program's parameters (a body from Gmsh: motions, loads, gravity), name=value;...
             "load_parameters": ";".join(f"{k}={v!r}" for k, v in (load.get("parameters") or {}).items()),
-            "u_x_CD_mm": load.get("u_x", ""), "u_y_CD_mm": load.get("u_y", ""),
-            "normal_resultant_N": load.get("normal_resultant", ""),
-            "tangential_resultant_N": load.get("tangential_resultant", ""),
+            "u_x_CD": load.get("u_x", ""), "u_y_CD": load.get("u_y", ""),
+            "normal_resultant": load.get("normal_resultant", ""),
+            "tangential_resultant": load.get("tangential_resultant", ""),
             "n_free": c["free"], "n_zero": c["zero"], "n_stick": c["stick"], "n_slip": c["slip"],
             "necessary_min_eig_K_sym": nec.get("min_eig_K_sym", ""),
             "necessary_satisfied": nec.get("satisfied", ""),
-            "sufficient_max_lambda2_per_s2": max(suff) if suff else "",
+            "sufficient_max_lambda2": max(suff) if suff else "",
             "mceip_mu_min": min(mu_sols) if mu_sols else "",
             "mceip_mu_count": len(mu_sols) if "solutions" in (a.get("mceip_mu") or {}) else "",
             "mceip_lambda2_max": max(l2_sols) if l2_sols else "",
@@ -89,11 +100,13 @@ def step_rows(results: dict) -> list[dict]:
 
 
 def steps_csv(results: dict) -> str:
-    """The text of steps.csv: a header and one row per state (:func:`step_rows`)."""
+    """The text of steps.csv: a header (units from results ``units``, :func:`csv_header`) and one
+    row per state (:func:`step_rows`)."""
+    units = results.get("units") or {}
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=STEP_COLUMNS)
-    w.writeheader()
-    w.writerows(step_rows(results))
+    w = csv.writer(buf)
+    w.writerow([csv_header(c, STEP_UNITS.get(c), units) for c in STEP_COLUMNS])
+    w.writerows([row[c] for c in STEP_COLUMNS] for row in step_rows(results))
     return buf.getvalue()
 
 

@@ -47,6 +47,7 @@ from app.study.refinement_report import (  # noqa: F401 - observed_order re-expo
     observed_order,
     write_outputs,
 )
+from app.systems.units import CONTINUUM_UNITS
 
 
 def level_scene(scene: Scene, nx: int, degree: int, plane: str, **loading) -> Scene:
@@ -166,9 +167,9 @@ def run_level(scene: Scene, nx: int, degree: int, plane: str, comm: MPI.Comm,
     q = res["inspection"]
     n_contact, n_dofs = q["contact_nodes"], q["dofs"]
     row = {"degree": degree, "plane": plane, "pattern": lvl.system.pattern, "nx": nx, "ny": lvl.system.ny,
-           "h_mm": lvl.system.length / nx, "contact_nodes": n_contact, "dofs": n_dofs,
+           "h": lvl.system.length / nx, "contact_nodes": n_contact, "dofs": n_dofs,
            "states": len(res["states"]), "distinct": res["distinct_classifications"],
-           "depth": res["path"].get("normal_displacement_mm"),
+           "depth": res["path"].get("normal_displacement"),
            **{k: q.get(k) for k in ("final_mu", "first_mu_ux", "first_mu", "lambda2",
                                     "tangential_resultant", "sliding_ux")},
            "first_mu_label": q.get("first_mu_label"), "final_label": q.get("final_label"),
@@ -218,9 +219,12 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
                         (d / "steps.csv").write_text(steps_csv(res))
     conv = analyse_convergence(rows)
     cfg = scene.system
+    units = CONTINUUM_UNITS[scene.units]
     summary = {"scene": scene.name, "mu": scene.mu,
                "mu_fixed": ref.mu_fixed if ref.mu_fixed is not None else scene.lambda2_mu,
-               "system": (f"block {cfg.length}x{cfg.height}x{cfg.thickness} mm, {cfg.pattern}, E={cfg.E} MPa, "
+               "units": units,
+               "system": (f"block {cfg.length}x{cfg.height}x{cfg.thickness} {units['length']}, {cfg.pattern}, "
+                          f"E={cfg.E} {units['stress']}, "
                           f"nu={cfg.nu}, loading {scene.loading.model_dump()}"),
                "levels": ref.levels, "degrees": ref.degrees, "planes": ref.planes,
                "mpi_ranks": comm.size, "rows": rows, "convergence": conv, "failures": failures, "skipped": skipped,

@@ -12,14 +12,18 @@ import pathlib
 
 import numpy as np
 
-QOIS = {  # key: (label, unit)
-    "final_mu": ("final-state smallest MCEIP-mu", "1"),
-    "first_mu_ux": ("CD u_x at the first MCEIP-mu solution", "mm"),
-    "lambda2": ("sufficient-condition lambda^2 at mu_fixed (final state)", "1/s^2"),
-    "depth": ("CD depth for the normal force", "mm"),
-    "tangential_resultant": ("tangential resultant at the fixed load", "N"),
-    "sliding_ux": ("CD u_x at gross sliding", "mm"),
+from app.io.results import csv_header
+
+QOIS = {  # key: (label, quantity: its unit is the scene's, app/systems/units.py)
+    "final_mu": ("final-state smallest MCEIP-mu", "mu"),
+    "first_mu_ux": ("CD u_x at the first MCEIP-mu solution", "length"),
+    "lambda2": ("sufficient-condition lambda^2 at mu_fixed (final state)", "lambda2"),
+    "depth": ("CD depth for the normal force", "length"),
+    "tangential_resultant": ("tangential resultant at the fixed load", "force"),
+    "sliding_ux": ("CD u_x at gross sliding", "length"),
 }
+#: the quantity of the other refinement.csv columns with a unit (``h [mm]``: cell size along AB)
+UNIT_OF = {"h": "length", **{k: q for k, (_, q) in QOIS.items()}}
 # Stages summed into the columns of the table (the rest is in 'other').
 STAGE_GROUPS = {
     "t_mesh_assembly": ("mesh (gmsh)", "assemble stiffness", "assemble mass matrix"),
@@ -98,7 +102,7 @@ def analyse_convergence(rows: list[dict]) -> dict:
     series = _series(rows)
     for (deg, plane), rs in series.items():
         conv["series"][f"P{deg} {plane}"] = {
-            key: observed_order([r["h_mm"] for r in rs], [r.get(key) for r in rs]) for key in QOIS}
+            key: observed_order([r["h"] for r in rs], [r.get(key) for r in rs]) for key in QOIS}
     for plane in dict.fromkeys(p for _, p in series):
         degs = sorted((d for d, p in series if p == plane), reverse=True)
         conv["reference"][plane] = {}
@@ -113,7 +117,7 @@ def analyse_convergence(rows: list[dict]) -> dict:
                 for d in degs:
                     vals = [r for r in series[(d, plane)] if r.get(key) is not None]
                     if vals:
-                        fin = min(vals, key=lambda r: r["h_mm"])
+                        fin = min(vals, key=lambda r: r["h"])
                         ref = {"value": fin[key], "from": f"finest P{d} level (nx = {fin['nx']}; no trusted "
                                                             f"extrapolation)"}
                         break
@@ -138,7 +142,7 @@ def cheapest(rows: list[dict], key: str, plane: str, targets=(0.1, 0.01, 0.001))
 
 
 # -- outputs -------------------------------------------------------------------------------------
-CSV_COLUMNS = ["degree", "plane", "pattern", "nx", "ny", "h_mm", "contact_nodes", "dofs", "states", "distinct",
+CSV_COLUMNS = ["degree", "plane", "pattern", "nx", "ny", "h", "contact_nodes", "dofs", "states", "distinct",
                *QOIS, "first_mu", "first_mu_label", "final_label",
                *[f"err_{k}" for k in QOIS], "wall_s", *STAGE_GROUPS, "t_other", "first_method", "path_end"]
 
@@ -154,13 +158,16 @@ def fmt(v, digits: int = 6) -> str:
 
 def markdown(summary: dict) -> str:
     rows, conv = summary["rows"], summary["convergence"]
+    units = summary["units"]
+    length = units["length"]
     lines = [f"# Refinement study: {summary['scene']}", "",
              f"{summary['system']}; mu = {summary['mu']}, sufficient condition at mu_fixed = {summary['mu_fixed']}; "
              f"{summary['mpi_ranks']} MPI rank(s); total {summary['wall_seconds']:.1f} s.", ""]
     for (deg, plane), rs in _series(rows).items():
         lines += [f"## P{deg}, plane {plane}", "",
-                  "| nx x ny | contact nodes | DOFs | final MCEIP-mu | first solution at CD u_x [mm] (mu) | "
-                  "lambda^2 [1/s^2] | depth [mm] | T at fixed load [N] | gross sliding u_x [mm] | wall [s] | "
+                  f"| nx x ny | contact nodes | DOFs | final MCEIP-mu | first solution at CD u_x [{length}] (mu) | "
+                  f"lambda^2 [{units['lambda2']}] | depth [{length}] | T at fixed load [{units['force']}] | "
+                  f"gross sliding u_x [{length}] | wall [s] | "
                   "MCEIP-mu [s] | factor K + W [s] | loading [s] |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in rs:
@@ -170,7 +177,8 @@ def markdown(summary: dict) -> str:
                          f"{r['wall_s']:.2f} | {r['t_mceip_mu']:.2f} | {r['t_factor_W']:.2f} | {r['t_loading']:.2f} |")
         lines += ["", "| quantity | observed order p (3 finest) | fitted slope | reference | note |",
                   "|---|---|---|---|---|"]
-        for key, (label, unit) in QOIS.items():
+        for key, (label, quantity) in QOIS.items():
+            unit = units.get(quantity, "?")
             e = conv["series"][f"P{deg} {plane}"][key]
             lines.append(f"| {label} [{unit}] | {fmt(e['p'], 3)} | {fmt(e['fitted'], 3)} | "
                          f"{fmt(e['reference'], 7)}{' (Richardson)' if e['richardson'] else ''} | {e['note']} |")
@@ -180,7 +188,8 @@ def markdown(summary: dict) -> str:
                   "Relative errors are measured against one reference per quantity (below); the cheapest level "
                   "is the one with the smallest wall time whose error is at most the target.", "",
                   "| quantity | reference | from | 10 % | 1 % | 0.1 % |", "|---|---|---|---|---|---|"]
-        for key, (label, unit) in QOIS.items():
+        for key, (label, quantity) in QOIS.items():
+            unit = units.get(quantity, "?")
             ch = cheapest(rows, key, plane)
             cells = [f"P{r['degree']} nx={r['nx']} ({r['wall_s']:.1f} s)" if r else "not reached"
                      for r in ch.values()]
@@ -238,9 +247,9 @@ def plot(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
 def write_outputs(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     outdir.mkdir(parents=True, exist_ok=True)
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, extrasaction="ignore")
-    w.writeheader()
-    w.writerows(summary["rows"])
+    w = csv.writer(buf)
+    w.writerow([csv_header(c, UNIT_OF.get(c), summary["units"]) for c in CSV_COLUMNS])
+    w.writerows([row.get(c, "") for c in CSV_COLUMNS] for row in summary["rows"])
     (outdir / "refinement.csv").write_text(buf.getvalue())
     (outdir / "refinement.md").write_text(markdown(summary))
     paths = [outdir / "refinement.csv", outdir / "refinement.md", *plot(summary, outdir)]

@@ -22,7 +22,7 @@ QUANTITIES = [   # (column, description), in table order after the swept keys
     ("distinct_classifications", "distinct (classification, signs) along the path"),
     ("n_contact_nodes", "contact candidate nodes"),
     ("L_over_H", "aspect ratio of the block"),
-    ("final_u_x_mm", "CD displacement u_x at the final state [mm]"),
+    ("final_u_x", "CD displacement u_x at the final state [length]"),
     ("final_n_slip", "slip nodes at the final state"),
     ("final_n_stick", "stick nodes at the final state"),
     ("final_n_free", "free nodes at the final state"),
@@ -30,7 +30,7 @@ QUANTITIES = [   # (column, description), in table order after the swept keys
     ("final_mceip_mu_min", "smallest MCEIP-mu at the final state"),
     ("final_mceip_mu_count", "MCEIP-mu solutions found at the final state"),
     ("first_mceip_mu_state", "index of the first state with an MCEIP-mu solution"),
-    ("first_mceip_mu_u_x_mm", "CD u_x at that state [mm]"),
+    ("first_mceip_mu_u_x", "CD u_x at that state [length]"),
     ("first_mceip_mu_value", "smallest MCEIP-mu at that state"),
     ("first_mceip_mu_n_slip", "slip nodes at that state"),
     ("first_mceip_mu_n_stick", "stick nodes at that state"),
@@ -48,9 +48,13 @@ QUANTITIES = [   # (column, description), in table order after the swept keys
     ("ran", "'this run' or 'earlier' (skipped on restart: results.json already complete)"),
 ]
 
+#: the quantity (a key of the units block) of the columns with a unit: ``[length]`` above; sweep.csv
+#: headers name the scene's unit (``final_u_x [mm]``), sweep.json has a ``units`` block
+UNIT_OF = {"final_u_x": "length", "first_mceip_mu_u_x": "length"}
 
-PLOTTED = ["final_mceip_mu_min", "first_mceip_mu_value", "first_mceip_mu_u_x_mm", "first_mceip_mu_n_slip",
-           "first_mceip_mu_slip_fraction", "first_mceip_mu_u_x_fraction", "final_u_x_mm", "final_n_slip",
+
+PLOTTED = ["final_mceip_mu_min", "first_mceip_mu_value", "first_mceip_mu_u_x", "first_mceip_mu_n_slip",
+           "first_mceip_mu_slip_fraction", "first_mceip_mu_u_x_fraction", "final_u_x", "final_n_slip",
            "final_n_stick", "final_n_free", "n_states", "wall_seconds"]
 
 
@@ -80,7 +84,7 @@ def case_row(results: dict, case: Case, ran: str = "this run") -> dict:
         return row
     last = states[-1]
     row["n_contact_nodes"] = len(last.get("nodes", []))
-    row["final_u_x_mm"] = last.get("load", {}).get("u_x")
+    row["final_u_x"] = last.get("load", {}).get("u_x")
     for k in ("slip", "stick", "free", "zero"):
         row[f"final_n_{k}"] = last["classification"][k]
     if "mceip_mu" in results.get("analyses_requested", []):
@@ -93,13 +97,13 @@ def case_row(results: dict, case: Case, ran: str = "this run") -> dict:
             st = states[first]
             c = st["classification"]
             row["first_mceip_mu_state"] = st["index"]
-            row["first_mceip_mu_u_x_mm"] = st.get("load", {}).get("u_x")
+            row["first_mceip_mu_u_x"] = st.get("load", {}).get("u_x")
             row["first_mceip_mu_value"] = mins[first]
             row["first_mceip_mu_n_slip"], row["first_mceip_mu_n_stick"] = c["slip"], c["stick"]
             row["first_mceip_mu_n_free"] = c["free"]
             in_contact = c["slip"] + c["stick"] + c["zero"]
             row["first_mceip_mu_slip_fraction"] = c["slip"] / in_contact if in_contact else None
-            ux0, ux1 = row["first_mceip_mu_u_x_mm"], row["final_u_x_mm"]
+            ux0, ux1 = row["first_mceip_mu_u_x"], row["final_u_x"]
             if isinstance(ux0, (int, float)) and isinstance(ux1, (int, float)) and ux1 != 0:
                 row["first_mceip_mu_u_x_fraction"] = ux0 / ux1
             row["states_without_mceip_mu_after_first"] = sum(m is None for m in mins[first:])
@@ -126,7 +130,8 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
                  info: dict) -> None:
     """sweep.csv and sweep.json (atomically): one row per case, finished or not."""
     from app.io.document import NON_FINITE_REASON, json_clean
-    from app.io.results import atomic_write
+    from app.io.results import atomic_write, csv_header
+    from app.systems.units import CONTINUUM_UNITS
     cols = _columns(cases)
     table = []
     for c in cases:
@@ -134,15 +139,17 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
         if row is None:
             row = {**error_row(c, ""), "status": "not run", "ran": None}
         table.append({k: row.get(k) for k in cols})
+    units = CONTINUUM_UNITS[scene.units]
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
-    w.writeheader()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow([csv_header(k, UNIT_OF.get(k), units) for k in cols])
     for r in table:
-        w.writerow({k: "" if v is None else (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
+        w.writerow(["" if v is None else (repr(v) if isinstance(v, float) else v) for v in r.values()])
     atomic_write(outdir / "sweep.csv", buf.getvalue())
     missing = [r["case"] for r in table if r["status"] == "not run"]
     doc = {"scene": scene.name, "sweep": scene.sweep.model_dump(mode="json"), "n_cases": len(cases),
            "complete": not missing, "missing": missing, **info,
+           "units": {k: units[k] for k in ("length", "force", "time")},
            "columns": {"case": "stable case name (cases/<case>/ holds its results.json, steps.csv)",
                        "index": "case number in sweep order (from 0)",
                        **{k: "swept key" for k in cases[0].values}, **dict(QUANTITIES)},
@@ -218,7 +225,7 @@ def summary_table(cases: list[Case], rows: dict[int, dict]) -> str:
     for c in cases:
         r = rows.get(c.index) or {}
         lines.append([c.name, f(r.get("final_mceip_mu_min")), f(r.get("first_mceip_mu_value")),
-                      f(r.get("first_mceip_mu_state")), f(r.get("first_mceip_mu_u_x_mm")),
+                      f(r.get("first_mceip_mu_state")), f(r.get("first_mceip_mu_u_x")),
                       f(r.get("first_mceip_mu_n_slip")),
                       "/".join(f(r.get(f"final_n_{k}")) for k in ("slip", "stick", "free")),
                       f(r.get("wall_seconds"), "{:.1f}")])

@@ -147,7 +147,7 @@ def _loading(scene, flex, n: int, stages: Stages, progress: Progress):
             cls = classify(st, scene.mu, scene.settings.classify_rtol)
             contact = [s for s in cls.status if s not in (FREE,)]
             if contact and all(s == SLIP for s in contact):
-                end = (f"gross sliding at CD u_x = {gx:.6g} mm: all {len(contact)} nodes in contact slip "
+                end = (f"gross sliding at CD u_x = {gx:.6g} {UNITS[scene.units]['length']}: all {len(contact)} nodes in contact slip "
                        f"(tangential resultant = mu x normal resultant)")
                 break
         bar.close()
@@ -155,6 +155,7 @@ def _loading(scene, flex, n: int, stages: Stages, progress: Progress):
     for w in check_block_path(states, cfg.length, cfg.height, UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)
-    info = {"end": end, "normal_displacement_mm": depth, "normal_force_N": float(-np.sum(states[ld.normal_steps - 1].r_N)),
-            "normal_steps": ld.normal_steps, "tangential_step_mm": ld.tangential_step, "failure": failure}
+    # in the scene's units (results.json ``units``): length, force
+    info = {"end": end, "normal_displacement": depth, "normal_force": float(-np.sum(states[ld.normal_steps - 1].r_N)),
+            "normal_steps": ld.normal_steps, "tangential_step": ld.tangential_step, "failure": failure}
     return states, info

@@ -12,9 +12,7 @@ from app.loading.state import EquilibriumState
 from app.systems.base import ContactNode, System
 from app.systems.discrete import discrete_system
 from app.systems.particles.schema import TwoParticles
-
-UNITS = {"length": "mm", "force": "N", "stiffness": "N/mm", "mass": "tonne",
-         "lambda2": "1/s^2", "mu": "1"}
+from app.systems.units import DISCRETE_UNITS as UNITS
 
 
 def particle_matrices(k: float, m: float, phi_deg: float) -> tuple[np.ndarray, np.ndarray]:
@@ -27,14 +25,18 @@ def particle_matrices(k: float, m: float, phi_deg: float) -> tuple[np.ndarray, n
     return K, m * np.eye(4)
 
 
-def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages) -> System:
-    """System of the two-particle scene: both particles are contact nodes, no interior DOFs."""
+def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s") -> System:
+    """System of the two-particle scene: both particles are contact nodes, no interior DOFs.
+
+    ``units`` is the scene's unit system (the labels of results.json ``units``)."""
+    u = UNITS[units]
     K, M = particle_matrices(cfg.k, cfg.m, cfg.phi_deg)
     nodes = [ContactNode(id=0, x=0.0, dof_T=0, dof_N=1), ContactNode(id=1, x=1.0, dof_T=2, dof_N=3)]
     ob = cfg.obstacle
-    where = "" if ob.type == "line" else f", on a circle of radius {ob.radius} mm ({ob.side})"
-    system = discrete_system(K, M, nodes, comm, stages, UNITS,
-                             f"two particles, k={cfg.k} N/mm, m={cfg.m} tonne, phi={cfg.phi_deg} deg{where}")
+    where = "" if ob.type == "line" else f", on a circle of radius {ob.radius} {u['length']} ({ob.side})"
+    system = discrete_system(K, M, nodes, comm, stages, u,
+                             f"two particles, k={cfg.k} {u['stiffness']}, m={cfg.m} {u['mass']}, "
+                             f"phi={cfg.phi_deg} deg{where}")
     if ob.type != "line":      # the curvature terms of the pencils (app/analyses/curvature.py)
         system.extra["curvature"] = np.full(2, ob.curvature())
     return system
@@ -50,7 +52,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress=None):
     """
     cfg: TwoParticles = scene.system
     with stages("build system"):
-        system = build(cfg, comm, stages)
+        system = build(cfg, comm, stages, scene.units)
     S = np.array(cfg.signs, dtype=float)
     mu_state = max(scene.mu, 1e-300)
     P = cfg.normal_reaction
