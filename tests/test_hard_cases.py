@@ -110,8 +110,10 @@ def test_solver_failure_is_reported_and_the_study_goes_on(scene_file, tmp_path):
 
 def _start(out, *extra):
     env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    # SIGINT as a terminal delivers it: a test suite started in the background inherits it ignored
     return subprocess.Popen([sys.executable, "-m", "app", "run", "-o", str(out), "-q", *extra], cwd=ROOT, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def _wait_busy(proc, seconds=3.0):
@@ -126,8 +128,11 @@ def test_interrupted_first_run_leaves_no_results_folder(tmp_path, sig):
     proc = _start(out)
     _wait_busy(proc, 2.0)          # the default study runs about 3 s: well inside it
     os.killpg(proc.pid, sig)
-    proc.wait(timeout=60)
-    assert proc.returncode != 0
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGKILL: -9}[sig], err
+    if sig != signal.SIGKILL:              # one line, no traceback
+        assert err.decode().strip().splitlines() == [err.decode().strip()] and "Traceback" not in err.decode()
+        assert err.decode().startswith("error: interrupted by")
     assert not out.exists()
     partial = [p for p in tmp_path.iterdir() if ".partial-" in p.name]
     assert partial == [] or sig == signal.SIGKILL     # a killed process cannot clean up: it stays hidden

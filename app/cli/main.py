@@ -44,7 +44,8 @@ PETSc options: any PETSc/SLEPc option, placed after the scene file, reaches the 
   their prefixes cd_loading_, cd_flex_, cd_necessary_, cd_sufficient_, cd_lambda2_, cd_inertia_,
   cd_mcp_, cd_mcp_free_, cd_spd_check_ (e.g. -cd_necessary_eps_monitor, -cd_loading_snes_monitor)
 exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json),
-  4 the results could not be written (disk full, out of memory, final rename failed: see the error line)
+  4 the results could not be written (disk full, out of memory, final rename failed: see the error line),
+  130 interrupted (Ctrl-C), 143 terminated (SIGTERM): nothing is left in the output folder
 """
 
 
@@ -66,7 +67,8 @@ def _parser() -> argparse.ArgumentParser:
                                      "and gets the scene's analyses.\n"
                                      "Units: mm, N, MPa, tonne, s (so lambda^2 is in 1/s^2).",
                          epilog="check a scene file first with: python -m app validate SCENE\n"
-                                "exit status: 0 ok, 2 bad input, 3 study incomplete (see results.json)",
+                                "exit status: 0 ok, 2 bad input, 3 study incomplete (see results.json), 4 not written,\n"
+                                "130 interrupted (Ctrl-C), 143 terminated (SIGTERM)",
                          formatter_class=argparse.RawDescriptionHelpFormatter)
     run.add_argument("scene", nargs="?", help="scene YAML file (default: the embedded paper study)")
     run.add_argument("-o", "--output", help="results folder (default: output/<scene name>)")
@@ -159,10 +161,17 @@ def _guarded(fn, args) -> int:
         if MPI.COMM_WORLD.size > 1:
             MPI.COMM_WORLD.Abort(EXIT_WRITE)
         return EXIT_WRITE
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as err:
+        # Ctrl-C (SIGINT) or SIGTERM (raised as KeyboardInterrupt("signal 15") by _terminate): one
+        # line, not a traceback; the staging folder has already been removed by the run's finally
+        signum = 15 if str(err) == "signal 15" else 2
+        code = 128 + signum
+        if MPI.COMM_WORLD.rank == 0:
+            print(f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
+                  "the run stopped and wrote no results", file=sys.stderr, flush=True)
         if MPI.COMM_WORLD.size > 1:
-            MPI.COMM_WORLD.Abort(130)
-        raise
+            MPI.COMM_WORLD.Abort(code)
+        return code
     except Exception:
         return _unexpected()
 
