@@ -14,6 +14,8 @@ import os
 import pathlib
 import sys
 
+from _generated import write_or_check  # beside this script: scripts/ is on sys.path
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "cli.md"
 
@@ -42,15 +44,8 @@ def generate() -> str:
 
 
 def main(argv: list[str]) -> int:
-    text = generate()
-    if "--check" in argv:
-        if OUT.read_text(encoding="utf-8") != text:
-            print(f"{OUT.relative_to(ROOT)} is stale: run .venv/bin/python scripts/cli_reference.py")
-            return 1
-        return 0
-    OUT.write_text(text, encoding="utf-8")
-    print(f"wrote {OUT.relative_to(ROOT)}")
-    return 0
+    """Write docs/cli.md, or with ``--check`` compare it with the generated text."""
+    return write_or_check(OUT, generate(), argv, pathlib.Path(__file__), ROOT)
 
 
 if __name__ == "__main__":

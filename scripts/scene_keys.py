@@ -16,6 +16,8 @@ import pathlib
 import sys
 from typing import Any
 
+from _generated import write_or_check  # beside this script: scripts/ is on sys.path
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "scene-keys.md"
 
@@ -199,16 +201,7 @@ def generate() -> str:
 
 def main(argv: list[str]) -> int:
     """Write docs/scene-keys.md, or with ``--check`` compare it with the generated text."""
-    text = generate()
-    if "--check" in argv:
-        ok = OUT.exists() and OUT.read_text(encoding="utf-8") == text
-        if not ok:
-            print(f"{OUT} is stale: run {pathlib.Path(__file__).relative_to(ROOT)}", file=sys.stderr)
-        return 0 if ok else 1
-    OUT.parent.mkdir(exist_ok=True)
-    OUT.write_text(text, encoding="utf-8")
-    print(f"wrote {OUT.relative_to(ROOT)}")
-    return 0
+    return write_or_check(OUT, generate(), argv, pathlib.Path(__file__), ROOT)
 
 
 if __name__ == "__main__":
