@@ -349,3 +349,27 @@ def test_swept_file_paths_are_relative_to_the_scene_file(tmp_path):
     (tmp_path / "s2.yaml").write_text(scene + "sweep:\n  parameters:\n    system.file: [sub/nope.geo]\n")
     p = run_cli("validate", str(tmp_path / "s2.yaml"), cwd="/")
     assert p.returncode == 2 and str(tmp_path / "sub" / "nope.geo") in p.stderr, p.stderr
+
+
+def test_a_case_folder_is_replaced_only_when_it_holds_only_app_files(tmp_path):
+    """A rerun case replaces its earlier folder when that holds only what the app writes; a file
+    of the user's in it keeps the folder (and the new results stay in the staging folder)."""
+    from app.study.sweep import _commit_case
+    cases = tmp_path / "cases"
+    (cases / "a" / "proofs").mkdir(parents=True)
+    (cases / "a" / "results.json").write_text("old")
+    (cases / "a" / "proofs" / "state_1.npz").write_text("old")
+    new = cases / ".a.partial-1-1"
+    new.mkdir()
+    (new / "results.json").write_text("new")
+    assert _commit_case(new, cases / "a") is None
+    assert (cases / "a" / "results.json").read_text() == "new" and not (cases / "a" / "proofs").exists()
+    assert sorted(p.name for p in cases.iterdir()) == ["a"]
+    (cases / "a" / "notes.txt").write_text("mine")
+    again = cases / ".a.partial-1-2"
+    again.mkdir()
+    (again / "results.json").write_text("newer")
+    why = _commit_case(again, cases / "a")
+    assert why is not None and "notes.txt" in why and str(again) in why
+    assert (cases / "a" / "notes.txt").read_text() == "mine" and (cases / "a" / "results.json").read_text() == "new"
+    assert (again / "results.json").read_text() == "newer"

@@ -96,7 +96,9 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
         return None
     if error is not None:
         atomic_write(staging / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
-    _commit_case(staging, folder)
+    refused = _commit_case(staging, folder)
+    if refused is not None:
+        return error_row(case, refused if error is None else f"{error}; {refused}")
     return error_row(case, error) if error is not None else case_row(results, case)
 
 
@@ -109,17 +111,31 @@ def _remove_unfinished(folder: pathlib.Path) -> None:
             shutil.rmtree(p)
 
 
-def _commit_case(staging: pathlib.Path, folder: pathlib.Path) -> None:
+#: names the app writes into a case folder (besides a results folder's, app/io/folder.py)
+CASE_ENTRIES = frozenset({"error.json"})
+
+
+def _commit_case(staging: pathlib.Path, folder: pathlib.Path) -> str | None:
     """Move the written case into place; an earlier run's folder of the same case (an error, or a
-    case scene that changed) is replaced."""
+    case scene that changed) is replaced only when it holds nothing but what the app writes there.
+    Otherwise both are left as they are and the reason is returned (one line)."""
     import shutil
+
+    from app.io.folder import APP_ENTRIES, MARKER
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        return f"{folder} is not a folder the app wrote; the case's results are kept in {staging}"
     if folder.exists():
+        foreign = sorted(n for n in os.listdir(folder) if n not in APP_ENTRIES | CASE_ENTRIES | {MARKER})
+        if foreign:
+            return (f"{folder} holds files the app did not write ({', '.join(foreign[:3])}); "
+                    f"left as it is, the case's results are kept in {staging}")
         old = folder.parent / f".{folder.name}.old-{os.getpid()}-{time.time_ns()}"
         os.rename(folder, old)
         os.rename(staging, folder)
         shutil.rmtree(old)
     else:
         os.rename(staging, folder)
+    return None
 
 
 class Dispatcher:
