@@ -342,3 +342,24 @@ def test_sandbox_removes_only_its_own_folder(tmp_path, monkeypatch):
     assert sorted(p.name for p in scene.iterdir()) == before
     assert sorted(p.name for p in tmpdir.iterdir()) == ["app-gmsh-users-own"]
     assert (tmpdir / "app-gmsh-users-own" / "keep.txt").read_text() == "mine"
+
+
+def test_jit_parameter_files_in_the_working_folder_are_ignored(tmp_path):
+    """DOLFINx and FFCx read ``dolfinx_jit_parameters.json`` and ``ffcx_parameters.json`` from the
+    current folder: there they would redirect the compiled code to another folder, add compiler
+    flags, or (``tabulate_tensor_void``) compile empty kernels. The app fixes every parameter
+    (app/systems/jit.py), so a run from such a folder compiles nothing there and gives the same answer."""
+    import json
+    evil = tmp_path / "elsewhere"
+    scene = _write(tmp_path, BODY)
+    p = run_cli("run", str(scene), "-o", str(tmp_path / "clean"), "-q", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    (tmp_path / "dolfinx_jit_parameters.json").write_text(json.dumps(
+        {"cache_dir": str(evil), "cffi_extra_compile_args": ["-O0", "-DINJECTED"], "timeout": 1}))
+    (tmp_path / "ffcx_parameters.json").write_text(json.dumps({"tabulate_tensor_void": True, "epsilon": 0.5}))
+    p = run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q", cwd=tmp_path)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert not evil.exists()
+    got, want = (json.loads((tmp_path / d / "results.json").read_text()) for d in ("out", "clean"))
+    assert [s["classification"] for s in got["states"]] == [s["classification"] for s in want["states"]]
+    assert [s["u_N"] for s in got["states"][-1]["nodes"]] == [s["u_N"] for s in want["states"][-1]["nodes"]]

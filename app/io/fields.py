@@ -46,6 +46,7 @@ from app.io.gather import MeshGather
 from app.io.select import analyses_of, mode_name, modes_of, select_states
 from app.io.xdmf import XdmfSeries
 from app.loading.classify import Classification
+from app.systems import jit
 
 log = logging.getLogger(__name__)
 
@@ -74,10 +75,10 @@ class _FieldMaker:
         V = src.V
         self.scale = src.length_scale
         self.gather = MeshGather(V, self.scale)
-        Q = dolfinx.fem.FunctionSpace(V.mesh, ("DG", 0))
+        Q = dolfinx.fem.FunctionSpace(V.mesh, ("DG", 0), **jit.params())
         self.q = dolfinx.fem.Function(Q, name="von_mises")
         self.u = dolfinx.fem.Function(V, name="displacement")
-        self.vm = dolfinx.fem.Expression(src.von_mises(self.u), Q.element.interpolation_points())
+        self.vm = dolfinx.fem.Expression(src.von_mises(self.u), Q.element.interpolation_points(), **jit.params())
         n_cells = V.mesh.topology.index_map(V.mesh.topology.dim).size_local
         self.q_dofs = Q.dofmap.list.array[:n_cells]
         self.n = len(system.nodes)

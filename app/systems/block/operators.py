@@ -26,6 +26,7 @@ from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from app.systems import jit
 from app.systems.block.mesh import AB, CD
 from app.systems.elasticity import lame_parameters
 from app.systems.stress import strain, stress
@@ -216,7 +217,7 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
         raise ValueError(f"thickness and density must be positive, got {thickness}, {density}")
     mu_value, lmbda_value = lame_parameters(E, nu, plane)
 
-    V = dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree))
+    V = dolfinx.fem.FunctionSpace(mesh, ufl.VectorElement("CG", mesh.ufl_cell(), degree), **jit.params())
     bs = V.dofmap.index_map_bs
     owned_start = V.dofmap.index_map.local_range[0] * bs  # global index of the first owned dof
 
@@ -227,8 +228,8 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     rho = dolfinx.fem.Constant(mesh, PETSc.ScalarType(density))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
 
-    a = dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx)
-    m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx)
+    a = dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx, **jit.params())
+    m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params())
 
     cd_blocks, cd_owned = _cd_dofs(V, facet_tags)
     cd_local_x = (cd_blocks * bs).astype(np.int32)

@@ -28,6 +28,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.common.stages import Stages
+from app.systems import jit
 from app.systems.gmsh.fields import FieldData
 from app.systems.gmsh.schema import GmshBody
 
@@ -101,7 +102,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     from app.systems.stress import strain, stress
     with stages("mesh (gmsh)"):
         mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm)
-    sp = _Space(comm, mesh, facet_tags, dolfinx.fem.VectorFunctionSpace(mesh, ("CG", cfg.degree)),
+    sp = _Space(comm, mesh, facet_tags, dolfinx.fem.FunctionSpace(mesh, ufl.VectorElement("CG", mesh.ufl_cell(), cfg.degree), **jit.params()),
                 {nm: t for (d, nm), t in names.items() if d == 1}, {nm: t for (d, nm), t in names.items() if d == 2})
     mu_f, lam_f, rho_f = _materials(cfg, sp, cell_tags)
     t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.thickness))
@@ -111,8 +112,8 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
         stiff = t * ufl.inner(stress(u, mu_f, lam_f), strain(v)) * ufl.dx
         if cfg.foundation is not None:       # weak elastic foundation (a floating body)
             stiff = stiff + dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.foundation)) * t * ufl.inner(u, v) * ufl.dx
-        a = dolfinx.fem.form(stiff)
-        m = dolfinx.fem.form(rho_f * t * ufl.inner(u, v) * ufl.dx)
+        a = dolfinx.fem.form(stiff, **jit.params())
+        m = dolfinx.fem.form(rho_f * t * ufl.inner(u, v) * ufl.dx, **jit.params())
         K_full = dolfinx.fem.petsc.assemble_matrix(a)
         K_full.assemble()
 
@@ -166,7 +167,7 @@ def _materials(cfg: GmshBody, sp: _Space, cell_tags):
     import dolfinx.fem
 
     from app.systems.elasticity import lame_parameters
-    Q = dolfinx.fem.FunctionSpace(sp.mesh, ("DG", 0))
+    Q = dolfinx.fem.FunctionSpace(sp.mesh, ("DG", 0), **jit.params())
     mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
     for name, tag in sp.tag_of_surface.items():
         cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
@@ -259,7 +260,7 @@ def _applied_loads(cfg: GmshBody, sp: _Space, v, rho_f, t, kept_local: np.ndarra
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=sp.facet_tags)
 
     def assemble(expr) -> np.ndarray:
-        b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr))
+        b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr, **jit.params()))
         try:
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             return b.getArray(readonly=True)[kept_local].copy()
@@ -269,7 +270,7 @@ def _applied_loads(cfg: GmshBody, sp: _Space, v, rho_f, t, kept_local: np.ndarra
     for name in loaded:
         tag = sp.tag_of_curve[name]
         one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
-        length = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ds(tag))), op=MPI.SUM)
+        length = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ds(tag), **jit.params())), op=MPI.SUM)
         for c, kind in ((0, "x"), (1, "y")):
             e = ufl.as_vector([1.0, 0.0]) if c == 0 else ufl.as_vector([0.0, 1.0])
             base = assemble(ufl.inner(e, v) * ds(tag))
