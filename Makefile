@@ -12,7 +12,7 @@ run: setup
 	else mpirun --allow-run-as-root --oversubscribe -n $(MPI) $(PY) -m app run --overwrite $(SCENE); fi
 
 test: setup
-	@$(PY) -m pytest -q -p no:cacheprovider tests
+	@$(PY) -m pytest -q -p no:cacheprovider -n auto --dist worksteal tests
 
 # Refresh requirements.lock from pyproject.toml (UPGRADE=1: newest versions that fit), then set up
 lock: setup

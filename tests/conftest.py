@@ -8,6 +8,15 @@ import sys
 import pytest
 from mpi4py import MPI
 
+# MPI_Init of this process (one rank, a singleton) exports the variables of its own PMIx server.
+# A child ``mpirun`` that inherits them takes itself for a rank of that singleton and exits 1
+# without a word, so they are removed from the environment the tests' children get (under
+# pytest-xdist they are also in ``os.environ``).
+if MPI.COMM_WORLD.size == 1:
+    for _key in [k for k in os.environ if k.startswith(("PMIX_", "ORTE_", "OMPI_MCA_orte_", "OMPI_APP_CTX_"))
+                 or k in ("OMPI_MCA_ess", "OMPI_MCA_pmix")]:
+        del os.environ[_key]
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PY = sys.executable
 
