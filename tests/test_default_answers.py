@@ -1,11 +1,22 @@
-"""The default (paper) study gives the same answers as before the speed work (issue 14).
+"""A regression guard: the default (paper) study gives the answers of a stored earlier run.
 
-``tests/data/default_study_answers.json`` was written by ``answers()`` below from a run of the
-original code path (commit ab195b8, before issue 14): every classification, every node status
-and sign, and for each distinct classification the necessary-condition eigenvalues, the
-sufficient-condition eigenvalues, and every MCEIP-mu / MCEIP-lambda^2 value, mode x_Ts and
-pattern. Values must agree to 1e-8 (relative, absolute below 1), patterns and classifications
-exactly. Not timed: the speed targets live in benchmarks/ (``make bench``).
+``tests/data/default_study_answers.json`` is a snapshot of the app's own output, written by
+``answers()`` below from a run of the code path before the speed work of issue 14 (commit
+ab195b8): every classification, node status and sign, and for each distinct classification the
+necessary-condition eigenvalues, the sufficient-condition eigenvalues, and every MCEIP-mu and
+MCEIP-lambda^2 value, mode x_Ts and pattern. Values must agree to 1e-8 (relative, absolute
+below 1), patterns and classifications exactly. It proves nothing about correctness: it says
+that an answer changed, not which one is right.
+
+The correctness of these answers is checked against an independent numpy computation in
+tests/test_default_independent.py (equilibrium, classification, (19), (17)-(18), every critical
+mu of MCEIP-mu, the paper's numbers). What only this snapshot guards: MCEIP-lambda^2 (12)-(14)
+at the classifications where the necessary condition (19) holds and the mode would leave some
+slip nodes stuck (the app proves "no solution" there; no independent computation here), the
+MCEIP-mu lists of the three states with 16 and 17 slip nodes beyond the solutions' own supports
+(not enumerated by default there), and the reproducibility of the whole answer set to 1e-8 across
+code changes (``benchmarks/run_all.py`` reuses ``answers`` and ``_compare``). Not timed: the
+speed targets live in benchmarks/ (``make bench``).
 """
 import json
 import pathlib
