@@ -146,14 +146,16 @@ def keep_modes(scene: Scene) -> bool:
     return bool(outputs is not None and outputs.fields)
 
 
-def attach_vectors(d: dict, rep) -> None:
-    """Attach each solution's full kept-space vector (same order as ``as_dict``: sorted by value)."""
-    for sd, sol in zip(d["solutions"], sorted(rep.solutions, key=lambda s: s.value)):
+def attach_vectors(solutions: list, rep) -> None:
+    """Attach to each :class:`~app.analyses.outcomes.Solution` the full kept-space vector of the
+    search's solution (``solutions`` in the order of ``rep.as_dict()``: sorted by value)."""
+    for sd, sol in zip(solutions, sorted(rep.solutions, key=lambda s: s.value)):
         if sol.x is not None:
-            sd["_x"] = sol.x
+            sd.x = sol.x
 
 
 def no_slip() -> dict:
+    """The ``solutions``, ``result`` and ``search`` of an MCEIP at a state without slip nodes."""
     return {"solutions": [], "result": "no solution (no slip nodes)", "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
                                                   "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
                                           "complete": True}}
