@@ -28,7 +28,8 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     """Run ``scene``; returns the results dictionary (identical on every rank).
 
     ``inspect(system, states, cache)``, if given, runs after the per-state analyses while the
-    system is alive (``cache``: classification key -> (first state, analyses)); what it
+    system is alive (``cache``: classification key -> (first state, its analyses: name -> typed
+    outcome of :mod:`app.analyses.outcomes`)); what it
     returns is stored as ``results["inspection"]`` (used by app/study/refinement.py).
     ``outdir``: the results folder, where the field stage (app/io/fields.py: ParaView
     files, screenshot data) writes when the scene's ``outputs`` ask for fields.
