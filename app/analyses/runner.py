@@ -30,7 +30,7 @@ from app.analyses.outcomes import (
     one_line,
 )
 from app.analyses.pencils import UnsupportedState, dense
-from app.analyses.state_pencils import FULL_DENSE_LIMIT, StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
+from app.analyses.state_pencils import FULL_DENSE_LIMIT, StatePencils, keep_modes, no_slip, warm_hints
 from app.analyses.zero_nodes import analyse_with_zero_nodes
 from app.loading.classify import STICK, ZERO, Classification, frictionless_reason
 from app.scene.schema import Scene
@@ -121,8 +121,8 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
     dense search from the previous classification along the path (large ``s`` only).
     """
     if s == 0:
-        none = no_slip()
-        return MceipMuOutcome(solutions=[], result=none["result"], search=none["search"], certified=True,
+        result, search = no_slip()
+        return MceipMuOutcome(solutions=[], result=result, search=search, certified=True,
                               onset=OnsetClaim(proven=True, status="proven: no slip node, no critical mu"),
                               complete=CompleteClaim(proven=True, status="proven: no slip node",
                                                      interval=[0.0, np.inf], count=0),
@@ -155,13 +155,10 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
     K0, K1 = p.K()
     with system.stages("MCEIP-mu (21)-(23)"):
         rep = search_mceip(K0, K1, p.space.comp, "mu", scene.settings.mcp)
-    d = rep.as_dict()
-    sols = [Solution.from_fields(x) for x in d["solutions"]]
+    sols = rep.typed_solutions(keep_vectors=method == "full" and keep_modes(scene))
     for sol in sols:
         sol.mark(certified=False)
-    if method == "full" and keep_modes(scene):
-        attach_vectors(sols, rep)
-    return MceipMuOutcome(solutions=sols, result=d["result"], search=d["search"], certified=False,
+    return MceipMuOutcome(solutions=sols, result=rep.result(), search=rep.search(), certified=False,
                           certificate=certificate("none", (0.0, 0.0), "not attempted (full-size SNES VI search)", 0.0),
                           method=method)
 

@@ -73,12 +73,13 @@ def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -
     def search(A0, A1, sp, problem, tau=None) -> MceipLambda2Outcome:
         M0, M1 = seq_aij(A0), seq_aij(A1)
         try:
-            d = search_mceip(M0, M1, sp.comp, problem, settings.mcp, value_scale=tau, pairs=sp.pairs).as_dict()
+            rep = search_mceip(M0, M1, sp.comp, problem, settings.mcp, value_scale=tau, pairs=sp.pairs)
         finally:
             M0.destroy()
             M1.destroy()
         return MceipLambda2Outcome(
-            solutions=[_describe(x, sp.labels, cls) for x in d["solutions"]], result=d["result"], search=d["search"],
+            solutions=[_describe(x, sp.labels, cls) for x in rep.typed_solutions()], result=rep.result(),
+            search=rep.search(),
             certified=False, certificate=certificate("none (zero-reaction nodes: dense SNES VI search only)",
                                                      (0.0, 0.0), "not proven: searched by SNES VI", 0.0),
             extra={"x_c_labels": sp.labels, "zero_nodes_handled": HANDLED})

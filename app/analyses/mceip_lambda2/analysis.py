@@ -17,9 +17,9 @@ from app.analyses.curvature import is_curved
 from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mcp import search_mceip
-from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome, Solution
+from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome
 from app.analyses.pencils import diag_scale
-from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
+from app.analyses.state_pencils import StatePencils, keep_modes, no_slip, warm_hints
 from app.scene.schema import Scene
 from app.systems.base import System
 
@@ -34,8 +34,8 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
     mu = scene.lambda2_mu
     t_start = time.perf_counter()
     if s == 0:
-        none = no_slip()
-        d = MceipLambda2Outcome(solutions=[], result=none["result"], search=none["search"], certified=True,
+        result, search = no_slip()
+        d = MceipLambda2Outcome(solutions=[], result=result, search=search, certified=True,
                                 certificate=certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0))
     else:
         K0, K1 = p.K()
@@ -131,11 +131,8 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: fl
                  "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
     rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
                        t_upper=upper)
-    d = rep.as_dict()
-    sols = [Solution.from_fields(x) for x in d["solutions"]]
-    if keep_modes(scene):
-        attach_vectors(sols, rep)
-    search = d["search"]
+    sols = rep.typed_solutions(keep_vectors=keep_modes(scene))
+    search = rep.search()
     search.update(necessary_condition=nec.as_dict(), lambda2_upper_bound=upper, upper_bound=bound)
     omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if sols else None
     for sol in sols:
@@ -151,7 +148,7 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: fl
             sol.mark(conditioning="; ".join(why))
     if omega2 is not None:
         search["free_block_max_omega2"] = omega2
-    result = d["result"]
+    result = rep.result()
     clean = [x for x in sols if not x.evidence["ill_conditioned"]]
     if len(clean) < len(sols):
         result = (f"{len(clean)} clean solution(s) and {len(sols) - len(clean)} "
