@@ -95,7 +95,7 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
             if name not in scene.analyses:
                 continue
             if name == "mceip_mu" and defer_condensed and s > 0 and scene.settings.mceip_mu_method == "condensed":
-                out[name] = Deferred()    # dense work: distributed.analyse_condensed_distributed() fills it
+                out[name] = Deferred()    # dense work: distributed.analyse_condensed_distributed() replaces it
                 continue
             try:
                 if name == "mceip_lambda2":
