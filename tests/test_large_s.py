@@ -74,13 +74,13 @@ def test_large_budget_is_used_and_labelled(pencils):
     seen_unproven = False
     for p in pencils:
         d = condensed_mu_result(p.A0, p.A1, 11.0, st)
-        if d["certified"]:
-            assert not [x for x in d["solutions"] if x["value"] <= 11.0]
+        if d.certified:
+            assert not [x for x in d.solutions if x.value <= 11.0]
             continue
         seen_unproven = True
-        assert "not proven" in d["certificate"]["status"] or "ill-conditioned" in d["certificate"]["status"]
-        assert "not proven" in d["result"] or "ill-conditioned" in d["result"]
-        assert all(not x["certified"] for x in d["solutions"])
+        assert "not proven" in d.certificate.status or "ill-conditioned" in d.certificate.status
+        assert "not proven" in d.result or "ill-conditioned" in d.result
+        assert all(not x.certified for x in d.solutions)
     assert seen_unproven
 
 

@@ -102,19 +102,19 @@ def test_exact_proof_refuses_what_it_cannot_decide():
     proof = prove_quadratic(A0, A1, A2, 50.0)
     assert not proof.proven and any("vanishes identically" in why for _, why in proof.undecided)
     d = quadratic_mu_result(A0, A1, A2, 50.0, 14)
-    assert d["certified"] is False and "not proven" in d["result"]
+    assert d.certified is False and "not proven" in d.result
 
 
 def test_refused_above_max_slip_and_fast_at_14():
     A0, A1, A2 = random_pencil(15, 7, -0.5)
     d = quadratic_mu_result(A0, A1, A2, 10.0, 14)
-    assert d["solutions"] == [] and d["result"].startswith("not searched") and d["certified"] is False
+    assert d.solutions == [] and d.result.startswith("not searched") and d.certified is False
     A0, A1, A2 = random_pencil(14, 8, -0.5)
     t = time.perf_counter()
     d = quadratic_mu_result(A0, A1, A2, 10.0, 14)
-    print(f"s = 14: {time.perf_counter() - t:.2f} s, {len(d['solutions'])} solution(s)")
+    print(f"s = 14: {time.perf_counter() - t:.2f} s, {len(d.solutions)} solution(s)")
     assert time.perf_counter() - t < 20
-    assert "not proven" in d["result"] and "not attempted" in d["result"]       # s = 14 > PROOF_MAX_S
+    assert "not proven" in d.result and "not attempted" in d.result       # s = 14 > PROOF_MAX_S
 
 
 def test_exact_proof_agrees_with_the_enumeration_on_40_pencils():

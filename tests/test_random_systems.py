@@ -21,8 +21,8 @@ def _scene(mu, analyses):
 
 
 def _in(sol, ref_set, rtol=1e-6):
-    return any(abs(sol["value"] - r["value"]) <= rtol * max(1.0, abs(r["value"]))
-               and np.allclose(sol["x_Ts"], r["x_Ts"], atol=1e-5) and sol["pattern"] == r["pattern"]
+    return any(abs(sol.value - r.value) <= rtol * max(1.0, abs(r.value))
+               and np.allclose(sol.x_Ts, r.x_Ts, atol=1e-5) and sol.pattern == r.pattern
                for r in ref_set)
 
 
@@ -43,14 +43,15 @@ def test_mcp_solutions_are_true_and_enumerated(p):
     a = analyse_state(system, cls, scene)
     tol = scene.settings.mcp.accept_tol
     for key, prob in (("mceip_mu", "mu"), ("mceip_lambda2", "lambda2")):
-        ref = a["enumerate"]["problems"][prob]
-        assert ref["complete"]
-        for sol in a[key]["solutions"]:
-            assert sol["value"] >= 0
-            assert sol["residual"] <= tol and sol["complementarity"] <= tol
-            assert sol["min_x_Ts"] >= -tol and sol["min_y_Ts"] >= -tol
-            assert abs(sum(sol["x_Ts"]) - 1) < 1e-10
-            assert _in(sol, ref["solutions"]), (key, sol, ref["solutions"])
+        ref = a["enumerate"].problems[prob]
+        assert ref.complete
+        for sol in a[key].solutions:
+            ev = sol.evidence
+            assert sol.value >= 0
+            assert ev["residual"] <= tol and ev["complementarity"] <= tol
+            assert ev["min_x_Ts"] >= -tol and ev["min_y_Ts"] >= -tol
+            assert abs(sum(sol.x_Ts) - 1) < 1e-10
+            assert _in(sol, ref.solutions), (key, sol, ref.solutions)
     system.destroy()
 
 
@@ -78,8 +79,8 @@ def test_sufficient_matches_dense_reference(seed):
             xc = xc if xc.sum() >= 0 else -xc
             if xc.min() >= -1e-8 * np.abs(xc).max():
                 ref.append(-th.real)
-    cand = sorted(c["lambda2"] for c in out["real_candidates"])
+    cand = sorted(c["lambda2"] for c in out.real_candidates)
     ref_all = sorted(-th.real for th in w if abs(th.imag) <= 1e-8 * abs(th) and -th.real > 0)
     assert cand == pytest.approx(ref_all, rel=1e-9)
-    assert sorted(out["lambda2"]) == pytest.approx(sorted(ref), rel=1e-9)
+    assert sorted(out.lambda2) == pytest.approx(sorted(ref), rel=1e-9)
     system.destroy()

@@ -4,6 +4,7 @@ import pytest
 from mpi4py import MPI
 
 from app.analyses.enumerate import enumerate_mceip
+from app.analyses.outcomes import Failed
 from app.analyses.pencils import condensed_mu_pencil, dense, reduced_pencil, reduced_space, split_pencils
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
@@ -56,15 +57,15 @@ def test_zero_node_mcp_solutions_are_enumerated(seed):
     mu = 2.0
     system, cls = _with_zero_node(seed, mu=mu)
     a = analyse_state(system, cls, _scene(mu, ["mceip_mu", "mceip_lambda2", "enumerate", "necessary"]))
-    assert a["necessary"]["failed"] and "zero-reaction" in a["necessary"]["reason"]
+    assert isinstance(a["necessary"], Failed) and "zero-reaction" in a["necessary"].reason
     for key, prob in (("mceip_mu", "mu"), ("mceip_lambda2", "lambda2")):
-        ref = a["enumerate"]["problems"][prob]["solutions"]
-        for sol in a[key]["solutions"]:
-            assert sol["residual"] < 1e-8 and sol["complementarity"] < 1e-8
-            zn = sol["zero_nodes"][0]
+        ref = a["enumerate"].problems[prob].solutions
+        for sol in a[key].solutions:
+            assert sol.evidence["residual"] < 1e-8 and sol.evidence["complementarity"] < 1e-8
+            zn = sol.evidence["zero_nodes"][0]
             assert min(zn["a"], zn["b"]) == 0.0          # canonical split of v_T
-            assert any(abs(sol["value"] - r["value"]) <= 1e-6 * max(1, r["value"])
-                       and np.allclose(list(sol["x_c"].values()), list(r["x_c"].values()), atol=1e-5)
+            assert any(abs(sol.value - r.value) <= 1e-6 * max(1, r.value)
+                       and np.allclose(list(sol.evidence["x_c"].values()), list(r.evidence["x_c"].values()), atol=1e-5)
                        for r in ref), (key, sol, ref)
     system.destroy()
 
@@ -75,13 +76,13 @@ def test_zero_node_search_finds_the_enumerated_solutions():
     for seed in range(12):
         system, cls = _with_zero_node(seed)
         a = analyse_state(system, cls, _scene(2.0, ["mceip_mu", "enumerate"]))
-        ref = a["enumerate"]["problems"]["mu"]["solutions"]
+        ref = a["enumerate"].problems["mu"].solutions
         # below the cap the answer is certified: every enumerated value is there
-        assert a["mceip_mu"]["certified"]
-        cap = a["mceip_mu"]["certificate"]["interval"][1]
-        ref = [r for r in ref if r["value"] <= cap]
+        assert a["mceip_mu"].certified
+        cap = a["mceip_mu"].certificate.interval[1]
+        ref = [r for r in ref if r.value <= cap]
         total += len(ref)
-        found += sum(any(abs(s["value"] - r["value"]) <= 1e-6 * max(1, r["value"]) for s in a["mceip_mu"]["solutions"])
+        found += sum(any(abs(s.value - r.value) <= 1e-6 * max(1, r.value) for s in a["mceip_mu"].solutions)
                      for r in ref)
         system.destroy()
     assert total > 0

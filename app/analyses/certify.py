@@ -2,38 +2,40 @@
 
 The proof itself is :mod:`app.analyses.mceip_mu` (branch and bound with rigorous floating-point
 tests, re-verified by an independent checker; docs/proofs.md). This module turns it into the
-``mceip_mu`` block of results.json, keeps the solutions the search found above the cap (found,
-not proven), and holds the ``certificate`` block shared with MCEIP-lambda^2.
+:class:`~app.analyses.outcomes.MceipMuOutcome` of the state, keeps the solutions the search found
+above the cap (found, not proven), and builds the :class:`~app.analyses.outcomes.Certificate`
+shared with MCEIP-lambda^2.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from app.analyses.mceip_mu import rounding as _rounding
+from app.analyses.outcomes import Certificate, CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
 
 def certificate(method: str, interval: tuple[float, float], status: str, seconds: float | None,
-                detail: dict | None = None, gap: float | None = None, rigorous: bool = True) -> dict:
-    """The ``certificate`` block of an MCEIP result (mu or lambda^2; fields method, interval,
-    status, gap, seconds, detail, rigorous). ``interval``: the range of the eigenvalue the status
-    speaks about; ``status`` is ``"proven"`` only when every solution in it is listed; ``seconds``
-    ``None`` when not timed. ``rigorous``: every step of the argument carries a rigorous bound of
-    its rounding error (or is exact); ``False`` for arguments that rest on floating-point
-    eigenvalues or factorisations without such a bound (the summary then says "shown in floating
-    point", not "proven")."""
-    return {"method": method, "interval": [float(interval[0]), float(interval[1])], "status": status,
-            "gap": gap, "seconds": None if seconds is None else round(float(seconds), 4), "detail": detail or {},
-            "rigorous": bool(rigorous)}
+                detail: dict | None = None, gap: float | None = None, rigorous: bool = True) -> Certificate:
+    """The :class:`~app.analyses.outcomes.Certificate` of an MCEIP outcome (mu or lambda^2).
+    ``interval``: the range of the eigenvalue the status speaks about; ``status`` is ``"proven"``
+    only when every solution in it is listed; ``seconds`` ``None`` when not timed (else rounded
+    to 0.1 ms). ``rigorous``: every step of the argument carries a rigorous bound of its rounding
+    error (or is exact); ``False`` for arguments that rest on floating-point eigenvalues or
+    factorisations without such a bound (the summary then says "shown in floating point", not
+    "proven")."""
+    return Certificate(method=method, interval=(float(interval[0]), float(interval[1])), status=status, gap=gap,
+                       seconds=None if seconds is None else round(float(seconds), 4), detail=detail or {},
+                       rigorous=bool(rigorous))
 
 
-def enumeration_certificate(sols: list[dict]) -> dict:
-    """``certified``/``certificate`` of a finished exhaustive enumeration: every support was solved."""
+def enumeration_certificate(sols: list[Solution]) -> Certificate:
+    """The certificate of a finished exhaustive enumeration (every support was solved); marks
+    every solution ``certified``."""
     for x in sols:
-        x["certified"] = True
-    return {"certified": True, "certificate": certificate("exhaustive enumeration (24)-(26), batched LAPACK",
-                                                          (0.0, np.inf), "proven", None,
-                                                          {"solutions": len(sols)}, gap=0.0)}
+        x.mark(certified=True)
+    return certificate("exhaustive enumeration (24)-(26), batched LAPACK", (0.0, np.inf), "proven", None,
+                       {"solutions": len(sols)}, gap=0.0)
 
 
 def in_pd_plus_nn(S: np.ndarray) -> bool:
@@ -65,7 +67,7 @@ def mu_cap(scene_mu: float, settings) -> float:
 
 def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                         pairs: list[tuple[int, int]] | None = None,
-                        warm: list[tuple[np.ndarray, float]] | None = None) -> dict:
+                        warm: list[tuple[np.ndarray, float]] | None = None) -> MceipMuOutcome:
     """MCEIP-mu (21)-(23) on the condensed pencil: floating-point candidates (exhaustive
     enumeration up to ``settings.certify_enumerate_max`` slip nodes, the dense semismooth Newton
     search of :mod:`app.analyses.dense_mcp` above), then the proof of :mod:`app.analyses.mceip_mu`.
@@ -98,7 +100,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
             rep = dense_mcp.DenseSearchReport([], 0, 0, 0, 0.0, note=(
                 f"no search: s = {s} > search_full_max and the sign argument alone proved that no critical mu "
                 f"lies in [0, {cap:.6g}] (values above the cap are not searched for)"))
-            return _as_dict(A0, A1, cap, quick, [], {}, rep, comp, settings)
+            return _outcome(A0, A1, cap, quick, [], {}, rep, comp, settings)
         else:
             LIVE.reset("search")
             rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
@@ -113,7 +115,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                              seconds=settings.certify_seconds_large if large else settings.certify_seconds,
                              want_all=s <= settings.certify_all_max, all_seconds=settings.certify_all_seconds,
                              all_nodes=settings.certify_all_nodes, onset_nodes=settings.certify_onset_nodes)
-    return _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings)
+    return _outcome(A0, A1, cap, proof, cands, found_by, rep, comp, settings)
 
 
 def _solution_dict(value, x, support, comp, a0, a1, norms: tuple[float, float]) -> dict:
@@ -132,23 +134,23 @@ def _solution_dict(value, x, support, comp, a0, a1, norms: tuple[float, float]) 
             "margin_y_stick": float(np.min(stick)) if len(stick) else None}
 
 
-def _as_dict(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> dict:
-    """The ``mceip_mu`` block of results.json: the solutions, the proof's claims, the search."""
-    sols = _solutions(A0, A1, cap, proof, cands, found_by, comp)
+def _outcome(A0, A1, cap, proof, cands, found_by, rep, comp, settings) -> MceipMuOutcome:
+    """The MCEIP-mu outcome: the solutions, the proof's claims, the search."""
+    sols = [Solution.from_fields(d) for d in _solutions(A0, A1, cap, proof, cands, found_by, comp)]
     if proof is None:
         result, cert, onset, complete, certified = _unproven(sols)
     else:
         result, cert, onset, complete, certified = _proven(proof, sols, cap, settings)
-    out = {"solutions": sols, "result": result, "certified": certified, "onset": onset, "complete": complete,
-           "certificate": cert,
-           "search": {"method": "dense semismooth Newton (min-function), batched over starts",
-                      "attempts": rep.starts, "converged": rep.converged,
-                      "rejected_by_exact_check": rep.rejected, "seconds": round(rep.seconds, 4),
-                      "found": len(cands), "intervals": ["[0, inf)"], "complete": certified, "note": rep.note}}
+    search = {"method": "dense semismooth Newton (min-function), batched over starts",
+              "attempts": rep.starts, "converged": rep.converged,
+              "rejected_by_exact_check": rep.rejected, "seconds": round(rep.seconds, 4),
+              "found": len(cands), "intervals": ["[0, inf)"], "complete": certified, "note": rep.note}
+    stored = None
     if proof is not None:
-        out["_proof"] = {"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
-                         "log": proof.log.to_json(), "pairs": [list(p) for p in proof.log.pairs]}
-    return out
+        stored = {"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
+                  "log": proof.log.to_json(), "pairs": [list(p) for p in proof.log.pairs]}
+    return MceipMuOutcome(solutions=sols, result=result, search=search, certified=certified, certificate=cert,
+                          onset=onset, complete=complete, proof=stored)
 
 
 def _solutions(A0, A1, cap, proof, cands, found_by, comp) -> list[dict]:
@@ -190,23 +192,23 @@ def _solutions(A0, A1, cap, proof, cands, found_by, comp) -> list[dict]:
     return sols
 
 
-def _unproven(sols: list[dict]):
+def _unproven(sols: list[Solution]):
     """(result, certificate, onset, complete, certified) when certification is switched off."""
     result = (f"{len(sols)} distinct solution(s) found" if sols else "no solution found") + \
              " (not proven: certification switched off, settings.mcp.certify = false)"
     cert = certificate("none", (0.0, 0.0), "not attempted", 0.0)
-    onset = {"proven": False, "status": "not attempted", "value": None, "enclosure": None}
-    complete = {"proven": False, "status": "not attempted", "interval": [0.0, 0.0], "count": None}
+    onset = OnsetClaim(proven=False, status="not attempted")
+    complete = CompleteClaim(proven=False, status="not attempted", interval=[0.0, 0.0])
     certified = False
     return result, cert, onset, complete, certified
 
 
-def _proven(proof, sols: list[dict], cap: float, settings):
+def _proven(proof, sols: list[Solution], cap: float, settings):
     """(result, certificate, onset, complete, certified) of a proof (:mod:`app.analyses.mceip_mu`)."""
-    above = sum(1 for d in sols if d["value"] > cap)
+    above = sum(1 for d in sols if d.value > cap)
     o, a = proof.onset, proof.all
     if o.proven and o.value is not None:
-        pat = next((d["pattern"] for d in sols if abs(d["value"] - o.value) <= 1e-9 * max(1.0, o.value)), [])
+        pat = next((d.pattern for d in sols if abs(d.value - o.value) <= 1e-9 * max(1.0, o.value)), [])
         result = (f"proven onset: mu = {o.value:.10g} (pattern {''.join('S' if q == 'slip' else '-' for q in pat)}, "
                   f"enclosure [{o.enclosure[0]:.10g}, {o.enclosure[1]:.10g}])")
     elif o.proven:
@@ -234,13 +236,11 @@ def _proven(proof, sols: list[dict], cap: float, settings):
                         "check_seconds": round(proof.check_seconds, 4), "candidates": proof.candidates,
                         "checker": "accepted" if certified else ("onset accepted" if o.proven else "rejected")},
                        gap=0.0 if certified else (cap - a.interval[1]) / cap)
-    cert["cap"] = float(cap)
-    cert["onset"] = o.value if o.proven else None
-    ill = [d["value"] for d in sols if d.get("ill_conditioned")]
-    if ill:
-        cert["ill_conditioned"] = ill
-    onset = {"proven": o.proven, "status": o.status, "value": o.value,
-             "enclosure": list(o.enclosure) if o.enclosure else None}
-    complete = {"proven": a.proven, "status": a.status, "interval": list(a.interval),
-                "count": len(a.values) if a.proven else None}
+    cert.cap = float(cap)
+    cert.onset = o.value if o.proven else None
+    cert.ill_conditioned = [d.value for d in sols if d.evidence.get("ill_conditioned")] or None
+    onset = OnsetClaim(proven=o.proven, status=o.status, value=o.value,
+                       enclosure=list(o.enclosure) if o.enclosure else None)
+    complete = CompleteClaim(proven=a.proven, status=a.status, interval=list(a.interval),
+                             count=len(a.values) if a.proven else None)
     return result, cert, onset, complete, certified

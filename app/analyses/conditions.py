@@ -13,6 +13,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
+from app.analyses.outcomes import NecessaryOutcome, Solution, SufficientOutcome
 from app.analyses.pencils import combine, diag_scale, gather_vec, sym_part
 from app.linalg import configure_direct, from_options, owned, with_prefix
 from app.scene.schema import EigSettings
@@ -199,7 +200,7 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
 
 def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,
               settings: EigSettings, hints: dict | None = None,
-              stars: tuple[PETSc.Mat, PETSc.Mat] | None = None) -> dict:
+              stars: tuple[PETSc.Mat, PETSc.Mat] | None = None) -> NecessaryOutcome:
     """Necessary condition (19): M*(mu) not PSD or K*(mu) not PD, from the symmetric parts.
 
     ``stars``: ``(K*(mu), M*(mu))`` already combined (kept; otherwise built and destroyed here).
@@ -207,7 +208,7 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
     shifts (neighbouring classifications differ by one node). Both eigenvalues are also reported relative to the largest diagonal entry of the matrix, the
     scale used for the decision (so it does not depend on units).
     """
-    out = {"mu": mu}
+    out: dict = {"mu": mu}
     for k, (name, A0, A1) in enumerate((("K", K0, K1), ("M", M0, M1))):
         A = combine(A0, A1, mu) if stars is None else stars[k]
         try:
@@ -222,11 +223,11 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
         out[f"min_eig_{name}_sym_relative"] = lam / scale
     rtol = 1e3 * np.finfo(float).eps
     out["satisfied"] = bool(out["min_eig_K_sym_relative"] <= rtol or out["min_eig_M_sym_relative"] < -rtol)
-    return out
+    return NecessaryOutcome(**out)
 
 
 def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSettings,
-               keep_modes: bool = False) -> dict:
+               keep_modes: bool = False) -> SufficientOutcome:
     """Sufficient condition (17)-(18): real eigenpairs of (lambda^2 M* + K*) x = 0, lambda^2 > 0, x_Ts >= 0.
 
     Solved as ``K* x = theta M* x`` (``lambda^2 = -theta``); every real eigenpair with
@@ -258,12 +259,12 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
             if ok:
                 admissible.append(float(lam2))
                 xn = np.maximum(xc, 0) / np.sum(np.maximum(xc, 0))
-                mode = {"value": float(lam2), "x_Ts": [float(v) for v in xn],
-                        "pattern": ["slip" if v > 1e-8 else "stick" for v in xn], "relative_error": float(res)}
-                if keep_modes:
-                    mode["_x"] = x / np.sum(xc)
-                modes.append(mode)
+                modes.append(Solution(value=float(lam2), x_Ts=[float(v) for v in xn],
+                                      pattern=["slip" if v > 1e-8 else "stick" for v in xn],
+                                      evidence={"relative_error": float(res)},
+                                      x=x / np.sum(xc) if keep_modes else None))
     order = np.argsort(admissible)[::-1]
-    return {"satisfied": bool(admissible), "lambda2": [admissible[i] for i in order],
-            "modes": [modes[i] for i in order], "real_candidates": sorted(candidates, key=lambda c: -c["lambda2"]),
-            "eigensolver": how, "converged": nconv}
+    return SufficientOutcome(satisfied=bool(admissible), lambda2=[admissible[i] for i in order],
+                             modes=[modes[i] for i in order],
+                             real_candidates=sorted(candidates, key=lambda c: -c["lambda2"]),
+                             eigensolver=how, converged=nconv)

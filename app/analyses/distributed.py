@@ -1,7 +1,7 @@
 """The deferred condensed MCEIP-mu of every distinct classification, spread over the MPI ranks.
 
 :func:`app.analyses.runner.analyse_state` leaves the condensed MCEIP-mu of each classification
-``{"deferred": true}``; :func:`analyse_condensed_distributed` runs them in chains (warm starts
+:class:`~app.analyses.outcomes.Deferred`; :func:`analyse_condensed_distributed` runs them in chains (warm starts
 along the path), one rank per chain, and gathers the answers on every rank.
 """
 from __future__ import annotations
@@ -10,6 +10,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.analyses.mceip_mu.live import LIVE
+from app.analyses.outcomes import Failed, MceipMuOutcome, Outcome, one_line
 from app.analyses.pencils import UnsupportedState
 from app.analyses.runner import ANALYSES, state_mceip_mu
 from app.analyses.state_pencils import StatePencils
@@ -19,9 +20,10 @@ from app.scene.schema import Scene
 from app.systems.base import System
 
 
-def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple[Classification, dict]],
-                                  comm, progress=None) -> list[dict]:
-    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses dict, in path order).
+def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple[Classification, dict[str, Outcome]]],
+                                  comm, progress=None) -> list[tuple[int, str]]:
+    """The deferred condensed MCEIP-mu of ``jobs`` (classification, its analyses: name -> outcome,
+    in path order).
 
     The jobs with more than ``mcp.search_full_max`` slip nodes are cut into chains of at most
     ``mcp.warm_chain`` consecutive classifications, each job of a chain warm-started from the
@@ -32,8 +34,9 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     chains first, so a rank that finishes early takes more. The chains do not depend on the
     number of ranks, and the results are gathered on every rank (``allgather``; the stored pencils
     on rank 0 only, which writes them), so the output is
-    the same on any number of ranks. Fills each analyses dict in place (key order as in
-    :func:`app.analyses.runner.analyse_state`); returns the failures.
+    the same on any number of ranks. Replaces the :class:`~app.analyses.outcomes.Deferred` of each
+    job's analyses by its outcome in place (order as in :func:`app.analyses.runner.analyse_state`);
+    returns the failures ``(job, reason)``.
 
     ``progress`` (an :class:`app.common.progress.Progress`): rank 0 shows the classifications done over
     all ranks, the one it runs now (its s), the last it finished (proven or not) and the time
@@ -43,7 +46,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     slips = [len(cls.slip) for cls, _ in jobs]
     chains = _chains(slips, mcp.warm_chain, mcp.search_full_max)
     order = _chain_order(slips, chains)
-    mine: dict[int, dict] = {}
+    mine: dict[int, MceipMuOutcome | Failed] = {}
     total_cost = float(sum(_cost(s) for s in slips))
 
     def run_chain(c: int, tasks, counter=None) -> None:
@@ -56,7 +59,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
             try:
                 mine[k] = state_mceip_mu(system, p, scene, slips[k], replicated=False, warm=warm)
             except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
-                mine[k] = {"failed": True, "reason": f"{type(err).__name__}: {err}".splitlines()[0]}
+                mine[k] = one_line(err)
             finally:
                 p.destroy()
             if counter is not None:
@@ -85,7 +88,8 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
     return _gather(comm, jobs, mine)                                     # MPI collective
 
 
-def _gather(comm, jobs: list[tuple[Classification, dict]], mine: dict[int, dict]) -> list:
+def _gather(comm, jobs: list[tuple[Classification, dict[str, Outcome]]],
+            mine: dict[int, MceipMuOutcome | Failed]) -> list[tuple[int, str]]:
     """Every rank's answers into the jobs' analyses dicts on every rank (MPI collective); the
     stored pencils (``_proof``, hundreds of MB at large s) on rank 0 only, which writes proofs/.
     Returns the failures ``(job, reason)``."""
@@ -94,7 +98,9 @@ def _gather(comm, jobs: list[tuple[Classification, dict]], mine: dict[int, dict]
     if comm.size == 1:
         parts = [mine]                      # nothing to send (and no copy of the pencils)
     else:
-        proofs = {k: d.pop("_proof") for k, d in mine.items() if "_proof" in d}
+        proofs = {k: d.proof for k, d in mine.items() if isinstance(d, MceipMuOutcome) and d.proof is not None}
+        for k in proofs:
+            mine[k].proof = None
         gathered = comm.gather(proofs, root=0)                           # MPI collective
         if comm.rank == 0:
             proofs = {k: v for part in gathered for k, v in part.items()}
@@ -102,13 +108,13 @@ def _gather(comm, jobs: list[tuple[Classification, dict]], mine: dict[int, dict]
     for part in parts:
         for k, d in part.items():
             if comm.rank == 0 and k in proofs:
-                d["_proof"] = proofs[k]
+                d.proof = proofs[k]
             out = jobs[k][1]
             out["mceip_mu"] = d
             for name in [n for n in ANALYSES if n in out]:               # canonical key order
                 out[name] = out.pop(name)
-            if d.get("failed"):
-                failures.append((k, d["reason"]))
+            if isinstance(d, Failed):
+                failures.append((k, d.reason))
     return failures
 
 
@@ -197,24 +203,25 @@ def _cost(s: int) -> int:
     return (s + 1) ** 3
 
 
-def _proof_word(d: dict) -> str:
-    """How a finished MCEIP-mu result reads in a progress line."""
-    if d.get("failed"):
+def _proof_word(d: MceipMuOutcome | Failed) -> str:
+    """How a finished MCEIP-mu outcome reads in a progress line."""
+    if isinstance(d, Failed):
         return "failed"
-    return "proven" if d.get("certified") else "not proven"
+    return "proven" if d.certified else "not proven"
 
 
-def _warm_starts(prev: Classification, prev_result: dict | None, cls: Classification) -> list[tuple[np.ndarray, float]]:
+def _warm_starts(prev: Classification, prev_result: MceipMuOutcome | Failed | None,
+                 cls: Classification) -> list[tuple[np.ndarray, float]]:
     """The previous classification's solutions as starts ``(x_Ts, mu)`` on ``cls``'s slip nodes
     (a node that does not slip in ``cls`` is dropped, a new slip node starts at 0)."""
-    if not prev_result or prev_result.get("failed") or ZERO in prev.status or ZERO in cls.status:
+    if not isinstance(prev_result, MceipMuOutcome) or ZERO in prev.status or ZERO in cls.status:
         return []
     where = {int(node): j for j, node in enumerate(cls.slip)}
     out = []
-    for sol in prev_result.get("solutions", []):
+    for sol in prev_result.solutions:
         x = np.zeros(len(where))
-        for node, v in zip(prev.slip, sol.get("x_Ts", [])):
+        for node, v in zip(prev.slip, sol.x_Ts):
             if int(node) in where:
                 x[where[int(node)]] = v
-        out.append((x, float(sol["value"])))
+        out.append((x, float(sol.value)))
     return out

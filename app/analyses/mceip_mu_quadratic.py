@@ -41,6 +41,7 @@ from app.analyses.enumerate import (
     pencil_scale,
     supports_of_size,
 )
+from app.analyses.outcomes import CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
 
@@ -162,8 +163,8 @@ QUADRATIC_FORMAT = "mceip-mu-quadratic/1"
 
 
 def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_slip: int,
-                        certify: bool = True, seconds: float = 60.0) -> dict:
-    """The ``mceip_mu`` entry of results.json for a curved obstacle: the solutions found by the
+                        certify: bool = True, seconds: float = 60.0) -> MceipMuOutcome:
+    """The MCEIP-mu outcome for a curved obstacle: the solutions found by the
     exhaustive floating-point enumeration and, up to ``PROOF_MAX_S`` slip nodes (``certify``),
     the exact proof of :mod:`app.analyses.mceip_mu_quadratic_proof` on ``[0, cap]``: each
     solution it proves is ``certified`` with its ``enclosure``; candidates it proves not to be
@@ -175,11 +176,11 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
     try:
         sols = enumerate_quadratic(A0, A1, A2, max_slip)
     except TooManySlipNodes as err:
-        return {"solutions": [], "result": f"not searched: {err}", "certified": False,
-                "onset": {"proven": False, "status": "not searched", "value": None, "enclosure": None},
-                "complete": {"proven": False, "status": "not searched", "interval": [0.0, 0.0], "count": None},
-                "certificate": certificate("none", (0.0, 0.0), "not attempted", 0.0),
-                "search": {"method": how, "complete": False, "note": str(err)}, "quadratic": True}
+        return MceipMuOutcome(solutions=[], result=f"not searched: {err}", certified=False,
+                              onset=OnsetClaim(proven=False, status="not searched"),
+                              complete=CompleteClaim(proven=False, status="not searched", interval=[0.0, 0.0]),
+                              certificate=certificate("none", (0.0, 0.0), "not attempted", 0.0),
+                              search={"method": how, "complete": False, "note": str(err)}, quadratic=True)
     for d in sols:
         d.update(certified=False, found_by=["exhaustive enumeration of the quadratic pattern problems"],
                  found_count=1, iterations=0)
@@ -203,23 +204,25 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
                  if any(d["value"] > cap for d in out) else ""))
     method = ("exact determinant polynomial of every support (rational arithmetic), its real roots isolated, "
               "the signs of the null vector and of y by ball arithmetic (FLINT)")
-    return {"solutions": out, "result": result, "certified": True,
-            "onset": {"proven": True, "status": "proven", "value": on.value if on else None,
-                      "enclosure": list(on.enclosure) if on else None},
-            "complete": {"proven": True, "status": "proven", "interval": [0.0, float(cap)], "count": len(proof.solutions)},
-            "certificate": {**certificate(method, (0.0, cap), "proven", time.perf_counter() - t0,
-                                          {"s": s, "cap": float(cap), "supports": proof.supports,
-                                           "proof_seconds": round(proof.seconds, 4),
-                                           "rejected_floating_point_candidates": rejected}, gap=0.0),
-                            "cap": float(cap), "onset": on.value if on else None},
-            "search": {**search, "complete": True}, "quadratic": True,
-            # the pencil travels to proofs/ (app/io/proofs.py), where `app check` proves it again
-            "_proof": {"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
-                       "A2": np.asarray(A2, dtype=float),
-                       "log": {"format": QUADRATIC_FORMAT, "cap": float(cap), "max_s": PROOF_MAX_S}}}
+    cert = certificate(method, (0.0, cap), "proven", time.perf_counter() - t0,
+                       {"s": s, "cap": float(cap), "supports": proof.supports,
+                        "proof_seconds": round(proof.seconds, 4),
+                        "rejected_floating_point_candidates": rejected}, gap=0.0)
+    cert.cap, cert.onset = float(cap), on.value if on else None
+    return MceipMuOutcome(
+        solutions=[Solution.from_fields(d) for d in out], result=result, certified=True,
+        onset=OnsetClaim(proven=True, status="proven", value=on.value if on else None,
+                         enclosure=list(on.enclosure) if on else None),
+        complete=CompleteClaim(proven=True, status="proven", interval=[0.0, float(cap)], count=len(proof.solutions)),
+        certificate=cert, search={**search, "complete": True}, quadratic=True,
+        # the pencil travels to proofs/ (app/io/proofs.py), where `app check` proves it again
+        proof={"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
+               "A2": np.asarray(A2, dtype=float),
+               "log": {"format": QUADRATIC_FORMAT, "cap": float(cap), "max_s": PROOF_MAX_S}})
 
 
-def _unproven(sols: list[dict], search: dict, proof, s: int, cap: float, certify: bool, t0: float) -> dict:
+def _unproven(sols: list[dict], search: dict, proof, s: int, cap: float, certify: bool,
+              t0: float) -> MceipMuOutcome:
     """The record when the exact proof was not attempted or left supports undecided: the
     enumerated solutions, found, not proven."""
     from app.analyses.certify import certificate  # the certificate record's format only
@@ -230,14 +233,14 @@ def _unproven(sols: list[dict], search: dict, proof, s: int, cap: float, certify
               + " (found by exhaustive floating-point enumeration of the quadratic pattern problems, not proven"
               + (f": s = {s} > {PROOF_MAX_S}, the exact proof not attempted" if proof is None and certify and s > PROOF_MAX_S
                  else "") + why + ")")
-    return {"solutions": sols, "result": result, "certified": False,
-            "onset": {"proven": False, "status": "found, not proven", "value": first, "enclosure": None},
-            "complete": {"proven": False, "status": "found, not proven", "interval": [0.0, 0.0], "count": None},
-            "certificate": certificate("none (floating-point enumeration)", (0.0, 0.0),
-                                       "not proven: exhaustive floating-point enumeration of the 2^s supports",
-                                       time.perf_counter() - t0, {"s": s, "cap": float(cap), "solutions": len(sols),
-                                                                  **({"undecided": len(proof.undecided)} if proof else {})}),
-            "search": search, "quadratic": True}
+    cert = certificate("none (floating-point enumeration)", (0.0, 0.0),
+                       "not proven: exhaustive floating-point enumeration of the 2^s supports",
+                       time.perf_counter() - t0, {"s": s, "cap": float(cap), "solutions": len(sols),
+                                                  **({"undecided": len(proof.undecided)} if proof else {})})
+    return MceipMuOutcome(solutions=[Solution.from_fields(d) for d in sols], result=result, certified=False,
+                          onset=OnsetClaim(proven=False, status="found, not proven", value=first),
+                          complete=CompleteClaim(proven=False, status="found, not proven", interval=[0.0, 0.0]),
+                          certificate=cert, search=search, quadratic=True)
 
 
 def _proven_list(A0, A1, A2, sols: list[dict], proof, cap: float) -> tuple[list[dict], int]:

@@ -14,8 +14,23 @@ from app.analyses.certify import certificate, condensed_mu_result, enumeration_c
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mceip_lambda2.analysis import mceip_lambda2
 from app.analyses.mcp import search_mceip
+from app.analyses.outcomes import (
+    CompleteClaim,
+    Deferred,
+    EnumerationOutcome,
+    EnumerationProblem,
+    Failed,
+    MceipMuOutcome,
+    NecessaryOutcome,
+    NotApplicable,
+    OnsetClaim,
+    Outcome,
+    Solution,
+    SufficientOutcome,
+    one_line,
+)
 from app.analyses.pencils import UnsupportedState, dense
-from app.analyses.state_pencils import FULL_DENSE_LIMIT, StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
+from app.analyses.state_pencils import FULL_DENSE_LIMIT, StatePencils, keep_modes, no_slip, warm_hints
 from app.analyses.zero_nodes import analyse_with_zero_nodes
 from app.loading.classify import STICK, ZERO, Classification, frictionless_reason
 from app.scene.schema import Scene
@@ -24,7 +39,7 @@ from app.systems.base import System
 ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")   # in the order they run
 
 
-def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
+def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> NecessaryOutcome:
     K0, K1 = p.K()
     M0, M1 = p.M()
     stars = p.star(scene.mu)
@@ -32,11 +47,11 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
         return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars)
 
 
-def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int) -> dict:
+def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int) -> SufficientOutcome:
     Ks, Ms = p.star(scene.mu)        # shared with the necessary condition, destroyed with p
     with system.stages("sufficient condition (17)-(18)"):
         out = conditions.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
-    out["mu"] = scene.mu
+    out.mu = scene.mu
     return out
 
 
@@ -50,26 +65,28 @@ def _nothing_moves(system: System, cls: Classification) -> str | None:
     return None
 
 
-def analyse_state(system: System, cls: Classification, scene: Scene, defer_condensed: bool = False) -> dict:
-    """Run the scene's analyses on one classification; returns the ``analyses`` dict of results.json.
+def analyse_state(system: System, cls: Classification, scene: Scene,
+                  defer_condensed: bool = False) -> dict[str, Outcome]:
+    """Run the scene's analyses on one classification; returns analysis name -> its outcome
+    (:mod:`app.analyses.outcomes`), in the order of :data:`ANALYSES`.
 
     An analysis whose solver fails (PETSc/SLEPc error, no convergence, unsupported state) is
-    reported as ``{"failed": true, "reason": ...}`` and the other analyses still run.
-    ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data) as
-    ``{"deferred": true}`` for :func:`app.analyses.distributed.analyse_condensed_distributed` (MPI: one
+    a :class:`~app.analyses.outcomes.Failed` and the other analyses still run.
+    ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data)
+    :class:`~app.analyses.outcomes.Deferred` for :func:`app.analyses.distributed.analyse_condensed_distributed` (MPI: one
     rank per classification).
     """
     na = frictionless_reason(cls, scene.mu) or _nothing_moves(system, cls)   # nothing to compute
     if na is not None:
-        return {name: {"not_applicable": True, "reason": na} for name in ANALYSES if name in scene.analyses}
+        return {name: NotApplicable(na) for name in ANALYSES if name in scene.analyses}
     if ZERO in cls.status:
         if curvature.is_curved(cls):
             why = ("UnsupportedState: zero-reaction contact nodes (the paper's set Z) on a curved obstacle: "
                    "their rate conditions (9) in the rotating frame are not implemented")
-            return {name: {"failed": True, "reason": why} for name in ANALYSES if name in scene.analyses}
+            return {name: Failed(why) for name in ANALYSES if name in scene.analyses}
         return analyse_with_zero_nodes(system, cls, scene)
     p = StatePencils(system, cls)
-    out: dict = {}
+    out: dict[str, Outcome] = {}
     s = len(cls.slip)
     runs = {"necessary": _necessary, "sufficient": _sufficient, "mceip_mu": state_mceip_mu,
             "mceip_lambda2": mceip_lambda2, "enumerate": _enumerate}
@@ -78,24 +95,23 @@ def analyse_state(system: System, cls: Classification, scene: Scene, defer_conde
             if name not in scene.analyses:
                 continue
             if name == "mceip_mu" and defer_condensed and s > 0 and scene.settings.mceip_mu_method == "condensed":
-                out[name] = {"deferred": True}    # dense work: distributed.analyse_condensed_distributed() fills it
+                out[name] = Deferred()    # dense work: distributed.analyse_condensed_distributed() replaces it
                 continue
             try:
                 if name == "mceip_lambda2":
                     nec = out.get("necessary") if scene.lambda2_mu == scene.mu else None
-                    out[name] = mceip_lambda2(system, p, scene, s, nec if nec and "failed" not in nec else None)
+                    out[name] = mceip_lambda2(system, p, scene, s, nec if isinstance(nec, NecessaryOutcome) else None)
                 else:
                     out[name] = runs[name](system, p, scene, s)
             except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
-                reason = f"{type(err).__name__}: {err}".splitlines()[0]
-                out[name] = {"failed": True, "reason": reason}
+                out[name] = one_line(err)
     finally:
         p.destroy()
     return out
 
 
 def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True,
-              warm: list[tuple[np.ndarray, float]] | None = None) -> dict:
+              warm: list[tuple[np.ndarray, float]] | None = None) -> MceipMuOutcome:
     """MCEIP-mu (21)-(23) of one classification: the condensed s x s pencil with its certificate
     (:mod:`app.analyses.certify`), or the full-size SNES VI search (found, not proven).
 
@@ -105,11 +121,13 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
     dense search from the previous classification along the path (large ``s`` only).
     """
     if s == 0:
-        return {**no_slip(), "certified": True,
-                "onset": {"proven": True, "status": "proven: no slip node, no critical mu", "value": None,
-                          "enclosure": None},
-                "complete": {"proven": True, "status": "proven: no slip node", "interval": [0.0, np.inf], "count": 0},
-                "certificate": certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), "proven", 0.0, gap=0.0)}
+        result, search = no_slip()
+        return MceipMuOutcome(solutions=[], result=result, search=search, certified=True,
+                              onset=OnsetClaim(proven=True, status="proven: no slip node, no critical mu"),
+                              complete=CompleteClaim(proven=True, status="proven: no slip node",
+                                                     interval=[0.0, np.inf], count=0),
+                              certificate=certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), "proven", 0.0,
+                                                      gap=0.0))
     method = scene.settings.mceip_mu_method
     if curvature.is_curved(p.cls):
         if method != "condensed":
@@ -121,7 +139,7 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
             mcp = scene.settings.mcp
             d = quadratic_mu_result(A0, A1, A2, mu_cap(scene.mu, mcp), scene.settings.enumerate_max_slip,
                                     certify=mcp.certify, seconds=mcp.certify_seconds)
-        d["method"] = "condensed (quadratic)"
+        d.method = "condensed (quadratic)"
         return d
     if method == "condensed":
         # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
@@ -132,25 +150,22 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
                 # replicated dense work; a time budget could end differently on different ranks,
                 # so every rank reports rank 0's answer
                 d = system.comm.bcast(d, root=0)                               # MPI collective
-        d["method"] = method
+        d.method = method
         return d
     K0, K1 = p.K()
     with system.stages("MCEIP-mu (21)-(23)"):
         rep = search_mceip(K0, K1, p.space.comp, "mu", scene.settings.mcp)
-    d = rep.as_dict()
-    d["method"] = method
-    d["certified"] = False
-    d["certificate"] = certificate("none", (0.0, 0.0), "not attempted (full-size SNES VI search)", 0.0)
-    for sol in d["solutions"]:
-        sol["certified"] = False
-    if method == "full" and keep_modes(scene):
-        attach_vectors(d, rep)
-    return d
+    sols = rep.typed_solutions(keep_vectors=method == "full" and keep_modes(scene))
+    for sol in sols:
+        sol.mark(certified=False)
+    return MceipMuOutcome(solutions=sols, result=rep.result(), search=rep.search(), certified=False,
+                          certificate=certificate("none", (0.0, 0.0), "not attempted (full-size SNES VI search)", 0.0),
+                          method=method)
 
 
-def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> dict:
+def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> EnumerationOutcome:
     settings = scene.settings
-    problems: dict = {}
+    problems: dict[str, EnumerationProblem] = {}
     with system.stages("enumeration (24)-(26)"):
         for problem in settings.enumerate_problems:
             try:
@@ -176,19 +191,21 @@ def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> dict:
                         Ks = dense(K0) + mu * dense(K1)
                         Ms = dense(M0) + mu * dense(M1)
                     sols = enumerate_mceip(Ks, Ms, p.space.comp, settings.enumerate_max_slip)
-                problems[problem] = {"problem": problem, "solutions": sols, "complete": True,
-                                     **enumeration_certificate(sols),
-                                     **({"mu": scene.lambda2_mu} if problem == "lambda2" else {})}
+                found = [Solution.from_fields(x) for x in sols]
+                done = EnumerationProblem(problem=problem, solutions=found, complete=True, certified=True,
+                                          certificate=enumeration_certificate(found),
+                                          mu=scene.lambda2_mu if problem == "lambda2" else None)
                 if problem == "mu" and curvature.is_curved(p.cls):
                     # the quadratic pattern problems are decided in floating point: found, not proven
                     # (the exact proof is mceip_mu's, app/analyses/mceip_mu_quadratic_proof.py)
-                    for x in sols:
-                        x["certified"] = False
-                    problems[problem].update(certified=False, certificate=certificate(
+                    for x in found:
+                        x.mark(certified=False)
+                    done.certified = False
+                    done.certificate = certificate(
                         "exhaustive floating-point enumeration of the quadratic pattern problems", (0.0, 0.0),
-                        "not proven", None, {"solutions": len(sols)}))
+                        "not proven", None, {"solutions": len(found)})
+                problems[problem] = done
             except TooManySlipNodes as err:
-                problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err),
-                                     "certified": False}
-    first = problems[settings.enumerate_problems[0]]
-    return {**first, "problems": problems}
+                problems[problem] = EnumerationProblem(problem=problem, solutions=[], complete=False,
+                                                       refused=str(err), certified=False)
+    return EnumerationOutcome(problems=problems, first=settings.enumerate_problems[0])

@@ -141,19 +141,14 @@ def warm_hints(system: System, mu: float) -> dict:
 
 
 def keep_modes(scene: Scene) -> bool:
-    """Keep the kept-space mode vectors (key ``_x``, never written) for the mode fields of app/io/fields.py."""
+    """Keep the kept-space mode vectors (``Solution.x``, never written to results.json) for the mode
+    fields of app/io/fields.py."""
     outputs = getattr(scene, "outputs", None)
     return bool(outputs is not None and outputs.fields)
 
 
-def attach_vectors(d: dict, rep) -> None:
-    """Attach each solution's full kept-space vector (same order as ``as_dict``: sorted by value)."""
-    for sd, sol in zip(d["solutions"], sorted(rep.solutions, key=lambda s: s.value)):
-        if sol.x is not None:
-            sd["_x"] = sol.x
-
-
-def no_slip() -> dict:
-    return {"solutions": [], "result": "no solution (no slip nodes)", "search": {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
-                                                  "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
-                                          "complete": True}}
+def no_slip() -> tuple[str, dict]:
+    """The ``result`` and ``search`` record of an MCEIP at a state without slip nodes (no solution)."""
+    return "no solution (no slip nodes)", {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
+                                                   "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
+                                           "complete": True}

@@ -8,15 +8,27 @@ import numpy as np
 from app.analyses.certify import certificate, condensed_mu_result, enumeration_certificate, mu_cap
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mcp import search_mceip
+from app.analyses.outcomes import (
+    EnumerationOutcome,
+    EnumerationProblem,
+    Failed,
+    MceipLambda2Outcome,
+    Outcome,
+    Solution,
+)
 from app.analyses.pencils import UnsupportedState, dense, split_pencils
 from app.analyses.state_pencils import FULL_DENSE_LIMIT, seq_aij
 from app.loading.classify import ZERO, Classification
 from app.scene.schema import Scene
 from app.systems.base import System
 
+#: the note of every outcome computed with the rate conditions (9) of the zero-reaction nodes
+HANDLED = "rate conditions (9): v_T = a - b, complementarity in (a, b, x_N)"
 
-def _describe(sol: dict, labels: list[str], cls: Classification) -> dict:
+
+def _describe(sol: Solution | dict, labels: list[str], cls: Classification) -> Solution:
     """Re-express a solution over x_c = (slip x_T..., zero a, b, x_N...) per node."""
+    sol = sol.as_dict() if isinstance(sol, Solution) else sol
     xc = np.asarray(sol["x_Ts"])
     big = max(float(np.max(np.abs(xc))), 1e-300)
     by = dict(zip(labels, xc))
@@ -32,18 +44,19 @@ def _describe(sol: dict, labels: list[str], cls: Classification) -> dict:
         out["zero_nodes"].append({"id": i, "a": float(a), "b": float(b), "x_N": float(xn),
                                   "tangential": "slides +T" if a > 1e-8 * big else "slides -T" if b > 1e-8 * big else "sticks",
                                   "normal": "separates" if xn > 1e-8 * big else "stays in contact"})
-    return out
+    return Solution.from_fields(out)
 
 
-def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -> dict:
-    """MCEIP-mu, MCEIP-lambda^2 and enumeration with the rate conditions (9) of the Z nodes."""
+def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -> dict[str, Outcome]:
+    """MCEIP-mu, MCEIP-lambda^2 and enumeration with the rate conditions (9) of the Z nodes
+    (the necessary and sufficient conditions are :class:`~app.analyses.outcomes.Failed`)."""
     settings = scene.settings
-    out: dict = {}
+    out: dict[str, Outcome] = {}
     why = ("zero-reaction contact nodes present: with them the conditions (17)-(19) are not linear "
            "eigenproblems (the rate conditions (9) are complementarity conditions); see mceip_mu/mceip_lambda2")
     for name in ("necessary", "sufficient"):
         if name in scene.analyses:
-            out[name] = {"failed": True, "reason": f"UnsupportedState: {why}"}
+            out[name] = Failed(f"UnsupportedState: {why}")
     mu_l = scene.lambda2_mu
     wants_l2 = "mceip_lambda2" in scene.analyses or ("enumerate" in scene.analyses and "lambda2" in settings.enumerate_problems)
     full = None
@@ -57,17 +70,19 @@ def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -
             full = (Kp.A0 + mu_l * Kp.A1, Mp.A0 + mu_l * Mp.A1, Kp)
     cond = split_pencils(system, cls) if ("mceip_mu" in scene.analyses or "enumerate" in scene.analyses) else None
 
-    def search(A0, A1, sp, problem, tau=None):
+    def search(A0, A1, sp, problem, tau=None) -> MceipLambda2Outcome:
         M0, M1 = seq_aij(A0), seq_aij(A1)
         try:
-            d = search_mceip(M0, M1, sp.comp, problem, settings.mcp, value_scale=tau, pairs=sp.pairs).as_dict()
+            rep = search_mceip(M0, M1, sp.comp, problem, settings.mcp, value_scale=tau, pairs=sp.pairs)
         finally:
             M0.destroy()
             M1.destroy()
-        d["solutions"] = [_describe(x, sp.labels, cls) for x in d["solutions"]]
-        d["x_c_labels"] = sp.labels
-        d["zero_nodes_handled"] = "rate conditions (9): v_T = a - b, complementarity in (a, b, x_N)"
-        return d
+        return MceipLambda2Outcome(
+            solutions=[_describe(x, sp.labels, cls) for x in rep.typed_solutions()], result=rep.result(),
+            search=rep.search(),
+            certified=False, certificate=certificate("none (zero-reaction nodes: dense SNES VI search only)",
+                                                     (0.0, 0.0), "not proven: searched by SNES VI", 0.0),
+            extra={"x_c_labels": sp.labels, "zero_nodes_handled": HANDLED})
 
     if "mceip_mu" in scene.analyses:
         with system.stages("MCEIP-mu (21)-(23)"):
@@ -75,25 +90,22 @@ def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -
             d = condensed_mu_result(cond.A0, cond.A1, mu_cap(scene.mu, settings.mcp), settings.mcp, pairs=cond.pairs)
             if system.comm.size > 1:
                 d = system.comm.bcast(d, root=0)                               # MPI collective (see runner.state_mceip_mu)
-            d["solutions"] = [_describe(x, cond.labels, cls) for x in d["solutions"]]
-            d["x_c_labels"] = cond.labels
-            d["zero_nodes_handled"] = "rate conditions (9): v_T = a - b, complementarity in (a, b, x_N)"
+            d.solutions = [_describe(x, cond.labels, cls) for x in d.solutions]
+            d.extra = {"x_c_labels": cond.labels, "zero_nodes_handled": HANDLED}
+            d.method = "condensed"
             out["mceip_mu"] = d
-            out["mceip_mu"]["method"] = "condensed"
     if "mceip_lambda2" in scene.analyses:
         if isinstance(full, Exception):
-            out["mceip_lambda2"] = {"failed": True, "reason": f"UnsupportedState: {full}"}
+            out["mceip_lambda2"] = Failed(f"UnsupportedState: {full}")
         else:
             Ks, Ms, sp = full
             tau = float(np.max(np.abs(np.diag(Ks)))) / max(float(np.max(np.abs(np.diag(Ms)))), 1e-300)
             with system.stages("MCEIP-lambda2 (12)-(14)"):
-                out["mceip_lambda2"] = search(Ks, Ms, sp, "lambda2", tau)
-            out["mceip_lambda2"]["mu"] = mu_l
-            out["mceip_lambda2"].update(certified=False, certificate=certificate(
-                "none (zero-reaction nodes: dense SNES VI search only)", (0.0, 0.0),
-                "not proven: searched by SNES VI", 0.0))
+                found = search(Ks, Ms, sp, "lambda2", tau)
+            found.mu = mu_l
+            out["mceip_lambda2"] = found
     if "enumerate" in scene.analyses:
-        problems = {}
+        problems: dict[str, EnumerationProblem] = {}
         with system.stages("enumeration (24)-(26)"):
             for problem in settings.enumerate_problems:
                 try:
@@ -103,12 +115,15 @@ def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -
                         if isinstance(full, Exception):
                             raise TooManySlipNodes(str(full))
                         A0, A1, sp = full
-                    sols = enumerate_mceip(A0, A1, sp.comp, settings.enumerate_max_slip, pairs=sp.pairs)
-                    problems[problem] = {"problem": problem, "complete": True,
-                                         **enumeration_certificate(sols),
-                                         "solutions": [_describe(x, sp.labels, cls) for x in sols],
-                                         **({"mu": mu_l} if problem == "lambda2" else {})}
+                    sols = [Solution.from_fields(x)
+                            for x in enumerate_mceip(A0, A1, sp.comp, settings.enumerate_max_slip, pairs=sp.pairs)]
+                    cert = enumeration_certificate(sols)
+                    problems[problem] = EnumerationProblem(problem=problem,
+                                                           solutions=[_describe(x, sp.labels, cls) for x in sols],
+                                                           complete=True, certified=True, certificate=cert,
+                                                           mu=mu_l if problem == "lambda2" else None)
                 except TooManySlipNodes as err:
-                    problems[problem] = {"problem": problem, "solutions": [], "complete": False, "refused": str(err)}
-        out["enumerate"] = {**problems[settings.enumerate_problems[0]], "problems": problems}
+                    problems[problem] = EnumerationProblem(problem=problem, solutions=[], complete=False,
+                                                           refused=str(err))
+        out["enumerate"] = EnumerationOutcome(problems=problems, first=settings.enumerate_problems[0])
     return out

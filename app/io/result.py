@@ -1,7 +1,8 @@
 """Typed, read-only views of a study's results (the ``results.json`` document).
 
 A study produces one JSON-like dictionary (:func:`app.study.run.run_study`; its keys are described in
-``docs/method.md`` and the README). :class:`StudyResult` wraps it without changing it:
+``docs/method.md`` and the README; each state's ``analyses`` block is written from the analyses'
+typed outcomes, :mod:`app.analyses.outcomes`). :class:`StudyResult` wraps it without changing it:
 
 * the dictionary stays the single source of truth, so :meth:`StudyResult.to_json` gives exactly
   today's ``results.json`` content (plus ``format_version``) and keys added by other analyses

@@ -35,6 +35,7 @@ import time
 
 from mpi4py import MPI
 
+from app.analyses.outcomes import MceipMuOutcome, Outcome, SufficientOutcome
 from app.analyses.runner import analyse_state
 from app.common.progress import Progress
 from app.loading.classify import FREE, SLIP, classify
@@ -61,10 +62,11 @@ def level_scene(scene: Scene, nx: int, degree: int, plane: str, **loading) -> Sc
     return scene.model_copy(update=update)
 
 
-def _mu_values(a: dict | None) -> list[float]:
-    if not a or a.get("failed"):
+def _mu_values(a: Outcome | None) -> list[float]:
+    """The critical mu of an MCEIP-mu outcome, ascending (none when it failed or was not asked)."""
+    if not isinstance(a, MceipMuOutcome):
         return []
-    return sorted(s["value"] for s in a.get("solutions", []))
+    return sorted(s.value for s in a.solutions)
 
 
 def _inspector(scene: Scene, ref):
@@ -122,9 +124,10 @@ def _inspector(scene: Scene, ref):
         # Sufficient condition at mu_fixed on the final state's classification.
         lam = None
         if len(fcls.slip):
-            a = analyse_state(system, fcls, scene_suff).get("sufficient", {})
-            out["lambda2_eigensolver"] = a.get("eigensolver", a.get("reason"))
-            lam = max(a["lambda2"]) if a.get("lambda2") else None
+            a = analyse_state(system, fcls, scene_suff).get("sufficient")
+            ok = isinstance(a, SufficientOutcome)
+            out["lambda2_eigensolver"] = a.eigensolver if ok else getattr(a, "reason", None)
+            lam = max(a.lambda2) if ok and a.lambda2 else None
         out["lambda2"] = lam
 
         # Resultants at the fixed load and the load at gross sliding.

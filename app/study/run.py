@@ -12,6 +12,7 @@ from mpi4py import MPI
 
 from app.analyses.curvature import attach as attach_curvature
 from app.analyses.distributed import analyse_condensed_distributed
+from app.analyses.outcomes import Deferred, Failed, analyses_document
 from app.analyses.runner import analyse_state
 from app.common.library_warnings import describe, explained, merged
 from app.common.progress import Progress
@@ -27,7 +28,8 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     """Run ``scene``; returns the results dictionary (identical on every rank).
 
     ``inspect(system, states, cache)``, if given, runs after the per-state analyses while the
-    system is alive (``cache``: classification key -> (first state, analyses)); what it
+    system is alive (``cache``: classification key -> (first state, its analyses: name -> typed
+    outcome of :mod:`app.analyses.outcomes`)); what it
     returns is stored as ``results["inspection"]`` (used by app/study/refinement.py).
     ``outdir``: the results folder, where the field stage (app/io/fields.py: ParaView
     files, screenshot data) writes when the scene's ``outputs`` ask for fields.
@@ -56,7 +58,10 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
 
 def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float,
            system, states, path_info) -> dict:
-    """The per-state analyses and fields of :func:`_run` on the built ``system``."""
+    """The per-state analyses and fields of :func:`_run` on the built ``system``.
+
+    The states hold the typed outcomes (:mod:`app.analyses.outcomes`) until every analysis is
+    done; their ``analyses`` blocks are then written once per distinct classification."""
     cache: dict = {}
     deferred: list = []     # (classification, its analyses, state index): condensed MCEIP-mu, distributed below
     out_states = []
@@ -81,9 +86,9 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
             with one_blas_thread():
                 analyses = analyse_state(system, cls, scene, defer_condensed=True)
             for name, a in analyses.items():
-                if a.get("failed"):
-                    failures.append({"state": state.index, "analysis": name, "reason": a["reason"]})
-            if analyses.get("mceip_mu", {}).get("deferred"):
+                if isinstance(a, Failed):
+                    failures.append({"state": state.index, "analysis": name, "reason": a.reason})
+            if isinstance(analyses.get("mceip_mu"), Deferred):
                 deferred.append((cls, analyses, state.index))
             cache[cls.key] = (state.index, analyses)
             entry["analyses_shared_with"] = None
@@ -98,6 +103,7 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
                                                    progress)
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, cache) if inspect is not None else None
+    _write_analyses(out_states)
     outputs_record = None
     from app.io.fields import wants_fields
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
@@ -111,3 +117,15 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
             "scene_config": scene.model_dump(mode="json", exclude_none=True),
             **({"outputs": outputs_record} if outputs_record is not None else {}),
             "states": out_states}
+
+
+def _write_analyses(out_states: list[dict]) -> None:
+    """Each state's typed outcomes replaced by its ``analyses`` block of results.json
+    (:func:`app.analyses.outcomes.analyses_document`); states that share their analyses share
+    one block."""
+    written: dict[int, dict] = {}
+    for entry in out_states:
+        analyses = entry["analyses"]
+        if id(analyses) not in written:
+            written[id(analyses)] = analyses_document(analyses)
+        entry["analyses"] = written[id(analyses)]

@@ -17,13 +17,15 @@ from app.analyses.curvature import is_curved
 from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mcp import search_mceip
+from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome
 from app.analyses.pencils import diag_scale
-from app.analyses.state_pencils import StatePencils, attach_vectors, keep_modes, no_slip, warm_hints
+from app.analyses.state_pencils import StatePencils, keep_modes, no_slip, warm_hints
 from app.scene.schema import Scene
 from app.systems.base import System
 
 
-def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: dict | None = None) -> dict:
+def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
+                  nec: NecessaryOutcome | None = None) -> MceipLambda2Outcome:
     """MCEIP-lambda^2 (12)-(14) at ``scene.lambda2_mu`` with what is proven (app/analyses/mceip_lambda2/bounds.py):
     no solution when (19) fails; otherwise no solution above an inertia-proven bound ``T``, and
     ``[0, T]`` searched by SNES VI (found, not proven). Every result has ``certified`` and a
@@ -32,47 +34,48 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int, nec: di
     mu = scene.lambda2_mu
     t_start = time.perf_counter()
     if s == 0:
-        d = no_slip()
-        d["certified"] = True
-        d["certificate"] = certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0)
+        result, search = no_slip()
+        d = MceipLambda2Outcome(solutions=[], result=result, search=search, certified=True,
+                                certificate=certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0))
     else:
         K0, K1 = p.K()
         M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
             if nec is None:
                 nec = conditions.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
-            if not nec["satisfied"]:
+            if not nec.satisfied:
                 # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
                 # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.
-                d = {"solutions": [], "result": "no solution (proved by the necessary condition (19))", "search": {
-                    "complete": True, "necessary_condition": nec,
-                    "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
-                            "which proves that (12)-(14) has no solution"}}
-                d["certified"] = True
+                search = {"complete": True, "necessary_condition": nec.as_dict(),
+                          "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
+                                  "which proves that (12)-(14) has no solution"}
                 rigorous = l2b.verified_sign_argument(K0, K1, M0, M1, mu,
                                                       scene.settings.mcp.lambda2_exact_max_dofs)   # MPI collective
-                d["certificate"] = certificate(
+                cert = certificate(
                     "sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19)"
                     + ("; both proven PD by verified dense Cholesky factorisations" if rigorous else
                        "; PD from floating-point eigenvalues (SLEPc), not verified"),
                     (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
-                    {"min_eig_K_sym": nec["min_eig_K_sym"], "min_eig_M_sym": nec["min_eig_M_sym"]}, gap=0.0,
+                    {"min_eig_K_sym": nec.min_eig_K_sym, "min_eig_M_sym": nec.min_eig_M_sym}, gap=0.0,
                     rigorous=rigorous)
+                d = MceipLambda2Outcome(solutions=[], result="no solution (proved by the necessary condition (19))",
+                                        search=search, certified=True, certificate=cert)
             else:
                 d = _lambda2_search(p, scene, nec, mu, t_start)
-    d["mu"] = mu
+    d.mu = mu
     return d
 
 
-def _rayleigh_bound(nec: dict) -> float | None:
+def _rayleigh_bound(nec: NecessaryOutcome) -> float | None:
     """``-min eig sym K* / min eig sym M*`` (widened by 1e-6): ``x^T (lambda^2 M* + K*) x = x^T y = 0``
     at a solution bounds lambda^2 by it when sym M*(mu) is PD (and sym K*(mu) is not); else None."""
-    if nec["min_eig_M_sym_relative"] > 1e-12 and nec["min_eig_K_sym"] < 0:
-        return -nec["min_eig_K_sym"] / nec["min_eig_M_sym"] * (1 + 1e-6)
+    if nec.min_eig_M_sym_relative > 1e-12 and nec.min_eig_K_sym < 0:
+        return -nec.min_eig_K_sym / nec.min_eig_M_sym * (1 + 1e-6)
     return None
 
 
-def _lambda2_proof(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict | None:
+def _lambda2_proof(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: float,
+                   t_start: float) -> MceipLambda2Outcome | None:
     """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
     (app/analyses/mceip_lambda2/exact.py), or None when that proof does not apply or does not succeed."""
     rayleigh = _rayleigh_bound(nec)
@@ -93,21 +96,21 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start:
     bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
                        "Rayleigh-quotient bound -min eig sym K* / min eig sym M*)",
              "rayleigh_bound": rayleigh, "proven_bound": T}
-    d = {"solutions": [], "result": "proven: no solution with lambda^2 >= 0",
-         "search": {"attempts": 0, "converged": 0, "accepted": 0, "by_method": {}, "intervals": [],
-                    "starts": [], "identical_runs_skipped": 0, "complete": True,
-                    "note": "no search needed: " + how,
-                    "necessary_condition": nec, "lambda2_upper_bound": T, "upper_bound": bound},
-         "certified": True}
+    search = {"attempts": 0, "converged": 0, "accepted": 0, "by_method": {}, "intervals": [],
+              "starts": [], "identical_runs_skipped": 0, "complete": True,
+              "note": "no search needed: " + how,
+              "necessary_condition": nec.as_dict(), "lambda2_upper_bound": T, "upper_bound": bound}
     # the reduction rests on a floating-point eigen-decomposition of (K, M) without a rigorous
     # error bound: its PD + NN tests are verified, the reduction itself is not
-    d["certificate"] = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
-                                   {**detail, "T": T, "eigen_decomposition_seconds": round(dc.seconds, 4)}, gap=0.0,
-                                   rigorous=False)
-    return d
+    cert = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
+                       {**detail, "T": T, "eigen_decomposition_seconds": round(dc.seconds, 4)}, gap=0.0,
+                       rigorous=False)
+    return MceipLambda2Outcome(solutions=[], result="proven: no solution with lambda^2 >= 0", search=search,
+                               certified=True, certificate=cert)
 
 
-def _lambda2_search(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start: float) -> dict:
+def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: float,
+                    t_start: float) -> MceipLambda2Outcome:
     proof = _lambda2_proof(p, scene, nec, mu, t_start)
     if proof is not None:
         return proof
@@ -128,37 +131,34 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: dict, mu: float, t_start
                  "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
     rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
                        t_upper=upper)
-    d = rep.as_dict()
-    if keep_modes(scene):
-        attach_vectors(d, rep)
-    d["search"]["necessary_condition"] = nec
-    d["search"]["lambda2_upper_bound"] = upper
-    d["search"]["upper_bound"] = bound
-    omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if d["solutions"] else None
-    for sol in d["solutions"]:
-        sol["certified"] = False
+    sols = rep.typed_solutions(keep_vectors=keep_modes(scene))
+    search = rep.search()
+    search.update(necessary_condition=nec.as_dict(), lambda2_upper_bound=upper, upper_bound=bound)
+    omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if sols else None
+    for sol in sols:
+        sol.mark(certified=False)
         why = []
-        if omega2 is not None and sol["value"] > omega2:
+        if omega2 is not None and sol.value > omega2:
             why.append(f"lambda^2 above the free-block spectrum (max omega^2 = {omega2:.6g}): the mode "
                        "decays by orders of magnitude between nodes, unresolvable in double precision")
-        if not sol.get("pattern_verified", True):
+        if not sol.evidence.get("pattern_verified", True):
             why.append("the pattern does not solve its restricted eigenproblem (25)-(26) to the tolerance")
-        sol["ill_conditioned"] = bool(why)
+        sol.mark(ill_conditioned=bool(why))
         if why:
-            sol["conditioning"] = "; ".join(why)
+            sol.mark(conditioning="; ".join(why))
     if omega2 is not None:
-        d["search"]["free_block_max_omega2"] = omega2
-    clean = [x for x in d["solutions"] if not x["ill_conditioned"]]
-    if len(clean) < len(d["solutions"]):
-        d["result"] = (f"{len(clean)} clean solution(s) and {len(d['solutions']) - len(clean)} "
-                       "ill-conditioned one(s) found (not proven)")
+        search["free_block_max_omega2"] = omega2
+    result = rep.result()
+    clean = [x for x in sols if not x.evidence["ill_conditioned"]]
+    if len(clean) < len(sols):
+        result = (f"{len(clean)} clean solution(s) and {len(sols) - len(clean)} "
+                  "ill-conditioned one(s) found (not proven)")
     hi = upper if np.isfinite(upper) else np.inf
-    d["certified"] = False
-    d["certificate"] = certificate(
+    cert = certificate(
         bound["method"] if np.isfinite(upper) else "none",
         (hi, np.inf) if np.isfinite(hi) else (0.0, 0.0),
         ("proven: no solution with lambda^2 in the interval; " if np.isfinite(hi) else "") +
         f"not proven: [0, {hi:.6g}] searched by SNES VI (solutions found there are not proven complete)",
         time.perf_counter() - t_start,
         {"proven_empty": [hi, np.inf] if np.isfinite(hi) else None, "searched_not_proven": [0.0, hi]})
-    return d
+    return MceipLambda2Outcome(solutions=sols, result=result, search=search, certified=False, certificate=cert)
