@@ -3,12 +3,11 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import os
 import pathlib
 import tempfile
 
-from app.io.document import to_document
+from app.io.document import dumps_document, to_document
 from app.io.result import StateResult
 
 
@@ -115,5 +114,5 @@ def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     proofs (app/io/proofs.py) are written before, while the results still hold the pencils."""
     outdir.mkdir(parents=True, exist_ok=True)
     atomic_write(outdir / "steps.csv", steps_csv(results))
-    atomic_write(outdir / "results.json", json.dumps(to_document(results), indent=1, allow_nan=False))
+    atomic_write(outdir / "results.json", dumps_document(to_document(results)))
     return [outdir / "steps.csv", outdir / "results.json"]
