@@ -17,6 +17,11 @@ if MPI.COMM_WORLD.size == 1:
                  or k in ("OMPI_MCA_ess", "OMPI_MCA_pmix")]:
         del os.environ[_key]
 
+# the ranks of the tests' own mpirun children yield their core while they wait (as app/cli/main.py
+# sets for `python -m app`): the suite runs on every core (pytest-xdist), and a spinning rank
+# can slow a neighbouring test's rank a hundredfold
+os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PY = sys.executable
 

@@ -128,6 +128,12 @@ def main(argv: list[str] | None = None) -> int:
     if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
         # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+        # A rank waiting in a collective (while another proves a classification, say) yields its
+        # core instead of spinning: on a machine with as many cores as ranks, a spinning rank
+        # takes the CPU from the Gmsh child, the drawing processes or any other program, and a
+        # run that takes seconds can take minutes. Read by Open MPI at MPI_Init; a user's own
+        # setting wins.
+        os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")
     from app.common.petsc_options import command_line_options, split_petsc_options
     try:
         argv, petsc_options = split_petsc_options(sys.argv[1:] if argv is None else list(argv))
