@@ -75,6 +75,30 @@ def run_cli(*args: str, ranks: int = 1, timeout: float = 600, cwd=None) -> subpr
 
 
 
+def run_cli_here(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    """``python -m app ARGS`` in this process: :func:`app.cli.main.main` with stdout and stderr
+    captured, for the CLI's user-error paths, where a new interpreter (about 1 s of DOLFINx
+    imports) adds nothing. The root logger's handlers and level are restored afterwards."""
+    import contextlib
+    import io
+    import logging
+
+    from app.cli.main import main
+    out, err = io.StringIO(), io.StringIO()
+    root = logging.getLogger()
+    handlers, level = root.handlers[:], root.level
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), contextlib.chdir(cwd or ROOT):
+            try:
+                code = main(list(args))
+            except SystemExit as exc:     # argparse's usage errors
+                code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        root.handlers[:] = handlers
+        root.setLevel(level)
+    return subprocess.CompletedProcess([PY, "-m", "app", *args], code, out.getvalue(), err.getvalue())
+
+
 def results_on_ranks(scene, outdir, ranks=(1, 2), cwd=None) -> dict:
     """results.json of ``python -m app run SCENE`` on each number of ``ranks`` (output folders
     ``outdir/o<ranks>``), every run asserted to succeed."""

@@ -13,12 +13,11 @@ import json
 import math
 import pathlib
 import subprocess
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import pytest
 import yaml
-from conftest import ROOT, run_cli
+from conftest import ROOT, run_cli, run_cli_here
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -117,7 +116,7 @@ def _materialise(root: pathlib.Path, bad: Bad) -> pathlib.Path:
 
 @pytest.fixture(scope="module")
 def bad_outcomes(tmp_path_factory):
-    """All CLI calls of the bad-scene matrix, run concurrently (each is a ~1 s interpreter start)."""
+    """All CLI calls of the bad-scene matrix, in this process (each would be a ~1 s interpreter start)."""
     root = tmp_path_factory.mktemp("bad")
     jobs = {}
     for bad in BAD:
@@ -126,10 +125,7 @@ def bad_outcomes(tmp_path_factory):
         if bad.id in RUN_SUBSET:
             out = root / f"out-{bad.id}"
             jobs[bad.id, "run"] = (path, out, ("run", str(path), "-o", str(out), "-q"))
-    with ThreadPoolExecutor(max_workers=6) as pool:
-        futures = {key: (path, out, pool.submit(run_cli, *args, timeout=120))
-                   for key, (path, out, args) in jobs.items()}
-        return {key: (path, out, fut.result()) for key, (path, out, fut) in futures.items()}
+    return {key: (path, out, run_cli_here(*args)) for key, (path, out, args) in jobs.items()}
 
 
 def assert_one_line_error(proc: subprocess.CompletedProcess, *needles: str) -> str:

@@ -15,7 +15,7 @@ import pathlib
 
 import numpy as np
 import pytest
-from conftest import ROOT, results_on_ranks, run_cli, run_scene
+from conftest import ROOT, results_on_ranks, run_cli, run_cli_here, run_scene
 
 GEO = ROOT / "app" / "scenes" / "gmsh" / "block.geo"
 
@@ -237,10 +237,10 @@ def test_inverted_elements_are_an_error(tmp_path):
     s = _err_scene("inv.msh", contact="AB", prescribed={"CD": "xy"},
                    program=[{"steps": 1, "displacement": {"CD": {"translation": [0, -0.1]}}}])
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
-    p = run_cli("validate", str(tmp_path / "s.yaml"))
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"))
     assert p.returncode == 2 and "inverted elements: 1 of 4 triangles" in p.stderr, p.stderr
     (tmp_path / "inv.msh").write_text(INVERTED_MSH.replace("5 2 2 3 1 1 5 2", "5 2 2 3 1 1 2 5"))
-    p = run_cli("validate", str(tmp_path / "s.yaml"))
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"))
     assert p.returncode == 0, p.stderr
 
 

@@ -13,7 +13,7 @@ import random
 import time
 
 import pytest
-from conftest import one_error_line, run_cli
+from conftest import one_error_line, run_cli, run_cli_here
 
 BODY = """\
 L = 10; H = 5;
@@ -92,7 +92,7 @@ def test_cli_refuses_geo_and_marker_stays_absent(tmp_path, command, statement):
     scene = _write(tmp_path, BODY + statement.replace("MARKER", str(marker)) + "\n")
     before = sorted(p.name for p in tmp_path.iterdir())
     args = [command, str(scene)] + (["-o", str(tmp_path / "out")] if command == "run" else [])
-    line = one_error_line(run_cli(*args, cwd=tmp_path))
+    line = one_error_line(run_cli_here(*args, cwd=tmp_path))
     assert "line 9" in line
     assert not marker.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == before
@@ -121,7 +121,7 @@ def test_msh_that_is_a_script_is_refused(tmp_path):
     """A .msh not starting with $MeshFormat would be run by Gmsh as a script."""
     marker = tmp_path / "MARKER"
     scene = _write(tmp_path, BODY + f'SystemCall "touch {marker}";\nMesh 2;\n', name="body.msh")
-    line = one_error_line(run_cli("validate", str(scene), cwd=tmp_path))
+    line = one_error_line(run_cli_here("validate", str(scene), cwd=tmp_path))
     assert "$MeshFormat" in line and not marker.exists()
 
 

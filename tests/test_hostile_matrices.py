@@ -11,7 +11,7 @@ import pytest
 import scipy.io
 import scipy.sparse as sp
 import yaml
-from conftest import one_error_line, run_cli
+from conftest import one_error_line, run_cli, run_cli_here
 
 
 def _chain(n: int, held: bool = True) -> sp.csr_matrix:
@@ -77,7 +77,7 @@ def test_huge_header_refused_in_under_a_second(tmp_path, fmt):
         (tmp_path / "K.petsc").write_bytes(struct.pack(">4i", 1211216, 2**31 - 1, 2**31 - 1, 2**31 - 1))
         name = "K.petsc"
     t0 = time.monotonic()
-    proc = run_cli("validate", _scene(tmp_path, name), cwd=tmp_path)
+    proc = run_cli_here("validate", _scene(tmp_path, name), cwd=tmp_path)
     line = one_error_line(proc)
     assert f"system.K = '{name}'" in line and "max_dofs" in line, line
     assert time.monotonic() - t0 < 10                         # CLI start-up included
@@ -91,31 +91,31 @@ def test_huge_header_refused_in_under_a_second(tmp_path, fmt):
 
 def test_header_beyond_memory_is_exit_4(tmp_path):
     (tmp_path / "K.mtx").write_text("%%MatrixMarket matrix coordinate real general\n100000 100000 2\n1 1 1.0\n2 2 1.0\n")
-    line = one_error_line(run_cli("validate", _scene(tmp_path, "K.mtx", limits={"max_memory_gb": 1e-6}), cwd=tmp_path), 4)
+    line = one_error_line(run_cli_here("validate", _scene(tmp_path, "K.mtx", limits={"max_memory_gb": 1e-6}), cwd=tmp_path), 4)
     assert "K.mtx" in line and "max_memory_gb" in line
 
 
 def test_header_promising_more_than_the_file_holds(tmp_path):
     (tmp_path / "K.mtx").write_text("%%MatrixMarket matrix coordinate real general\n1000 1000 900000\n1 1 1.0\n")
-    line = one_error_line(run_cli("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path))
+    line = one_error_line(run_cli_here("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path))
     assert "K.mtx" in line and "cut off" in line
 
 
 def test_three_dimensional_npy_isone_error_line(tmp_path):
     np.save(tmp_path / "K.npy", np.ones((2, 2, 2)))
-    line = one_error_line(run_cli("validate", _scene(tmp_path, "K.npy"), cwd=tmp_path))
+    line = one_error_line(run_cli_here("validate", _scene(tmp_path, "K.npy"), cwd=tmp_path))
     assert "system.K = 'K.npy'" in line and "dimensions" in line
 
 
 def test_singular_K_of_3000_dofs_refused(tmp_path):
     scipy.io.mmwrite(str(tmp_path / "K.mtx"), _chain(3000, held=False))
-    line = one_error_line(run_cli("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path))
+    line = one_error_line(run_cli_here("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path))
     assert "system.K = 'K.mtx'" in line and "singular" in line, line
 
 
 def test_indefinite_K_of_3000_dofs_refused(tmp_path):
     scipy.io.mmwrite(str(tmp_path / "K.mtx"), (_chain(3000) - 0.5 * sp.identity(3000)).tocsr())
-    line = one_error_line(run_cli("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path))
+    line = one_error_line(run_cli_here("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path))
     assert "negative eigenvalue" in line, line
 
 
@@ -128,13 +128,13 @@ def test_indefinite_K_of_3000_dofs_refused(tmp_path):
 def test_meaningless_M_of_3000_dofs_refused(tmp_path, mass, words):
     scipy.io.mmwrite(str(tmp_path / "K.mtx"), _chain(3000))
     scipy.io.mmwrite(str(tmp_path / "M.mtx"), mass(3000))
-    line = one_error_line(run_cli("validate", _scene(tmp_path, "K.mtx", "M.mtx", analyses=("sufficient",)), cwd=tmp_path))
+    line = one_error_line(run_cli_here("validate", _scene(tmp_path, "K.mtx", "M.mtx", analyses=("sufficient",)), cwd=tmp_path))
     assert "system.M = 'M.mtx'" in line and words in line, line
 
 
 def test_validate_reports_the_real_sizes_of_a_matrices_scene(tmp_path):
     scipy.io.mmwrite(str(tmp_path / "K.mtx"), _chain(30))
-    proc = run_cli("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path)
+    proc = run_cli_here("validate", _scene(tmp_path, "K.mtx"), cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "30 DOFs, 1 contact nodes" in proc.stdout, proc.stdout
 
@@ -142,7 +142,7 @@ def test_validate_reports_the_real_sizes_of_a_matrices_scene(tmp_path):
 @pytest.mark.parametrize("scale", [1e308, 1e-308])
 def test_matrix_entries_out_of_range_refused(tmp_path, scale):
     scipy.io.mmwrite(str(tmp_path / "K.mtx"), sp.csr_matrix(scale * np.eye(4)))
-    line = one_error_line(run_cli("validate", _scene(tmp_path, "K.mtx", analyses=("enumerate",)), cwd=tmp_path))
+    line = one_error_line(run_cli_here("validate", _scene(tmp_path, "K.mtx", analyses=("enumerate",)), cwd=tmp_path))
     assert "system.K = 'K.mtx'" in line and "rescale the units" in line, line
 
 

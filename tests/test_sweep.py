@@ -13,7 +13,7 @@ import time
 
 import pytest
 import yaml
-from conftest import PY, ROOT, run_cli
+from conftest import PY, ROOT, run_cli, run_cli_here
 from mpi4py import MPI
 
 # 6 cases of the block on a small mesh, MCEIP-mu only: about 1 s each
@@ -120,7 +120,6 @@ BAD_SWEEPS = [
 
 @pytest.fixture(scope="module")
 def bad_sweep_outcomes(tmp_path_factory):
-    from concurrent.futures import ThreadPoolExecutor
     root = tmp_path_factory.mktemp("badsweep")
     base = SWEEP.split("sweep:")[0]
     jobs = {}
@@ -130,9 +129,7 @@ def bad_sweep_outcomes(tmp_path_factory):
         jobs[bad_id, "validate"] = ("validate", str(path))
     jobs["unknown_key", "run"] = ("run", str(root / "unknown_key.yaml"), "-o", str(root / "out"), "-q")
     jobs["invalid_case", "run"] = ("run", str(root / "invalid_case.yaml"), "-o", str(root / "out"), "-q")
-    with ThreadPoolExecutor(max_workers=4) as pool:
-        futures = {k: pool.submit(run_cli, *args, timeout=120) for k, args in jobs.items()}
-        return root, {k: f.result() for k, f in futures.items()}
+    return root, {k: run_cli_here(*args) for k, args in jobs.items()}   # user errors: in this process
 
 
 @pytest.mark.parametrize("bad", BAD_SWEEPS, ids=[b[0] for b in BAD_SWEEPS])
