@@ -34,6 +34,7 @@ def pytest_sessionstart(session):
             reporter.write_line(line)
 
 
+
 def pytest_report_header(config):
     """The session's first lines: the installed version of every package of requirements.lock
     (a mismatch is marked and fails tests/test_environment.py) and of Debian's compiled stack."""

@@ -42,6 +42,7 @@ def _measure(res):
     return a, p.max(), x, res["path"]["initial_gaps"]
 
 
+@pytest.mark.slow
 def test_half_disk_against_hertz_with_refinement():
     import pathlib
     import tempfile
@@ -63,6 +64,7 @@ def test_half_disk_against_hertz_with_refinement():
     assert errs[1][0] < 0.04 and errs[2][0] < 0.02                  # shipped mesh (h = 0.04): a few percent
 
 
+@pytest.mark.slow
 def test_l_shape_example_runs_with_outputs(tmp_path):
     p = run_cli("run", str(EX / "l_shape.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr

@@ -219,6 +219,7 @@ def _mutations(src: bytes, count: int, seed: int = 19):
         yield case, bytes(data)
 
 
+@pytest.mark.slow
 def test_mutated_msh_fuzz_never_crashes_this_process(tmp_path):
     """200 random mutations of a valid .msh: each either reads or gives one SystemPathError line;
     Gmsh's crashes stay in its child. (Two files at a time: each child starts Python and Gmsh.)"""

@@ -270,6 +270,7 @@ def test_user_mistakes_are_one_line_errors(tmp_path, scene_file, change, needle)
     assert needle in lines[0], lines[0]
 
 
+@pytest.mark.slow
 def test_cli_run_relative_paths_and_mpi(tmp_path):
     """A matrices scene with relative paths runs from any folder, and gives the same numbers on 2 ranks."""
     import yaml

@@ -64,6 +64,7 @@ def test_quiet_progress_writes_nothing():
     assert rec.lines == []
 
 
+@pytest.mark.slow
 def test_slow_mceip_mu_prints_a_line_at_least_every_5_s(monkeypatch):
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
