@@ -83,7 +83,7 @@ _SCRIPT = textwrap.dedent("""
     import numpy as np
     from mpi4py import MPI
     from app.linalg import lu
-    from app.loading.flexibility import flexibility_gathered, flexibility_matsolve
+    from app.loading.flexibility import contact_flexibility, flexibility_gathered, flexibility_matsolve
     from app.systems.block.operators import block_operators
     from app.systems.block.mesh import block_mesh
     comm = MPI.COMM_WORLD
@@ -94,10 +94,28 @@ _SCRIPT = textwrap.dedent("""
     signs = np.tile([1.0, -1.0], len(ops.contact_x))
     with lu(ops.K, prefix="cd_flex_") as ksp:
         W = flexibility_matsolve(ksp, ops.K, dofs, signs, chunk_bytes=8 * ops.K.getSize()[0] * 5)
+        u = []
+        for f in (ops.load_x, ops.load_y):                           # the loads' contact displacements
+            x = f.duplicate()
+            ksp.solve(f, x)
+            u.append(np.concatenate(comm.allgather(x.getArray())))
+            x.destroy()
     assert all(np.array_equal(w, W) for w in comm.allgather(W))      # replicated on every rank
-    Wg = flexibility_gathered(ops.K, dofs, signs)                     # K on rank 0, selected inverse entries
-    assert Wg is not None and all(np.array_equal(w, Wg) for w in comm.allgather(Wg))
+    Wg, ug = flexibility_gathered(ops.K, (ops.load_x, ops.load_y), dofs, signs)   # K on rank 0
+    assert all(np.array_equal(w, Wg) for w in comm.allgather(Wg))
     np.testing.assert_allclose(Wg, W, rtol=0, atol=1e-13 * np.abs(W).max())
+    for a, b in zip(ug, u):
+        np.testing.assert_allclose(a, signs * b[dofs], rtol=0, atol=1e-12 * np.abs(a).max())
+    # the study's path: W from rank 0 on several ranks, K factorised only for a whole field
+    with contact_flexibility(ops.K, ops.load_x, ops.load_y, dofs, signs) as flex:
+        assert (flex._ksp is None) == (comm.size > 1)
+        np.testing.assert_allclose(flex.W, 0.5 * (W + W.T), rtol=0, atol=1e-13 * np.abs(W).max())
+        r = np.linspace(-1.0, 1.0, len(dofs))
+        v = flex.field(0.3, -0.2, r)
+        full = np.concatenate(comm.allgather(v.getArray()))
+        v.destroy()
+        np.testing.assert_allclose(signs * full[dofs], 0.3 * ug[0] + (-0.2) * ug[1] + flex.W @ r, rtol=0,
+                                   atol=1e-11 * np.abs(full).max())
     if comm.rank == 0:
         np.save(sys.argv[1], W)
 """)

@@ -37,10 +37,20 @@ class ContactFlexibility:
     W: np.ndarray                 # u_c = u0x gx + u0y gy + W r   [mm/N]
     u0x: np.ndarray               # contact displacements for a unit gx with r = 0 [mm/mm]
     u0y: np.ndarray
-    ksp: PETSc.KSP                # factorised K, kept to rebuild whole fields
+    K: PETSc.Mat                  # the stiffness (not owned)
     dofs: np.ndarray              # system DOFs of (T_0, N_0, T_1, ...)
     signs: np.ndarray             # paper-axis signs of those DOFs
     loads: tuple[PETSc.Vec, PETSc.Vec]
+    _ksp: PETSc.KSP | None = None  # factorised K (owned), to rebuild whole fields
+
+    @property
+    def ksp(self) -> PETSc.KSP:
+        """The factorised K on K's communicator (MPI collective on first use). On several ranks W
+        comes from a copy of K on rank 0 (:func:`flexibility_gathered`), so K itself is factorised
+        only when whole fields are asked for (ParaView files, screenshots)."""
+        if self._ksp is None:
+            self._ksp = lu_solver(self.K, prefix="cd_flex_")
+        return self._ksp
 
     @functools.cached_property
     def schur(self) -> np.ndarray:
@@ -87,8 +97,10 @@ class ContactFlexibility:
         return u
 
     def destroy(self) -> None:
-        """Free the factorisation of K this object owns."""
-        self.ksp.destroy()
+        """Free the factorisation of K this object owns (if it was made)."""
+        if self._ksp is not None:
+            self._ksp.destroy()
+            self._ksp = None
 
     def __enter__(self) -> "ContactFlexibility":
         return self
@@ -110,32 +122,59 @@ def flexibility_inverse(ksp: PETSc.KSP, dofs: np.ndarray, signs: np.ndarray) -> 
     return signs[:, None] * block * signs[None, :]
 
 
-def flexibility_gathered(K: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray) -> np.ndarray | None:
-    """W on several ranks: K gathered on rank 0 (``MatCreateSubMatrices``), factorised there alone
-    and W taken from MUMPS's selected inverse entries (:func:`flexibility_inverse`, which a
-    distributed factor cannot give: a solve after it fails in PETSc 3.18), then broadcast; None
+def flexibility_gathered(K: PETSc.Mat, loads: tuple[PETSc.Vec, ...], dofs: np.ndarray,
+                         signs: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]] | None:
+    """W and the contact displacements of ``loads`` on several ranks: K gathered on rank 0
+    (``MatCreateSubMatrices``) and factorised there alone, W taken from MUMPS's selected inverse
+    entries (:func:`flexibility_inverse`, which a distributed factor cannot give: a solve after it
+    fails in PETSc 3.18), each load solved with the same factors; broadcast to every rank. None
     when that fails (MPI collective). At 10^6 DOFs on 2 ranks this takes seconds where the block
     solves of :func:`flexibility_matsolve` take minutes (one dense solution column per contact DOF)."""
     comm = K.getComm().tompi4py()
     N = K.getSize()[0]
     rows = PETSc.IS().createStride(N if comm.rank == 0 else 0, 0, 1, comm=PETSc.COMM_SELF)
-    W = None
+    out = None
+    gathered = []
     try:
+        for f in loads:                                            # MPI collective: each load on rank 0
+            scatter, f0 = PETSc.Scatter.toZero(f)
+            gathered.append(f0)
+            try:
+                scatter.scatter(f, f0, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
+            finally:
+                scatter.destroy()
         (K0,) = K.createSubMatrices(rows, rows)                   # MPI collective: all of K on rank 0
         try:
             if comm.rank == 0:
-                ksp0 = lu_solver(K0, prefix="cd_flex_")
-                try:
-                    W = flexibility_inverse(ksp0, dofs, signs)
-                finally:
-                    ksp0.destroy()
+                out = _on_rank_zero(K0, gathered, dofs, signs)
         finally:
             K0.destroy()
     except PETSc.Error:
-        W = None
+        out = None
     finally:
         rows.destroy()
-    return comm.bcast(W, root=0)                                  # MPI collective
+        for f0 in gathered:
+            f0.destroy()
+    return comm.bcast(out, root=0)                                # MPI collective
+
+
+def _on_rank_zero(K0: PETSc.Mat, loads: list[PETSc.Vec], dofs: np.ndarray,
+                  signs: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]] | None:
+    """W and the loads' contact displacements from the whole K on one process (None on failure)."""
+    ksp0 = lu_solver(K0, prefix="cd_flex_")
+    x = K0.createVecRight()
+    try:
+        W = flexibility_inverse(ksp0, dofs, signs)
+        if W is None:
+            return None
+        u = []
+        for f0 in loads:
+            ksp0.solve(f0, x)
+            u.append(signs * x.getArray(readonly=True)[dofs])
+        return W, u
+    finally:
+        x.destroy()
+        ksp0.destroy()
 
 
 #: bytes of one chunk's dense solution block (N x columns doubles); bounds the W build's memory
@@ -201,6 +240,12 @@ def contact_flexibility(K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.Vec,
     """Factor ``K`` and compute W and the unit-load contact displacements (MPI collective)."""
     dofs = np.asarray(dofs, dtype=np.int64)
     signs = np.asarray(signs, dtype=float)
+    if K.getComm().getSize() > 1:
+        got = flexibility_gathered(K, (load_x, load_y), dofs, signs)   # MPI collective
+        if got is not None:
+            W, (u0x, u0y) = got
+            return ContactFlexibility(W=0.5 * (W + W.T), u0x=u0x, u0y=u0y, K=K, dofs=dofs, signs=signs,
+                                      loads=(load_x, load_y))
     ksp = lu_solver(K, prefix="cd_flex_")
     try:
         return _flexibility(ksp, K, load_x, load_y, dofs, signs)
@@ -225,8 +270,6 @@ def _flexibility(ksp: PETSc.KSP, K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.
     try:
         n2 = len(dofs)
         W = flexibility_inverse(ksp, dofs, signs)
-        if W is None and K.getComm().getSize() > 1:
-            W = flexibility_gathered(K, dofs, signs)
         if W is None:
             W = flexibility_matsolve(ksp, K, dofs, signs)
         if W is None:                     # a factor without sparse block solves: one solve per column
@@ -247,4 +290,4 @@ def _flexibility(ksp: PETSc.KSP, K: PETSc.Mat, load_x: PETSc.Vec, load_y: PETSc.
         for obj in (x, b, seq, is_from, scatter):
             obj.destroy()
     W = 0.5 * (W + W.T)
-    return ContactFlexibility(W=W, u0x=u0x, u0y=u0y, ksp=ksp, dofs=dofs, signs=signs, loads=(load_x, load_y))
+    return ContactFlexibility(W=W, u0x=u0x, u0y=u0y, K=K, dofs=dofs, signs=signs, loads=(load_x, load_y), _ksp=ksp)
