@@ -198,7 +198,19 @@ class CompleteClaim:
 
 
 @dataclass
-class MceipMuOutcome:
+class _Solved:
+    """What every MCEIP outcome has: the ``solutions`` found, the one-line ``result``, the
+    ``search`` record, ``certified`` and the ``certificate`` of what is proven."""
+
+    solutions: list[Solution]
+    result: str
+    search: dict[str, Any]
+    certified: bool
+    certificate: Certificate
+
+
+@dataclass
+class MceipMuOutcome(_Solved):
     """MCEIP-mu (21)-(23) at one state: the ``solutions`` (critical mu, ascending), the one-line
     ``result``, the ``onset`` and ``complete`` claims of the proof (None for the full-size
     search, which proves nothing), the ``certificate``, the ``search`` record and the
@@ -206,11 +218,6 @@ class MceipMuOutcome:
     obstacle; ``extra`` the zero-reaction-node notes; ``proof`` the pencil and proof log written
     to ``proofs/`` (never in results.json)."""
 
-    solutions: list[Solution]
-    result: str
-    search: dict[str, Any]
-    certified: bool
-    certificate: Certificate
     onset: OnsetClaim | None = None
     complete: CompleteClaim | None = None
     method: str | None = None
@@ -239,17 +246,12 @@ class MceipMuOutcome:
 
 
 @dataclass
-class MceipLambda2Outcome:
+class MceipLambda2Outcome(_Solved):
     """MCEIP-lambda^2 (12)-(14) at the friction coefficient ``mu``: the ``solutions`` found, the
     one-line ``result``, the ``search`` record (with the necessary condition and the proven upper
     bound), ``certified`` and the ``certificate`` of what is proven; ``extra`` the
     zero-reaction-node notes."""
 
-    solutions: list[Solution]
-    result: str
-    search: dict[str, Any]
-    certified: bool
-    certificate: Certificate
     mu: float | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
