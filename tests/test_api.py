@@ -179,6 +179,23 @@ def test_non_finite_numbers_are_null_with_a_reason():
     assert to_document({"a": 1.0}) == {"format_version": FORMAT_VERSION, "a": 1.0}     # no block when all finite
 
 
+
+def test_results_json_text_is_the_document_one_state_per_line():
+    """dumps_document writes exactly the JSON data json.dumps would (keys included: true, null,
+    numbers), refuses NaN and infinity, and puts each top-level key and each state on its own line."""
+    from app.io.document import dumps_document
+    doc = {"format_version": FORMAT_VERSION, "units": {"length": "mm"}, "empty": [], "none": {},
+           "odd_keys": {True: 1, None: 2, 3: [1.5, {"x": [0.25]}]},
+           "states": [{"index": k, "nodes": [{"u_N": -0.1 * k, "status": "slip"}] * 3} for k in range(4)]}
+    text = dumps_document(doc)
+    assert json.loads(text) == json.loads(json.dumps(doc))
+    lines = text.splitlines()
+    assert sum(1 for ln in lines if ln.startswith('  {"index": ')) == 4          # one line per state
+    assert all(ln.startswith(" ") or ln in "{}" for ln in lines)
+    for bad in (math.nan, math.inf):
+        with pytest.raises(ValueError):
+            dumps_document({"states": [{"x": bad}]})
+
 def test_load_scene_errors_are_one_line():
     with pytest.raises(app.SceneError, match=r"^scene: .*mu") as err:
         app.load_scene({"name": "x", "system": {"type": "block"}, "mu": -1})

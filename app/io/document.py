@@ -106,7 +106,9 @@ def dumps_document(doc: Mapping) -> str:
 def _dumps(obj, depth: int) -> str:
     pad = " " * (depth + 1)
     if depth < 2 and isinstance(obj, dict) and obj:
-        items = (f"{pad}{json.dumps(str(k))}: {_dumps(v, depth + 1)}" for k, v in obj.items())
+        # a key as json.dumps writes it (True -> "true", None -> "null", 3 -> "3")
+        items = (f"{pad}{json.dumps(k if isinstance(k, str) else json.dumps(k))}: {_dumps(v, depth + 1)}"
+                 for k, v in obj.items())
         return "{\n" + ",\n".join(items) + "\n" + " " * depth + "}"
     if depth < 2 and isinstance(obj, list) and obj:
         return "[\n" + ",\n".join(pad + _dumps(v, depth + 1) for v in obj) + "\n" + " " * depth + "]"
