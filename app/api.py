@@ -88,5 +88,5 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
         if getattr(scene, key, None) is not None:
             raise SceneError(f"scene '{scene.name}': has a '{key}' section: it is a batch of studies, "
                              f"run it with: python -m app run SCENE")
-    from app.study.run import run_study as _run_study  # PETSc, and DOLFINx for a block, only when running
-    return StudyResult.from_dict(_run_study(scene, comm, outdir=None))
+    from app.study.run import study  # PETSc, and DOLFINx for a block, only when running
+    return study(scene, comm, outdir=None)

@@ -1,15 +1,14 @@
-"""Typed, read-only views of a study's results (the ``results.json`` document).
+"""Typed, read-only views of a study's results (what ``results.json`` holds).
 
-A study produces one JSON-like dictionary (:func:`app.study.run.run_study`; its keys are described in
-``docs/method.md`` and the README; each state's ``analyses`` block is written from the analyses'
-typed outcomes, :mod:`app.analyses.outcomes`). :class:`StudyResult` wraps it without changing it:
+A finished study (:func:`app.study.run.study`) returns a :class:`StudyResult` whose states are
+built from the analyses' typed outcomes (:mod:`app.analyses.outcomes`, via
+app/io/from_outcomes.py); its ``raw`` is the results dictionary written from those same outcomes,
+so :meth:`StudyResult.to_json` is exactly the ``results.json`` content. :meth:`StudyResult.load`
+and :meth:`StudyResult.from_dict` build the same views from a saved file (any format version);
+``tests/test_typed_result.py`` checks that the two constructions agree field by field.
 
-* the dictionary stays the single source of truth, so :meth:`StudyResult.to_json` gives exactly
-  today's ``results.json`` content (plus ``format_version``) and keys added by other analyses
-  (e.g. ``certified``/``certificate`` of an MCEIP solution) are carried through untouched;
-* the typed fields (dataclasses, numpy arrays for mode vectors) are built from it once, and the
-  queries the outputs need (:meth:`StudyResult.first_instability`, :meth:`StateResult.min_mu`,
-  :attr:`StudyResult.final`, :meth:`StudyResult.state`, ...) are written here once.
+The queries the outputs need (:meth:`StudyResult.first_instability`, :meth:`StateResult.min_mu`,
+:attr:`StudyResult.final`, :meth:`StudyResult.state`, ...) are written here once.
 
 This module imports neither PETSc nor DOLFINx: it also reads results saved by earlier runs.
 
@@ -53,7 +52,8 @@ def _float(v: Any) -> float:
     return math.nan if v is None else float(v)
 
 
-def _array(values: Any) -> np.ndarray:
+def float_array(values: Any) -> np.ndarray:
+    """Read-only float64 array of ``values`` (``None`` entries: NaN)."""
     a = np.asarray([_float(v) for v in (values or [])], dtype=np.float64)
     a.flags.writeable = False
     return a
@@ -88,7 +88,7 @@ class MceipSolution:
         if x is not None:
             x = np.array(x, dtype=np.float64)
             x.flags.writeable = False
-        return cls(value=CriticalMu(value) if problem == "mu" else value, x_Ts=_array(d.get("x_Ts")),
+        return cls(value=CriticalMu(value) if problem == "mu" else value, x_Ts=float_array(d.get("x_Ts")),
                    pattern=tuple(d.get("pattern") or ()),
                    evidence={k: d[k] for k in EVIDENCE_KEYS if k in d}, raw=d,
                    certified=d.get("certified"), certificate=d.get("certificate"), x=x)
@@ -139,7 +139,7 @@ class MceipResult:
     @property
     def values(self) -> np.ndarray:
         """Every eigenvalue found, ascending."""
-        return _array([s.value for s in self.solutions])
+        return float_array([s.value for s in self.solutions])
 
     def min(self) -> float | None:
         """The smallest eigenvalue found (a :class:`CriticalMu` for MCEIP-mu), or None if none."""
@@ -222,7 +222,7 @@ class StateResult:
             necessary=None if nec is None else NecessaryResult(bool(nec["satisfied"]), _float(nec.get("min_eig_K_sym")),
                                                                _float(nec.get("min_eig_M_sym")), nec),
             sufficient=None if suf is None else SufficientResult(
-                bool(suf["satisfied"]), _array(suf.get("lambda2")),
+                bool(suf["satisfied"]), float_array(suf.get("lambda2")),
                 tuple(MceipSolution.from_dict(m, "lambda2") for m in suf.get("modes") or []), suf),
             mceip_mu=None if "mceip_mu" not in ok else MceipResult.from_dict(ok["mceip_mu"], "mu"),
             mceip_lambda2=None if "mceip_lambda2" not in ok else MceipResult.from_dict(ok["mceip_lambda2"], "lambda2"),
@@ -239,7 +239,7 @@ class StateResult:
 
     def mu_values(self) -> np.ndarray:
         """Every MCEIP-mu value found at this state, ascending (empty if none or not asked)."""
-        return _array([]) if self.mceip_mu is None else self.mceip_mu.values
+        return float_array([]) if self.mceip_mu is None else self.mceip_mu.values
 
     def max_lambda2(self) -> float | None:
         """Largest admissible lambda^2 of the sufficient condition (17)-(18), None if none."""
@@ -320,7 +320,7 @@ class StudyResult:
 
     def min_mu_along_path(self) -> np.ndarray:
         """Smallest MCEIP-mu value at every state (NaN where none was found)."""
-        return _array([math.nan if (m := s.min_mu()) is None else m for s in self.states])
+        return float_array([math.nan if (m := s.min_mu()) is None else m for s in self.states])
 
     @property
     def complete(self) -> bool:

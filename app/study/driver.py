@@ -27,11 +27,11 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
     Returns the results dictionary (on rank 0 with the pictures drawn recorded in it).
     """
     from app.plot.pictures import prestarted
-    from app.study.run import run_study
+    from app.study.run import study
     progress = progress or Progress(enabled=False)
     with prestarted(scene, comm):     # rank 0: the drawing processes warm up during the study
         # outdir: where the scene's field outputs (if any) go, written while the system is alive
-        results = run_study(scene, comm, progress, outdir=outdir)
+        results = study(scene, comm, progress, outdir=outdir).raw
         if comm.rank == 0:
             from app.io.proofs import write_proofs
             from app.io.results import write_results

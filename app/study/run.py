@@ -17,6 +17,8 @@ from app.analyses.runner import analyse_state
 from app.common.library_warnings import describe, explained, merged
 from app.common.progress import Progress
 from app.common.stages import Stages
+from app.io.from_outcomes import state_view
+from app.io.result import Node, StudyResult
 from app.linalg import one_blas_thread
 from app.loading.classify import classify
 from app.scene.schema import Scene
@@ -25,7 +27,16 @@ from app.systems import get as system_type
 
 def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
               outdir=None) -> dict:
-    """Run ``scene``; returns the results dictionary (identical on every rank).
+    """Run ``scene``; returns the results dictionary (identical on every rank): the ``raw`` of
+    :func:`study` (the arguments are its own)."""
+    return study(scene, comm, progress, inspect, outdir).raw
+
+
+def study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
+          outdir=None) -> StudyResult:
+    """Run ``scene`` (MPI collective); returns the typed :class:`StudyResult` (identical on every
+    rank), its states built from the analyses' typed outcomes (app/io/from_outcomes.py) and its
+    ``raw`` the results dictionary that results.json is written from.
 
     ``inspect(system, states, cache)``, if given, runs after the per-state analyses while the
     system is alive (``cache``: classification key -> (first state, its analyses: name -> typed
@@ -37,16 +48,20 @@ def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, in
     t_start = time.perf_counter()
     stages = Stages()
     with explained() as caught:
-        results = _run(scene, comm, stages, progress or Progress(enabled=False), inspect, outdir, t_start)
+        results, views = _run(scene, comm, stages, progress or Progress(enabled=False), inspect, outdir, t_start)
     # each rank saw the warnings of its own share of the work (MPI collective)
     library = merged(comm.allgather(caught.as_list()))
     if library:
         results["library_warnings"] = library
         results["warnings"] += [describe(r) for r in library if not r["explanation"]]
-    return results
+    return StudyResult(scene=scene.name, system=results["system"], mu=float(scene.mu), units=results["units"],
+                       analyses_requested=tuple(scene.analyses), path=results["path"],
+                       failures=tuple(results["failures"]), warnings=tuple(results["warnings"]),
+                       states=views, raw=results)
 
 
-def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float) -> dict:
+def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir,
+         t_start: float) -> tuple[dict, tuple]:
     """The body of :func:`run_study` (library warnings are caught around it)."""
     # the system type's own module (app/systems/) builds the system and runs its loading path
     system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
@@ -57,25 +72,31 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
 
 
 def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float,
-           system, states, path_info) -> dict:
-    """The per-state analyses and fields of :func:`_run` on the built ``system``.
+           system, states, path_info) -> tuple[dict, tuple]:
+    """The per-state analyses and fields of :func:`_run` on the built ``system``: the results
+    dictionary and the typed state views.
 
     The states hold the typed outcomes (:mod:`app.analyses.outcomes`) until every analysis is
-    done; their ``analyses`` blocks are then written once per distinct classification."""
+    done; their ``analyses`` blocks are then written once per distinct classification and the
+    views built from the outcomes."""
     cache: dict = {}
     deferred: list = []     # (classification, its analyses, state index): condensed MCEIP-mu, distributed below
     out_states = []
+    typed_nodes = []          # per state: its contact nodes as app.io.result.Node
     failures = [path_info["failure"]] if path_info.get("failure") else []
     bar = progress.bar(len(states), "analyses")
     for state in states:
         t_state = time.perf_counter()
         # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/curvature.py)
         cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
+        nodes = tuple(Node(id=n.id, x=float(n.x), status=st, sign=int(sg), u_N=float(uN), u_T=float(uT),
+                           r_N=float(rN), r_T=float(rT))
+                      for n, st, sg, uN, uT, rN, rT in zip(system.nodes, cls.status, cls.signs,
+                                                          state.u_N, state.u_T, state.r_N, state.r_T))
+        typed_nodes.append(nodes)
         entry = {"index": state.index, "load": state.load, "classification": cls.counts(),
-                 "nodes": [{"id": n.id, "x": n.x, "status": st, "sign": sg,
-                            "u_N": float(uN), "u_T": float(uT), "r_N": float(rN), "r_T": float(rT)}
-                           for n, st, sg, uN, uT, rN, rT in zip(system.nodes, cls.status, cls.signs,
-                                                               state.u_N, state.u_T, state.r_N, state.r_T)],
+                 "nodes": [{"id": n.id, "x": n.x, "status": n.status, "sign": n.sign, "u_N": n.u_N, "u_T": n.u_T,
+                            "r_N": n.r_N, "r_T": n.r_T} for n in nodes],
                  **state.extra}
         if cls.key in cache:
             first, analyses = cache[cls.key]
@@ -103,7 +124,9 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
                                                    progress)
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, cache) if inspect is not None else None
+    outcomes = [entry["analyses"] for entry in out_states]
     _write_analyses(out_states)
+    views = tuple(state_view(e, n, a, e["analyses"]) for e, n, a in zip(out_states, typed_nodes, outcomes))
     outputs_record = None
     from app.io.fields import wants_fields
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
@@ -116,7 +139,7 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
             "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
             "scene_config": scene.model_dump(mode="json", exclude_none=True),
             **({"outputs": outputs_record} if outputs_record is not None else {}),
-            "states": out_states}
+            "states": out_states}, views
 
 
 def _write_analyses(out_states: list[dict]) -> None:
