@@ -251,7 +251,7 @@ def test_full_disk_or_no_memory_gives_one_line(tmp_path, monkeypatch, capsys, wh
     else:
         def oom(*a, **k):
             raise MemoryError()
-        monkeypatch.setattr(study_mod, "run_study", oom)
+        monkeypatch.setattr(study_mod, "study", oom)
     code = main(["run", str(scene), "-o", str(out), "-q"])
     cap = capsys.readouterr()
     assert code == 4
