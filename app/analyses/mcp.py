@@ -26,7 +26,7 @@ from petsc4py import PETSc
 
 from app.analyses.bordered_mcp import RSLS, SSLS, BorderedMcp
 from app.analyses.mcp_results import McpSolution, SearchReport
-from app.analyses.pencils import dense, diag_scale
+from app.analyses.pencils import REPLICATE_MAX, dense, diag_scale, serial_copy
 from app.linalg import owned
 from app.scene.schema import McpSettings
 
@@ -83,8 +83,12 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     """
     alpha = diag_scale(A0)
     tau = 1.0 if value_scale is None else value_scale
+    # a small problem distributed over several ranks is searched whole on every rank: each
+    # Newton step of the distributed search is a handful of collectives on a few hundred
+    # unknowns; every rank computes the same solutions from the same data
+    whole = A0.getComm().getSize() > 1 and A0.getSize()[0] <= REPLICATE_MAX
     with ExitStack() as owns:                      # every PETSc object destroyed, errors included
-        S0, S1 = (owns.enter_context(owned(A.copy())) for A in (A0, A1))
+        S0, S1 = (owns.enter_context(owned(serial_copy(A) if whole else A.copy())) for A in (A0, A1))
         S0.scale(1.0 / alpha)
         S1.scale(tau / alpha)
         op = BorderedMcp(S0, S1, comp, pairs=pairs)

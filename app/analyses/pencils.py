@@ -167,6 +167,25 @@ def dense(A: PETSc.Mat) -> np.ndarray:
     return np.vstack(comm.allgather(local))
 
 
+#: up to this size a problem distributed over several ranks is solved whole on every rank
+#: (:func:`serial_copy`): its collectives would cost more than the work they share out
+REPLICATE_MAX = 2000
+
+
+def serial_copy(A: PETSc.Mat) -> PETSc.Mat:
+    """The whole of a distributed ``A`` as a sequential matrix on every rank (MPI collective; the
+    caller owns it), rows and columns in the global numbering."""
+    n, m = A.getSize()
+    rows = PETSc.IS().createStride(n, 0, 1, comm=PETSc.COMM_SELF)
+    cols = rows if m == n else PETSc.IS().createStride(m, 0, 1, comm=PETSc.COMM_SELF)
+    try:
+        return A.createSubMatrices(rows, cols)[0]
+    finally:
+        rows.destroy()
+        if cols is not rows:
+            cols.destroy()
+
+
 def gather_vec(v: PETSc.Vec) -> np.ndarray:
     """Replicated numpy copy of a distributed vector (MPI collective)."""
     comm = v.getComm().tompi4py()

@@ -29,7 +29,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils import axpy_structure, diag_scale, sym_part
+from app.analyses.pencils import REPLICATE_MAX, axpy_structure, diag_scale, serial_copy, sym_part
 from app.linalg import from_options, lu, owned, with_prefix
 
 PROVEN = "proven"
@@ -134,7 +134,9 @@ def free_block_max_omega2(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, tol: f
         isf = owns.enter_context(owned(PETSc.IS().createGeneral(free, comm=Ks.getComm())))
         Kf = owns.enter_context(owned(Ks.createSubMatrix(isf, isf)))
         Mf = owns.enter_context(owned(Ms.createSubMatrix(isf, isf)))
-        eps = owns.enter_context(owned(with_prefix(SLEPc.EPS().create(Ks.getComm()), "cd_lambda2_")))
+        if Kf.getComm().getSize() > 1 and 0 < Kf.getSize()[0] <= REPLICATE_MAX:    # MPI collective
+            Kf, Mf = (owns.enter_context(owned(serial_copy(A))) for A in (Kf, Mf))
+        eps = owns.enter_context(owned(with_prefix(SLEPc.EPS().create(Kf.getComm()), "cd_lambda2_")))
         if Kf.getSize()[0] == 0:
             return None
         try:
