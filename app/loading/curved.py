@@ -1,4 +1,11 @@
-"""Quasi-static contact increments against a rigid circle, with the exact gap (docs/method.md section 8).
+"""Quasi-static contact increments against a rigid curved obstacle, with the exact gap (docs/method.md section 8).
+
+The obstacle is a :class:`Circle` or a smooth curve of the Gmsh file
+(:class:`app.loading.curve.SmoothCurve`); :class:`CurvedContact` uses only their common
+interface: ``gap(x)`` (signed distance, positive on the body's side), ``frames(x)`` (unit tangent
+and outward normal of the body at the closest points), ``curvatures(x)`` (signed curvature
+there), ``arc(x)``, ``anchor`` and ``position_scale(x)`` (the point and the magnitude the gaps'
+round-off is relative to) and ``describe()``.
 
 Geometry (:class:`Circle`): centre ``c``, radius ``R``; a point ``x`` at ``rho = |x - c|``,
 ``e = (x - c) / rho``. Body outside (convex cylinder): gap ``g = rho - R``, outward normal of the
@@ -59,6 +66,19 @@ class Circle:
     def curvature(self) -> float:
         return -self.sign / self.R
 
+    @property
+    def anchor(self) -> np.ndarray:
+        """The point the gaps are computed from (their round-off is relative to ``|x - anchor|``)."""
+        return self.p0
+
+    def curvatures(self, x: np.ndarray) -> np.ndarray:
+        """Signed curvature at the contact points of ``x``: the constant ``-1/R`` outside, ``+1/R`` inside."""
+        return np.full(len(np.atleast_2d(x)), self.curvature)
+
+    def position_scale(self, x: np.ndarray) -> float:
+        """``max |x - c|``: the scale below which a gap counts as closed (1e-12 of it)."""
+        return float(np.max(np.abs(np.atleast_2d(x) - self.c)))
+
     def _polar(self, x: np.ndarray):
         w = np.atleast_2d(np.asarray(x, dtype=float)) - self.p0
         a, b = w @ self.m, w @ self.mp                      # along m (radial at p0) and m_perp
@@ -89,7 +109,8 @@ class Circle:
 
 
 class CurvedContact:
-    """Incremental frictional contact against a :class:`Circle`, exact gap (one instance per study).
+    """Incremental frictional contact against a curved obstacle (a :class:`Circle` or a
+    :class:`app.loading.curve.SmoothCurve`), exact gap (one instance per study).
 
     Same calling convention as :class:`FrictionalContact` inside app/loading/program.py:
     ``solve(u0, u_T_prev, g_prev, d_prev)`` with ``u0`` the contact displacements of the load
@@ -97,7 +118,7 @@ class CurvedContact:
     frames (:meth:`carry` gives them from a result).
     """
 
-    def __init__(self, Kc: np.ndarray, mu: float, circle: Circle, X: np.ndarray, t0: np.ndarray, n0: np.ndarray):
+    def __init__(self, Kc: np.ndarray, mu: float, circle, X: np.ndarray, t0: np.ndarray, n0: np.ndarray):
         self.Kc_sys = np.asarray(Kc, dtype=float)
         self.n = Kc.shape[0] // 2
         self.mu = mu
@@ -107,7 +128,7 @@ class CurvedContact:
         self.t0, self.n0 = np.asarray(t0, dtype=float), np.asarray(n0, dtype=float)
         self.gaps0 = circle.gap(self.X)
         self.extent = max(float(np.max(np.ptp(self.X, axis=0))), 1e-300)
-        self.reach = float(np.max(np.abs(self.X - circle.p0)))     # size of the positions the gaps are computed from
+        self.reach = float(np.max(np.abs(self.X - circle.anchor)))     # size of the positions the gaps are computed from
 
     def positions(self, u: np.ndarray) -> np.ndarray:
         return self.X + np.outer(u[0::2], self.t0) + np.outer(u[1::2], self.n0)
@@ -195,7 +216,7 @@ class CurvedContact:
         if rscale == 0.0:
             rscale = 1.0                                  # no load, no reaction: nothing is violated
         gscale = max(float(np.max(np.abs(g))), 1e-300)
-        xscale = max(float(np.max(np.abs(x - self.circle.c))), 1e-300)
+        xscale = max(self.circle.position_scale(x), 1e-300)
         # exact conditions; a gap at the round-off of the positions (1e-14 of |x - c|) counts as closed
         closed = np.abs(g) <= 1e-12 * xscale
         v = [max(0.0, -float(np.min(g)) - 1e-12 * xscale) / max(gscale, 1e-12 * xscale),
@@ -214,7 +235,8 @@ class CurvedContact:
                                iterations=its, method=f"{method}, {lin} exact-gap linearisation(s)", violation=viol,
                                extra={"u_system": u.copy(),
                                       "curved_contact": {"frame": abcd.tolist(), "gap": g.tolist(), "u_system": u.tolist(),
-                                                         "arc": arc.tolist(), "linearisations": lin}})
+                                                         "arc": arc.tolist(), "linearisations": lin,
+                                                         "curvature": self.circle.curvatures(x).tolist()}})
 
     def destroy(self) -> None:
         pass
