@@ -231,7 +231,7 @@ def obstacle_curve(path: pathlib.Path, shown: str, info: ModelInfo, obstacle, co
     body, from a ``.msh`` file, not smooth or too long to sample."""
     from app.loading.curve import CurveError, SmoothCurve
     name, key = obstacle.physical, "obstacle.physical"
-    if name in info.curves:
+    if name in info.curves and name not in info.obstacle_curves:     # (a .msh keeps its free curves' elements)
         raise SystemPathError(key, name, f"the physical curve '{name}' of {shown} is part of the body (it bounds a "
                               "surface): the obstacle must be a curve of its own, bounding no surface")
     if name not in info.obstacle_curves:
