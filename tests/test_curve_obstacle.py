@@ -201,7 +201,6 @@ def test_curve_wrong_side_and_msh_are_one_line(tmp_path):
     p = _write(tmp_path, BLOCK + ARC.format(R=100.0), {"type": "curve", "physical": "ob", "side": "right"})
     line = one_error_line(run_cli_here("run", str(p), "-o", str(tmp_path / "out"), "-q", cwd=tmp_path))
     assert "system.obstacle.side = 'right'" in line and "on its left" in line
-    import gmsh
     from app.systems.gmsh.mesh import gmsh_initialize
     geo = tmp_path / "c.geo"
     geo.write_text(BLOCK + ARC.format(R=100.0))
@@ -220,3 +219,39 @@ def test_curve_wrong_side_and_msh_are_one_line(tmp_path):
     (tmp_path / "m.yaml").write_text(yaml.safe_dump(scene))
     line = one_error_line(run_cli_here("validate", str(tmp_path / "m.yaml"), cwd=tmp_path))
     assert "system.obstacle.physical = 'ob'" in line and ".geo" in line
+
+
+@pytest.mark.slow
+def test_shipped_curve_examples(tmp_path):
+    """app/scenes/gmsh/half_disk_cylinder_curve.yaml (the cylinder of half_disk_cylinder.yaml as a
+    Gmsh circle arc) gives that scene's classifications and critical mu (1e-8 relative);
+    half_disk_ellipse.yaml reaches gross sliding, records each node's curvature at its contact
+    point (between the ellipse's extremes, varying along the contact) and, less convex at the top
+    (radius 67.5 against 60 mm), has a larger smallest critical mu than the cylinder."""
+    import json
+    import re
+
+    from conftest import run_cli
+    from test_gmsh_examples import EX
+    out = {}
+    for name in ("half_disk_cylinder", "half_disk_cylinder_curve", "half_disk_ellipse"):
+        text = re.sub(r"^outputs:.*$", "", (EX / f"{name}.yaml").read_text(), flags=re.M)
+        text = re.sub(r"^analyses:.*$", "analyses: [mceip_mu]", text, flags=re.M)
+        text = re.sub(r"^settings:.*$", "settings: {mcp: {certify: false}}", text, flags=re.M)
+        (tmp_path / f"{name}.yaml").write_text(text)
+        for geo in ("half_disk_curved.geo", "half_disk_on_curves.geo"):
+            (tmp_path / geo).write_text((EX / geo).read_text())
+        p = run_cli("run", str(tmp_path / f"{name}.yaml"), "-o", str(tmp_path / name), "-q")
+        assert p.returncode == 0, p.stderr
+        out[name] = json.loads((tmp_path / name / "results.json").read_text())
+    a, b, e = (out[k]["states"] for k in ("half_disk_cylinder", "half_disk_cylinder_curve", "half_disk_ellipse"))
+    assert len(a) == len(b)
+    for sa, sb in zip(a, b):
+        assert sa["classification"] == sb["classification"]
+        assert _mu(sb) == pytest.approx(_mu(sa), rel=1e-8)
+    assert "gross sliding" in out["half_disk_ellipse"]["path"]["end"] and out["half_disk_ellipse"]["failures"] == []
+    k = np.concatenate([s["curved_contact"]["curvature"] for s in e])
+    assert np.all(k <= -30 / 45**2 * (1 - 1e-9)) and np.all(k >= -45 / 30**2) and np.ptp(k) > 1e-4
+    smallest = lambda states: min(min(_mu(s)) for s in states if _mu(s))   # noqa: E731
+    assert smallest(e) > smallest(a)
+    print("smallest critical mu: cylinder", smallest(a), "as a Gmsh curve", smallest(b), "ellipse", smallest(e))

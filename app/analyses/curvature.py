@@ -12,7 +12,9 @@ gives, on the slip nodes' ``x_Ts`` only,
 
     K*(mu) = K0 + mu K1 + mu^2 K2,   K0 <- K0 + G,   K2 = G,   G = diag(kappa_i P_i).
 
-Everything else (M*, the free and stick DOFs) is unchanged. With a curved obstacle the pencils
+``kappa_i`` is the curvature at node i's contact point *of the state* (constant on a circle; on a
+curve of the Gmsh file it moves with the contact point, app/loading/curve.py). Everything else
+(M*, the free and stick DOFs) is unchanged. With a curved obstacle the pencils
 depend on the static normal reactions and on the frames at the contact points, so the
 classification used to share analyses carries them (:class:`CurvedClassification`).
 

@@ -30,7 +30,8 @@ A state's ``u_N`` is then ``-g`` (the exact gap), ``u_T = t . (t0 u_T + n0 u_N)`
 displacement in its contact frame, and ``r_T``, ``r_N`` the components in that frame;
 ``curved_contact`` records the frames (``(a, b, c, d)``: ``t = a t0 + b n0``, ``n = c t0 + d n0``),
 the exact gaps, the displacements in the system frames (``u_system``, interleaved T, N), the arc
-coordinates and the number of linearisations.
+coordinates, the number of linearisations and the signed curvature at each contact point
+(``curvature``, what the pencils of the state use: app/analyses/curvature.py).
 """
 from __future__ import annotations
 

@@ -12,6 +12,7 @@ obstacle, and a loading program.
       thickness: 9.6
       obstacle: {point: [0, 0], normal: [0, -1]}      # a straight line; normal: the body's outward normal
       # or: obstacle: {type: circle, centre: [40, -200], radius: 200, side: outside}
+      # or: obstacle: {type: curve, physical: ground, side: left}   # a free physical curve of the .geo
       program:                     # phases; each starts from the end of the previous one
         - {steps: 10, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 55}}
         - {steps: 310, displacement: {CD: {translation: [-6.2, 0]}}}
@@ -28,7 +29,8 @@ Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase l
 phase's increments so that the normal resultant on the contact curve is F at its end (exact in one
 rescaling when the phase starts from the unloaded, touching state: the incremental problems are
 then positively homogeneous; otherwise bracketing and regula falsi). A circle obstacle has exact gaps
-and frames (docs/method.md section 8); its increments are never homogeneous. Not modelled: other curves, two
+and frames, a curve of the .geo file interpolated ones (docs/method.md section 8, docs/curved.md); their
+increments are never homogeneous. Not modelled: a curve from a .msh file, two
 deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
 ``contact`` curve.
 """
