@@ -111,6 +111,29 @@ def test_circle_arc_against_circle(tmp_path):
     assert np.allclose(other.gap(x), -cv.gap(x), atol=1e-12 * 80)
 
 
+def test_closed_curve_with_its_seam_under_the_body(tmp_path):
+    """A whole circle of three arcs whose joint (s = 0 = P) is at the top, under the body: the
+    parameter is periodic, so gaps (1e-12 of the body size), normals (1e-10) and the arc coordinate
+    (1e-11) match the exact circle across
+    the seam and no node is taken for one beyond an end."""
+    from app.loading.curved import Circle
+    closed = """R = 100; Point(11) = {40, -R, 0}; Point(12) = {40, 0, 0};
+Point(13) = {40 + R * Cos(210 * Pi / 180), -R + R * Sin(210 * Pi / 180), 0};
+Point(14) = {40 + R * Cos(330 * Pi / 180), -R + R * Sin(330 * Pi / 180), 0};
+Circle(11) = {12, 11, 13}; Circle(12) = {13, 11, 14}; Circle(13) = {14, 11, 12};
+Physical Curve("ring") = {11, 12, 13};
+"""
+    cv, _ = curve_of(tmp_path, BLOCK + closed, "ring", "right")       # counter-clockwise: the outside on its right
+    assert cv.closed
+    ci = Circle([40.0, -100.0], 100.0, "outside", ref=[40.0, 1.0])
+    cv.set_reference([40.0, 1.0])
+    x = np.column_stack([np.linspace(30, 50, 41), np.linspace(-1, 3, 41)])
+    assert np.max(np.abs(cv.gap(x) - ci.gap(x))) <= 1e-12 * 80
+    assert np.max(np.abs(cv.frames(x)[1] - ci.frames(x)[1])) <= 1e-10
+    assert np.max(np.abs(cv.arc(x) - ci.arc(x))) <= 1e-11 * 80
+    assert not np.any(cv.at_end(x))
+
+
 def _scene(file, obstacle, analyses=("mceip_mu",), drag_steps=30):
     return {"name": "c", "mu": 1.1, "analyses": list(analyses), "settings": {"mcp": {"certify": False}},
             "system": {"type": "gmsh", "file": str(file), "contact": "AB", "prescribed": {"CD": "xy"},

@@ -81,6 +81,8 @@ class SmoothCurve:
         self.c0 = np.stack([C.chebfit(xi, nd, q) for nd in nodes])          # (P, q + 1, 2)
         self.c1 = C.chebder(self.c0, 1, scl=2.0, axis=1)
         self.c2 = C.chebder(self.c0, 2, scl=2.0, axis=1)
+        # a closed chain (its ends meet): the parameter is periodic, the joint at s = 0 = P checked as the others
+        self.closed = bool(len(entities) and np.linalg.norm(nodes[0, 0] - nodes[-1, -1]) <= 1e-8 * self.size)
         self._check_smooth(corner_rad)
         self._last = None
         g = (np.arange(GRID) + 0.5) / GRID
@@ -93,6 +95,8 @@ class SmoothCurve:
     # evaluation -----------------------------------------------------------------------------
     def _eval(self, coef: np.ndarray, s: np.ndarray) -> np.ndarray:
         s = np.asarray(s, dtype=float)
+        if self.closed:
+            s = np.mod(s, float(self.P))
         j = np.clip(np.floor(s).astype(np.int64), 0, self.P - 1)
         xi = 2.0 * (s - j) - 1.0
         return C.chebval(xi[:, None], np.moveaxis(coef[j], 1, 0), tensor=False)   # (n, 2)
@@ -102,7 +106,7 @@ class SmoothCurve:
 
     def _check_smooth(self, corner_rad: float) -> None:
         """The tangent is continuous across the panels' joins (a corner is refused) and p' != 0."""
-        ends = np.arange(1, self.P, dtype=float)
+        ends = np.arange(1, self.P + (1 if self.closed else 0), dtype=float)
         d = self._eval(self.c1, np.concatenate([[0.0], (np.arange(self.P) + 0.5), [float(self.P)]]))
         if np.min(np.hypot(*d.T)) <= 1e-12 * self.size:
             raise CurveError("its parametrization stops (zero derivative)")
@@ -110,7 +114,7 @@ class SmoothCurve:
             return
         j = ends.astype(np.int64)
         a = C.chebval(np.ones((len(j), 1)), np.moveaxis(self.c1[j - 1], 1, 0), tensor=False)
-        b = C.chebval(-np.ones((len(j), 1)), np.moveaxis(self.c1[j], 1, 0), tensor=False)
+        b = C.chebval(-np.ones((len(j), 1)), np.moveaxis(self.c1[j % self.P], 1, 0), tensor=False)
         cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
         ang = np.arctan2(np.abs(cross), np.einsum("ij,ij->i", a, b))
         k = int(np.argmax(ang))
@@ -144,8 +148,9 @@ class SmoothCurve:
         for a in range(0, len(x), 256):        # chunks: the distance table is (chunk, P GRID)
             d = np.sum((x[a:a + 256, None, :] - self.grid_x[None, :, :]) ** 2, axis=2)
             s0[a:a + 256] = self.grid_s[np.argmin(d, axis=1)]
-        lo = np.maximum(s0 - 1.0 / GRID, 0.0)
-        hi = np.minimum(s0 + 1.0 / GRID, float(self.P))
+        lo, hi = s0 - 1.0 / GRID, s0 + 1.0 / GRID
+        if not self.closed:
+            lo, hi = np.maximum(lo, 0.0), np.minimum(hi, float(self.P))
         f = lambda s: np.einsum("ij,ij->i", self._eval(self.c0, s) - x, self._eval(self.c1, s))   # noqa: E731
         flo, fhi = f(lo), f(hi)
         s = s0.copy()
@@ -170,7 +175,7 @@ class SmoothCurve:
             s[inside] = new
             idx = np.flatnonzero(inside)
             inside[idx[newton & (np.abs(d) <= 4 * np.finfo(float).eps * np.maximum(1.0, np.abs(si)))]] = False
-        return s
+        return np.mod(s, float(self.P)) if self.closed else s
 
     def _frame_at(self, s: np.ndarray):
         d1 = self._eval(self.c1, s)
@@ -200,7 +205,7 @@ class SmoothCurve:
     def at_end(self, x: np.ndarray) -> np.ndarray:
         """Whether the closest point of each ``x`` is an end of the curve (not a foot of a normal)."""
         s = self.project(x)
-        return (s <= 0.0) | (s >= self.P)
+        return np.zeros(len(s), dtype=bool) if self.closed else (s <= 0.0) | (s >= self.P)
 
     def set_reference(self, ref) -> "SmoothCurve":
         """Measure :meth:`arc` from the closest point of ``ref``."""
@@ -214,13 +219,17 @@ class SmoothCurve:
     def arc(self, x: np.ndarray) -> np.ndarray:
         """Arc coordinate along ``t`` from the reference point's closest point."""
         s = self.project(x)
-        return self.sign * (self._sigma(s) - self._sigma(np.array([self.s_ref]))[0])
+        d = self._sigma(s) - self._sigma(np.array([self.s_ref]))[0]
+        if self.closed:                          # the shorter way round from the reference
+            L = self.cum[-1]
+            d = d - L * np.round(d / L)
+        return self.sign * d
 
     def position_scale(self, x: np.ndarray) -> float:
         """The magnitude the gaps' round-off is relative to (the positions themselves)."""
         return float(np.max(np.abs(np.atleast_2d(x))))
 
-    def polyline(self, per_panel: int = 8) -> np.ndarray:
+    def polyline(self, per_panel: int = 64) -> np.ndarray:
         """Points along the curve (for pictures)."""
         return self.value(np.linspace(0.0, float(self.P), self.P * per_panel + 1))
 
