@@ -199,6 +199,9 @@ WAVY = "Point(40) = {-20, 0, 0};\n" + "".join(
     (ARC.format(R=100.0), {"type": "curve", "physical": "nothere", "side": "left"},
      ["system.obstacle.physical = 'nothere'", "no physical curve 'nothere'", "ob"]),
     ("", {"type": "curve", "physical": "AB", "side": "left"}, ["system.obstacle.physical = 'AB'", "part of the body"]),
+    ("Point(50) = {10, 20, 0}; Point(51) = {70, 20, 0}; Line(50) = {50, 51}; Line{50} In Surface{1};\n"
+     "Physical Curve(\"inner\") = {50};\n", {"type": "curve", "physical": "inner", "side": "left"},
+     ["system.obstacle.physical = 'inner'", "part of the body"]),
     (CORNER, {"type": "curve", "physical": "kink", "side": "left"},
      ["system.obstacle.physical = 'kink'", "corner", "continuous tangent"]),
     (WAVY, {"type": "curve", "physical": "wavy", "side": "left"},
@@ -210,7 +213,7 @@ WAVY = "Point(40) = {-20, 0, 0};\n" + "".join(
     (ARC.format(R=100.0), {"type": "curve", "side": "left"}, ["system.obstacle.physical", "missing"]),
 ])
 def test_curve_user_errors_are_one_line(tmp_path, geo_extra, obstacle, words):
-    """A missing or body curve, a corner, a curve needing too many samples, keys of another type:
+    """A missing curve, a curve of the body (on its boundary or embedded in it), a corner, a curve needing too many samples, keys of another type:
     one ``error:`` line naming the key, exit status 2, no traceback."""
     p = _write(tmp_path, BLOCK + geo_extra, obstacle)
     line = one_error_line(run_cli_here("validate", str(p), cwd=tmp_path))

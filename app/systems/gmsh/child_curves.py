@@ -1,7 +1,8 @@
 """Samples of the free physical curves of a ``.geo`` model, taken in the sandboxed child
 (app/systems/gmsh/child.py) while the gmsh model exists; imports only numpy.
 
-A physical curve none of whose entities bounds a surface is not part of the body: it may be a
+A physical curve none of whose entities bounds a surface or is embedded in one is not part of
+the body: it may be a
 rigid obstacle (``system.obstacle: {type: curve, physical: NAME}``, app/loading/curve.py). Each of
 its entities is sampled on its own parameter range ``[a, b]`` (gmsh.model.getParametrizationBounds)
 by panels, each carrying the positions (gmsh.model.getValue) at the ``DEGREE + 1`` Chebyshev-Lobatto
@@ -38,11 +39,13 @@ def tolerance(body_size: float, coords: float) -> float:
 
 
 def free_curves(gmsh) -> dict[str, list[int]]:
-    """Physical curves whose entities bound no surface: name -> entity tags (as listed)."""
+    """Physical curves whose entities neither bound nor are embedded in a surface
+    (``Curve{..} In Surface{..}``): name -> entity tags (as listed)."""
+    embedded = {int(t) for _, s in gmsh.model.getEntities(2) for d, t in gmsh.model.mesh.getEmbedded(2, s) if d == 1}
     out = {}
     for dim, tag in gmsh.model.getPhysicalGroups(1):
         ents = [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag)]
-        if ents and all(len(gmsh.model.getAdjacencies(1, e)[0]) == 0 for e in ents):
+        if ents and all(len(gmsh.model.getAdjacencies(1, e)[0]) == 0 and e not in embedded for e in ents):
             out[gmsh.model.getPhysicalName(dim, tag) or str(tag)] = ents
     return out
 

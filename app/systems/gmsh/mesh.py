@@ -232,8 +232,8 @@ def obstacle_curve(path: pathlib.Path, shown: str, info: ModelInfo, obstacle, co
     from app.loading.curve import CurveError, SmoothCurve
     name, key = obstacle.physical, "obstacle.physical"
     if name in info.curves and name not in info.obstacle_curves:     # (a .msh keeps its free curves' elements)
-        raise SystemPathError(key, name, f"the physical curve '{name}' of {shown} is part of the body (it bounds a "
-                              "surface): the obstacle must be a curve of its own, bounding no surface")
+        raise SystemPathError(key, name, f"the physical curve '{name}' of {shown} is part of the body (it bounds or lies "
+                              "in a surface): the obstacle must be a curve of its own, outside every surface")
     if name not in info.obstacle_curves:
         free = ", ".join(sorted(info.obstacle_curves)) or "none"
         raise SystemPathError(key, name, f"no physical curve '{name}' in {shown}; curves of their own (bounding no "
