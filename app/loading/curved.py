@@ -119,24 +119,24 @@ class CurvedContact:
     frames (:meth:`carry` gives them from a result).
     """
 
-    def __init__(self, Kc: np.ndarray, mu: float, circle, X: np.ndarray, t0: np.ndarray, n0: np.ndarray):
+    def __init__(self, Kc: np.ndarray, mu: float, obstacle, X: np.ndarray, t0: np.ndarray, n0: np.ndarray):
         self.Kc_sys = np.asarray(Kc, dtype=float)
         self.n = Kc.shape[0] // 2
         self.mu = mu
         self.kscale = float(np.max(np.abs(np.diag(Kc))))
         self.Kc = self.Kc_sys / self.kscale               # what program.py reads (bonded estimate)
-        self.circle, self.X = circle, np.asarray(X, dtype=float)
+        self.obstacle, self.X = obstacle, np.asarray(X, dtype=float)
         self.t0, self.n0 = np.asarray(t0, dtype=float), np.asarray(n0, dtype=float)
-        self.gaps0 = circle.gap(self.X)
+        self.gaps0 = obstacle.gap(self.X)
         self.extent = max(float(np.max(np.ptp(self.X, axis=0))), 1e-300)
-        self.reach = float(np.max(np.abs(self.X - circle.anchor)))     # size of the positions the gaps are computed from
+        self.reach = float(np.max(np.abs(self.X - obstacle.anchor)))     # size of the positions the gaps are computed from
 
     def positions(self, u: np.ndarray) -> np.ndarray:
         return self.X + np.outer(u[0::2], self.t0) + np.outer(u[1::2], self.n0)
 
     def frame_matrix(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``Q`` (old system components = Q contact-frame components) and the per-node (a, b, c, d)."""
-        t, n = self.circle.frames(x)
+        t, n = self.obstacle.frames(x)
         abcd = np.column_stack([t @ self.t0, t @ self.n0, n @ self.t0, n @ self.n0])
         Q = np.zeros((2 * self.n, 2 * self.n))
         for i, (a, b, c, d) in enumerate(abcd):
@@ -166,7 +166,7 @@ class CurvedContact:
             Q, _ = self.frame_matrix(x)
             Kl = Q.T @ self.Kc_sys @ Q
             ukl, u0l, upl = Q.T @ uk, Q.T @ u0, Q.T @ u_prev
-            h = self.circle.gap(x) + ukl[1::2]          # linearised gap: g = h - u'_N
+            h = self.obstacle.gap(x) + ukl[1::2]          # linearised gap: g = h - u'_N
             H = np.zeros(2 * n)
             H[1::2] = h
             gk = np.maximum(h - ukl[1::2], 0.0)
@@ -209,15 +209,15 @@ class CurvedContact:
         r = Kl @ (ul - u0l)
         rT, rN = r[0::2], r[1::2]
         p = -rN
-        g = self.circle.gap(x)
-        t, _ = self.circle.frames(x)
+        g = self.obstacle.gap(x)
+        t, _ = self.obstacle.frames(x)
         d = np.einsum("ij,ij->i", t, x - x_prev)         # slip since the previous state, along t
         # the reaction scale: the forces whose difference r is (as the flat solver's scale, Kc (u_prev - u0))
         rscale = max(float(np.max(np.abs(r))), float(np.max(np.abs(Kl @ ul))), float(np.max(np.abs(Kl @ u0l))))
         if rscale == 0.0:
             rscale = 1.0                                  # no load, no reaction: nothing is violated
         gscale = max(float(np.max(np.abs(g))), 1e-300)
-        xscale = max(self.circle.position_scale(x), 1e-300)
+        xscale = max(self.obstacle.position_scale(x), 1e-300)
         # exact conditions; a gap at the round-off of the positions (1e-14 of |x - c|) counts as closed
         closed = np.abs(g) <= 1e-12 * xscale
         v = [max(0.0, -float(np.min(g)) - 1e-12 * xscale) / max(gscale, 1e-12 * xscale),
@@ -230,14 +230,14 @@ class CurvedContact:
         if viol > 1e-9:
             raise ContactSolveError(f"the exact-gap contact increment violates Signorini-Coulomb at the exact "
                                     f"geometry (violation {viol:.3g} after {lin} linearisations)")
-        arc = self.circle.arc(x)
+        arc = self.obstacle.arc(x)
         uT = ul[0::2]
         return IncrementResult(u_T=uT, u_N=-g, r_T=rT.copy(), r_N=rN.copy(), slip_increment=d,
                                iterations=its, method=f"{method}, {lin} exact-gap linearisation(s)", violation=viol,
                                extra={"u_system": u.copy(),
                                       "curved_contact": {"frame": abcd.tolist(), "gap": g.tolist(), "u_system": u.tolist(),
                                                          "arc": arc.tolist(), "linearisations": lin,
-                                                         "curvature": self.circle.curvatures(x).tolist()}})
+                                                         "curvature": self.obstacle.curvatures(x).tolist()}})
 
     def destroy(self) -> None:
         pass

@@ -54,7 +54,7 @@ def _check_curve_start(cfg: GmshBody, ops, depth: float, where, body: float, fra
         raise BodyError(f"system.obstacle.side = '{cfg.obstacle.side}': the body starts on the other side of the curve "
                         f"'{cfg.obstacle.physical}' ({100 * frac:.0f} % of its nodes, up to {-depth:.3g} beyond it at "
                         f"{_point(where, body)}): the body is on its {other}, looking along the curve's direction")
-    ends = cfg.obstacle.circle().at_end(ops.contact_xy)
+    ends = cfg.obstacle.geometry().at_end(ops.contact_xy)
     if np.any(ends):
         i = int(np.flatnonzero(ends)[0])
         raise BodyError(f"system.obstacle.physical = '{cfg.obstacle.physical}': the contact node at "
@@ -133,10 +133,10 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
                     "params": ops.params, "contact_xy": ops.contact_xy,
                     "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
     if cfg.obstacle.type != "line":      # the curvature terms of the pencils (app/analyses/curvature.py)
-        geometry = cfg.obstacle.circle(np.mean(ops.contact_xy, axis=0))
+        geometry = cfg.obstacle.geometry(np.mean(ops.contact_xy, axis=0))
         # at the initial contact points; each state records its own (curved_contact.curvature)
         system.extra["curvature"] = geometry.curvatures(ops.contact_xy)
-        system.extra["circle"] = geometry
+        system.extra["obstacle"] = geometry
     system.fields = BodyFields(cfg, ops, flex, gaps)
     return system
 
@@ -209,7 +209,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
             if cfg.obstacle.type != "line":      # exact gaps and frames (app/loading/curved.py)
                 from app.loading.curved import CurvedContact
                 tvec, nvec = cfg.obstacle.frame()
-                solver = CurvedContact(flex.schur, scene.mu, system.extra["circle"], system.extra["contact_xy"], tvec, nvec)
+                solver = CurvedContact(flex.schur, scene.mu, system.extra["obstacle"], system.extra["contact_xy"], tvec, nvec)
                 gaps = np.zeros_like(gaps)
             states, info = run_program(_phases(cfg, system.extra["params"]), system.extra["U0"], gaps,
                                        flex.schur, scene.mu, scene.settings.classify_rtol, progress, solver=solver)

@@ -126,7 +126,7 @@ class Obstacle(StrictModel):
             n /= np.linalg.norm(n)
         return np.array([-n[1], n[0]]), n
 
-    def circle(self, ref=None):
+    def geometry(self, ref=None):
         """The curved obstacle's geometry (app/loading/curved.py ``Circle`` anchored in the
         direction of the point ``ref``, or the curve of app/loading/curve.py with its arc
         coordinate measured from ``ref``'s closest point), None for a line."""
@@ -141,7 +141,7 @@ class Obstacle(StrictModel):
         """Gaps of the points ``xy`` (n, 2): ``(p - x) . n`` for a line, exact for a circle."""
         if self.type != "line":
             xy = np.atleast_2d(xy)
-            return self.circle(np.mean(xy, axis=0)).gap(xy)
+            return self.geometry(np.mean(xy, axis=0)).gap(xy)
         return (np.array(self.point) - np.asarray(xy)) @ self.frame()[1]
 
     def coordinate(self, xy: np.ndarray) -> np.ndarray:
@@ -149,12 +149,12 @@ class Obstacle(StrictModel):
         line, on a circle or a curve the arc coordinate from the direction (closest point) of their mean."""
         if self.type != "line":
             xy = np.atleast_2d(xy)
-            return self.circle(np.mean(xy, axis=0)).arc(xy)
+            return self.geometry(np.mean(xy, axis=0)).arc(xy)
         return (np.asarray(xy) - np.array(self.point)) @ self.frame()[0]
 
     def describe(self) -> str:
         if self.type != "line":
-            return "obstacle " + self.circle().describe()
+            return "obstacle " + self.geometry().describe()
         return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
 
 
