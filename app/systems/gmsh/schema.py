@@ -131,7 +131,8 @@ class Obstacle(StrictModel):
         direction of the point ``ref``, or the curve of app/loading/curve.py with its arc
         coordinate measured from ``ref``'s closest point), None for a line."""
         if self.type == "curve":
-            return self._curve if ref is None else self._curve.set_reference(ref)
+            import copy
+            return self._curve if ref is None else copy.copy(self._curve).set_reference(ref)   # arrays shared
         if self.type != "circle":
             return None
         from app.loading.curved import Circle
