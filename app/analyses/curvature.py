@@ -12,7 +12,9 @@ gives, on the slip nodes' ``x_Ts`` only,
 
     K*(mu) = K0 + mu K1 + mu^2 K2,   K0 <- K0 + G,   K2 = G,   G = diag(kappa_i P_i).
 
-Everything else (M*, the free and stick DOFs) is unchanged. With a curved obstacle the pencils
+``kappa_i`` is the curvature at node i's contact point *of the state* (constant on a circle; on a
+curve of the Gmsh file it moves with the contact point, app/loading/curve.py). Everything else
+(M*, the free and stick DOFs) is unchanged. With a curved obstacle the pencils
 depend on the static normal reactions and on the frames at the contact points, so the
 classification used to share analyses carries them (:class:`CurvedClassification`).
 
@@ -56,10 +58,18 @@ def is_curved(cls: Classification) -> bool:
     return isinstance(cls, CurvedClassification)
 
 
-def node_curvature(system) -> Optional[np.ndarray]:
-    """Signed curvature per contact node of a system on a curved obstacle, else None."""
+def node_curvature(system, state=None) -> Optional[np.ndarray]:
+    """Signed curvature per contact node of a system on a curved obstacle, else None: at each
+    node's contact point of ``state`` when the loading path recorded it
+    (``curved_contact.curvature``, app/loading/curved.py), else the system's (the constant of a
+    circle, a curve's at the initial positions)."""
     k = system.extra.get("curvature") if isinstance(system.extra, dict) else None
-    return None if k is None else np.asarray(k, dtype=float)
+    if k is None:
+        return None
+    cc = (getattr(state, "extra", None) or {}).get("curved_contact") if state is not None else None
+    if cc is not None and cc.get("curvature") is not None:
+        return np.asarray(cc["curvature"], dtype=float)
+    return np.asarray(k, dtype=float)
 
 
 def attach(cls: Classification, state, system) -> Classification:
@@ -67,7 +77,7 @@ def attach(cls: Classification, state, system) -> Classification:
 
     ``state.extra["curved_contact"]["frame"]`` gives the contact frames (the loading path on a
     curved obstacle records them); without it every frame is the node's own."""
-    kappa = node_curvature(system)
+    kappa = node_curvature(system, state)
     if kappa is None:
         return cls
     rN = np.asarray(state.r_N, dtype=float)

@@ -321,7 +321,9 @@ def _write_screenshot_data(fdir: pathlib.Path, maker: "_FieldMaker", contact, ke
            if src.obstacle and "point" in src.obstacle else {}),
         **({"obstacle_circle": np.array([*src.obstacle["centre"], src.obstacle["radius"],
                                          1.0 if src.obstacle["side"] == "outside" else -1.0])}
-           if src.obstacle and "centre" in src.obstacle else {}))
+           if src.obstacle and "centre" in src.obstacle else {}),
+        **({"obstacle_polyline": np.array(src.obstacle["polyline"], dtype=float)}
+           if src.obstacle and "polyline" in src.obstacle else {}))
 
 
 def _slip_frames(entry: dict, cls) -> list:

@@ -1,4 +1,11 @@
-"""Quasi-static contact increments against a rigid circle, with the exact gap (docs/method.md section 8).
+"""Quasi-static contact increments against a rigid curved obstacle, with the exact gap (docs/method.md section 8).
+
+The obstacle is a :class:`Circle` or a smooth curve of the Gmsh file
+(:class:`app.loading.curve.SmoothCurve`); :class:`CurvedContact` uses only their common
+interface: ``gap(x)`` (signed distance, positive on the body's side), ``frames(x)`` (unit tangent
+and outward normal of the body at the closest points), ``curvatures(x)`` (signed curvature
+there), ``arc(x)``, ``anchor`` and ``position_scale(x)`` (the point and the magnitude the gaps'
+round-off is relative to) and ``describe()``.
 
 Geometry (:class:`Circle`): centre ``c``, radius ``R``; a point ``x`` at ``rho = |x - c|``,
 ``e = (x - c) / rho``. Body outside (convex cylinder): gap ``g = rho - R``, outward normal of the
@@ -23,7 +30,8 @@ A state's ``u_N`` is then ``-g`` (the exact gap), ``u_T = t . (t0 u_T + n0 u_N)`
 displacement in its contact frame, and ``r_T``, ``r_N`` the components in that frame;
 ``curved_contact`` records the frames (``(a, b, c, d)``: ``t = a t0 + b n0``, ``n = c t0 + d n0``),
 the exact gaps, the displacements in the system frames (``u_system``, interleaved T, N), the arc
-coordinates and the number of linearisations.
+coordinates, the number of linearisations and the signed curvature at each contact point
+(``curvature``, what the pencils of the state use: app/analyses/curvature.py).
 """
 from __future__ import annotations
 
@@ -59,6 +67,19 @@ class Circle:
     def curvature(self) -> float:
         return -self.sign / self.R
 
+    @property
+    def anchor(self) -> np.ndarray:
+        """The point the gaps are computed from (their round-off is relative to ``|x - anchor|``)."""
+        return self.p0
+
+    def curvatures(self, x: np.ndarray) -> np.ndarray:
+        """Signed curvature at the contact points of ``x``: the constant ``-1/R`` outside, ``+1/R`` inside."""
+        return np.full(len(np.atleast_2d(x)), self.curvature)
+
+    def position_scale(self, x: np.ndarray) -> float:
+        """``max |x - c|``: the scale below which a gap counts as closed (1e-12 of it)."""
+        return float(np.max(np.abs(np.atleast_2d(x) - self.c)))
+
     def _polar(self, x: np.ndarray):
         w = np.atleast_2d(np.asarray(x, dtype=float)) - self.p0
         a, b = w @ self.m, w @ self.mp                      # along m (radial at p0) and m_perp
@@ -89,7 +110,8 @@ class Circle:
 
 
 class CurvedContact:
-    """Incremental frictional contact against a :class:`Circle`, exact gap (one instance per study).
+    """Incremental frictional contact against a curved obstacle (a :class:`Circle` or a
+    :class:`app.loading.curve.SmoothCurve`), exact gap (one instance per study).
 
     Same calling convention as :class:`FrictionalContact` inside app/loading/program.py:
     ``solve(u0, u_T_prev, g_prev, d_prev)`` with ``u0`` the contact displacements of the load
@@ -97,24 +119,24 @@ class CurvedContact:
     frames (:meth:`carry` gives them from a result).
     """
 
-    def __init__(self, Kc: np.ndarray, mu: float, circle: Circle, X: np.ndarray, t0: np.ndarray, n0: np.ndarray):
+    def __init__(self, Kc: np.ndarray, mu: float, obstacle, X: np.ndarray, t0: np.ndarray, n0: np.ndarray):
         self.Kc_sys = np.asarray(Kc, dtype=float)
         self.n = Kc.shape[0] // 2
         self.mu = mu
         self.kscale = float(np.max(np.abs(np.diag(Kc))))
         self.Kc = self.Kc_sys / self.kscale               # what program.py reads (bonded estimate)
-        self.circle, self.X = circle, np.asarray(X, dtype=float)
+        self.obstacle, self.X = obstacle, np.asarray(X, dtype=float)
         self.t0, self.n0 = np.asarray(t0, dtype=float), np.asarray(n0, dtype=float)
-        self.gaps0 = circle.gap(self.X)
+        self.gaps0 = obstacle.gap(self.X)
         self.extent = max(float(np.max(np.ptp(self.X, axis=0))), 1e-300)
-        self.reach = float(np.max(np.abs(self.X - circle.p0)))     # size of the positions the gaps are computed from
+        self.reach = float(np.max(np.abs(self.X - obstacle.anchor)))     # size of the positions the gaps are computed from
 
     def positions(self, u: np.ndarray) -> np.ndarray:
         return self.X + np.outer(u[0::2], self.t0) + np.outer(u[1::2], self.n0)
 
     def frame_matrix(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``Q`` (old system components = Q contact-frame components) and the per-node (a, b, c, d)."""
-        t, n = self.circle.frames(x)
+        t, n = self.obstacle.frames(x)
         abcd = np.column_stack([t @ self.t0, t @ self.n0, n @ self.t0, n @ self.n0])
         Q = np.zeros((2 * self.n, 2 * self.n))
         for i, (a, b, c, d) in enumerate(abcd):
@@ -144,7 +166,7 @@ class CurvedContact:
             Q, _ = self.frame_matrix(x)
             Kl = Q.T @ self.Kc_sys @ Q
             ukl, u0l, upl = Q.T @ uk, Q.T @ u0, Q.T @ u_prev
-            h = self.circle.gap(x) + ukl[1::2]          # linearised gap: g = h - u'_N
+            h = self.obstacle.gap(x) + ukl[1::2]          # linearised gap: g = h - u'_N
             H = np.zeros(2 * n)
             H[1::2] = h
             gk = np.maximum(h - ukl[1::2], 0.0)
@@ -187,15 +209,15 @@ class CurvedContact:
         r = Kl @ (ul - u0l)
         rT, rN = r[0::2], r[1::2]
         p = -rN
-        g = self.circle.gap(x)
-        t, _ = self.circle.frames(x)
+        g = self.obstacle.gap(x)
+        t, _ = self.obstacle.frames(x)
         d = np.einsum("ij,ij->i", t, x - x_prev)         # slip since the previous state, along t
         # the reaction scale: the forces whose difference r is (as the flat solver's scale, Kc (u_prev - u0))
         rscale = max(float(np.max(np.abs(r))), float(np.max(np.abs(Kl @ ul))), float(np.max(np.abs(Kl @ u0l))))
         if rscale == 0.0:
             rscale = 1.0                                  # no load, no reaction: nothing is violated
         gscale = max(float(np.max(np.abs(g))), 1e-300)
-        xscale = max(float(np.max(np.abs(x - self.circle.c))), 1e-300)
+        xscale = max(self.obstacle.position_scale(x), 1e-300)
         # exact conditions; a gap at the round-off of the positions (1e-14 of |x - c|) counts as closed
         closed = np.abs(g) <= 1e-12 * xscale
         v = [max(0.0, -float(np.min(g)) - 1e-12 * xscale) / max(gscale, 1e-12 * xscale),
@@ -208,13 +230,14 @@ class CurvedContact:
         if viol > 1e-9:
             raise ContactSolveError(f"the exact-gap contact increment violates Signorini-Coulomb at the exact "
                                     f"geometry (violation {viol:.3g} after {lin} linearisations)")
-        arc = self.circle.arc(x)
+        arc = self.obstacle.arc(x)
         uT = ul[0::2]
         return IncrementResult(u_T=uT, u_N=-g, r_T=rT.copy(), r_N=rN.copy(), slip_increment=d,
                                iterations=its, method=f"{method}, {lin} exact-gap linearisation(s)", violation=viol,
                                extra={"u_system": u.copy(),
                                       "curved_contact": {"frame": abcd.tolist(), "gap": g.tolist(), "u_system": u.tolist(),
-                                                         "arc": arc.tolist(), "linearisations": lin}})
+                                                         "arc": arc.tolist(), "linearisations": lin,
+                                                         "curvature": self.obstacle.curvatures(x).tolist()}})
 
     def destroy(self) -> None:
         pass

@@ -49,9 +49,10 @@ class FieldData:
             if "obstacle_circle" in files:
                 oc = z["obstacle_circle"].astype(float)
                 self.circle = (oc[:2], float(oc[2]), float(oc[3]))
+            self.polyline = z["obstacle_polyline"].astype(float) if "obstacle_polyline" in files else None
             if "obstacle_point" in files:
                 self.obstacle = (z["obstacle_point"].astype(float), z["obstacle_normal"].astype(float))
-            elif "length_scale" not in files:      # written before the geometry keys: the block on y = 0
+            elif "length_scale" not in files and self.polyline is None:      # written before the geometry keys: the block on y = 0
                 self.obstacle = (np.zeros(2), np.array([0.0, -1.0]))
         lo, hi = self.points.min(axis=0), self.points.max(axis=0)
         self.width, self.height = (float(v) for v in (hi - lo))
@@ -117,6 +118,8 @@ def _obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
     normal, as long as the body's projection on the line plus margins; returns its corners (x, y)."""
     if fd.circle is not None:
         return _circle_obstacle(pl, fd, pts)
+    if fd.polyline is not None:
+        return _curve_obstacle(pl, fd, pts)
     if fd.obstacle is None:
         return np.zeros((0, 2))
     pv = import_pyvista()
@@ -182,6 +185,20 @@ def _circle_obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
     line = pv.lines_from_points(np.column_stack([surface, np.full(len(surface), -0.015)]))
     pl.add_mesh(line, color="#5f5f5f", line_width=1.5)
     return outline
+
+
+def _curve_obstacle(pl, fd: FieldData, pts: np.ndarray) -> np.ndarray:
+    """A curve obstacle: its points within the body's extent (plus margins) as a grey line;
+    returns them (x, y)."""
+    pv = import_pyvista()
+    c = fd.polyline
+    lo = np.minimum(pts.min(axis=0), fd.points.min(axis=0)) - 0.3 * fd.size
+    hi = np.maximum(pts.max(axis=0), fd.points.max(axis=0)) + 0.3 * fd.size
+    keep = np.all((c >= lo) & (c <= hi), axis=1)
+    c = c[keep] if np.sum(keep) >= 2 else c
+    line = pv.lines_from_points(np.column_stack([c, np.full(len(c), -0.015)]))
+    pl.add_mesh(line, color="#5f5f5f", line_width=3)
+    return c
 
 
 def _edges(fd: FieldData, displacement: np.ndarray | None = None, boundary: bool = False):

@@ -1,4 +1,4 @@
-"""Shared checks of the ``obstacle`` sections (straight line or circle; docs/method.md section 8).
+"""Shared checks of the ``obstacle`` sections (straight line, circle or curve; docs/method.md section 8).
 
 Kept free of PETSc and DOLFINx. A section has ``type: line`` (the default) or ``type: circle``;
 each type's keys are refused with the other, and a circle's own keys are required, each with a
@@ -29,3 +29,19 @@ def check_circle_keys(model: Any, circle_keys: tuple[str, ...], line_keys: tuple
             allowed = {"radius": "a number > 0 [length]", "side": "outside (the body outside a convex cylinder) or "
                        "inside (the body inside a concave bore)", "centre": "[x, y] [length]"}[key]
             raise PathError(key, None, f"missing: a circle needs {key} (allowed: {allowed})")
+
+
+def check_curve_keys(model: Any) -> None:
+    """A ``type: curve`` obstacle (gmsh bodies) has ``physical`` and ``side: left|right`` only."""
+    given = model.model_fields_set
+    if model.type != "curve":
+        raise PathError("physical", model.physical, f"allowed only with type: curve (this obstacle is type: {model.type})")
+    for key in ("point", "normal", "angle_deg", "centre", "radius"):
+        if key in given:
+            raise PathError(key, getattr(model, key), "not allowed with type: curve (allowed keys: type, physical, side)")
+    if model.physical is None:
+        raise PathError("physical", None, "missing: a curve obstacle needs physical (the name of a physical curve "
+                        "of the .geo file, a curve of its own)")
+    if model.side not in ("left", "right"):
+        raise PathError("side", model.side, "allowed with type: curve: left or right (the side of the body, looking "
+                        "along the curve's direction)")

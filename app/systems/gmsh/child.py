@@ -6,7 +6,9 @@ numpy, opens FILE (meshing a ``.geo`` in 2D), checks the model and writes into O
 
 * ``info.json``: the physical groups and sizes (or ``{"error": "..."}`` for a bad model),
 * ``arrays.npz``: the arrays :func:`dolfinx.io.gmshio.model_to_mesh` would extract
-  (app/systems/mesh_arrays.py), in the same order.
+  (app/systems/mesh_arrays.py), in the same order, and the samples of the free physical curves
+  (``curve_*``, app/systems/gmsh/child_curves.py: possible rigid obstacles, sampled and then
+  taken out of a ``.geo`` model before it is meshed, so none of their elements is the body's).
 
 Checks (each a one-line error): the mesh is 2D (z = 0) with linear triangles only (no
 quadrangles: mixed meshes are not supported by ``model_to_mesh``); every meshed surface belongs
@@ -37,15 +39,31 @@ def _short(err: Exception) -> str:
     return " ".join(str(err).split())[:160] or type(err).__name__
 
 
-def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_dofs: int) -> None:
-    """Load ``path`` into a new gmsh model, meshing a ``.geo`` in 2D within the limits; renumber
-    nodes and elements 1..N (model_to_mesh needs it)."""
+def _body_size(gmsh) -> float:
+    """The extent of the points bounding the model's surfaces (of all its points without any)."""
+    surfaces = gmsh.model.getEntities(2)
+    pts = ([t for d, t in gmsh.model.getBoundary(surfaces, combined=False, oriented=False, recursive=True) if d == 0]
+           if surfaces else [t for _, t in gmsh.model.getEntities(0)])
+    xy = np.array([gmsh.model.getValue(0, t, [])[:2] for t in pts], dtype=float).reshape(-1, 2)
+    ext = float(np.max(np.ptp(xy, axis=0))) if len(xy) else 0.0
+    return ext if np.isfinite(ext) and ext > 0 else 1.0
+
+
+def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_dofs: int) -> tuple[dict, dict]:
+    """Load ``path`` into a new gmsh model, sample and remove its free physical curves, mesh a
+    ``.geo`` in 2D within the limits; renumber nodes and elements 1..N (model_to_mesh needs it).
+    Returns the curves' ``(info, arrays)`` (app/systems/gmsh/child_curves.py)."""
+    from child_curves import remove_curves, sample_curves
     gmsh.model.add("user")
     try:
         gmsh.open(str(path))
     except Exception as err:        # noqa: BLE001 - the user's file
         raise ModelError(f"gmsh cannot open {path.name}: {_short(err)}") from None
-    if path.suffix.lower() == ".geo":
+    is_geo = path.suffix.lower() == ".geo"
+    curves = sample_curves(gmsh, _body_size(gmsh), is_geo)
+    if is_geo:
+        remove_curves(gmsh, {k: v["entities"] for k, v in curves[0].items()})
+    if is_geo:
         types, _, _ = gmsh.model.mesh.getElements(2)
         if len(types) == 0:
             try:
@@ -68,6 +86,7 @@ def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_
                          f"{max_dofs} allows; use a coarser mesh or raise the limit")
     gmsh.model.mesh.renumberNodes()
     gmsh.model.mesh.renumberElements()
+    return curves
 
 
 def check_model(gmsh) -> dict:
@@ -210,14 +229,17 @@ def extract(gmsh) -> dict:
 def main(argv: list[str]) -> int:
     path, out = pathlib.Path(argv[0]), pathlib.Path(argv[1])
     max_nodes, max_elements, max_dofs = int(argv[2]), int(argv[3]), int(argv[4])
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))     # child_curves.py (python -I drops it)
     import gmsh
     gmsh.initialize([], readConfigFiles=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("General.NumThreads", 1)
     try:
-        open_model(gmsh, path, max_nodes, max_elements, max_dofs)
+        curve_info, curve_arrays = open_model(gmsh, path, max_nodes, max_elements, max_dofs)
         info = check_model(gmsh)
         arrays = extract(gmsh)
+        info["obstacle_curves"] = curve_info
+        arrays.update(curve_arrays)
     except ModelError as err:
         (out / "info.json").write_text(json.dumps({"error": str(err)}))
         return EXIT_MODEL_ERROR

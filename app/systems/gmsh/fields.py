@@ -53,6 +53,8 @@ class BodyFields:
         if cfg.obstacle.type == "circle":
             self.obstacle = {"centre": [float(v) for v in cfg.obstacle.centre], "radius": float(cfg.obstacle.radius),
                              "side": cfg.obstacle.side}
+        elif cfg.obstacle.type == "curve":
+            self.obstacle = {"polyline": cfg.obstacle.geometry().polyline().tolist(), "side": cfg.obstacle.side}
         else:
             self.obstacle = {"point": [float(v) for v in cfg.obstacle.point], "normal": [float(v) for v in nvec]}
         self._index = {parameter_name(k): j for k, j in ops.params.items()}

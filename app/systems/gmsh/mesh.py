@@ -37,6 +37,8 @@ class ModelInfo:
     curve_nodes: dict[str, int] = field(default_factory=dict)     # physical curve name -> its vertices
     names: dict[tuple[int, str], int] = field(default_factory=dict)   # (dim, name) -> physical tag
     inner_segments: dict[str, int] = field(default_factory=dict)   # physical curve -> line elements off the boundary
+    # free physical curves (bounding no surface; not the body's): name -> {"entities", "panels", "error"}
+    obstacle_curves: dict[str, dict] = field(default_factory=dict)
 
     def dofs(self, degree: int) -> int:
         """DOFs of the whole body (2 per node; P2 adds a node per edge) before any is prescribed."""
@@ -131,7 +133,8 @@ def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInf
                      n_nodes=int(raw["n_nodes"]), n_triangles=int(raw["n_triangles"]), bbox=tuple(raw["bbox"]),
                      n_edges=int(raw["n_edges"]), curve_nodes={k: int(v) for k, v in raw["curve_nodes"].items()},
                      names={(int(d), str(n)): int(t) for d, n, t in raw["names"]},
-                     inner_segments={k: int(v) for k, v in raw["inner_segments"].items()})
+                     inner_segments={k: int(v) for k, v in raw["inner_segments"].items()},
+                     obstacle_curves=dict(raw.get("obstacle_curves") or {}))
     return info, arrays
 
 
@@ -146,6 +149,23 @@ def _check_arrays(arrays: dict, raw: dict, value: str) -> None:
         ok = facets.min() >= 0 and facets.max() < len(x) and len(arrays["facet_values"]) == len(facets)
     if not ok:
         raise SystemPathError("file", value, "gmsh returned an inconsistent mesh (node numbers out of range)")
+    cp, cxy = arrays.get("curve_params"), arrays.get("curve_xy")
+    m = 0 if cp is None else len(cp)
+    curves = raw.get("obstacle_curves") or {}
+    if cp is not None and not (cp.ndim == 2 and cp.shape[1] == 2 and cxy is not None and cxy.ndim == 3
+                               and cxy.shape[0] == m and cxy.shape[2] == 2 and np.all(np.isfinite(cp))
+                               and np.all(np.isfinite(cxy)) and all(0 <= c["panels"][0] <= c["panels"][1] <= m
+                                                                    for c in curves.values())):
+        raise SystemPathError("file", value, "gmsh returned inconsistent samples of the free curves")
+
+
+def obstacle_samples(path: pathlib.Path, name: str) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
+    """``(entities, params, xy, entity_of_panel)`` of the free physical curve ``name`` as the child
+    sampled it (app/systems/gmsh/child_curves.py), from the model read at validation."""
+    info, arrays = _read(path, path.name, None, None)
+    c = info.obstacle_curves[name]
+    a, b = c["panels"]
+    return list(c["entities"]), arrays["curve_params"][a:b], arrays["curve_xy"][a:b], arrays["curve_entity"][a:b]
 
 
 def model_info(path: pathlib.Path, value: str, limits=None, roots=None) -> ModelInfo:
@@ -203,3 +223,28 @@ def mesh_sizes(path: pathlib.Path, degree: int, prescribed: dict[str, str], cont
         fixed_nodes |= nodes
     cnodes, c_facets = of([contact])
     return dofs, len(cnodes - fixed_nodes) + (c_facets if p2 else 0)
+
+
+def obstacle_curve(path: pathlib.Path, shown: str, info: ModelInfo, obstacle, contact: str):
+    """The :class:`app.loading.curve.SmoothCurve` of ``obstacle.physical``; one-line
+    :class:`SystemPathError` on ``obstacle.physical`` for a curve that is missing, part of the
+    body, from a ``.msh`` file, not smooth or too long to sample."""
+    from app.loading.curve import CurveError, SmoothCurve
+    name, key = obstacle.physical, "obstacle.physical"
+    if name in info.curves and name not in info.obstacle_curves:     # (a .msh keeps its free curves' elements)
+        raise SystemPathError(key, name, f"the physical curve '{name}' of {shown} is part of the body (it bounds or lies "
+                              "in a surface): the obstacle must be a curve of its own, outside every surface")
+    if name not in info.obstacle_curves:
+        free = ", ".join(sorted(info.obstacle_curves)) or "none"
+        raise SystemPathError(key, name, f"no physical curve '{name}' in {shown}; curves of their own (bounding no "
+                              f"surface): {free}")
+    entry = info.obstacle_curves[name]
+    if entry.get("error"):
+        raise SystemPathError(key, name, str(entry["error"]))
+    entities, params, xy, ent_of = obstacle_samples(path, name)
+    bbox = info.bbox
+    size = max(bbox[2] - bbox[0], bbox[3] - bbox[1], 1e-300)
+    try:
+        return SmoothCurve(name, entities, params, xy, ent_of, obstacle.side, size)
+    except CurveError as err:
+        raise SystemPathError(key, name, f"the curve '{name}' of {shown}: {err}") from None

@@ -46,6 +46,22 @@ def _contact_columns(flex, loads: list[PETSc.Vec]) -> np.ndarray:
     return np.column_stack(cols) if cols else np.zeros((len(flex.dofs), 0))
 
 
+def _check_curve_start(cfg: GmshBody, ops, depth: float, where, body: float, frac: float) -> None:
+    """The body starts on its side of a curve obstacle, every contact node facing the curve
+    (its closest point not an end of the curve)."""
+    if depth < -1e-10 * body and frac > 0.5:
+        other = "right" if cfg.obstacle.side == "left" else "left"
+        raise BodyError(f"system.obstacle.side = '{cfg.obstacle.side}': the body starts on the other side of the curve "
+                        f"'{cfg.obstacle.physical}' ({100 * frac:.0f} % of its nodes, up to {-depth:.3g} beyond it at "
+                        f"{_point(where, body)}): the body is on its {other}, looking along the curve's direction")
+    ends = cfg.obstacle.geometry().at_end(ops.contact_xy)
+    if np.any(ends):
+        i = int(np.flatnonzero(ends)[0])
+        raise BodyError(f"system.obstacle.physical = '{cfg.obstacle.physical}': the contact node at "
+                        f"{_point(ops.contact_xy[i], body)} lies beyond an end of the curve (its closest point is "
+                        "the end, not the foot of a normal): extend the curve past the contact curve")
+
+
 def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s") -> System:
     """System of the body, with the contact flexibility and the unit-load contact responses (collective)."""
     from app.loading.flexibility import contact_flexibility
@@ -81,6 +97,8 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         raise BodyError(f"system.obstacle: the body starts inside the obstacle ({100 * frac:.0f} % of its nodes, up to "
                         f"{-depth:.3g} at {_point(where, body)}; {cfg.obstacle.describe()}): check centre, radius "
                         "and side (outside: the body outside the circle, inside: in the bore)")
+    if cfg.obstacle.type == "curve":
+        _check_curve_start(cfg, ops, depth, where, body, frac)
     if depth < -1e-10 * body and frac > 0.5:
         raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line ({100 * frac:.0f} % of its "
                         f"nodes, up to {-depth:.3g} beyond it at {_point(where, body)}; line through "
@@ -114,9 +132,11 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
                     "params": ops.params, "contact_xy": ops.contact_xy,
                     "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
-    if cfg.obstacle.type == "circle":      # the curvature terms of the pencils (app/analyses/curvature.py)
-        system.extra["curvature"] = np.full(n, cfg.obstacle.circle().curvature)
-        system.extra["circle"] = cfg.obstacle.circle(np.mean(ops.contact_xy, axis=0))
+    if cfg.obstacle.type != "line":      # the curvature terms of the pencils (app/analyses/curvature.py)
+        geometry = cfg.obstacle.geometry(np.mean(ops.contact_xy, axis=0))
+        # at the initial contact points; each state records its own (curved_contact.curvature)
+        system.extra["curvature"] = geometry.curvatures(ops.contact_xy)
+        system.extra["obstacle"] = geometry
     system.fields = BodyFields(cfg, ops, flex, gaps)
     return system
 
@@ -186,10 +206,10 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     with stages("quasi-static loading"):
         try:
             solver, gaps = None, system.extra["gaps"]
-            if cfg.obstacle.type == "circle":      # exact gaps and frames (app/loading/curved.py)
+            if cfg.obstacle.type != "line":      # exact gaps and frames (app/loading/curved.py)
                 from app.loading.curved import CurvedContact
                 tvec, nvec = cfg.obstacle.frame()
-                solver = CurvedContact(flex.schur, scene.mu, system.extra["circle"], system.extra["contact_xy"], tvec, nvec)
+                solver = CurvedContact(flex.schur, scene.mu, system.extra["obstacle"], system.extra["contact_xy"], tvec, nvec)
                 gaps = np.zeros_like(gaps)
             states, info = run_program(_phases(cfg, system.extra["params"]), system.extra["U0"], gaps,
                                        flex.schur, scene.mu, scene.settings.classify_rtol, progress, solver=solver)

@@ -12,6 +12,7 @@ obstacle, and a loading program.
       thickness: 9.6
       obstacle: {point: [0, 0], normal: [0, -1]}      # a straight line; normal: the body's outward normal
       # or: obstacle: {type: circle, centre: [40, -200], radius: 200, side: outside}
+      # or: obstacle: {type: curve, physical: ground, side: left}   # a free physical curve of the .geo
       program:                     # phases; each starts from the end of the previous one
         - {steps: 10, displacement: {CD: {translation: [0, -1]}}, until: {normal_force: 55}}
         - {steps: 310, displacement: {CD: {translation: [-6.2, 0]}}}
@@ -28,7 +29,8 @@ Curves neither ``contact`` nor ``prescribed`` are traction-free unless a phase l
 phase's increments so that the normal resultant on the contact curve is F at its end (exact in one
 rescaling when the phase starts from the unloaded, touching state: the incremental problems are
 then positively homogeneous; otherwise bracketing and regula falsi). A circle obstacle has exact gaps
-and frames (docs/method.md section 8); its increments are never homogeneous. Not modelled: other curves, two
+and frames, a curve of the .geo file interpolated ones (docs/method.md section 8, docs/curved.md); their
+increments are never homogeneous. Not modelled: a curve from a .msh file, two
 deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
 ``contact`` curve.
 """
@@ -38,7 +40,7 @@ import math
 from typing import Annotated, Any, ClassVar, Literal, Optional
 
 import numpy as np
-from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, PrivateAttr, ValidationInfo, field_validator, model_validator
 
 from app.systems.schema import (
     Finite,
@@ -67,22 +69,37 @@ class Obstacle(StrictModel):
     unit vector), or ``angle_deg``: the line's slope, i.e. the normal (0, -1) rotated
     counter-clockwise by that angle (exact for any angle). ``type: circle``: a circle of centre
     ``centre`` and radius ``radius``, the body ``outside`` it (a convex cylinder) or ``inside`` it
-    (a concave bore); gaps, frames and curvature at the contact points are exact (docs/method.md
-    section 8), the contact DOFs stay in the global axes (t = +x, n = -y)."""
-    type: Literal["line", "circle"] = Field("line", description="line (straight) or circle")
+    (a concave bore). ``type: curve``: the physical curve ``physical`` of the Gmsh ``.geo`` file
+    (a free curve, bounding no surface: not part of the body), the body on its ``left`` or
+    ``right`` looking along the curve's direction (its first entity's orientation); it must have a
+    continuous tangent. Gaps, frames and curvature at the contact points are exact for a circle and
+    interpolated to 1e-11 of the body's size for a curve (app/loading/curve.py; docs/method.md
+    section 8); the contact DOFs stay in the global axes (t = +x, n = -y)."""
+    type: Literal["line", "circle", "curve"] = Field("line", description="line (straight), circle or curve (a "
+                                                     "physical curve of the .geo file)")
     point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length] (type line)")
     normal: Vec2 = Field((0.0, -1.0), description="the body's outward normal at contact (into the obstacle) (type line)")
     angle_deg: Optional[Finite] = Field(None, description="or: the line's slope, the normal (0, -1) rotated by it [deg] "
                                         "(type line)")
     centre: Optional[Vec2] = Field(None, description="centre of the circle [length] (type circle)")
     radius: Optional[PosFloat] = Field(None, description="radius of the circle [length] (type circle)")
-    side: Optional[Literal["outside", "inside"]] = Field(
-        None, description="where the body is: outside (convex cylinder) or inside (concave bore) (type circle)")
+    physical: Optional[str] = Field(None, description="the physical curve of the .geo file that is the obstacle, a "
+                                    "curve of its own (type curve)")
+    side: Optional[Literal["outside", "inside", "left", "right"]] = Field(
+        None, description="where the body is: outside (convex cylinder) or inside (concave bore) (type circle); "
+        "left or right of the curve's direction (type curve)")
+    _curve: Any = PrivateAttr(None)          # the SmoothCurve, set by GmshBody once the file is read
 
     @model_validator(mode="after")
     def _one_way(self) -> "Obstacle":
-        from app.systems.obstacle_schema import check_circle_keys
+        from app.systems.obstacle_schema import check_circle_keys, check_curve_keys
+        if self.type == "curve" or "physical" in self.model_fields_set:
+            check_curve_keys(self)
+            return self
         check_circle_keys(self, ("centre", "radius", "side"), ("point", "normal", "angle_deg"))
+        if self.type == "circle" and self.side not in ("outside", "inside"):
+            raise SystemPathError("side", self.side, "allowed with type: circle: outside (the body outside a convex "
+                                  "cylinder) or inside (the body inside a concave bore)")
         if self.angle_deg is not None and "normal" in self.model_fields_set:
             raise SystemPathError("angle_deg", self.angle_deg, "give either normal or angle_deg, not both")
         return self
@@ -96,9 +113,9 @@ class Obstacle(StrictModel):
 
     def frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit tangent t and outward normal n of the contact DOFs, with t = (-n_y, n_x) (for
-        n = -y, t = +x); for a circle the global axes (each node's contact frame is then its own,
-        app/loading/curved.py)."""
-        if self.type == "circle":
+        n = -y, t = +x); for a circle or a curve the global axes (each node's contact frame is
+        then its own, app/loading/curved.py)."""
+        if self.type != "line":
             return np.array([1.0, 0.0]), np.array([0.0, -1.0])
         if self.angle_deg is not None:
             a = math.radians(self.angle_deg)
@@ -109,9 +126,13 @@ class Obstacle(StrictModel):
             n /= np.linalg.norm(n)
         return np.array([-n[1], n[0]]), n
 
-    def circle(self, ref=None):
-        """The :class:`app.loading.curved.Circle` of a circle obstacle (anchored in the direction
-        of the point ``ref``), None for a line."""
+    def geometry(self, ref=None):
+        """The curved obstacle's geometry (app/loading/curved.py ``Circle`` anchored in the
+        direction of the point ``ref``, or the curve of app/loading/curve.py with its arc
+        coordinate measured from ``ref``'s closest point), None for a line."""
+        if self.type == "curve":
+            import copy
+            return self._curve if ref is None else copy.copy(self._curve).set_reference(ref)   # arrays shared
         if self.type != "circle":
             return None
         from app.loading.curved import Circle
@@ -119,22 +140,22 @@ class Obstacle(StrictModel):
 
     def clearance(self, xy: np.ndarray) -> np.ndarray:
         """Gaps of the points ``xy`` (n, 2): ``(p - x) . n`` for a line, exact for a circle."""
-        if self.type == "circle":
+        if self.type != "line":
             xy = np.atleast_2d(xy)
-            return self.circle(np.mean(xy, axis=0)).gap(xy)
+            return self.geometry(np.mean(xy, axis=0)).gap(xy)
         return (np.array(self.point) - np.asarray(xy)) @ self.frame()[1]
 
     def coordinate(self, xy: np.ndarray) -> np.ndarray:
         """Tangential coordinate of the points ``xy`` along the obstacle: ``(x - p) . t`` for a
-        line, for a circle the arc coordinate from the direction of their mean."""
-        if self.type == "circle":
+        line, on a circle or a curve the arc coordinate from the direction (closest point) of their mean."""
+        if self.type != "line":
             xy = np.atleast_2d(xy)
-            return self.circle(np.mean(xy, axis=0)).arc(xy)
+            return self.geometry(np.mean(xy, axis=0)).arc(xy)
         return (np.asarray(xy) - np.array(self.point)) @ self.frame()[0]
 
     def describe(self) -> str:
-        if self.type == "circle":
-            return "obstacle " + self.circle().describe()
+        if self.type != "line":
+            return "obstacle " + self.geometry().describe()
         return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
 
 
@@ -258,6 +279,9 @@ class GmshBody(StrictModel):
                 raise SystemPathError(key, name, f"the physical curve '{name}' has no mesh elements")
 
         curve("contact", self.contact)
+        if self.obstacle.type == "curve":
+            from app.systems.gmsh.mesh import obstacle_curve
+            self.obstacle._curve = obstacle_curve(path, shown, info, self.obstacle, self.contact)
         inner = info.inner_segments.get(self.contact, 0)
         if inner:
             raise SystemPathError("contact", self.contact, f"{inner} of the {curves[self.contact][1]} segments of the "
