@@ -109,8 +109,9 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         raise BodyError(f"system.obstacle: the contact node at {_point(ops.contact_xy[i], body)} "
                         f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
     if depth < -1e-10 * body:
-        w = (f"part of the body starts beyond the obstacle line ({100 * frac:.2g} % of its nodes, up to {-depth:.3g} at "
-             f"{_point(where, body)}): the line is infinite and only the contact curve '{cfg.contact}' is kept out of it")
+        what = "line" if cfg.obstacle.type == "line" else cfg.obstacle.type
+        w = (f"part of the body starts beyond the obstacle {what} ({100 * frac:.2g} % of its nodes, up to {-depth:.3g} "
+             f"at {_point(where, body)}): only the contact curve '{cfg.contact}' is kept out of the obstacle")
         log.warning("%s", w)
         stages.warnings.append(w)
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
