@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.analyses.mceip_mu import lp
-from app.linalg import one_blas_thread
 from app.analyses.mceip_mu_quadratic_check import (
     Report,
     check_log,
@@ -33,9 +32,10 @@ from app.analyses.mceip_mu_quadratic_check import (
     farkas_closes,
     nonsingular_closes,
 )
+from app.linalg import one_blas_thread
 
 #: an interval wider than this (relative to ``max(b, WIDE_FLOOR cap)``) is halved before an index split
-WIDE_REL = 0.02
+WIDE_REL = 0.2
 WIDE_FLOOR = 0.05
 #: a single support (``F = U``) that no float test closes is halved down to this relative width
 #: before its exact decision (which costs more than a few float tests)
