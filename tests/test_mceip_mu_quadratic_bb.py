@@ -133,6 +133,10 @@ def test_checker_rejects_edited_witnesses():
         rep = check_log(*P, log)
         assert rep.errors and not rep.complete and not rep.onset_proven, (k, change)
     log = copy.deepcopy(proof.log)
+    k = next(i for i, n in enumerate(log["nodes"]) if n["kind"] == "cop")
+    log["nodes"][k]["U"] = log["nodes"][k]["U"][:-1] + [len(P[0])]          # an index off the pencil
+    assert check_log(*P, log).errors
+    log = copy.deepcopy(proof.log)
     log["cap"] = 2 * CAP                                                    # a claim beyond the root
     assert check_log(*P, log).errors
 

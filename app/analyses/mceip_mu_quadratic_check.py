@@ -192,7 +192,8 @@ def _check_node(A0, A1, A2, nodes, k, rep: Report, leaf) -> list[int]:
     n = nodes[k]
     U, F, a, b, kind = tuple(n["U"]), tuple(n["F"]), float(n["a"]), float(n["b"]), n["kind"]
     bad = lambda why: rep.errors.append(f"node {k} ({kind}): {why}") or []      # noqa: E731
-    if not set(F) <= set(U) or len(set(U)) != len(U) or not a <= b:
+    if not set(F) <= set(U) or len(set(U)) != len(U) or not all(0 <= int(i) < A0.shape[0] for i in U) \
+            or not 0 <= a <= b:
         return bad("not a family")
     if kind in ("bisect", "branch"):
         c = [nodes[i] if 0 <= i < len(nodes) else None for i in n.get("children", [])]
