@@ -175,3 +175,20 @@ def test_outcome_at_12_and_above_max_slip():
     d = quadratic_mu_result(A0, A1, A2, 10.0, 14)
     assert d.certified and d.complete.proven, d.result
     assert all(x.certified and x.evidence['found_by'] == ["exact proof"] for x in d.solutions)
+
+
+def test_outcome_with_the_onset_alone(monkeypatch):
+    """A branch and bound stopped early (here by its node limit, as by a time budget): the outcome
+    claims the proven onset, not the list (certified false), and keeps the log for `app check`."""
+    import app.analyses.mceip_mu_quadratic_bb as bb
+    A0, A1, A2 = random_pencil(12, 40 * 12 + 2, -1.0)
+    first = min(d["value"] for d in enumerate_quadratic(A0, A1, A2, 14))
+    monkeypatch.setattr(bb, "MAX_NODES", 300)
+    d = quadratic_mu_result(A0, A1, A2, CAP, 14)
+    assert d.onset.proven and not d.complete.proven and not d.certified, d.result
+    assert d.onset.enclosure[0] - 1e-12 <= first <= d.onset.enclosure[1] + 1e-12
+    rep = check_log(A0, A1, A2, d.proof["log"])
+    assert rep.onset_proven and not rep.complete and rep.open_from < CAP
+    monkeypatch.setattr(bb, "MAX_NODES", 2)
+    d = quadratic_mu_result(A0, A1, A2, CAP, 14)
+    assert not d.onset.proven and not d.certified and "not proven" in d.result

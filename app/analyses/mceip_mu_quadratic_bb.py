@@ -236,6 +236,6 @@ def prove_bb(A0, A1, A2, cap: float, deadline: float = math.inf) -> BBProof:
         rep = check_log(tree.A[0], tree.A[1], tree.A[2], log)
     out = BBProof(rep, float(cap), log, seconds=time.perf_counter() - t0, prover_seconds=t1 - t0,
                   supports=rep.leaves)
-    out.undecided = [(tuple(n["U"]), n["kind"]) for n in tree.nodes if n["kind"] == "open"] + \
-        [((), e) for e in rep.errors]
+    out.undecided = [(tuple(n["U"]), "open node (time budget)") for n in tree.nodes if n["kind"] == "open"] + \
+        rep.undecided + [((), e) for e in rep.errors]
     return out

@@ -128,6 +128,7 @@ class Report:
     errors: list[str] = field(default_factory=list)
     solutions: list = field(default_factory=list)
     open_from: float = np.inf                 # every solution below this mu is in ``solutions``
+    undecided: list = field(default_factory=list)     # (support, why) of the leaves' undecided roots
     nodes: int = 0
     leaves: int = 0
 
@@ -223,8 +224,9 @@ def _check_node(A0, A1, A2, nodes, k, rep: Report, leaf) -> list[int]:
         return []                                       # the empty support is no solution (v != 0)
     if kind == "leaf" and F == U:
         rep.leaves += 1
-        for _, (lo, hi) in leaf(U, a, b):
+        for why, (lo, hi) in leaf(U, a, b):
             rep.open_from = min(rep.open_from, max(a, lo))
+            rep.undecided.append((U, why))
         return []
     if kind == "open":
         rep.open_from = min(rep.open_from, a)
