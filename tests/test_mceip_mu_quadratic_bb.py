@@ -192,3 +192,24 @@ def test_outcome_with_the_onset_alone(monkeypatch):
     monkeypatch.setattr(bb, "MAX_NODES", 2)
     d = quadratic_mu_result(A0, A1, A2, CAP, 14)
     assert not d.onset.proven and not d.certified and "not proven" in d.result
+
+
+@pytest.mark.slow
+def test_agrees_with_the_per_support_proof_at_9_and_10():
+    """Soundness harness: on 12 random pencils (s = 9, 10, curvature of both signs and none, caps
+    10 and 30) the branch and bound's proven list is the exact per-support proof's (same supports,
+    overlapping enclosures), both complete."""
+    rng = np.random.default_rng(21)
+    n_sol = 0
+    for k in range(12):
+        s = int(rng.integers(9, 11))
+        curvature = float(rng.choice([-1.5, -0.5, 0.0, 0.4, 1.2]))
+        A0, A1, A2 = random_pencil(s, 7000 + k, curvature)
+        cap = float(rng.choice([10.0, 30.0]))
+        b, e = prove_bb(A0, A1, A2, cap), prove_quadratic(A0, A1, A2, cap, max_s=10)
+        assert b.proven and e.proven
+        assert [p.support for p in b.solutions] == [p.support for p in e.solutions]
+        assert all(x.enclosure[0] <= y.enclosure[1] and y.enclosure[0] <= x.enclosure[1]
+                   for x, y in zip(b.solutions, e.solutions))
+        n_sol += len(e.solutions)
+    assert n_sol > 5
