@@ -295,7 +295,7 @@ def _proven_list(A0, A1, A2, sols: list[dict], proof, cap: float) -> tuple[list[
     number of dropped candidates."""
     s = A0.shape[0]
     out, rejected = [], 0
-    unmatched = [p for p in proof.solutions if p.enclosure[1] <= cap]
+    unmatched = [p for p in proof.solutions if p.enclosure[0] <= cap]
     for d in sols:
         if d["value"] > cap:
             out.append(d)                                   # above the cap: found, not proven
