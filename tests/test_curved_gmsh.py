@@ -253,3 +253,43 @@ def test_convex_and_concave_examples(tmp_path):
                if s["classification"]["slip"] > 14)
     print("smallest critical mu: cylinder", min(min(mu_values(s)) for s in cyl if mu_values(s)),
           "seat", min(min(mu_values(s)) for s in seat if mu_values(s)))
+
+
+@pytest.mark.slow
+def test_curved_examples_proven_beyond_ten_slip_nodes(tmp_path):
+    """The half-disk examples with their proofs (mu_cap 100): every state with 11 to 16 slip nodes
+    is proven by the branch and bound (onset and complete list), its proven list is the
+    floating-point enumeration's where s <= 14, and `app check` re-verifies every stored log."""
+    import json
+    import re
+
+    import numpy as np
+    from conftest import run_cli
+    from test_gmsh_examples import EX
+
+    from app.analyses.mceip_mu_quadratic import enumerate_quadratic
+    for name in ("half_disk_cylinder", "half_disk_seat"):
+        text = re.sub(r"^outputs:.*$", "", (EX / f"{name}.yaml").read_text(), flags=re.M)
+        text = re.sub(r"^analyses:.*$", "analyses: [mceip_mu]", text, flags=re.M)
+        (tmp_path / f"{name}.yaml").write_text(text)
+        (tmp_path / "half_disk_curved.geo").write_text((EX / "half_disk_curved.geo").read_text())
+        p = run_cli("run", str(tmp_path / f"{name}.yaml"), "-o", str(tmp_path / name), "-q")
+        assert p.returncode == 0, p.stderr
+        res = json.loads((tmp_path / name / "results.json").read_text())
+        big = [s for s in res["states"] if s["classification"]["slip"] > 10]
+        assert big
+        for s in big:
+            m = s["analyses"]["mceip_mu"]
+            assert m["certified"] and m["onset"]["proven"] and m["complete"]["proven"], (s["index"], m["result"])
+        for f in (tmp_path / name / "proofs").glob("state_*.npz"):
+            with np.load(f) as z:
+                A0, A1, A2, log = z["A0"], z["A1"], z["A2"], json.loads(str(z["log"]))
+            if not 10 < A0.shape[0] <= 14:
+                continue
+            assert log["format"] == "mceip-mu-quadratic-bb/1"
+            st = next(s for s in res["states"] if s["index"] == int(f.stem.split("_")[1]))
+            proven = [x["value"] for x in st["analyses"]["mceip_mu"]["solutions"] if x["value"] <= 100]
+            found = [x["value"] for x in enumerate_quadratic(A0, A1, A2, 14) if x["value"] <= 100]
+            assert proven == pytest.approx(found, rel=1e-9)
+        p = run_cli("check", str(tmp_path / name))
+        assert p.returncode == 0 and "stored proofs re-verified" in p.stdout, p.stdout + p.stderr

@@ -21,10 +21,14 @@ What this proves: by itself nothing. The enumeration is exhaustive over supports
 eigenproblem and each sign check is decided in floating point, so its results are *found by
 exhaustive enumeration, not proven*; margins below ``RESOLVE_TOL`` are flagged
 ``ill_conditioned``. Refused above ``max_slip`` slip nodes (``settings.enumerate_max_slip``).
-Up to ``PROOF_MAX_S`` slip nodes :func:`quadratic_mu_result` adds the exact proof of
+:func:`quadratic_mu_result` adds a proof: up to ``PROOF_MAX_S`` slip nodes the exact proof of
 :mod:`app.analyses.mceip_mu_quadratic_proof` (rational determinants, isolated real roots, ball
-arithmetic): when it decides every support the list in ``[0, cap]`` is proven complete and each
-solution carries a rigorous ``enclosure``; otherwise everything stays *found, not proven*.
+arithmetic, every support), above it the branch and bound of
+:mod:`app.analyses.mceip_mu_quadratic_bb` (families of supports closed with rigorous bounds, single
+supports decided by the same exact proof, the log re-verified by
+:mod:`app.analyses.mceip_mu_quadratic_check`). When it is complete the list in ``[0, cap]`` is
+proven and each solution carries a rigorous ``enclosure``; a branch and bound out of time may
+prove the onset alone; otherwise everything stays *found, not proven*.
 """
 from __future__ import annotations
 
@@ -154,47 +158,56 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
     return sorted(out, key=lambda d: (d["value"], d["pattern"]))
 
 
-#: the proof of app/analyses/mceip_mu_quadratic_proof.py is attempted up to this many slip nodes
-#: (exact determinants of every support: 0.3 s at s = 8, 1.4 s at s = 10 on the development machine)
-PROOF_MAX_S = 10
-#: the proofs/ record of a quadratic proof: the pencil and the claim's cap; the exact proof is
+#: up to this many slip nodes the exact per-support proof of app/analyses/mceip_mu_quadratic_proof.py
+#: (every support, 0.3 s at s = 8); above it the branch and bound of
+#: app/analyses/mceip_mu_quadratic_bb.py, whose leaves are the same exact per-support decisions
+PROOF_MAX_S = 8
+#: the proofs/ record of a per-support proof: the pencil and the claim's cap; the exact proof is
 #: deterministic, so re-checking it is proving it again from the stored pencil
 QUADRATIC_FORMAT = "mceip-mu-quadratic/1"
+#: the proofs/ record of a branch and bound: the pencil and its log, re-verified by the checker
+#: of app/analyses/mceip_mu_quadratic_check.py
+QUADRATIC_BB_FORMAT = "mceip-mu-quadratic-bb/1"
+_METHOD_EXACT = ("exact determinant polynomial of every support (rational arithmetic), its real roots isolated, "
+                 "the signs of the null vector and of y by ball arithmetic (FLINT)")
+_METHOD_BB = ("branch and bound over families of supports and mu intervals, closed by the sign argument and "
+              "Farkas vectors at the four corners of the lifting of mu^2 and by nonsingularity (rigorous "
+              "rounding bounds), single supports decided exactly (FLINT); the log re-verified by an independent checker")
 
 
 def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_slip: int,
                         certify: bool = True, seconds: float = 60.0) -> MceipMuOutcome:
-    """The MCEIP-mu outcome for a curved obstacle: the solutions found by the
-    exhaustive floating-point enumeration and, up to ``PROOF_MAX_S`` slip nodes (``certify``),
-    the exact proof of :mod:`app.analyses.mceip_mu_quadratic_proof` on ``[0, cap]``: each
-    solution it proves is ``certified`` with its ``enclosure``; candidates it proves not to be
-    solutions are dropped. Without the proof every solution is found, not proven."""
-    from app.analyses.certify import certificate  # the certificate record's format only
+    """The MCEIP-mu outcome for a curved obstacle: the solutions found by the exhaustive
+    floating-point enumeration and (``certify``) a proof on ``[0, cap]``, the exact per-support
+    proof up to ``PROOF_MAX_S`` slip nodes, the checked branch and bound above (also above
+    ``max_slip``, where nothing is enumerated): each solution it proves is ``certified`` with
+    its ``enclosure``; candidates it proves not to be solutions are dropped. Without a proof
+    every solution is found, not proven; a branch and bound out of time may still prove the onset."""
     t0 = time.perf_counter()
     s = A0.shape[0]
     how = "quadratic MCEIP-mu: every support enumerated, companion linearisation + QZ, sign checks (26) in floating point"
     try:
         sols = enumerate_quadratic(A0, A1, A2, max_slip)
+        search = {"method": how, "attempts": 2 ** s - 1, "found": len(sols), "intervals": ["[0, inf)"],
+                  "complete": False, "note": "every support enumerated; decided in floating point (not a proof)"}
     except TooManySlipNodes as err:
-        return MceipMuOutcome(solutions=[], result=f"not searched: {err}", certified=False,
-                              onset=OnsetClaim(proven=False, status="not searched"),
-                              complete=CompleteClaim(proven=False, status="not searched", interval=[0.0, 0.0]),
-                              certificate=certificate("none", (0.0, 0.0), "not attempted", 0.0),
-                              search={"method": how, "complete": False, "note": str(err)}, quadratic=True)
-    for d in sols:
+        sols, search = None, {"method": how, "complete": False, "note": str(err)}
+    for d in sols or []:
         d.update(certified=False, found_by=["exhaustive enumeration of the quadratic pattern problems"],
                  found_count=1, iterations=0)
-    search = {"method": how, "attempts": 2 ** s - 1, "seconds": round(time.perf_counter() - t0, 4), "found": len(sols),
-              "intervals": ["[0, inf)"], "complete": False,
-              "note": "every support enumerated; decided in floating point (not a proof)"}
+    search["seconds"] = round(time.perf_counter() - t0, 4)
     proof = None
     if certify and s <= PROOF_MAX_S:
         from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
         proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, deadline=time.perf_counter() + seconds)
+    elif certify:
+        from app.analyses.mceip_mu_quadratic_bb import prove_bb
+        proof = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + seconds)
+    if sols is None and (proof is None or not proof.proven):
+        return _not_searched(search, proof, s, cap)
     if proof is None or not proof.proven:
-        return _unproven(sols, search, proof, s, cap, certify, t0)
-    out, rejected = _proven_list(A0, A1, A2, sols, proof, cap)
-    out.sort(key=lambda d: (d["value"], d["pattern"]))
+        return _unproven(A0, A1, A2, sols, search, proof, s, cap, t0)
+    out, rejected = _proven_list(A0, A1, A2, sols or [], proof, cap)
     on = proof.onset
     pat = "".join("S" if i in on.support else "-" for i in range(s)) if on else ""
     result = ((f"proven onset: mu = {on.value:.10g} (pattern {pat}, enclosure [{on.enclosure[0]:.10g}, "
@@ -202,37 +215,69 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
               + f"; proven complete: {len(proof.solutions)} critical value(s) in [0, {cap:.6g}]"
               + (f"; {sum(1 for d in out if d['value'] > cap)} more found above the cap (not proven)"
                  if any(d["value"] > cap for d in out) else ""))
-    method = ("exact determinant polynomial of every support (rational arithmetic), its real roots isolated, "
-              "the signs of the null vector and of y by ball arithmetic (FLINT)")
-    cert = certificate(method, (0.0, cap), "proven", time.perf_counter() - t0,
-                       {"s": s, "cap": float(cap), "supports": proof.supports,
-                        "proof_seconds": round(proof.seconds, 4),
-                        "rejected_floating_point_candidates": rejected}, gap=0.0)
+    bb = hasattr(proof, "log")
+    cert = _certificate(_METHOD_BB if bb else _METHOD_EXACT, cap, "proven", t0, proof, s, rejected)
     cert.cap, cert.onset = float(cap), on.value if on else None
+    log = dict(proof.log) if bb else {"format": QUADRATIC_FORMAT, "cap": float(cap), "max_s": PROOF_MAX_S}
     return MceipMuOutcome(
         solutions=[Solution.from_fields(d) for d in out], result=result, certified=True,
         onset=OnsetClaim(proven=True, status="proven", value=on.value if on else None,
                          enclosure=list(on.enclosure) if on else None),
         complete=CompleteClaim(proven=True, status="proven", interval=[0.0, float(cap)], count=len(proof.solutions)),
         certificate=cert, search={**search, "complete": True}, quadratic=True,
-        # the pencil travels to proofs/ (app/io/proofs.py), where `app check` proves it again
+        # the pencil travels to proofs/ (app/io/proofs.py), where `app check` verifies it again
         proof={"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
-               "A2": np.asarray(A2, dtype=float),
-               "log": {"format": QUADRATIC_FORMAT, "cap": float(cap), "max_s": PROOF_MAX_S}})
+               "A2": np.asarray(A2, dtype=float), "log": log})
 
 
-def _unproven(sols: list[dict], search: dict, proof, s: int, cap: float, certify: bool,
-              t0: float) -> MceipMuOutcome:
-    """The record when the exact proof was not attempted or left supports undecided: the
-    enumerated solutions, found, not proven."""
+def _certificate(method: str, cap: float, status: str, t0: float, proof, s: int, rejected: int):
     from app.analyses.certify import certificate  # the certificate record's format only
+    extra = {"s": s, "cap": float(cap), "supports": proof.supports, "proof_seconds": round(proof.seconds, 4),
+             "rejected_floating_point_candidates": rejected}
+    if hasattr(proof, "log"):
+        extra.update(nodes=len(proof.log["nodes"]), prover_seconds=round(proof.prover_seconds, 4))
+    return certificate(method, (0.0, cap), status, time.perf_counter() - t0, extra, gap=0.0)
+
+
+def _not_searched(search: dict, proof, s: int, cap: float) -> MceipMuOutcome:
+    """Above ``max_slip`` without a complete proof: nothing enumerated, nothing claimed."""
+    from app.analyses.certify import certificate  # the certificate record's format only
+    note = search["note"] + ("" if proof is None else "; the branch and bound did not finish in its time budget")
+    return MceipMuOutcome(solutions=[], result=f"not searched: {note}", certified=False,
+                          onset=OnsetClaim(proven=False, status="not searched"),
+                          complete=CompleteClaim(proven=False, status="not searched", interval=[0.0, 0.0]),
+                          certificate=certificate("none", (0.0, 0.0), "not attempted", 0.0),
+                          search={**search, "note": note}, quadratic=True)
+
+
+def _unproven(A0, A1, A2, sols: list[dict], search: dict, proof, s: int, cap: float, t0: float) -> MceipMuOutcome:
+    """The record when no proof was attempted or it is incomplete: the enumerated solutions,
+    found, not proven, except a branch and bound's proven onset (and the proven solutions)."""
+    from app.analyses.certify import certificate  # the certificate record's format only
+    if proof is not None and getattr(proof, "onset_proven", False):
+        out, rejected = _proven_list(A0, A1, A2, sols, proof, proof.report.open_from)
+        on = proof.onset
+        open_from = proof.report.open_from
+        result = (f"proven onset: mu = {on.value:.10g} (enclosure [{on.enclosure[0]:.10g}, {on.enclosure[1]:.10g}]); "
+                  f"not proven complete: every critical mu below {open_from:.6g} is listed, the branch and bound "
+                  f"left mu in [{open_from:.6g}, {cap:.6g}] open")
+        cert = _certificate(_METHOD_BB, cap, f"proven onset; complete only below mu = {open_from:.6g}", t0, proof, s,
+                            rejected)
+        cert.cap, cert.onset = float(cap), on.value
+        return MceipMuOutcome(
+            solutions=[Solution.from_fields(d) for d in out], result=result, certified=False,
+            onset=OnsetClaim(proven=True, status="proven", value=on.value, enclosure=list(on.enclosure)),
+            complete=CompleteClaim(proven=False, status=f"not proven (complete below mu = {open_from:.6g})",
+                                   interval=[0.0, 0.0]),
+            certificate=cert, search=search, quadratic=True,
+            proof={"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
+                   "A2": np.asarray(A2, dtype=float), "log": dict(proof.log)})
     first = sols[0]["value"] if sols else None
     why = ("" if proof is None else
-           f"; the exact proof left {len(proof.undecided)} support(s) undecided, e.g. {proof.undecided[0][1]}")
+           f"; the proof left {len(proof.undecided)} support(s) or node(s) undecided, e.g. {proof.undecided[0][1]}")
     result = ((f"{len(sols)} solution(s) found, smallest mu = {first:.10g}" if sols else "no solution found")
               + " (found by exhaustive floating-point enumeration of the quadratic pattern problems, not proven"
-              + (f": s = {s} > {PROOF_MAX_S}, the exact proof not attempted" if proof is None and certify and s > PROOF_MAX_S
-                 else "") + why + ")")
+              + why + ")")
     cert = certificate("none (floating-point enumeration)", (0.0, 0.0),
                        "not proven: exhaustive floating-point enumeration of the 2^s supports",
                        time.perf_counter() - t0, {"s": s, "cap": float(cap), "solutions": len(sols),
@@ -244,13 +289,13 @@ def _unproven(sols: list[dict], search: dict, proof, s: int, cap: float, certify
 
 
 def _proven_list(A0, A1, A2, sols: list[dict], proof, cap: float) -> tuple[list[dict], int]:
-    """The proof is complete on ``[0, cap]``: its list replaces the floating-point candidates
+    """The proof is complete on ``[0, cap]`` (``cap``: the end of what it proves complete): its list replaces the floating-point candidates
     there (each matched one ``certified`` with its enclosure, the others dropped as rounding
     artefacts, the proven ones the enumeration missed added). Returns the solutions and the
     number of dropped candidates."""
     s = A0.shape[0]
     out, rejected = [], 0
-    unmatched = list(proof.solutions)
+    unmatched = [p for p in proof.solutions if p.enclosure[0] <= cap]
     for d in sols:
         if d["value"] > cap:
             out.append(d)                                   # above the cap: found, not proven
@@ -270,6 +315,7 @@ def _proven_list(A0, A1, A2, sols: list[dict], proof, cap: float) -> tuple[list[
         out.append({"value": p.value, "x_Ts": x, "pattern": ["slip" if i in p.support else "stick" for i in range(s)],
                     "certified": True, "enclosure": list(p.enclosure), "found_by": ["exact proof"], "found_count": 1,
                     "iterations": 0, "ill_conditioned": False})
+    out.sort(key=lambda d: (d["value"], d["pattern"]))
     return out, rejected
 
 

@@ -58,17 +58,17 @@ class QuadraticProof:
         return min(self.solutions, key=lambda p: p.enclosure[0]) if self.solutions else None
 
 
-def _q(v: float):
+def exact(v: float):
     import flint
     return flint.fmpq(*float(v).as_integer_ratio())
 
 
 def _qmat(A: np.ndarray):
     import flint
-    return flint.fmpq_mat([[_q(v) for v in row] for row in A])
+    return flint.fmpq_mat([[exact(v) for v in row] for row in A])
 
 
-def _integer_data(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray):
+def exact_data(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray):
     """``2^E A0, 2^E A1, 2^E A2`` as exact integers (one power of two for all: the dyadic floats
     become integers; determinants scale by a positive power of two, roots and signs do not change)."""
     import flint
@@ -157,55 +157,95 @@ def prove_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, 
     old = flint.ctx.prec
     flint.ctx.prec = PREC
     try:
-        Q0, Q1, Q2 = _integer_data(A0, A1, A2)            # exact: the proof is about these data
+        Q0, Q1, Q2 = exact_data(A0, A1, A2)            # exact: the proof is about these data
         out = QuadraticProof(proven=True, cap=float(cap))
-        capq = _q(cap)
+        capq = exact(cap)
         for k in range(1, s + 1):
             for J in itertools.combinations(range(s), k):
                 out.supports += 1
                 if deadline is not None and time.perf_counter() > deadline:
                     out.undecided.append((J, "time budget"))
                     continue
-                p = _det_poly(Q0, Q1, Q2, J)
-                if p.is_zero():
-                    out.undecided.append((J, "det A_JJ(mu) vanishes identically"))
-                    continue
-                if p.degree() == 0:
-                    continue                                   # a non-zero constant: no eigenvalue
-                sq = p // p.gcd(p.derivative())                # squarefree part, same roots
-                multiple = sq.degree() < p.degree()
-                try:
-                    roots = _isolate(sq)
-                except ValueError as err:                     # FLINT could not isolate the roots
-                    out.undecided.append((J, f"root isolation failed ({err})"))
-                    continue
-                for root, _ in roots:
-                    if not root.imag.is_zero():
-                        continue                               # FLINT returns real roots with imag exactly 0
-                    r = root.real
-                    if r < 0 or r > flint.arb(capq):
-                        continue
-                    if not (r > 0 or r.is_zero()) or not (r < flint.arb(capq)):
-                        out.undecided.append((J, "a root at an end of [0, cap] is not separated from it"))
-                        continue
-                    if multiple and _is_multiple(p, sq, r):
-                        out.undecided.append((J, "a multiple root of det A_JJ(mu)"))
-                        continue
-                    verdict, why = _decide(Q0, Q1, Q2, J, s, r)
-                    if verdict == "undecided" or verdict == "solution":
-                        r = _refine(sq, r)            # narrower: resolves more signs, a tight enclosure
-                        verdict, why = _decide(Q0, Q1, Q2, J, s, r)
-                    if verdict == "solution":
-                        lo, hi = _arb_interval(r)
-                        out.solutions.append(ProvenSolution(float(r.mid()), (max(lo, 0.0), hi), J))
-                    elif verdict == "undecided":
-                        out.undecided.append((J, why))
+                sols, und = decide_support(Q0, Q1, Q2, J, s, capq)
+                out.solutions += sols
+                out.undecided += [(J, why) for why, _ in und]
         out.proven = not out.undecided
         out.solutions.sort(key=lambda p_: (p_.enclosure[0], p_.support))
         out.seconds = time.perf_counter() - t0
         return out
     finally:
         flint.ctx.prec = old
+
+
+def decide_support(Q0, Q1, Q2, J: tuple[int, ...], s: int, capq, window=None, cache=None):
+    """Steps 1-3 above for the one support ``J`` on ``[0, cap]`` (``capq`` exact): its proven
+    solutions and its undecided roots, each ``(why, (lo, hi))`` with the mu it concerns (all of
+    ``[0, cap]`` when no root is isolated). With ``window = (lo, hi)`` only the roots whose
+    enclosure meets it are decided; ``cache`` (a dict) keeps the polynomial, its roots and the
+    decisions between calls. Runs at the caller's ball precision."""
+    cache = {} if cache is None else cache
+    if J not in cache:
+        cache[J] = _support_roots(Q0, Q1, Q2, J, capq)
+    roots, und, sq = cache[J]
+    sols: list[ProvenSolution] = []
+    und = [u for u in und if window is None or (u[1][0] <= window[1] and window[0] <= u[1][1])]
+    for idx, (r, enc) in enumerate(roots):
+        if window is not None and not (enc[0] <= window[1] and window[0] <= enc[1]):
+            continue
+        if (J, idx) not in cache:
+            cache[J, idx] = _decide_root(Q0, Q1, Q2, J, s, sq, r)
+        verdict, why, hit = cache[J, idx]
+        if verdict == "solution":
+            sols.append(hit)
+        elif verdict == "undecided":
+            und.append((why, enc))
+    return sols, und
+
+
+def _support_roots(Q0, Q1, Q2, J, capq):
+    """The simple real roots of ``det A_JJ(mu)`` in ``[0, cap]`` (arb balls with their float
+    enclosures), the undecided ones (identically zero, multiple, at an end of ``[0, cap]``) and
+    the squarefree part."""
+    import flint
+    whole = (0.0, float(np.nextafter(float(capq.p) / float(capq.q), np.inf)))
+    p = _det_poly(Q0, Q1, Q2, J)
+    if p.is_zero():
+        return [], [("det A_JJ(mu) vanishes identically", whole)], None
+    if p.degree() == 0:
+        return [], [], None                                # a non-zero constant: no eigenvalue
+    sq = p // p.gcd(p.derivative())                        # squarefree part, same roots
+    multiple = sq.degree() < p.degree()
+    try:
+        found = _isolate(sq)
+    except ValueError as err:                              # FLINT could not isolate the roots
+        return [], [(f"root isolation failed ({err})", whole)], None
+    cap = flint.arb(capq)
+    roots, und = [], []
+    for root, _ in found:
+        if not root.imag.is_zero():
+            continue                                       # FLINT returns real roots with imag exactly 0
+        r = root.real
+        if r < 0 or r > cap:
+            continue
+        if not (r > 0 or r.is_zero()) or not (r < cap):
+            und.append(("a root at an end of [0, cap] is not separated from it", _arb_interval(r)))
+        elif multiple and _is_multiple(p, sq, r):
+            und.append(("a multiple root of det A_JJ(mu)", _arb_interval(r)))
+        else:
+            roots.append((r, _arb_interval(r)))
+    return roots, und, sq
+
+
+def _decide_root(Q0, Q1, Q2, J, s, sq, r):
+    """('solution' | 'not' | 'undecided', why, the ProvenSolution or None) at the simple root ``r``."""
+    verdict, why = _decide(Q0, Q1, Q2, J, s, r)
+    if verdict == "undecided" or verdict == "solution":
+        r = _refine(sq, r)                        # narrower: resolves more signs, a tight enclosure
+        verdict, why = _decide(Q0, Q1, Q2, J, s, r)
+    if verdict == "solution":
+        lo, hi = _arb_interval(r)
+        return verdict, why, ProvenSolution(float(r.mid()), (max(lo, 0.0), hi), J)
+    return verdict, why, None
 
 
 def _isolate(sq):

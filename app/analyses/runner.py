@@ -197,7 +197,7 @@ def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> Enumera
                                           mu=scene.lambda2_mu if problem == "lambda2" else None)
                 if problem == "mu" and curvature.is_curved(p.cls):
                     # the quadratic pattern problems are decided in floating point: found, not proven
-                    # (the exact proof is mceip_mu's, app/analyses/mceip_mu_quadratic_proof.py)
+                    # (the proofs are mceip_mu's: app/analyses/mceip_mu_quadratic_proof.py, mceip_mu_quadratic_bb.py)
                     for x in found:
                         x.mark(certified=False)
                     done.certified = False

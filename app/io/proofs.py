@@ -4,8 +4,10 @@
 condensed MCEIP-mu was proven (or partly proven), the pencil ``A0``, ``A1`` and the proof log
 (JSON text, format in docs/proofs.md). :func:`check_folder` re-verifies every log with the
 independent checker and compares what it accepts with what results.json claims. A curved
-obstacle's quadratic pencil (``A2`` too, log format ``mceip-mu-quadratic/1``) is proven again
-from the stored pencil by the exact proof of :mod:`app.analyses.mceip_mu_quadratic_proof`.
+obstacle's quadratic pencil (``A2`` too) is proven again from the stored pencil by the exact
+proof of :mod:`app.analyses.mceip_mu_quadratic_proof` (log format ``mceip-mu-quadratic/1``), or its
+branch-and-bound log (``mceip-mu-quadratic-bb/1``) is re-verified by
+:mod:`app.analyses.mceip_mu_quadratic_check`.
 """
 from __future__ import annotations
 
@@ -104,26 +106,36 @@ def check_folder(folder: pathlib.Path) -> list[StateCheck]:
 
 
 def _check_quadratic(k: int, A0, A1, A2, log: dict, a: dict) -> StateCheck:
-    """Prove a stored quadratic pencil again (exact arithmetic, no time limit) and compare the
-    proven list in ``[0, cap]`` with the certified solutions of results.json."""
-    from app.analyses.mceip_mu_quadratic import QUADRATIC_FORMAT
-    from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+    """Verify a stored quadratic proof again and compare the proven list in ``[0, cap]`` with the
+    certified solutions of results.json: a per-support proof is proven again from the pencil
+    (exact arithmetic, no time limit), a branch and bound's log is re-verified by its checker."""
+    from app.analyses.mceip_mu_quadratic import QUADRATIC_BB_FORMAT, QUADRATIC_FORMAT
     s = A0.shape[0]
     claimed = bool(a.get("certified"))
-    if log.get("format") != QUADRATIC_FORMAT:
-        return StateCheck(k, s, claimed, False, claimed, False, False,
-                          [f"proof format {log.get('format')!r}, expected {QUADRATIC_FORMAT!r}"])
-    proof = prove_quadratic(A0, A1, A2, float(log["cap"]), max_s=int(log["max_s"]))
-    ok = proof is not None and proof.proven
-    errors = [] if ok else ["the exact proof does not decide every support" if proof else
-                            f"s = {s} is above the stored max_s = {log['max_s']}"]
+    onset_claimed = bool((a.get("onset") or {}).get("proven"))
+    if log.get("format") == QUADRATIC_BB_FORMAT:
+        from app.analyses.mceip_mu_quadratic_check import check_log
+        rep = check_log(A0, A1, A2, log)
+        ok, onset_ok, errors, solutions, onset = rep.complete, rep.onset_proven, rep.errors[:3], rep.solutions, rep.onset
+        if not rep.errors and not ok:
+            errors.append(f"the log leaves mu >= {rep.open_from:.6g} open")
+    elif log.get("format") == QUADRATIC_FORMAT:
+        from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+        proof = prove_quadratic(A0, A1, A2, float(log["cap"]), max_s=int(log["max_s"]))
+        ok = onset_ok = proof is not None and proof.proven
+        errors = [] if ok else ["the exact proof does not decide every support" if proof else
+                                f"s = {s} is above the stored max_s = {log['max_s']}"]
+        solutions, onset = (proof.solutions, proof.onset) if ok else ([], None)
+    else:
+        return StateCheck(k, s, onset_claimed, False, claimed, False, False,
+                          [f"proof format {log.get('format')!r}, expected {QUADRATIC_FORMAT!r} or {QUADRATIC_BB_FORMAT!r}"])
     match = True
     if ok and claimed:
         values = sorted(float(d["value"]) for d in a.get("solutions", []) if d.get("certified"))
-        got = sorted(proof.solutions, key=lambda p: p.enclosure[0])
+        got = sorted(solutions, key=lambda p: p.enclosure[0])
         match = len(values) == len(got) and all(p.enclosure[0] <= v <= p.enclosure[1] for v, p in zip(values, got))
-        onset = (a.get("onset") or {}).get("value")
-        if (onset is None) != (proof.onset is None) or (
-                onset is not None and not proof.onset.enclosure[0] <= float(onset) <= proof.onset.enclosure[1]):
+    if onset_ok and onset_claimed:
+        v = (a.get("onset") or {}).get("value")
+        if (v is None) != (onset is None) or (v is not None and not onset.enclosure[0] <= float(v) <= onset.enclosure[1]):
             match = False
-    return StateCheck(k, s, claimed, ok, claimed, ok, match, errors)
+    return StateCheck(k, s, onset_claimed, onset_ok, claimed, ok, match, errors)
