@@ -209,3 +209,22 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
     monkeypatch.setattr(operators, "block_operators", no_contact)
     with pytest.raises(UnreachableLoad, match="no contact nodes"):
         run_study(parse_scene(_with(nx=6, ny=3)), MPI.COMM_WORLD)
+
+
+def test_a_signal_during_an_import_is_sent_again_after_it(tmp_path, monkeypatch):
+    """SIGTERM/SIGINT raise KeyboardInterrupt (one line, exit 143/130), except inside an import,
+    where it would come out of a C extension's initialisation as an ImportError and a traceback:
+    there the signal is sent again a tenth of a second later."""
+    import app.cli.main as cli
+    sent = []
+    monkeypatch.setattr(cli.os, "kill", lambda pid, sig: sent.append((pid, sig)))
+    with pytest.raises(KeyboardInterrupt, match="signal 15"):
+        cli._terminate(signal.SIGTERM, sys._getframe())
+    (tmp_path / "importing_now.py").write_text(
+        "import sys, signal\nimport app.cli.main as cli\ncli._terminate(signal.SIGTERM, sys._getframe())\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import importing_now  # noqa: F401  (its top level is inside the import machinery)
+    deadline = time.monotonic() + 10
+    while not sent and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert sent == [(os.getpid(), signal.SIGTERM)]

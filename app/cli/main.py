@@ -13,6 +13,7 @@ import os
 import pathlib
 import signal
 import sys
+import threading
 
 from app.common.errors import EXIT_WRITE
 from app.common.errors import fail as _fail
@@ -271,6 +272,8 @@ def _main(args) -> int:
     # place at the very end; the lock on the folder is held until then.
     outdir = folder.staging
     signal.signal(signal.SIGTERM, _terminate)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
+        signal.signal(signal.SIGINT, _terminate)
     try:
         return _run(args, scene, comm, folder, outdir)
     finally:
@@ -279,6 +282,19 @@ def _main(args) -> int:
 
 
 def _terminate(signum, frame):
+    """SIGTERM and SIGINT during a run: a KeyboardInterrupt, turned into one line by :func:`main`.
+
+    Inside an import (the system types import DOLFINx when they build) the exception would
+    surface from a C extension's initialisation as an ImportError with a traceback; there the
+    signal is sent again a tenth of a second later instead, until the import is done."""
+    f = frame
+    while f is not None:
+        if f.f_code.co_filename.startswith("<frozen importlib"):
+            again = threading.Timer(0.1, os.kill, (os.getpid(), signum))
+            again.daemon = True
+            again.start()
+            return
+        f = f.f_back
     raise KeyboardInterrupt(f"signal {signum}")
 
 
