@@ -14,6 +14,7 @@ import sys
 import unicodedata
 
 import pytest
+from mpi4py import MPI
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", ROOT / "CHANGELOG.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -89,6 +90,14 @@ def test_readme_is_a_front_page():
     assert "make run" in text and "make test" in text and "make lock" in text
     summary = re.search(r"```text\n(scene 'villechaise-block'.*?)```", text, re.S)
     assert summary and "MCEIP-mu: 1.7048" in summary.group(1)
+    # the summary shown is the one the default study prints (up to its timings and folders)
+    from app.io.summary import summary as printed
+    from app.scene.schema import Outputs, load_scene
+    from app.study.run import run_study
+    scene = load_scene(ROOT / "app" / "scenes" / "villechaise_block.yaml")
+    res = run_study(scene.model_copy(update={"outputs": Outputs()}), MPI.COMM_WORLD)      # no files or pictures
+    shown = summary.group(1).split("\n  wall time")[0].splitlines()
+    assert shown == printed(res, pathlib.Path("output/villechaise-block")).split("\n  wall time")[0].splitlines()
     assert not (ROOT / "NOTES.md").exists()       # replaced by CHANGELOG.md and docs/limitations.md
 
 
