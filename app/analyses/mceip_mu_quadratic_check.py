@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.mceip_mu.rounding import U_ROUND, gamma, mr_mul, rounded_up, safe_inv, verified_pd
+from app.analyses.mceip_mu.closing import pd_plus_nn
+from app.analyses.mceip_mu.rounding import U_ROUND, gamma, mr_mul, rounded_up, safe_inv
 
 THETAS = (0.0, 0.5, 1.0)
 
@@ -54,15 +55,6 @@ def corners(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray, a: float, b: float) 
     return out
 
 
-def _strictly_copositive(H: np.ndarray, R: np.ndarray, theta: float) -> bool:
-    """Every symmetric matrix within entrywise ``R`` of ``H`` is strictly copositive: ``N = theta *
-    (positive off-diagonal part of H)`` and ``H - N`` proven positive definite."""
-    if theta > 0:
-        off = H - np.diag(np.diag(H))
-        H = H - theta * np.maximum(off, 0.0)
-    return verified_pd(H, float(rounded_up(np.sqrt(np.sum(R * R)), R.size)))
-
-
 def cop_closes(a0, a1, a2, U, a: float, b: float, d, theta: float) -> bool:
     """No solution with support in ``U`` and mu in ``[a, b]``: ``sym(D A_UU)`` strictly copositive
     at the four corners (``D = diag(d) > 0``)."""
@@ -76,7 +68,7 @@ def cop_closes(a0, a1, a2, U, a: float, b: float, d, theta: float) -> bool:
         M, rM = mr_mul(np.diag(d), None, C, rC)
         H = 0.5 * (M + M.T)
         R = rounded_up(0.5 * (rM + rM.T) + U_ROUND * np.abs(H), 2)
-        if not _strictly_copositive(H, R, theta):
+        if not pd_plus_nn(H, R, theta):
             return False
     return True
 

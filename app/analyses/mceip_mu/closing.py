@@ -49,10 +49,10 @@ def copositive_at(a0: np.ndarray, a1: np.ndarray, mu: float, d: np.ndarray, thet
     H = 0.5 * (DA + DA.T)
     aD = d[:, None] * (np.abs(a0) + abs(mu) * np.abs(a1))
     E = gamma(5) * 0.5 * (aD + aD.T)
-    return _pd_plus_nn(H, E, theta)
+    return pd_plus_nn(H, E, theta)
 
 
-def _pd_plus_nn(H: np.ndarray, E: np.ndarray, theta: float) -> bool:
+def pd_plus_nn(H: np.ndarray, E: np.ndarray, theta: float) -> bool:
     """Every symmetric matrix within entrywise ``E`` of ``H`` is strictly copositive: the exact
     split ``N = theta * (positive off-diagonal part of H)`` and ``H - N`` proven positive
     definite (within the Frobenius norm of ``E``)."""
@@ -97,7 +97,7 @@ def rlt_closes(a0: np.ndarray, a1: np.ndarray, U: np.ndarray, F, a: float, b: fl
         C, rC = mr_mul(M, None, A, rA)
         H = 0.5 * (C + C.T)
         R = rounded_up(0.5 * (rC + rC.T) + U_ROUND * np.abs(H), 2)
-        if not _pd_plus_nn(H, R, theta):
+        if not pd_plus_nn(H, R, theta):
             return False
     return True
 
