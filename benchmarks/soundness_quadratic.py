@@ -1,0 +1,98 @@
+"""Soundness of the quadratic MCEIP-mu branch and bound (curved obstacles, docs/curved.md).
+
+Random pencils ``A(mu) = A0 + mu A1 + mu^2 A2`` (``A0`` SPD plus the diagonal ``A2 = G`` of either
+sign or zero, as kappa P), s = 1-10, caps 10 and 30, some near-degenerate (two identical nodes to
+1e-9, ``A2`` at 1e-13 of ``A0``). The reference is the exhaustive exact per-support proof
+(``prove_quadratic``: every one of the 2^s supports decided in rational and ball arithmetic). A
+*false proof* is a claim of the branch and bound (the list complete, or the onset) that the
+reference contradicts: another set of supports, or enclosures that do not meet. Pencils where the
+reference leaves a support undecided have no known truth and are counted apart.
+
+    .venv/bin/python benchmarks/soundness_quadratic.py [--n 300] [--start 0]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from app.analyses.mceip_mu_quadratic_bb import prove_bb  # noqa: E402
+from app.analyses.mceip_mu_quadratic_proof import prove_quadratic  # noqa: E402
+
+KINDS = ("plain", "twin nodes", "tiny A2")
+
+
+def pencil(k: int):
+    """Pencil number ``k``: (A0, A1, A2, cap, s, kind)."""
+    rng = np.random.default_rng(90_000 + k)
+    s = int(rng.integers(1, 11))
+    kind = KINDS[k % len(KINDS)] if s > 1 else "plain"
+    B = rng.normal(size=(s, s))
+    A0 = B @ B.T + s * np.eye(s)
+    A1 = rng.normal(size=(s, s)) * 1.5
+    G = np.diag(float(rng.choice([-1.5, -0.5, 0.4, 1.2])) * rng.uniform(0.2, 1.0, size=s))
+    if kind == "twin nodes":        # node 1 a copy of node 0 to 1e-9
+        for A in (A0, A1, G):
+            A[1, :], A[:, 1] = A[0, :] * (1 + 1e-9), A[:, 0] * (1 + 1e-9)
+            A[1, 1] = A[0, 0] * (1 + 2e-9)
+        A0 += 1e-6 * np.eye(s)
+    elif kind == "tiny A2":
+        G = G * 1e-13 * np.max(np.abs(A0))
+    return A0 + G, A1, G, float(rng.choice([10.0, 30.0])), s, kind
+
+
+def _meet(x, y) -> bool:
+    return x.enclosure[0] <= y.enclosure[1] and y.enclosure[0] <= x.enclosure[1]
+
+
+def classify(b, e) -> str:
+    """``agree``, ``FALSE``, ``not proven`` (the branch and bound claims nothing contradicted)
+    or ``unknown truth`` (the reference undecided)."""
+    if not e.proven:
+        return "unknown truth"
+    false = False
+    if b.proven:
+        same = [p.support for p in b.solutions] == [p.support for p in e.solutions]
+        false |= not (same and all(_meet(x, y) for x, y in zip(b.solutions, e.solutions)))
+    if b.onset_proven:
+        bo, eo = b.onset, e.onset
+        false |= (bo is None) != (eo is None) or (bo is not None and (bo.support != eo.support or not _meet(bo, eo)))
+    if false:
+        return "FALSE"
+    return "agree" if b.proven else "not proven"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=300)
+    ap.add_argument("--start", type=int, default=0)
+    args = ap.parse_args(argv)
+    counts: dict[str, int] = {}
+    t_bb = t_ref = 0.0
+    n_sol = 0
+    for k in range(args.start, args.start + args.n):
+        A0, A1, A2, cap, s, kind = pencil(k)
+        t0 = time.perf_counter()
+        b = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + 60.0)
+        t1 = time.perf_counter()
+        e = prove_quadratic(A0, A1, A2, cap, max_s=10)
+        t_bb, t_ref = t_bb + t1 - t0, t_ref + time.perf_counter() - t1
+        verdict = classify(b, e)
+        counts[verdict] = counts.get(verdict, 0) + 1
+        n_sol += len(e.solutions) if e.proven else 0
+        if verdict == "FALSE":
+            print(f"FALSE PROOF: pencil {k} (s = {s}, {kind}, cap {cap})", flush=True)
+    print(f"quadratic soundness: {args.n} pencils (s = 1-10; {', '.join(KINDS)}): FALSE PROOFS "
+          f"{counts.get('FALSE', 0)}; agree {counts.get('agree', 0)} ({n_sol} critical values), "
+          f"not proven {counts.get('not proven', 0)}, reference undecided {counts.get('unknown truth', 0)}; "
+          f"branch and bound {t_bb:.1f} s, per-support proof {t_ref:.1f} s")
+    return 1 if counts.get("FALSE") else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
