@@ -138,6 +138,58 @@ def test_interrupted_first_run_leaves_no_results_folder(tmp_path, sig):
     assert partial == [] or sig == signal.SIGKILL     # a killed process cannot clean up: it stays hidden
 
 
+def _drawing_children(parent_pid):
+    """The pids of the drawing processes (app/plot/worker.py) that ``parent_pid`` started."""
+    mark = f"APP_DRAWING_PARENT_PID={parent_pid}".encode()
+    found = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                if mark in open(f"/proc/{d}/environ", "rb").read().split(b"\0"):
+                    found.append(int(d))
+            except OSError:
+                pass
+    return found
+
+
+def _catches_sigint(pid):
+    """The process has Python's SIGINT handler installed: an interpreter past its first steps of
+    start-up that has not yet set its own disposition (the moment a Ctrl-C prints a traceback)."""
+    try:
+        status = open(f"/proc/{pid}/status").read()
+    except OSError:
+        return False
+    caught = int(next(line.split()[1] for line in status.splitlines() if line.startswith("SigCgt:")), 16)
+    return bool(caught & (1 << (signal.SIGINT - 1)))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
+def test_a_signal_while_the_drawing_processes_start_reaches_only_the_run(tmp_path, sig):
+    """A Ctrl-C (SIGINT to the whole foreground group) at the moment the drawing processes are
+    still importing their libraries: the run prints one line, no child's traceback appears, and
+    no drawing process outlives the run, also when the run is killed."""
+    out = tmp_path / "out"
+    proc = _start(out)
+    deadline = time.monotonic() + 60
+    while not any(_catches_sigint(pid) for pid in _drawing_children(proc.pid)):
+        assert proc.poll() is None and time.monotonic() < deadline, "no drawing process was started"
+        time.sleep(0.002)
+    os.killpg(proc.pid, sig)
+    _, err = proc.communicate(timeout=60)
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130, err
+        assert err.decode().strip().splitlines() == [err.decode().strip()], err.decode()
+        assert "Traceback" not in err.decode()
+    else:
+        assert proc.returncode == -9
+    deadline = time.monotonic() + 20
+    while _drawing_children(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _drawing_children(proc.pid) == [], "a drawing process outlived the run"
+    assert not out.exists()
+
+
 @pytest.mark.slow
 def test_interrupted_overwrite_keeps_the_previous_results(tmp_path, scene_file):
     out = tmp_path / "out"

@@ -146,6 +146,10 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
                 out[stage] = files
                 stages.records[stage] = {"name": stage, "count": 1,
                                          "seconds": time.perf_counter() - t0 if seconds is None else seconds}
+    except BaseException:       # interrupted: the drawing is abandoned with the run
+        for _, child in running:
+            child.close(kill=True)
+        raise
     finally:
         for _, child in running:
             child.close()
@@ -182,6 +186,9 @@ def prestarted(scene, comm):
             from app.plot.screenshots import resolution_arg
             worker.prestart("screenshots", resolution_arg(outputs.screenshots.model_dump(mode="json")))
         yield
+    except BaseException:       # interrupted or failed: the children's warm-up is not waited for
+        worker.close_unused(kill=True)
+        raise
     finally:
         worker.close_unused()
 

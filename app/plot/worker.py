@@ -22,6 +22,7 @@ import sys
 import time
 
 KINDS = ("plots", "screenshots")
+PARENT_VARIABLE = "APP_DRAWING_PARENT_PID"
 NICE = 5              # niceness added to the drawing processes
 
 
@@ -37,8 +38,14 @@ class Worker:
         env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_"))}
         root = str(pathlib.Path(__file__).resolve().parents[2])
         env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        env[PARENT_VARIABLE] = str(os.getpid())
+        # A session of its own: a Ctrl-C at the terminal (sent to the whole foreground process
+        # group) is for the run, not for a child still importing its libraries, where a SIGINT
+        # would print a traceback before any handler exists. The run stops its children itself
+        # (close_unused), and a child dies with the run (_die_with_parent).
         self.proc = subprocess.Popen([sys.executable, "-m", "app.plot.worker", kind] + ([arg] if arg else []),
-                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                     start_new_session=True)
 
     def submit(self, job: pathlib.Path) -> "Worker":
         """Hand over the job file (the child starts drawing; does not wait)."""
@@ -60,8 +67,11 @@ class Worker:
         out = json.loads(stdout.strip().splitlines()[-1])
         return [pathlib.Path(f) for f in out["files"]], out["notes"], out["seconds"]
 
-    def close(self) -> None:
-        """Stop a child that got no job (its standard input closes: it exits)."""
+    def close(self, kill: bool = False) -> None:
+        """Stop a child that got no job (its standard input closes: it exits; ``kill``: at once,
+        as when the run is interrupted)."""
+        if kill and self.proc.poll() is None:
+            self.proc.kill()
         if self.proc.poll() is None:
             try:
                 if not self.proc.stdin.closed:
@@ -89,16 +99,31 @@ def take(kind: str, arg: str = "") -> Worker:
     return _STARTED.pop((kind, arg), None) or Worker(kind, arg)
 
 
-def close_unused() -> None:
-    """Stop every child started by :func:`prestart` and not taken."""
+def close_unused(kill: bool = False) -> None:
+    """Stop every child started by :func:`prestart` and not taken (``kill``: without waiting for
+    them to finish warming up)."""
     while _STARTED:
-        _STARTED.popitem()[1].close()
+        _STARTED.popitem()[1].close(kill)
+
+
+def _die_with_parent() -> None:
+    """Linux: this child is killed when the run that started it dies, even by SIGKILL, so that it
+    never draws into a staging folder nobody will commit (prctl PR_SET_PDEATHSIG)."""
+    try:
+        import ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, 9)            # PR_SET_PDEATHSIG = 1, SIGKILL = 9
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != int(os.environ.get(PARENT_VARIABLE, os.getppid())):
+        os._exit(0)                 # the run died before the request took effect
 
 
 def _main(argv: list[str]) -> int:
     import signal
     # Ctrl-C is for the run: this child ends when the run closes its standard input (or dies)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent()
     # below the study's priority: it warms up while the study runs and must not slow it down
     # (after the study the run only waits for it)
     try:
