@@ -1,9 +1,10 @@
 """Nothing lost, nothing silently wrong (issue 10): output-folder safety, resource limits,
 frictionless physics, physical sanity, strict input, file modes, mesh cache fallback.
 
-Each test names the acceptance point it checks. The CLI tests run ``python -m app`` in a
-subprocess (conftest.run_cli); the failure-injection tests call ``app.cli.main.main`` in this
-process with one writer patched to fail as a full disk would.
+Each test names the acceptance point it checks. The CLI tests that run a study, hold locks or
+set process limits run ``python -m app`` in a subprocess (conftest.run_cli); those refused
+before any work, and the failure-injection tests (one writer patched to fail as a full disk
+would), call ``app.cli.main.main`` in this process (conftest.run_cli_here).
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import PY, ROOT, fill_disk, run_cli, tmpfs
+from conftest import PY, ROOT, fill_disk, run_cli, run_cli_here, tmpfs
 
 TP = """\
 name: tp
@@ -70,7 +71,7 @@ def test_overwrite_refuses_a_folder_with_unrelated_files(tmp_path):
     (mine / ".hidden").write_text("x")
     before = _snapshot(mine)
     for extra in (["--overwrite"], []):
-        line = _one_error_line(run_cli("run", str(scene), "-o", str(mine), "-q", *extra))
+        line = _one_error_line(run_cli_here("run", str(scene), "-o", str(mine), "-q", *extra))
         assert "holds other files" in line and "holds results" not in line and "already holds" not in line
         assert _snapshot(mine) == before
     _no_litter(tmp_path)
@@ -81,7 +82,7 @@ def test_overwrite_on_the_current_folder_holding_the_scene_deletes_nothing(tmp_p
     scene.write_text(TP)
     before = _snapshot(tmp_path)
     for target in (str(tmp_path), ".", "./", str(tmp_path.parent)):
-        line = _one_error_line(run_cli("run", "scene.yaml", "-o", target, "--overwrite", "-q", cwd=tmp_path))
+        line = _one_error_line(run_cli_here("run", "scene.yaml", "-o", target, "--overwrite", "-q", cwd=tmp_path))
         assert "current folder" in line or "holds other files" in line
         assert _snapshot(tmp_path) == before
 
@@ -92,7 +93,7 @@ def test_empty_current_folder_is_refused_before_the_work(tmp_path):
     scene.write_text(TP)
     empty = tmp_path / "empty"
     empty.mkdir()
-    line = _one_error_line(run_cli("run", str(scene), "-o", ".", "-q", cwd=empty))
+    line = _one_error_line(run_cli_here("run", str(scene), "-o", ".", "-q", cwd=empty))
     assert "current folder" in line
     assert list(empty.iterdir()) == []
 
@@ -129,7 +130,7 @@ def test_bad_output_paths_give_one_line(tmp_path):
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
     for target in ("/proc/x", str(tmp_path / ("n" * 300)), str(tmp_path / "s.yaml" / "out")):
-        line = _one_error_line(run_cli("run", str(scene), "-o", target, "-q"))
+        line = _one_error_line(run_cli_here("run", str(scene), "-o", target, "-q"))
         assert target[:20] in line
     assert scene.read_text() == TP
 
@@ -293,7 +294,7 @@ def test_disk_preflight_refuses_before_the_work(tmp_path):
     with tmpfs(tmp_path / "mnt", "1m") as mnt:
         scene = tmp_path / "s.yaml"
         scene.write_text(TP)
-        line = _one_error_line(run_cli("run", str(scene), "-o", str(mnt / "out"), "-q"))
+        line = _one_error_line(run_cli_here("run", str(scene), "-o", str(mnt / "out"), "-q"))
         assert "not enough free space" in line and str(mnt / "out") in line
         assert os.listdir(mnt) == []
 
@@ -352,7 +353,7 @@ def test_preflight_names_the_key(tmp_path, edit, needles):
     if "3000" in edit:
         text += "settings: {limits: {max_memory_gb: 0.5}}\n"
     scene.write_text(text)
-    line = _one_error_line(run_cli("validate", str(scene)))
+    line = _one_error_line(run_cli_here("validate", str(scene)))
     for n in needles:
         assert n in line
 
@@ -360,10 +361,10 @@ def test_preflight_names_the_key(tmp_path, edit, needles):
 def test_limits_are_configurable_and_estimates_printed(tmp_path):
     scene = tmp_path / "s.yaml"
     scene.write_text(BLOCK.replace("MU", "1.1") + "settings: {limits: {max_states: 5}}\n")
-    line = _one_error_line(run_cli("validate", str(scene)))
+    line = _one_error_line(run_cli_here("validate", str(scene)))
     assert "settings.limits.max_states = 5" in line
     scene.write_text(BLOCK.replace("MU", "1.1") + "settings: {limits: {max_states: 100}}\n")
-    p = run_cli("validate", str(scene))
+    p = run_cli_here("validate", str(scene))
     assert p.returncode == 0 and "18 load states" in p.stdout and "DOFs" in p.stdout and "GiB" in p.stdout
     p = run_cli("run", str(scene), "-o", str(tmp_path / "o"), "-q", "--log-level", "INFO")
     assert p.returncode == 0 and "INFO: pre-flight: at most 18 load states, 232 DOFs, 11 contact nodes" in p.stderr
@@ -379,7 +380,7 @@ def test_limits_are_configurable_and_estimates_printed(tmp_path):
 def test_numeric_settings_are_bounded(tmp_path, settings, key):
     scene = tmp_path / "s.yaml"
     scene.write_text(TP + f"settings: {settings}\n")
-    assert key in _one_error_line(run_cli("validate", str(scene)))
+    assert key in _one_error_line(run_cli_here("validate", str(scene)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -400,7 +401,7 @@ def test_numeric_settings_are_bounded(tmp_path, settings, key):
 def test_strict_input(tmp_path, text, needles):
     scene = tmp_path / "s.yaml"
     scene.write_text(text)
-    line = _one_error_line(run_cli("validate", str(scene)))
+    line = _one_error_line(run_cli_here("validate", str(scene)))
     for n in needles:
         assert n in line
 
@@ -642,7 +643,7 @@ def test_mount_point_target_is_refused_before_the_work(tmp_path):
     with tmpfs(tmp_path / "mnt", "8m") as mnt:
         scene = tmp_path / "s.yaml"
         scene.write_text(TP)
-        line = _one_error_line(run_cli("run", str(scene), "-o", str(mnt), "-q", "--overwrite"))
+        line = _one_error_line(run_cli_here("run", str(scene), "-o", str(mnt), "-q", "--overwrite"))
         assert "mount point" in line and os.listdir(mnt) == []
         _no_litter(tmp_path)
 
@@ -683,6 +684,6 @@ def test_render_refuses_a_folder_the_app_did_not_write(tmp_path):
     (mine / "plots" / "figure.png").write_bytes(b"user picture")
     (mine / "results.json").write_text(json.dumps({"scene_config": {"outputs": {"plots": True}}, "states": []}))
     before = _snapshot(mine)
-    line = _one_error_line(run_cli("render", str(mine)))
+    line = _one_error_line(run_cli_here("render", str(mine)))
     assert "not a results folder written by this app" in line
     assert _snapshot(mine) == before
