@@ -16,6 +16,9 @@ output/bench/latest.json and output/bench/latest.md:
               ones) against exhaustive enumeration with exact re-checks: false proofs (must be 0),
               not proven, ill-conditioned, unknown truth; onset proof time of dense random pencils at
               s = 10, 20, 30, ... (benchmarks/soundness.py)
+  quadratic   the quadratic MCEIP-mu branch and bound (curved obstacles) on 300 random pencils
+              (s = 1-10) against the exhaustive exact per-support proof: false proofs (must be 0),
+              agreement, both times (benchmarks/soundness_quadratic.py)
   siconos     the app's contact increments and MCEIP-mu MCP runs against Siconos numerics
               (fc2d solvers, NCP Newton solvers) on the same problems (skipped with the reason
               when python3-siconos is not installed)
@@ -53,8 +56,8 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
 PY = sys.executable
-SECTIONS = ("speed", "scaling", "condensed", "enumeration", "certify", "soundness", "siconos", "tolerances", "mpi",
-            "targets")
+SECTIONS = ("speed", "scaling", "condensed", "enumeration", "certify", "soundness", "quadratic", "siconos",
+            "tolerances", "mpi", "targets")
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1", PYTHONPATH=str(ROOT))
 
@@ -674,6 +677,9 @@ def main() -> None:
         from benchmarks.soundness import section_dense, section_soundness
         results["soundness"] = {"random": section_soundness(300 if args.quick else 10_000),
                                 "dense": section_dense(s_values=[10, 20, 30] if args.quick else None)}
+    if "quadratic" in only:
+        from benchmarks.soundness_quadratic import section_quadratic
+        results["quadratic"] = section_quadratic(60 if args.quick else 300, say=say)
     if "siconos" in only:
         results["siconos"] = section_siconos(sic)
     if "tolerances" in only:
@@ -737,6 +743,9 @@ def summary(res: dict) -> str:
                      f"proven onset {c['proven_onset']}, proven all {c['proven_all']}, not proven {c['not_proven']}, "
                      f"ill-conditioned {c['ill_conditioned']}, unknown truth {c['unknown_truth']}; dense random "
                      f"pencils: largest s with the onset proven within 60 s: {d['largest_s']}")
+    if "quadratic" in res:
+        from benchmarks.soundness_quadratic import describe
+        lines.append(describe(res["quadratic"]))
     if "siconos" in res:
         s = res["siconos"]
         if "skipped" in s:

@@ -67,15 +67,13 @@ def classify(b, e) -> str:
     return "agree" if b.proven else "not proven"
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=300)
-    ap.add_argument("--start", type=int, default=0)
-    args = ap.parse_args(argv)
+def section_quadratic(n: int = 300, start: int = 0, say=print) -> dict:
+    """The figures of ``n`` pencils from ``start``: verdict counts, critical values, seconds."""
     counts: dict[str, int] = {}
     t_bb = t_ref = 0.0
     n_sol = 0
-    for k in range(args.start, args.start + args.n):
+    false = []
+    for k in range(start, start + n):
         A0, A1, A2, cap, s, kind = pencil(k)
         t0 = time.perf_counter()
         b = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + 60.0)
@@ -86,12 +84,30 @@ def main(argv=None) -> int:
         counts[verdict] = counts.get(verdict, 0) + 1
         n_sol += len(e.solutions) if e.proven else 0
         if verdict == "FALSE":
-            print(f"FALSE PROOF: pencil {k} (s = {s}, {kind}, cap {cap})", flush=True)
-    print(f"quadratic soundness: {args.n} pencils (s = 1-10; {', '.join(KINDS)}): FALSE PROOFS "
-          f"{counts.get('FALSE', 0)}; agree {counts.get('agree', 0)} ({n_sol} critical values), "
-          f"not proven {counts.get('not proven', 0)}, reference undecided {counts.get('unknown truth', 0)}; "
-          f"branch and bound {t_bb:.1f} s, per-support proof {t_ref:.1f} s")
-    return 1 if counts.get("FALSE") else 0
+            false.append(k)
+            say(f"FALSE PROOF: pencil {k} (s = {s}, {kind}, cap {cap})")
+    out = {"pencils": n, "start": start, "false_proofs": counts.get("FALSE", 0), "false_pencils": false,
+           "agree": counts.get("agree", 0), "critical_values": n_sol, "not_proven": counts.get("not proven", 0),
+           "unknown_truth": counts.get("unknown truth", 0), "bb_s": t_bb, "reference_s": t_ref}
+    say(describe(out))
+    return out
+
+
+def describe(r: dict) -> str:
+    """One line of the section's figures (``make bench``'s summary prints it too)."""
+    return (f"quadratic soundness: {r['pencils']} pencils (s = 1-10; {', '.join(KINDS)}): FALSE PROOFS "
+            f"{r['false_proofs']}; agree {r['agree']} ({r['critical_values']} critical values), "
+            f"not proven {r['not_proven']}, reference undecided {r['unknown_truth']}; "
+            f"branch and bound {r['bb_s']:.1f} s, per-support proof {r['reference_s']:.1f} s")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=300)
+    ap.add_argument("--start", type=int, default=0)
+    args = ap.parse_args(argv)
+    r = section_quadratic(args.n, args.start, say=lambda *a: print(*a, flush=True))
+    return 1 if r["false_proofs"] else 0
 
 
 if __name__ == "__main__":
