@@ -281,3 +281,28 @@ def test_shipped_curve_examples(tmp_path):
     smallest = lambda states: min(min(_mu(s)) for s in states if _mu(s))   # noqa: E731
     assert smallest(e) > smallest(a)
     print("smallest critical mu: cylinder", smallest(a), "as a Gmsh curve", smallest(b), "ellipse", smallest(e))
+
+
+def test_a_node_sliding_past_the_end_of_the_curve_ends_the_path(tmp_path):
+    """A nearly flat arc (R = 1e4) ending 1 mm beyond the block's left corner; the block, pressed,
+    slides 3 mm to the left. The increment that would carry the corner past the arc's end (a
+    corner of the obstacle: no normal) ends the path with one reason naming the node and the
+    curve; every kept state has the corner node on the arc (x = u_T > the end's x, from the
+    geometry)."""
+    theta = 0.2349                                   # degrees: the arc's half-angle
+    arc = ARC.replace("R = {R};", "R = 10000;").replace("40 * Pi / 180", f"{theta} * Pi / 180").format()
+    geo = tmp_path / "b.geo"
+    geo.write_text(BLOCK + arc)
+    sc = _scene(geo, {"type": "curve", "physical": "ob", "side": "left"}, drag_steps=20)
+    sc["mu"] = 0.3
+    sc["system"]["program"][1].update({"stop_at_gross_sliding": False,
+                                        "displacement": {"CD": {"translation": [-3.0, 0]}}})
+    res = run_scene(sc)
+    end_x = 40.0 - 1e4 * math.sin(math.radians(theta))          # -0.9968
+    assert res["failures"] and res["failures"][0]["analysis"] == "contact increment"
+    why = res["failures"][0]["reason"]
+    assert "contact node 0" in why and "slid past an end of the curve 'ob'" in why, why
+    assert 5 < len(res["states"]) < 26                         # the press and part of the drag were kept
+    for st in res["states"]:
+        assert st["nodes"][0]["u_T"] > end_x
+    assert res["states"][-1]["nodes"][0]["u_T"] < end_x + 0.3   # it was close to the end

@@ -230,6 +230,7 @@ class CurvedContact:
         if viol > 1e-9:
             raise ContactSolveError(f"the exact-gap contact increment violates Signorini-Coulomb at the exact "
                                     f"geometry (violation {viol:.3g} after {lin} linearisations)")
+        self._check_ends(x, closed | (p > 1e-12 * rscale))
         arc = self.obstacle.arc(x)
         uT = ul[0::2]
         return IncrementResult(u_T=uT, u_N=-g, r_T=rT.copy(), r_N=rN.copy(), slip_increment=d,
@@ -238,6 +239,21 @@ class CurvedContact:
                                       "curved_contact": {"frame": abcd.tolist(), "gap": g.tolist(), "u_system": u.tolist(),
                                                          "arc": arc.tolist(), "linearisations": lin,
                                                          "curvature": self.obstacle.curvatures(x).tolist()}})
+
+    def _check_ends(self, x: np.ndarray, touching: np.ndarray) -> None:
+        """A node in contact whose closest point is an end of an open curve has slid past the end:
+        the obstacle has a corner there (no normal), which the model does not include."""
+        at_end = getattr(self.obstacle, "at_end", None)
+        if at_end is None:
+            return                                        # a circle has no ends
+        past = at_end(x) & touching
+        if np.any(past):
+            i = int(np.flatnonzero(past)[0])
+            size = max(self.extent, 1e-300)
+            where = ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, x[i]))
+            raise ContactSolveError(f"contact node {i} at ({where}) has slid past an end of the curve "
+                                    f"'{getattr(self.obstacle, 'name', 'obstacle')}': its contact point would be the "
+                                    "curve's end, a corner this model does not include (extend the curve)")
 
     def destroy(self) -> None:
         pass
