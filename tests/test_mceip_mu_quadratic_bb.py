@@ -194,6 +194,34 @@ def test_outcome_with_the_onset_alone(monkeypatch):
     assert not d.onset.proven and not d.certified and "not proven" in d.result
 
 
+def test_above_max_slip_a_partial_proof_keeps_what_it_proved(monkeypatch):
+    """Above ``max_slip`` nothing is enumerated: a branch and bound stopped by its node limit still
+    gives its proven onset (the value of the complete proof's onset, inside its enclosure) or, with
+    less, its proven lower bound (below the onset), not "not searched"."""
+    import app.analyses.mceip_mu_quadratic_bb as bb
+    A0, A1, A2 = random_pencil(10, 3, -0.5)
+    full = prove_bb(A0, A1, A2, CAP)
+    assert full.proven and full.onset is not None
+    n = len(full.log["nodes"])
+    seen = set()
+    for budget in range(2, n, max(1, n // 8)):
+        monkeypatch.setattr(bb, "MAX_NODES", budget)
+        d = quadratic_mu_result(A0, A1, A2, CAP, 8)             # s = 10 > max_slip = 8
+        assert not d.certified and not d.complete.proven
+        if prove_bb(A0, A1, A2, CAP).report.open_from == 0.0:   # nothing proven at this budget
+            seen.add("nothing")
+            assert d.result.startswith("not searched") and d.complete.interval == [0.0, 0.0]
+        elif d.onset.proven:
+            seen.add("onset")
+            assert d.onset.enclosure[0] <= full.onset.value <= d.onset.enclosure[1]
+            assert d.solutions and all(x.certified for x in d.solutions)
+        else:
+            seen.add("bound")
+            lb = d.complete.interval[1]
+            assert 0 < lb <= full.onset.enclosure[0] and f"[0, {lb:.6g}]" in d.result
+    assert {"onset", "bound"} <= seen
+
+
 @pytest.mark.slow
 def test_agrees_with_the_per_support_proof_at_9_and_10():
     """Soundness harness: on 12 random pencils (s = 9, 10, curvature of both signs and none, caps

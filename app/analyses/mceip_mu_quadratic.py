@@ -204,6 +204,8 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
         from app.analyses.mceip_mu_quadratic_bb import prove_bb
         proof = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + seconds)
     if sols is None and (proof is None or not proof.proven):
+        if proof is not None and proof.onset_proven:      # nothing enumerated, the onset proven all the same
+            return _unproven(A0, A1, A2, [], search, proof, s, cap, t0)
         return _not_searched(search, proof, s, cap)
     if proof is None or not proof.proven:
         return _unproven(A0, A1, A2, sols, search, proof, s, cap, t0)
@@ -240,9 +242,20 @@ def _certificate(method: str, cap: float, status: str, t0: float, proof, s: int,
 
 
 def _not_searched(search: dict, proof, s: int, cap: float) -> MceipMuOutcome:
-    """Above ``max_slip`` without a complete proof: nothing enumerated, nothing claimed."""
+    """Above ``max_slip`` without the onset proven: nothing enumerated; what the branch and bound
+    proved (no critical mu below the mu where it stopped, checked) is said."""
     from app.analyses.certify import certificate  # the certificate record's format only
     note = search["note"] + ("" if proof is None else "; the branch and bound did not finish in its time budget")
+    rep = getattr(proof, "report", None)
+    lb = float(min(rep.open_from, cap)) if rep is not None and not rep.errors and not rep.solutions else 0.0
+    if lb > 0.0:
+        status = f"not proven: proven only that no critical mu lies in [0, {lb:.6g}]"
+        return MceipMuOutcome(solutions=[], result=f"{status} ({note})", certified=False,
+                              onset=OnsetClaim(proven=False, status=status),
+                              complete=CompleteClaim(proven=False, status=status, interval=[0.0, lb]),
+                              certificate=certificate(_METHOD_BB, (0.0, lb), status, proof.seconds,
+                                                      {"s": s, "cap": float(cap), "lower_bound": lb}),
+                              search={**search, "note": note}, quadratic=True)
     return MceipMuOutcome(solutions=[], result=f"not searched: {note}", certified=False,
                           onset=OnsetClaim(proven=False, status="not searched"),
                           complete=CompleteClaim(proven=False, status="not searched", interval=[0.0, 0.0]),
