@@ -1,13 +1,14 @@
 """``python -m app check RESULTS``: every stored proof re-verified from the stored pencil, for the
 flat obstacle (proof logs, independent checker) and the curved one (the exact quadratic proof run
-again); a tampered file is rejected with exit status 1."""
+again); a tampered file is rejected with exit status 1. (The first check of each test is a new
+process, as a user runs it; the runs and the re-checks run in this one.)"""
 from __future__ import annotations
 
 import io
 import json
 
 import numpy as np
-from conftest import run_cli
+from conftest import run_cli, run_cli_here
 
 BLOCK = "name: chk\nsystem: {type: block, nx: 8, ny: 4}\nmu: 1.1\nanalyses: [mceip_mu]\n"
 CURVED = ("name: chkc\nsystem: {type: two_particles, k: 1000.0, m: 2.0, phi_deg: 35.0, signs: [1, -1],\n"
@@ -19,7 +20,7 @@ def _run(tmp_path, text, name):
     scene = tmp_path / f"{name}.yaml"
     scene.write_text(text)
     out = tmp_path / name
-    p = run_cli("run", str(scene), "-o", str(out), "-q")
+    p = run_cli_here("run", str(scene), "-o", str(out), "-q")
     assert p.returncode == 0, p.stderr
     return out
 
@@ -45,7 +46,7 @@ def test_check_reverifies_and_rejects_tampering(tmp_path):
     with np.load(target) as z:
         A1 = z["A1"].copy()
     _rewrite(target, A1=A1 - 5.0 * np.abs(A1).max() * np.eye(A1.shape[0]))
-    p = run_cli("check", str(out))
+    p = run_cli_here("check", str(out))
     assert p.returncode == 1 and "rejected" in p.stdout, p.stdout + p.stderr
 
 
@@ -63,5 +64,5 @@ def test_check_proves_a_curved_obstacle_again(tmp_path):
     with np.load(files[-1]) as z:
         A2 = z["A2"].copy()
     _rewrite(files[-1], A2=A2 + np.eye(A2.shape[0]) * (1.0 + np.abs(A2).max()))
-    p = run_cli("check", str(out))
+    p = run_cli_here("check", str(out))
     assert p.returncode == 1, p.stdout + p.stderr

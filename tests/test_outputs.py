@@ -18,7 +18,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 import yaml
-from conftest import PY, ROOT, run_cli
+from conftest import PY, ROOT, run_cli, run_cli_here
 
 SCENE = {
     "name": "outputs-test",
@@ -306,7 +306,7 @@ def test_render_redraws_without_recomputing(serial, tmp_path):
     assert (copy / "results.json").read_bytes() == before          # the run's record is left alone
     assert f"redrew {len(pictures) + len(PLOTS)} file(s)" in p.stdout  # PNG + SVG plots, screenshots, report
     # a folder that is not a results folder
-    p = run_cli("render", str(tmp_path))
+    p = run_cli_here("render", str(tmp_path))
     assert p.returncode == 2 and "no results.json" in p.stderr
 
 
@@ -357,7 +357,7 @@ def test_a_scene_without_outputs_draws_nothing(tmp_path):
     data = {k: v for k, v in SCENE.items() if k != "outputs"}
     data["analyses"] = ["mceip_mu"]
     out = tmp_path / "out"
-    p = run_cli("run", str(_write_scene(tmp_path, data)), "-o", str(out), "-q")
+    p = run_cli_here("run", str(_write_scene(tmp_path, data)), "-o", str(out), "-q")
     assert p.returncode == 0, p.stderr
     # results and the MCEIP-mu proofs (data, re-checked by ``python -m app check``), no pictures
     assert sorted(f.name for f in out.iterdir()) == [".contact-divergence.json", "proofs", "results.json", "steps.csv"]
@@ -367,7 +367,7 @@ def test_a_scene_without_outputs_draws_nothing(tmp_path):
                         "report"}
     assert "outputs" not in res and p.stderr == ""
     # and render has nothing to draw
-    p = run_cli("render", str(out))
+    p = run_cli_here("render", str(out))
     assert p.returncode == 0 and "nothing to draw" in p.stdout
     assert sorted(f.name for f in out.iterdir()) == [".contact-divergence.json", "proofs", "results.json", "steps.csv"]
 
@@ -378,7 +378,7 @@ def test_two_particles_plots_and_report(tmp_path):
             "mu": 2.5, "analyses": ["necessary", "mceip_mu", "mceip_lambda2"],
             "outputs": {"plots": True, "report": True}}
     out = tmp_path / "out"
-    p = run_cli("run", str(_write_scene(tmp_path, data)), "-o", str(out), "-q")
+    p = run_cli_here("run", str(_write_scene(tmp_path, data)), "-o", str(out), "-q")
     assert p.returncode == 0, p.stderr
     for name in PLOTS:
         _assert_picture(out / "plots" / f"{name}.png", min_size=(800, 400))
@@ -386,7 +386,7 @@ def test_two_particles_plots_and_report(tmp_path):
     assert "MCEIP-mu" in text and "## ParaView files" not in text and "## Screenshots" not in text
     assert not (out / "paraview").exists() and not (out / "screenshots").exists()
     data["outputs"] = {"paraview": True}
-    p = run_cli("run", str(_write_scene(tmp_path, data, "bad.yaml")), "-o", str(tmp_path / "bad"))
+    p = run_cli_here("run", str(_write_scene(tmp_path, data, "bad.yaml")), "-o", str(tmp_path / "bad"))
     assert p.returncode == 2 and "outputs.paraview = True: needs a mesh" in p.stderr
 
 

@@ -103,13 +103,13 @@ def test_overwrite_replaces_only_the_apps_own_folder(tmp_path):
     scene.write_text(TP)
     out = tmp_path / "out"
     out.mkdir()                                           # an empty folder is used
-    assert run_cli("run", str(scene), "-o", str(out), "-q").returncode == 0
+    assert run_cli_here("run", str(scene), "-o", str(out), "-q").returncode == 0
     marker = json.loads((out / ".contact-divergence.json").read_text())
     assert marker["app"] == "contact-divergence" and marker["kind"] == "results" and marker["format"] >= 1
-    line = _one_error_line(run_cli("run", str(scene), "-o", str(out), "-q"))
+    line = _one_error_line(run_cli_here("run", str(scene), "-o", str(out), "-q"))
     assert "already holds results of this app" in line and "--overwrite" in line
     (out / "results.json").write_text("old")
-    assert run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite").returncode == 0
+    assert run_cli_here("run", str(scene), "-o", str(out), "-q", "--overwrite").returncode == 0
     assert json.loads((out / "results.json").read_text())["scene"] == "tp"
     _no_litter(tmp_path)
     assert json.loads((out / ".contact-divergence.json").read_text())["entries"] == \
@@ -117,12 +117,12 @@ def test_overwrite_replaces_only_the_apps_own_folder(tmp_path):
     # a user file added to the app's folder makes it "other": never replaced again
     (out / "notes.txt").write_text("mine")
     before = _snapshot(out)
-    line = _one_error_line(run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite"))
+    line = _one_error_line(run_cli_here("run", str(scene), "-o", str(out), "-q", "--overwrite"))
     assert "holds other files (notes.txt besides this app's results)" in line
     assert _snapshot(out) == before
     (out / "notes.txt").unlink()
     (out / ".contact-divergence.json").unlink()           # without the marker: not ours either
-    line = _one_error_line(run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite"))
+    line = _one_error_line(run_cli_here("run", str(scene), "-o", str(out), "-q", "--overwrite"))
     assert "holds other files" in line and (out / "results.json").exists()
 
 
@@ -206,9 +206,9 @@ def test_a_users_file_named_like_the_lock_is_kept(tmp_path):
     users = tmp_path / ".out.lock"
     users.write_text("my notes\n")
     users.chmod(0o444)
-    assert run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q").returncode == 0
+    assert run_cli_here("run", str(scene), "-o", str(tmp_path / "out"), "-q").returncode == 0
     assert users.read_text() == "my notes\n" and (tmp_path / "out" / "results.json").exists()
-    assert run_cli("run", str(scene), "-o", str(tmp_path / "out2"), "-q").returncode == 0
+    assert run_cli_here("run", str(scene), "-o", str(tmp_path / "out2"), "-q").returncode == 0
     assert not (tmp_path / ".out2.lock").exists()
 
 
@@ -366,7 +366,7 @@ def test_limits_are_configurable_and_estimates_printed(tmp_path):
     scene.write_text(BLOCK.replace("MU", "1.1") + "settings: {limits: {max_states: 100}}\n")
     p = run_cli_here("validate", str(scene))
     assert p.returncode == 0 and "18 load states" in p.stdout and "DOFs" in p.stdout and "GiB" in p.stdout
-    p = run_cli("run", str(scene), "-o", str(tmp_path / "o"), "-q", "--log-level", "INFO")
+    p = run_cli_here("run", str(scene), "-o", str(tmp_path / "o"), "-q", "--log-level", "INFO")
     assert p.returncode == 0 and "INFO: pre-flight: at most 18 load states, 232 DOFs, 11 contact nodes" in p.stderr
 
 
@@ -494,20 +494,20 @@ def test_sweep_refuses_a_folder_with_other_files_and_resumes_its_own(tmp_path):
     (mine / "sweep.csv").write_text("my,data\n")
     before = _snapshot(mine)
     for extra in ([], ["--overwrite"]):
-        line = _one_error_line(run_cli("run", str(sweep), "-o", str(mine), "-q", *extra))
+        line = _one_error_line(run_cli_here("run", str(sweep), "-o", str(mine), "-q", *extra))
         assert "holds other files" in line
         assert _snapshot(mine) == before
     out = tmp_path / "out"
-    assert run_cli("run", str(sweep), "-o", str(out), "-q").returncode == 0
-    p = run_cli("run", str(sweep), "-o", str(out))
+    assert run_cli_here("run", str(sweep), "-o", str(out), "-q").returncode == 0
+    p = run_cli_here("run", str(sweep), "-o", str(out))
     assert p.returncode == 0 and "2 skipped" in p.stdout
     # a single study's folder is not a sweep folder, and a sweep folder is not a study's
     single = tmp_path / "single"
     scene = tmp_path / "s.yaml"
     scene.write_text(TP)
-    assert run_cli("run", str(scene), "-o", str(single), "-q").returncode == 0
-    assert "not a sweep" in _one_error_line(run_cli("run", str(sweep), "-o", str(single), "-q"))
-    line = _one_error_line(run_cli("run", str(scene), "-o", str(out), "-q", "--overwrite"))
+    assert run_cli_here("run", str(scene), "-o", str(single), "-q").returncode == 0
+    assert "not a sweep" in _one_error_line(run_cli_here("run", str(sweep), "-o", str(single), "-q"))
+    line = _one_error_line(run_cli_here("run", str(scene), "-o", str(out), "-q", "--overwrite"))
     assert "holds other files" in line or "sweep" in line
     assert (out / "sweep.csv").exists()
 
