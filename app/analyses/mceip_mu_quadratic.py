@@ -45,6 +45,7 @@ from app.analyses.enumerate import (
     pencil_scale,
     supports_of_size,
 )
+from app.analyses.mceip_mu_quadratic_rows import drop_infinite, lower_rows, zero_node_rows
 from app.analyses.outcomes import CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
@@ -93,60 +94,6 @@ def _batch_eigenvalues(B0: np.ndarray, B1: np.ndarray, B2: np.ndarray) -> np.nda
     return out
 
 
-def _zero_node_rows(a0, a1, a2, pairs) -> list[tuple[int, int]]:
-    """``(i, n)``: a half ``i`` of a pair and the normal row ``n`` of its zero-reaction node, where
-    the split pencil's identities hold exactly: ``a1[i] = a0[n]``, ``a2[i] = 0``, ``a1[n] = a2[n] = 0``."""
-    out = []
-    for p in pairs:
-        for i in p:
-            i = int(i)
-            if np.any(a2[i]):
-                continue
-            for n in range(a0.shape[0]):
-                if n not in p and np.array_equal(a1[i], a0[n]) and not np.any(a1[n]) and not np.any(a2[n]):
-                    out.append((i, n))
-                    break
-    return out
-
-
-def _lower_rows(B0, B1, B2, Rb, triples) -> tuple[np.ndarray, np.ndarray]:
-    """``B1, B2`` after the row operation ``row_i -= mu row_n`` on every support holding both ``i``
-    and ``n`` of :func:`_zero_node_rows` (``det`` unchanged): the row of ``i`` becomes the constant
-    ``a0[i]``, so its exact cancellation of ``mu`` is not left to rounding (which would give a
-    spurious root of a constant determinant near ``1 / eps``)."""
-    C1, C2 = B1.copy(), B2.copy()
-    for j, R in enumerate(Rb):
-        where = {int(r): q for q, r in enumerate(R)}
-        for i, n in triples:
-            if i in where and n in where:
-                qi, qn = where[i], where[n]
-                C1[j, qi] = B1[j, qi] - B0[j, qn]
-                C2[j, qi] = B2[j, qi] - B1[j, qn]
-    return C1, C2
-
-
-def _drop_infinite(W: np.ndarray, B1: np.ndarray, B2: np.ndarray) -> np.ndarray:
-    """``W`` with its largest ``2k - deg`` eigenvalues per support set infinite, ``deg`` the bound on
-    the degree of ``det A_JJ(mu)`` from the rows (and columns) of ``A1``, ``A2`` that vanish:
-    a row of degree 2, 1 or 0 in mu contributes that much. A singular ``A2`` (a zero-reaction
-    node's columns carry no curvature term) has infinite eigenvalues that the companion
-    linearisation perturbs to ``O(1 / sqrt(eps))``, not to infinity."""
-    two = np.any(B2 != 0, axis=2)
-    one = np.any(B1 != 0, axis=2) & ~two
-    rows = 2 * two.sum(axis=1) + one.sum(axis=1)
-    two_c = np.any(B2 != 0, axis=1)
-    one_c = np.any(B1 != 0, axis=1) & ~two_c
-    cols = 2 * two_c.sum(axis=1) + one_c.sum(axis=1)
-    drop = W.shape[1] - np.minimum(rows, cols)
-    if not np.any(drop > 0):
-        return W
-    W = W.copy()
-    order = np.argsort(-np.where(np.isfinite(W), np.abs(W), np.inf), axis=1)
-    for j in np.flatnonzero(drop > 0):
-        W[j, order[j, :drop[j]]] = np.inf
-    return W
-
-
 def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip: int,
                         mu_max: float = np.inf, comp: np.ndarray | None = None,
                         pairs: list[tuple[int, int]] | None = None) -> list[dict]:
@@ -165,7 +112,6 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
     ``complementarity``, ``min_x_Ts``, ``min_y_Ts``, ``margin_y_stick`` and ``ill_conditioned``;
     sorted by value.
     """
-    from app.analyses.mceip_mu_quadratic_proof import structural_zeros
     n = A0.shape[0]
     comp = np.arange(n, dtype=np.int64) if comp is None else np.asarray(comp, dtype=np.int64)
     s = len(comp)
@@ -178,7 +124,7 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
     cpairs = [(cpos[int(a)], cpos[int(b)]) for a, b in (pairs or [])]
     sc = pencil_scale(A0)
     a0, a1, a2 = A0 / sc, A1 / sc, A2 / sc
-    triples = _zero_node_rows(a0, a1, a2, pairs or [])
+    triples = zero_node_rows(a0, a1, a2, pairs or [])
     out: list[dict] = []
     seen: list[tuple[float, tuple]] = []
     with one_blas_thread():
@@ -192,11 +138,8 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
                 B0 = a0[Rb[:, :, None], Rb[:, None, :]]
                 B1 = a1[Rb[:, :, None], Rb[:, None, :]]
                 B2 = a2[Rb[:, :, None], Rb[:, None, :]]
-                if triples:
-                    C1, C2 = _lower_rows(B0, B1, B2, Rb, triples)
-                    W = _drop_infinite(_batch_eigenvalues(B0, C1, C2), C1, C2)
-                else:
-                    W = _drop_infinite(_batch_eigenvalues(B0, B1, B2), B1, B2)
+                C1, C2 = lower_rows(B0, B1, B2, Rb, triples)
+                W = drop_infinite(_batch_eigenvalues(B0, C1, C2), C1, C2)
                 real = np.isfinite(W) & (np.abs(W.imag) <= 1e-6 * np.maximum(1.0, np.abs(W.real)))
                 wr = np.where(real, W.real, np.nan)
                 cand = real & (wr >= -1e-12) & (wr <= (mu_max * (1 + 1e-12) if np.isfinite(mu_max) else np.inf))
@@ -219,23 +162,31 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
                         continue        # a double eigenvalue: one solution
                     x = np.zeros(n)
                     x[Rb[ii[c]]] = v[c] / xp[c].sum()
-                    y = (a0 + m_c * a1 + m_c * m_c * a2) @ x
-                    sup = np.zeros(s, dtype=bool)
-                    sup[J] = True
-                    exact0 = set(structural_zeros(a0, a1, a2, comp[J], pairs or []).tolist())
-                    stick = np.array([y[comp[i]] for i in np.flatnonzero(~sup) if int(comp[i]) not in exact0])
-                    my = float(np.min(stick)) if len(stick) else np.inf
-                    if my < -RESOLVE_TOL:
-                        continue
-                    seen.append((m_c, tuple(J)))
-                    xc, yc = x[comp], y[comp]
-                    out.append({"value": m_c, "x_Ts": [float(t) for t in xc],
-                                "pattern": ["slip" if b else "stick" for b in sup],
-                                "residual": float(res[c]), "complementarity": float(np.max(np.abs(xc * yc))),
-                                "min_x_Ts": float(mx[c]), "min_y_Ts": float(np.min(yc)),
-                                "margin_y_stick": my if np.isfinite(my) else None,
-                                "ill_conditioned": bool(mx[c] < RESOLVE_TOL or my < RESOLVE_TOL)})
+                    d = _record((a0, a1, a2), x, m_c, J, comp, pairs or [], float(res[c]), float(mx[c]))
+                    if d is not None:
+                        seen.append((m_c, tuple(J)))
+                        out.append(d)
     return sorted(out, key=lambda d: (d["value"], d["pattern"]))
+
+
+def _record(a, x: np.ndarray, mu: float, J, comp, pairs, res: float, mx: float) -> dict | None:
+    """The solution record of the null vector ``x`` of support ``J`` at ``mu``, or None when a
+    stick margin is negative (the rows of ``structural_zeros`` are ``y = 0`` exactly)."""
+    from app.analyses.mceip_mu_quadratic_proof import structural_zeros
+    a0, a1, a2 = a
+    y = (a0 + mu * a1 + mu * mu * a2) @ x
+    sup = np.zeros(len(comp), dtype=bool)
+    sup[J] = True
+    exact0 = set(structural_zeros(a0, a1, a2, comp[J], pairs).tolist())
+    stick = np.array([y[comp[i]] for i in np.flatnonzero(~sup) if int(comp[i]) not in exact0])
+    my = float(np.min(stick)) if len(stick) else np.inf
+    if my < -RESOLVE_TOL:
+        return None
+    xc, yc = x[comp], y[comp]
+    return {"value": mu, "x_Ts": [float(t) for t in xc], "pattern": ["slip" if b else "stick" for b in sup],
+            "residual": res, "complementarity": float(np.max(np.abs(xc * yc))),
+            "min_x_Ts": mx, "min_y_Ts": float(np.min(yc)), "margin_y_stick": my if np.isfinite(my) else None,
+            "ill_conditioned": bool(mx < RESOLVE_TOL or my < RESOLVE_TOL)}
 
 
 #: up to this many slip nodes the exact per-support proof of app/analyses/mceip_mu_quadratic_proof.py

@@ -34,9 +34,9 @@ from app.analyses.mceip_mu_quadratic_check import (
     Report,
     check_log,
     cop_closes,
-    holds_pair,
     corners,
     farkas_closes,
+    holds_pair,
     nonsingular_closes,
 )
 from app.linalg import one_blas_thread

@@ -154,8 +154,7 @@ def check_log(A0, A1, A2, log: dict) -> Report:
     """Re-verify the proof log ``log`` (format in docs/proofs.md) of the pencil from scratch."""
     import flint
 
-    from app.analyses.mceip_mu_quadratic_proof import PREC, exact, exact_data
-    from app.analyses.mceip_mu_quadratic_proof import pairs_hold
+    from app.analyses.mceip_mu_quadratic_proof import PREC, exact, exact_data, pairs_hold
     rep = Report()
     s, cap, nodes = A0.shape[0], float(log["cap"]), log["nodes"]
     try:

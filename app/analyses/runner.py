@@ -19,7 +19,6 @@ from app.analyses.outcomes import (
     Deferred,
     EnumerationOutcome,
     EnumerationProblem,
-    Failed,
     MceipMuOutcome,
     NecessaryOutcome,
     NotApplicable,
