@@ -323,3 +323,57 @@ def test_block_zero_node_rotation_invariance(tmp_path, block_z):
     eb = [s["value"] for s in b["analyses"]["enumerate"]["problems"]["mu"]["solutions"]]
     assert eb == pytest.approx(ea, rel=1e-10)
     print("rotated by 30 degrees: critical mu", ea, eb)
+
+
+def test_quadratic_enumeration_with_free_unknowns_and_no_mu2_is_the_linear_one():
+    """With ``comp`` (free unknowns x_f, y_f = 0) and ``A2 = 0`` the quadratic enumeration is the
+    linear enumeration (24)-(26) of app/analyses/enumerate.py, pairs included."""
+    from app.analyses.enumerate import enumerate_mceip
+    from app.analyses.pencils import split_pencil
+    from app.loading.classify import Classification
+    rng = np.random.default_rng(5)
+    n, nf = 3, 2
+    B = rng.normal(size=(2 * n + nf, 2 * n + nf))
+    Kd = B @ B.T + 0.5 * np.eye(2 * n + nf)
+    cls = Classification(("slip", "zero", "slip"), (1, 0, -1))
+    sp = split_pencil(Kd, nf + 2 * np.arange(n), nf + 2 * np.arange(n) + 1, np.ones(n), np.ones(n), cls, np.arange(nf))
+    assert len(sp.comp) == 5 and sp.pairs
+    lin = enumerate_mceip(sp.A0, sp.A1, sp.comp, 12, pairs=sp.pairs)
+    quad = enumerate_quadratic(sp.A0, sp.A1, np.zeros_like(sp.A0), 12, comp=sp.comp, pairs=sp.pairs)
+    assert lin and [d["pattern"] for d in quad] == [d["pattern"] for d in lin]
+    assert [d["value"] for d in quad] == pytest.approx([d["value"] for d in lin], rel=1e-9)
+    for q, l_ in zip(quad, lin):
+        assert np.allclose(q["x_Ts"], l_["x_Ts"], atol=1e-8)
+
+
+def _particles_lambda2_by_hand(S1, beta, mu):
+    """``(A0, A1)`` of MCEIP-lambda^2 of the particles (units of k, t = lambda^2 m / k) written
+    from the rates by hand: over (x_T0, a, b, x_N1),
+    y0 = (c^2 + 1 + t + beta (1 + mu^2) - mu cs S1) x + S1 (a - b),
+    w_T1 = S1 x + (c^2 + 1 + t)(a - b) - cs x_N1,  w_N1 = cs (a - b) - (s^2 + 1 + t) x_N1,
+    y_a = w_T1 - mu w_N1, y_b = -w_T1 - mu w_N1, y_N = -w_N1."""
+    def rows(t):
+        A = C * C + 1 + t + beta * (1 + mu * mu) - mu * CS * S1
+        wT = np.array([S1, C * C + 1 + t, -(C * C + 1 + t), -CS])
+        wN = np.array([0.0, CS, -CS, -(S_ * S_ + 1 + t)])
+        return np.array([[A, S1, -S1, 0.0], wT - mu * wN, -wT - mu * wN, -wN])
+    A0 = rows(0.0)
+    return A0, rows(1.0) - A0
+
+
+@pytest.mark.parametrize("S1, mu, count", [(1, 4.0, 1), (-1, 6.0, 1), (-1, 4.0, 0), (1, 1.0, 0)])
+def test_two_particles_zero_node_lambda2(S1, mu, count):
+    """MCEIP-lambda^2 at mu on the convex circle R = 20: the enumeration equals the brute force on
+    the pencil written by hand (lambda^2 = t k / m, 1e-9); the search finds these solutions
+    (S1 = +1: particle 1 slides -T in contact; S1 = -1: it slides +T and lifts off) and no other."""
+    beta = -1.0 / 20.0 * P / K
+    A0, A1 = _particles_lambda2_by_hand(S1, beta, mu)
+    ref = [(t * K / M, J) for t, J in brute_force(A0, A1, np.zeros((4, 4)), [(1, 2)], 1e4)]
+    _, a = _particles(S1, {"type": "circle", "radius": 20.0, "side": "outside"}, mu=mu,
+                      analyses=("mceip_lambda2", "enumerate"))
+    got = a["enumerate"].problems["lambda2"].solutions
+    assert [v for v, _ in ref] == pytest.approx([s.value for s in got], rel=1e-9)
+    assert [J for _, J in ref] == [tuple(int(i) for i, x in enumerate(s.evidence["x_c"].values()) if x > 1e-12)
+                                   for s in got]
+    assert len(ref) == count
+    assert [s.value for s in a["mceip_lambda2"].solutions] == pytest.approx([v for v, _ in ref], rel=1e-8)
