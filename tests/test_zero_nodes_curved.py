@@ -377,3 +377,34 @@ def test_two_particles_zero_node_lambda2(S1, mu, count):
                                    for s in got]
     assert len(ref) == count
     assert [s.value for s in a["mceip_lambda2"].solutions] == pytest.approx([v for v, _ in ref], rel=1e-8)
+
+
+def test_stored_proof_of_a_zero_node_state_is_rechecked(tmp_path):
+    """``app run`` stores the quadratic proof with its pairs and ``app check`` proves it again;
+    without the pairs (or with a pair that is not two opposite columns) the stored pencil is not
+    proven: the supports holding both halves have ``det A_JJ = 0`` identically."""
+    import io
+    import json
+
+    import yaml
+    from conftest import run_cli_here
+
+    from app.io.proofs import check_folder
+    sc = _block(tmp_path)
+    sc["system"]["file"] = "b0.geo"                     # written by _block, relative to the scene
+    sc["analyses"] = ["mceip_mu"]
+    (tmp_path / "z.yaml").write_text(yaml.safe_dump(sc))
+    assert run_cli_here("run", str(tmp_path / "z.yaml"), "-o", str(tmp_path / "out"), "-q", cwd=tmp_path).returncode == 0
+    checks = check_folder(tmp_path / "out")
+    assert len(checks) == 1 and checks[0].ok and checks[0].all_accepted and checks[0].s == 4
+    path = next((tmp_path / "out" / "proofs").glob("*.npz"))
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    log = json.loads(str(arrays["log"]))
+    assert log["pairs"] == [[1, 2]]
+    for bad in ([], [[1, 3]]):
+        buf = io.BytesIO()
+        np.savez(buf, **{**arrays, "log": np.array(json.dumps({**log, "pairs": bad}))})
+        path.write_bytes(buf.getvalue())
+        checks = check_folder(tmp_path / "out")
+        assert not checks[0].ok and not checks[0].all_accepted, bad
