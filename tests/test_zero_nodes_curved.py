@@ -201,14 +201,14 @@ def test_quadratic_enumeration_with_pairs_is_the_brute_force(seed, n_slip, n_zer
     assert not any(a in J and b in J for _, J in got for a, b in pairs)
 
 
-PROVE = [(7, 2, 1, -1.0), (8, 1, 2, -1.0), (9, 3, 1, 0.6), (10, 2, 2, -1.0)]
+PROVE = [(7, 2, 1, -1.0), (8, 1, 2, -1.0), (9, 3, 1, 0.6), (10, 2, 2, -1.0), (11, 3, 2, -1.0), (12, 4, 2, 0.6)]
 
 
 @pytest.mark.parametrize("seed, n_slip, n_zero, kappa", PROVE)
 def test_proofs_with_pairs_agree_with_the_enumeration(seed, n_slip, n_zero, kappa):
     """The exact per-support proof and the branch and bound (its log accepted by the checker),
     both with pairs: complete on [0, cap], the enumeration's list there (supports, values inside
-    the enclosures)."""
+    the enclosures); quadratic_mu_result certifies it (by the branch and bound above s = 8)."""
     cap = 20.0
     A0, A1, A2, pairs = random_split(200 + seed, n_slip, n_zero, kappa)
     found = [d for d in enumerate_quadratic(A0, A1, A2, 14, pairs=pairs) if d["value"] <= cap]
@@ -221,8 +221,9 @@ def test_proofs_with_pairs_agree_with_the_enumeration(seed, n_slip, n_zero, kapp
         assert [p.support for p in proof.solutions] == [_support(d) for d in found]
         for p, d in zip(proof.solutions, found):
             assert p.enclosure[0] - 1e-10 * p.enclosure[1] <= d["value"] <= p.enclosure[1] * (1 + 1e-10)
-    res = quadratic_mu_result(A0, A1, A2, cap, 14, pairs=pairs)
+    res = quadratic_mu_result(A0, A1, A2, cap, 14, pairs=pairs)      # above s = 8: the branch and bound
     assert res.certified and res.complete.count == len(found)
+    assert res.proof["log"]["format"] == ("mceip-mu-quadratic-bb/1" if A0.shape[0] > 8 else "mceip-mu-quadratic/1")
 
 
 def _pair_log():
