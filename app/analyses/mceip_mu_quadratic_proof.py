@@ -18,7 +18,9 @@ the data and the proof is about them exactly. For every support ``J`` (the unkno
    in ball arithmetic at the root's enclosure, ``arb_mat``) give the signs of ``x_J``, and
    ``y_{J^c}`` follows in ball arithmetic. Proven a solution when ``x_J > 0`` (after the sign of
    the column is chosen) and ``y_{J^c} > 0``; proven not one when some ``x_i`` has the opposite
-   sign or some ``y_i < 0``; otherwise (a ball that contains 0, a multiple root) undecided.
+   sign, some ``y_i < 0`` or some ``x_i`` is exactly 0 (its cofactor the zero polynomial, decided
+   by exact integer determinants: the solution of a smaller support); otherwise (a ball that
+   contains 0, a multiple root) undecided.
 
 Zero-reaction nodes (``pairs``, docs/method.md section 8): the split tangential rate
 ``v_T = a - b`` of a zero-reaction node gives columns ``a`` and ``b`` that are exact negatives
