@@ -297,7 +297,7 @@ def test_block_on_a_circle_with_a_zero_node_is_analysed(block_z):
     st = block_z["states"][-1]
     status = [n["status"] for n in st["nodes"]]
     assert status.count("zero") == 1 and status.count("slip") == 1 and status[7] == "zero"
-    assert max(abs(v) for v in st["curved_contact"]["frame"][7][1:3]) > 1e-3      # its frame is rotated
+    assert st["curved_contact"]["frame"][7][1] == pytest.approx(math.sin(math.atan(16.0 / 400.0)), rel=0.05)  # rotated
     a = st["analyses"]
     assert a["necessary"].get("failed") and "zero-reaction" in a["necessary"]["reason"]
     for name in ("mceip_mu", "enumerate", "mceip_lambda2"):
@@ -409,3 +409,39 @@ def test_stored_proof_of_a_zero_node_state_is_rechecked(tmp_path):
         path.write_bytes(buf.getvalue())
         checks = check_folder(tmp_path / "out")
         assert not checks[0].ok and not checks[0].all_accepted, bad
+
+
+def _tilted(tmp_path, obstacle):
+    """The 80 x 40 block tilted by 1 degree about A (which touches the obstacle first), its top
+    moved by (1, -d) in one step, d = 0.5314372743421658 (found by regula falsi on node 3's gap):
+    nodes 0-2 slip, node 3 touches with zero reaction (set Z)."""
+    from test_curved_gmsh import write_geo
+    f = write_geo(tmp_path / "t.geo", angle_deg=1.0, about=(0.0, 0.0))
+    return {"name": "z", "mu": 1.1, "analyses": ["mceip_mu", "enumerate"],
+            "system": {"type": "gmsh", "file": f, "contact": "AB", "prescribed": {"CD": "xy"},
+                       "material": {"E": 5.0, "nu": 0.48, "density": 1.2e-9}, "thickness": 9.6, "obstacle": obstacle,
+                       "program": [{"name": "press", "steps": 1,
+                                    "displacement": {"CD": {"translation": [1.0, -0.5314372743421658]}}}]}}
+
+
+def test_block_zero_node_flat_limit(tmp_path):
+    """The tilted block's Z state on the line and on a circle of radius R = 1e12 L tangent to it at
+    A: the same classification and the same MCEIP-mu values (1e-8 relative), proven on both (the
+    linear engine with pairs on the line, the quadratic exact proof with pairs on the circle)."""
+    R = 1e12 * 80.0
+    flat = run_scene(_tilted(tmp_path, {"type": "line"}))["states"][-1]
+    curved = run_scene(_tilted(tmp_path, {"type": "circle", "centre": [0.0, -R], "radius": R, "side": "outside"}))
+    curved = curved["states"][-1]
+    assert [n["status"] for n in flat["nodes"]][:5] == ["slip", "slip", "slip", "zero", "free"]
+    assert [n["status"] for n in curved["nodes"]] == [n["status"] for n in flat["nodes"]]
+    assert [n["sign"] for n in curved["nodes"]] == [n["sign"] for n in flat["nodes"]]
+    a, b = flat["analyses"]["mceip_mu"], curved["analyses"]["mceip_mu"]
+    assert a["certified"] and b["certified"] and a["method"] == "condensed" and b["method"] == "condensed (quadratic)"
+    cap = a["certificate"]["interval"][1]
+    va = [s["value"] for s in a["solutions"] if s["value"] <= cap]
+    vb = [s["value"] for s in b["solutions"] if s["value"] <= cap]
+    assert va and vb == pytest.approx(va, rel=1e-8)
+    ea = [s["value"] for s in flat["analyses"]["enumerate"]["problems"]["mu"]["solutions"]]
+    eb = [s["value"] for s in curved["analyses"]["enumerate"]["problems"]["mu"]["solutions"]]
+    assert eb[:len(ea)] == pytest.approx(ea, rel=1e-8)
+    print("flat limit: critical mu", va, vb, "largest relative difference", max(abs(x - y) / x for x, y in zip(va, vb)))
