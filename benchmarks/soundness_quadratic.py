@@ -8,7 +8,11 @@ sign or zero, as kappa P), s = 1-10, caps 10 and 30, some near-degenerate (two i
 reference contradicts: another set of supports, or enclosures that do not meet. Pencils where the
 reference leaves a support undecided have no known truth and are counted apart.
 
-    .venv/bin/python benchmarks/soundness_quadratic.py [--n 300] [--start 0]
+``--pairs``: split pencils of zero-reaction nodes instead (app/analyses/curved_split.py's
+construction on a random SPD contact Schur complement: 1-3 slip nodes with ``G``, 1-2 zero nodes
+with their pairs ``(a, b)``), proven by both with the pairs.
+
+    .venv/bin/python benchmarks/soundness_quadratic.py [--n 300] [--start 0] [--pairs]
 """
 from __future__ import annotations
 
@@ -46,6 +50,23 @@ def pencil(k: int):
     return A0 + G, A1, G, float(rng.choice([10.0, 30.0])), s, kind
 
 
+def pencil_with_pairs(k: int):
+    """Split pencil number ``k`` with zero-reaction nodes: (A0, A1, A2, cap, s, kind, pairs)."""
+    from app.analyses.pencils import split_pencil
+    from app.loading.classify import Classification
+    rng = np.random.default_rng(70_000 + k)
+    ns, nz = int(rng.integers(1, 4)), int(rng.integers(1, 3))
+    n = ns + nz
+    B = rng.normal(size=(2 * n, 2 * n))
+    cls = Classification(tuple(["slip"] * ns + ["zero"] * nz),
+                         tuple(int(v) for v in rng.choice([-1, 1], ns)) + (0,) * nz)
+    sp = split_pencil(B @ B.T + 0.3 * np.eye(2 * n), 2 * np.arange(n), 2 * np.arange(n) + 1, np.ones(n), np.ones(n),
+                      cls, np.array([], dtype=int))
+    G = np.zeros_like(sp.A0)
+    G[np.arange(ns), np.arange(ns)] = float(rng.choice([-1.5, -0.5, 0.4, 1.2])) * rng.uniform(0.2, 1.0, size=ns)
+    return sp.A0 + G, sp.A1, G, float(rng.choice([10.0, 30.0])), ns + 3 * nz, f"{ns} slip, {nz} zero", sp.pairs
+
+
 def _meet(x, y) -> bool:
     return x.enclosure[0] <= y.enclosure[1] and y.enclosure[0] <= x.enclosure[1]
 
@@ -67,18 +88,19 @@ def classify(b, e) -> str:
     return "agree" if b.proven else "not proven"
 
 
-def section_quadratic(n: int = 300, start: int = 0, say=print) -> dict:
-    """The figures of ``n`` pencils from ``start``: verdict counts, critical values, seconds."""
+def section_quadratic(n: int = 300, start: int = 0, say=print, pairs: bool = False) -> dict:
+    """The figures of ``n`` pencils from ``start`` (``pairs``: split pencils of zero-reaction
+    nodes): verdict counts, critical values, seconds."""
     counts: dict[str, int] = {}
     t_bb = t_ref = 0.0
     n_sol = 0
     false = []
     for k in range(start, start + n):
-        A0, A1, A2, cap, s, kind = pencil(k)
+        A0, A1, A2, cap, s, kind, prs = pencil_with_pairs(k) if pairs else (*pencil(k), [])
         t0 = time.perf_counter()
-        b = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + 60.0)
+        b = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + 60.0, pairs=prs)
         t1 = time.perf_counter()
-        e = prove_quadratic(A0, A1, A2, cap, max_s=10)
+        e = prove_quadratic(A0, A1, A2, cap, max_s=12, pairs=prs)
         t_bb, t_ref = t_bb + t1 - t0, t_ref + time.perf_counter() - t1
         verdict = classify(b, e)
         counts[verdict] = counts.get(verdict, 0) + 1
@@ -86,16 +108,18 @@ def section_quadratic(n: int = 300, start: int = 0, say=print) -> dict:
         if verdict == "FALSE":
             false.append(k)
             say(f"FALSE PROOF: pencil {k} (s = {s}, {kind}, cap {cap})")
-    out = {"pencils": n, "start": start, "false_proofs": counts.get("FALSE", 0), "false_pencils": false,
-           "agree": counts.get("agree", 0), "critical_values": n_sol, "not_proven": counts.get("not proven", 0),
-           "unknown_truth": counts.get("unknown truth", 0), "bb_s": t_bb, "reference_s": t_ref}
+    out = {"pencils": n, "start": start, "pairs": pairs, "false_proofs": counts.get("FALSE", 0),
+           "false_pencils": false, "agree": counts.get("agree", 0), "critical_values": n_sol,
+           "not_proven": counts.get("not proven", 0), "unknown_truth": counts.get("unknown truth", 0),
+           "bb_s": t_bb, "reference_s": t_ref}
     say(describe(out))
     return out
 
 
 def describe(r: dict) -> str:
     """One line of the section's figures (``make bench``'s summary prints it too)."""
-    return (f"quadratic soundness: {r['pencils']} pencils (s = 1-10; {', '.join(KINDS)}): FALSE PROOFS "
+    what = "split pencils with pairs, s = 4-9" if r.get("pairs") else f"s = 1-10; {', '.join(KINDS)}"
+    return (f"quadratic soundness: {r['pencils']} pencils ({what}): FALSE PROOFS "
             f"{r['false_proofs']}; agree {r['agree']} ({r['critical_values']} critical values), "
             f"not proven {r['not_proven']}, reference undecided {r['unknown_truth']}; "
             f"branch and bound {r['bb_s']:.1f} s, per-support proof {r['reference_s']:.1f} s")
@@ -105,8 +129,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=300)
     ap.add_argument("--start", type=int, default=0)
+    ap.add_argument("--pairs", action="store_true", help="split pencils of zero-reaction nodes, with pairs")
     args = ap.parse_args(argv)
-    r = section_quadratic(args.n, args.start, say=lambda *a: print(*a, flush=True))
+    r = section_quadratic(args.n, args.start, say=lambda *a: print(*a, flush=True), pairs=args.pairs)
     return 1 if r["false_proofs"] else 0
 
 

@@ -20,6 +20,12 @@ classification used to share analyses carries them (:class:`CurvedClassification
 
 ``frames``: per contact node the frame at its contact point in the system's paper axes,
 ``(a, b, c, d)`` with ``t' = a T + b N`` and ``n' = c T + d N`` (identity ``(1, 0, 0, 1)``).
+
+Zero-reaction nodes (the paper's set Z, r = 0): the curvature terms above are proportional to
+the reaction and vanish, so their rate conditions (9) are the flat ones, written in the frame of
+the obstacle at *their* contact point. Their frames are recorded like the slip nodes' and the
+split pencil of :func:`app.analyses.pencils.split_pencil` is built in them
+(:mod:`app.analyses.curved_split`); the slip nodes keep their ``G`` terms.
 """
 from __future__ import annotations
 
@@ -28,7 +34,7 @@ from typing import Optional
 
 import numpy as np
 
-from app.loading.classify import SLIP, Classification
+from app.loading.classify import SLIP, ZERO, Classification
 
 IDENTITY = (1.0, 0.0, 0.0, 1.0)
 
@@ -36,13 +42,15 @@ IDENTITY = (1.0, 0.0, 0.0, 1.0)
 @dataclass(frozen=True)
 class CurvedClassification(Classification):
     """A classification on a curved obstacle: also ``geometric[i] = kappa_i P_i`` (0 off the
-    slip nodes) and the contact frames of the slip nodes (``frames[i]``, identity elsewhere)."""
+    slip nodes) and the contact frames of the slip and zero-reaction nodes (``frames[i]``,
+    identity elsewhere: free and stick nodes' frames change no answer)."""
     geometric: tuple[float, ...] = ()
     frames: tuple[tuple[float, float, float, float], ...] = ()
 
     @property
     def key(self) -> tuple:
-        """Equal keys, equal pencils: the statuses and signs, and kappa P and the frames of the slip nodes."""
+        """Equal keys, equal pencils: the statuses and signs, kappa P of the slip nodes and the
+        frames of the slip and zero-reaction nodes."""
         return (super().key, tuple(self.geometric), tuple(self.frames))
 
     def slip_geometric(self) -> np.ndarray:
@@ -50,7 +58,7 @@ class CurvedClassification(Classification):
         return np.array([self.geometric[i] for i in self.slip], dtype=float)
 
     def rotated(self) -> bool:
-        """Whether some slip node's contact frame differs from the system's node frame."""
+        """Whether some slip or zero-reaction node's contact frame differs from the system's node frame."""
         return any(f != IDENTITY for f in self.frames)
 
 
@@ -84,12 +92,10 @@ def attach(cls: Classification, state, system) -> Classification:
     frames_in = (state.extra.get("curved_contact") or {}).get("frame")
     geo, frames = [], []
     for i, st in enumerate(cls.status):
-        if st == SLIP:
-            geo.append(float(kappa[i] * -rN[i]))
-            frames.append(tuple(float(v) for v in frames_in[i]) if frames_in is not None else IDENTITY)
-        else:
-            geo.append(0.0)
-            frames.append(IDENTITY)
+        # kappa P of a slip node; a zero-reaction node has P = 0, no curvature term (only its frame)
+        geo.append(float(kappa[i] * -rN[i]) if st == SLIP else 0.0)
+        turns = st in (SLIP, ZERO) and frames_in is not None
+        frames.append(tuple(float(v) for v in frames_in[i]) if turns else IDENTITY)
     return CurvedClassification(cls.status, cls.signs, tuple(geo), tuple(frames))
 
 
@@ -121,7 +127,7 @@ def rotate_schur(Sc: np.ndarray, cls: CurvedClassification) -> np.ndarray:
 
 
 def rotate_petsc(A, system, cls: CurvedClassification):
-    """A new PETSc matrix ``Q^T A Q`` in the contact frames of the slip nodes (system DOFs, the
+    """A new PETSc matrix ``Q^T A Q`` in the contact frames of the slip (and zero-reaction) nodes (system DOFs, the
     node's own paper-axis signs kept); None when no frame rotates. The caller destroys it."""
     if not cls.rotated():
         return None
@@ -145,6 +151,17 @@ def rotate_petsc(A, system, cls: CurvedClassification):
         return A.ptap(Q)
     finally:
         Q.destroy()
+
+
+def system_frame_matrix(system, cls: CurvedClassification) -> np.ndarray:
+    """Dense ``Q`` in the system's DOFs (old components = Q new) of :func:`rotate_petsc`: each
+    rotating node's (T, N) block, with the node's own paper-axis signs kept."""
+    Q = np.eye(system.n_dofs)
+    for node, (a, b, c, d) in zip(system.nodes, cls.frames):
+        sT, sN = node.sign_T, node.sign_N
+        Q[node.dof_T, node.dof_T], Q[node.dof_T, node.dof_N] = a, sT * sN * c
+        Q[node.dof_N, node.dof_T], Q[node.dof_N, node.dof_N] = sN * sT * b, d
+    return Q
 
 
 def add_geometric(Ks, space, cls: CurvedClassification, factor: float) -> None:

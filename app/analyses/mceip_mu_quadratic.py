@@ -45,6 +45,7 @@ from app.analyses.enumerate import (
     pencil_scale,
     supports_of_size,
 )
+from app.analyses.mceip_mu_quadratic_rows import drop_infinite, lower_rows, zero_node_rows
 from app.analyses.outcomes import CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
@@ -94,32 +95,51 @@ def _batch_eigenvalues(B0: np.ndarray, B1: np.ndarray, B2: np.ndarray) -> np.nda
 
 
 def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip: int,
-                        mu_max: float = np.inf) -> list[dict]:
+                        mu_max: float = np.inf, comp: np.ndarray | None = None,
+                        pairs: list[tuple[int, int]] | None = None) -> list[dict]:
     """Every solution of the quadratic MCEIP-mu with ``0 <= mu <= mu_max``, by supports (batched
     over the supports of one size, as app/analyses/enumerate.py does for the linear pencil).
 
-    Returns dicts with ``value``, ``x_Ts`` (sum 1), ``pattern``, ``residual`` (smallest singular
-    value of ``A(mu)[J, J]`` relative to ``||a0|| + mu ||a1|| + mu^2 ||a2||``), ``complementarity``,
-    ``min_x_Ts``, ``min_y_Ts``, ``margin_y_stick`` and ``ill_conditioned``; sorted by value.
+    ``comp``: positions of the complementarity unknowns ``x_c`` (default: all; the others are
+    ``x_f`` with ``y_f = 0``, kept in every support as in (25)); ``pairs``: the ``(a, b)``
+    positions (full numbering) of the split tangential rates of zero-reaction nodes, which no
+    support holds both of (:func:`app.analyses.enumerate.supports_of_size`), and whose stick margin
+    vanishing by the exact identity ``y_b = -y_a + 2 mu y_N`` counts as ``y = 0``
+    (:func:`app.analyses.mceip_mu_quadratic_proof.structural_zeros`).
+
+    Returns dicts with ``value``, ``x_Ts`` (``x_c``, sum 1), ``pattern``, ``residual`` (smallest
+    singular value of ``A(mu)[R, R]`` relative to ``||a0|| + mu ||a1|| + mu^2 ||a2||``),
+    ``complementarity``, ``min_x_Ts``, ``min_y_Ts``, ``margin_y_stick`` and ``ill_conditioned``;
+    sorted by value.
     """
-    s = A0.shape[0]
+    n = A0.shape[0]
+    comp = np.arange(n, dtype=np.int64) if comp is None else np.asarray(comp, dtype=np.int64)
+    s = len(comp)
     if s > max_slip:
         raise TooManySlipNodes(f"{s} slip nodes: enumeration of the 2^{s} supports of the quadratic MCEIP-mu "
                                f"refused (settings.enumerate_max_slip = {max_slip})")
+    free = np.setdiff1d(np.arange(n), comp)
+    nf = len(free)
+    cpos = {int(c): k for k, c in enumerate(comp)}
+    cpairs = [(cpos[int(a)], cpos[int(b)]) for a, b in (pairs or [])]
     sc = pencil_scale(A0)
     a0, a1, a2 = A0 / sc, A1 / sc, A2 / sc
+    triples = zero_node_rows(a0, a1, a2, pairs or [])
     out: list[dict] = []
     seen: list[tuple[float, tuple]] = []
     with one_blas_thread():
         for k in range(1, s + 1):
-            P = supports_of_size(s, k)
-            step = max(1, BATCH_ELEMENTS // (4 * k * k))
+            P = supports_of_size(s, k, cpairs)
+            nr = nf + k
+            step = max(1, BATCH_ELEMENTS // (4 * nr * nr))
             for lo in range(0, len(P), step):
                 Pb = P[lo:lo + step]
-                B0 = a0[Pb[:, :, None], Pb[:, None, :]]
-                B1 = a1[Pb[:, :, None], Pb[:, None, :]]
-                B2 = a2[Pb[:, :, None], Pb[:, None, :]]
-                W = _batch_eigenvalues(B0, B1, B2)
+                Rb = np.concatenate([np.broadcast_to(free, (len(Pb), nf)), comp[Pb]], axis=1)
+                B0 = a0[Rb[:, :, None], Rb[:, None, :]]
+                B1 = a1[Rb[:, :, None], Rb[:, None, :]]
+                B2 = a2[Rb[:, :, None], Rb[:, None, :]]
+                C1, C2 = lower_rows(B0, B1, B2, Rb, triples)
+                W = drop_infinite(_batch_eigenvalues(B0, C1, C2), C1, C2)
                 real = np.isfinite(W) & (np.abs(W.imag) <= 1e-6 * np.maximum(1.0, np.abs(W.real)))
                 wr = np.where(real, W.real, np.nan)
                 cand = real & (wr >= -1e-12) & (wr <= (mu_max * (1 + 1e-12) if np.isfinite(mu_max) else np.inf))
@@ -133,29 +153,40 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
                          + mu * mu * np.linalg.norm(B2[ii], 2, axis=(1, 2)))
                 res = sv[:, -1] / np.maximum(norms, 1e-300)
                 v = Vh[:, -1, :]
-                v = v * np.where(v.sum(axis=1) < 0, -1.0, 1.0)[:, None]
-                mx = np.min(v, axis=1) / np.maximum(np.max(np.abs(v), axis=1), 1e-300)
+                v = v * np.where(v[:, nf:].sum(axis=1) < 0, -1.0, 1.0)[:, None]
+                xp = v[:, nf:]
+                mx = np.min(xp, axis=1) / np.maximum(np.max(np.abs(xp), axis=1), 1e-300)
                 for c in np.flatnonzero((mx > 0) & (res <= RESIDUAL_TOL)):
                     J, m_c = Pb[ii[c]], float(mu[c])
                     if any(abs(val - m_c) <= 1e-10 * max(1.0, m_c) and sup == tuple(J) for val, sup in seen):
                         continue        # a double eigenvalue: one solution
-                    x = np.zeros(s)
-                    x[J] = v[c] / v[c].sum()
-                    y = (a0 + m_c * a1 + m_c * m_c * a2) @ x
-                    sup = np.zeros(s, dtype=bool)
-                    sup[J] = True
-                    stick = y[~sup]
-                    my = float(np.min(stick)) if len(stick) else np.inf
-                    if my < -RESOLVE_TOL:
-                        continue
-                    seen.append((m_c, tuple(J)))
-                    out.append({"value": m_c, "x_Ts": [float(t) for t in x],
-                                "pattern": ["slip" if b else "stick" for b in sup],
-                                "residual": float(res[c]), "complementarity": float(np.max(np.abs(x * y))),
-                                "min_x_Ts": float(mx[c]), "min_y_Ts": float(np.min(y)),
-                                "margin_y_stick": my if np.isfinite(my) else None,
-                                "ill_conditioned": bool(mx[c] < RESOLVE_TOL or my < RESOLVE_TOL)})
+                    x = np.zeros(n)
+                    x[Rb[ii[c]]] = v[c] / xp[c].sum()
+                    d = _record((a0, a1, a2), x, m_c, J, comp, pairs or [], float(res[c]), float(mx[c]))
+                    if d is not None:
+                        seen.append((m_c, tuple(J)))
+                        out.append(d)
     return sorted(out, key=lambda d: (d["value"], d["pattern"]))
+
+
+def _record(a, x: np.ndarray, mu: float, J, comp, pairs, res: float, mx: float) -> dict | None:
+    """The solution record of the null vector ``x`` of support ``J`` at ``mu``, or None when a
+    stick margin is negative (the rows of ``structural_zeros`` are ``y = 0`` exactly)."""
+    from app.analyses.mceip_mu_quadratic_proof import structural_zeros
+    a0, a1, a2 = a
+    y = (a0 + mu * a1 + mu * mu * a2) @ x
+    sup = np.zeros(len(comp), dtype=bool)
+    sup[J] = True
+    exact0 = set(structural_zeros(a0, a1, a2, comp[J], pairs).tolist())
+    stick = np.array([y[comp[i]] for i in np.flatnonzero(~sup) if int(comp[i]) not in exact0])
+    my = float(np.min(stick)) if len(stick) else np.inf
+    if my < -RESOLVE_TOL:
+        return None
+    xc, yc = x[comp], y[comp]
+    return {"value": mu, "x_Ts": [float(t) for t in xc], "pattern": ["slip" if b else "stick" for b in sup],
+            "residual": res, "complementarity": float(np.max(np.abs(xc * yc))),
+            "min_x_Ts": mx, "min_y_Ts": float(np.min(yc)), "margin_y_stick": my if np.isfinite(my) else None,
+            "ill_conditioned": bool(mx < RESOLVE_TOL or my < RESOLVE_TOL)}
 
 
 #: up to this many slip nodes the exact per-support proof of app/analyses/mceip_mu_quadratic_proof.py
@@ -176,19 +207,22 @@ _METHOD_BB = ("branch and bound over families of supports and mu intervals, clos
 
 
 def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_slip: int,
-                        certify: bool = True, seconds: float = 60.0) -> MceipMuOutcome:
+                        certify: bool = True, seconds: float = 60.0, pairs=None) -> MceipMuOutcome:
     """The MCEIP-mu outcome for a curved obstacle: the solutions found by the exhaustive
     floating-point enumeration and (``certify``) a proof on ``[0, cap]``, the exact per-support
     proof up to ``PROOF_MAX_S`` slip nodes, the checked branch and bound above (also above
     ``max_slip``, where nothing is enumerated): each solution it proves is ``certified`` with
     its ``enclosure``; candidates it proves not to be solutions are dropped. Without a proof
-    every solution is found, not proven; a branch and bound out of time may still prove the onset."""
+    every solution is found, not proven; a branch and bound out of time may still prove the onset.
+    ``pairs``: the ``(a, b)`` halves of the zero-reaction nodes' split tangential rates (no
+    support holds both; the proofs verify them on the pencil)."""
+    pairs = [(int(a), int(b)) for a, b in (pairs or [])]
     t0 = time.perf_counter()
     s = A0.shape[0]
     how = "quadratic MCEIP-mu: every support enumerated, companion linearisation + QZ, sign checks (26) in floating point"
     try:
-        sols = enumerate_quadratic(A0, A1, A2, max_slip)
-        search = {"method": how, "attempts": 2 ** s - 1, "found": len(sols), "intervals": ["[0, inf)"],
+        sols = enumerate_quadratic(A0, A1, A2, max_slip, pairs=pairs)
+        search = {"method": how, "attempts": _supports(s, pairs), "found": len(sols), "intervals": ["[0, inf)"],
                   "complete": False, "note": "every support enumerated; decided in floating point (not a proof)"}
     except TooManySlipNodes as err:
         sols, search = None, {"method": how, "complete": False, "note": str(err)}
@@ -199,10 +233,11 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
     proof = None
     if certify and s <= PROOF_MAX_S:
         from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
-        proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, deadline=time.perf_counter() + seconds)
+        proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, deadline=time.perf_counter() + seconds,
+                                pairs=pairs)
     elif certify:
         from app.analyses.mceip_mu_quadratic_bb import prove_bb
-        proof = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + seconds)
+        proof = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + seconds, pairs=pairs)
     if sols is None and (proof is None or not proof.proven):
         if proof is not None and proof.onset_proven:      # nothing enumerated, the onset proven all the same
             return _unproven(A0, A1, A2, [], search, proof, s, cap, t0)
@@ -220,7 +255,8 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
     bb = hasattr(proof, "log")
     cert = _certificate(_METHOD_BB if bb else _METHOD_EXACT, cap, "proven", t0, proof, s, rejected)
     cert.cap, cert.onset = float(cap), on.value if on else None
-    log = dict(proof.log) if bb else {"format": QUADRATIC_FORMAT, "cap": float(cap), "max_s": PROOF_MAX_S}
+    log = dict(proof.log) if bb else {"format": QUADRATIC_FORMAT, "cap": float(cap), "max_s": PROOF_MAX_S,
+                                      "pairs": [list(p) for p in pairs]}
     return MceipMuOutcome(
         solutions=[Solution.from_fields(d) for d in out], result=result, certified=True,
         onset=OnsetClaim(proven=True, status="proven", value=on.value if on else None,
@@ -230,6 +266,11 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
         # the pencil travels to proofs/ (app/io/proofs.py), where `app check` verifies it again
         proof={"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
                "A2": np.asarray(A2, dtype=float), "log": log})
+
+
+def _supports(s: int, pairs) -> int:
+    """How many supports the enumeration decides: ``2^s - 1`` without those holding a pair."""
+    return (2 ** (s - 2 * len(pairs))) * (3 ** len(pairs)) - 1
 
 
 def _certificate(method: str, cap: float, status: str, t0: float, proof, s: int, rejected: int):

@@ -11,6 +11,12 @@ else on an index ``i`` of ``U \\ F`` (``i`` out of the support, or forced in) wh
 eigenvector of ``sym(A_UU)`` at the midpoint is largest. Nodes are explored lowest ``a`` first, so
 a time budget leaves the nodes of high mu open and the onset is proven first.
 
+Zero-reaction nodes (``pairs``: the halves ``(a, b)`` of a split tangential rate, whose columns
+are opposite, so no test can close a family holding both): a family with a pair inside
+``U \\ F`` is split on it first, ``(U \\ {a}, F)`` and ``(U \\ {b}, F + {a})``, and every forced
+index drops its partner from ``U``, as in the linear engine (:mod:`app.analyses.mceip_mu.branch`);
+a family whose ``F`` holds a pair is closed as ``pair``.
+
 The prover decides nothing itself: the log goes to :func:`check_log`, which verifies every
 witness from the pencil and decides the leaves exactly; only what it accepts is proven.
 """
@@ -30,6 +36,7 @@ from app.analyses.mceip_mu_quadratic_check import (
     cop_closes,
     corners,
     farkas_closes,
+    holds_pair,
     nonsingular_closes,
 )
 from app.linalg import one_blas_thread
@@ -73,7 +80,8 @@ class BBProof:
 
 
 class _Tree:
-    def __init__(self, A0, A1, A2, cap: float, deadline: float):
+    def __init__(self, A0, A1, A2, cap: float, deadline: float, pairs=()):
+        self.pairs = [tuple(sorted((int(a), int(b)))) for a, b in pairs]
         self.A = (np.asarray(A0, dtype=float), np.asarray(A1, dtype=float), np.asarray(A2, dtype=float))
         sc = float(np.max(np.abs(self.A[0]))) or 1.0
         self.S = tuple(M / sc for M in self.A)             # the LP's and eigensolver's copy only
@@ -103,9 +111,14 @@ class _Tree:
     def _close(self, n: dict) -> bool:
         A0, A1, A2 = self.A
         U, F, a, b = n["U"], n["F"], n["a"], n["b"]
+        if holds_pair(F, self.pairs):
+            n["kind"] = "pair"
+            return True
         if not U or tuple(U) in self.leaves and F == U:
             n["kind"] = "leaf"
             return True
+        if self._pair_inside(U, F) is not None:
+            return False                                   # opposite columns: split on the pair first
         ix = np.ix_(U, U)
         Cs = [C for C, _ in corners(self.S[0][ix], self.S[1][ix], self.S[2][ix], a, b)]
         for d in self._scalings(U, a, b):
@@ -174,8 +187,24 @@ class _Tree:
             return None
         return np.minimum(r.x[:s], ub[:s])
 
+    def _pair_inside(self, U, F):
+        """A pair with both halves in ``U \\ F``, else None."""
+        free = set(U) - set(F)
+        return next((p for p in self.pairs if p[0] in free and p[1] in free), None)
+
+    def _branch(self, n: dict, U, F, i: int) -> None:
+        """Branch on ``i``: out of the support, or forced in (its partners leave ``U``)."""
+        partners = {q for p in self.pairs if i in p for q in p if q != i}
+        a, b = n["a"], n["b"]
+        n.update(kind="branch", i=i, children=[self.add([j for j in U if j != i], F, a, b),
+                                               self.add([j for j in U if j not in partners], list(F) + [i], a, b)])
+
     def _split(self, k: int, n: dict) -> None:
         U, F, a, b = n["U"], n["F"], n["a"], n["b"]
+        pair = self._pair_inside(U, F)
+        if pair is not None:
+            self._branch(n, U, F, pair[0])
+            return
         if b - a > WIDE_REL * max(b, WIDE_FLOOR * self.cap) or len(U) == len(F):
             m = 0.5 * (a + b)
             if a < m < b:
@@ -184,9 +213,7 @@ class _Tree:
         if len(U) == len(F):
             n["kind"] = "open"                             # an interval no float can halve
             return
-        i = self._index(U, F, 0.5 * (a + b))
-        n.update(kind="branch", i=i, children=[self.add([j for j in U if j != i], F, a, b),
-                                               self.add(U, list(F) + [i], a, b)])
+        self._branch(n, U, F, self._index(U, F, 0.5 * (a + b)))
 
     def _index(self, U, F, m: float) -> int:
         """The free index where the LP's relaxed point breaks complementarity most (``x_i y_i``),
@@ -222,16 +249,18 @@ def _float_copositive(Cs, d, theta: float) -> bool:
     return True
 
 
-def prove_bb(A0, A1, A2, cap: float, deadline: float = math.inf) -> BBProof:
-    """The branch and bound on ``[0, cap]`` and the checker's verdict on its log."""
+def prove_bb(A0, A1, A2, cap: float, deadline: float = math.inf, pairs=()) -> BBProof:
+    """The branch and bound on ``[0, cap]`` and the checker's verdict on its log (``pairs``: the
+    zero-reaction nodes' ``(a, b)``, recorded in the log and verified by the checker)."""
     t0 = time.perf_counter()
-    tree = _Tree(A0, A1, A2, cap, deadline)
+    tree = _Tree(A0, A1, A2, cap, deadline, pairs)
     with one_blas_thread():
         tree.run()
     for _, k in tree.heap:
         tree.nodes[k]["kind"] = "open"
     t1 = time.perf_counter()
-    log = {"format": "mceip-mu-quadratic-bb/1", "cap": float(cap), "nodes": tree.nodes}
+    log = {"format": "mceip-mu-quadratic-bb/1", "cap": float(cap), "nodes": tree.nodes,
+           "pairs": [list(p) for p in tree.pairs]}
     with one_blas_thread():
         rep = check_log(tree.A[0], tree.A[1], tree.A[2], log)
     out = BBProof(rep, float(cap), log, seconds=time.perf_counter() - t0, prover_seconds=t1 - t0,

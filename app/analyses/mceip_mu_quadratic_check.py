@@ -24,6 +24,14 @@ on the whole interval:
   :mod:`app.analyses.mceip_mu_quadratic_proof` on ``[0, cap]`` (rational determinants, isolated
   roots, ball arithmetic); its solutions are proven, its undecided roots leave the node open.
 
+**Pairs** (zero-reaction nodes, ``log["pairs"]``): the two halves ``(a, b)`` of a split
+tangential rate, whose columns must be exact negatives in the pencil (verified:
+:func:`app.analyses.mceip_mu_quadratic_proof.pairs_hold`); no support needs both, so a node whose
+``F`` holds a pair is closed (``pair``), a ``leaf`` whose support holds one has nothing to decide,
+and a ``branch`` on ``i`` may drop ``i``'s partner from the child that forces ``i``
+(``(U \\ partners(i), F + {i})``), as the linear engine's checker accepts
+(:mod:`app.analyses.mceip_mu.checker`).
+
 :func:`check_log` re-verifies a whole proof log from the pencil (this module does not import
 the prover): the root covers every support and ``[0, cap]``, every split covers its node, every
 witness holds, every leaf is decided again. Only then are the claims accepted.
@@ -146,9 +154,16 @@ def check_log(A0, A1, A2, log: dict) -> Report:
     """Re-verify the proof log ``log`` (format in docs/proofs.md) of the pencil from scratch."""
     import flint
 
-    from app.analyses.mceip_mu_quadratic_proof import PREC, exact, exact_data
+    from app.analyses.mceip_mu_quadratic_proof import PREC, exact, exact_data, pairs_hold
     rep = Report()
     s, cap, nodes = A0.shape[0], float(log["cap"]), log["nodes"]
+    try:
+        pairs = [(int(a), int(b)) for a, b in log.get("pairs", [])]
+    except (TypeError, ValueError):
+        pairs = None
+    if pairs is None or not pairs_hold(A0, A1, A2, pairs):
+        rep.errors.append("the log's pairs are not pairs of exactly opposite columns of the pencil")
+        return rep
     if not nodes or nodes[0]["U"] != list(range(s)) or nodes[0]["F"] or nodes[0]["a"] != 0.0 \
             or nodes[0]["b"] != cap or not cap >= 0:
         rep.errors.append("the root is not every support on [0, cap]")
@@ -160,7 +175,7 @@ def check_log(A0, A1, A2, log: dict) -> Report:
 
         def leaf(J, a, b):
             from app.analyses.mceip_mu_quadratic_proof import decide_support
-            sols, und = decide_support(*Q, J, s, capq, window=(a, b), cache=cache)
+            sols, und = decide_support(*Q, J, s, capq, window=(a, b), cache=cache, pairs=pairs)
             found.update(((p.support, p.enclosure), p) for p in sols)
             return und
 
@@ -172,7 +187,7 @@ def check_log(A0, A1, A2, log: dict) -> Report:
                 break
             seen.add(k)
             rep.nodes += 1
-            todo += _check_node(A0, A1, A2, nodes, k, rep, leaf)
+            todo += _check_node(A0, A1, A2, nodes, k, rep, leaf, pairs)
         rep.solutions = list(found.values())
     finally:
         flint.ctx.prec = old
@@ -180,7 +195,13 @@ def check_log(A0, A1, A2, log: dict) -> Report:
     return rep
 
 
-def _check_node(A0, A1, A2, nodes, k, rep: Report, leaf) -> list[int]:
+def holds_pair(S, pairs) -> bool:
+    """Whether the index set ``S`` holds both halves of some pair."""
+    S = set(int(i) for i in S)
+    return any(a in S and b in S for a, b in pairs)
+
+
+def _check_node(A0, A1, A2, nodes, k, rep: Report, leaf, pairs=()) -> list[int]:
     """Verify node ``k``; returns its children to verify."""
     n = nodes[k]
     U, F, a, b, kind = tuple(n["U"]), tuple(n["F"]), float(n["a"]), float(n["b"]), n["kind"]
@@ -192,6 +213,7 @@ def _check_node(A0, A1, A2, nodes, k, rep: Report, leaf) -> list[int]:
         c = [nodes[i] if 0 <= i < len(nodes) else None for i in n.get("children", [])]
         if len(c) != 2 or None in c:
             return bad("two children expected")
+        partners: set = set()
         if kind == "bisect":
             m = c[0]["b"]
             want = [(U, F, a, m), (U, F, m, b)]
@@ -202,10 +224,17 @@ def _check_node(A0, A1, A2, nodes, k, rep: Report, leaf) -> list[int]:
             if i not in U or i in F:
                 return bad("the index is not free")
             want = [(tuple(j for j in U if j != i), F, a, b), (U, tuple(sorted(F + (i,))), a, b)]
+            # forcing i in: its partner may leave U (no support holds both halves of a pair)
+            partners = {q for p in pairs if i in p for q in p if q != i}
+            alt = (tuple(j for j in U if j not in partners), tuple(sorted(F + (i,))), a, b)
         got = [(tuple(x["U"]), tuple(x["F"]), float(x["a"]), float(x["b"])) for x in c]
-        if got != want:
+        if got != want and not (kind == "branch" and partners and got == [want[0], alt]):
             return bad("the children do not cover the node")
         return list(n["children"])
+    if kind == "pair":
+        return [] if holds_pair(F, pairs) else bad("F holds no pair")
+    if kind == "leaf" and F == U and holds_pair(U, pairs):
+        return []                                       # no allowed support: nothing to decide
     if kind == "cop" and cop_closes(A0, A1, A2, U, a, b, n["d"], float(n["theta"])):
         return []
     if kind == "farkas" and farkas_closes(A0, A1, A2, U, F, a, b, n["w"]):

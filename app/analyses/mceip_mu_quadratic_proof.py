@@ -18,7 +18,18 @@ the data and the proof is about them exactly. For every support ``J`` (the unkno
    in ball arithmetic at the root's enclosure, ``arb_mat``) give the signs of ``x_J``, and
    ``y_{J^c}`` follows in ball arithmetic. Proven a solution when ``x_J > 0`` (after the sign of
    the column is chosen) and ``y_{J^c} > 0``; proven not one when some ``x_i`` has the opposite
-   sign or some ``y_i < 0``; otherwise (a ball that contains 0, a multiple root) undecided.
+   sign, some ``y_i < 0`` or some ``x_i`` is exactly 0 (its cofactor the zero polynomial, decided
+   by exact integer determinants: the solution of a smaller support); otherwise (a ball that
+   contains 0, a multiple root) undecided.
+
+Zero-reaction nodes (``pairs``, docs/method.md section 8): the split tangential rate
+``v_T = a - b`` of a zero-reaction node gives columns ``a`` and ``b`` that are exact negatives
+(:func:`pairs_hold`, checked on the data, else the proof refuses the pairs). A solution whose
+support holds both has ``y_a = y_b = 0``; subtracting ``min(a, b)`` from both leaves ``A(mu) x``
+unchanged and gives a solution with a smaller support (or ``x`` on the spurious direction
+``a = b``, no motion), so those supports are not decided. Where the exact identity
+``y_b = -y_a + 2 mu y_N`` of the split rows holds (:func:`structural_zeros`), ``y_b`` vanishes on
+every support holding ``a`` and ``N``: it is ``y = 0 >= 0``, not an undecided sign.
 
 When every support is decided, the list of solutions with ``mu`` in ``[0, cap]`` is complete,
 each with a rigorous enclosure of its ``mu``, and the onset is the smallest of them (or none).
@@ -56,6 +67,45 @@ class QuadraticProof:
     @property
     def onset(self) -> ProvenSolution | None:
         return min(self.solutions, key=lambda p: p.enclosure[0]) if self.solutions else None
+
+
+def pairs_hold(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, pairs) -> bool:
+    """Every pair ``(a, b)`` names two distinct columns that are exact negatives in ``A0, A1, A2``
+    (the split of a zero-reaction node's tangential rate): then no support needs both."""
+    s = A0.shape[0]
+    for a, b in pairs:
+        a, b = int(a), int(b)
+        if not (0 <= a < s and 0 <= b < s and a != b):
+            return False
+        if not all(np.array_equal(M[:, b], -M[:, a]) for M in (A0, A1, A2)):
+            return False
+    return True
+
+
+def structural_zeros(M0, M1, M2, J, pairs) -> np.ndarray:
+    """Rows ``j`` off ``J`` whose ``y_j`` vanishes at every eigenpair of support ``J`` by an exact
+    identity of the split pencil of a zero-reaction node (pair ``(a, b)``, normal rate ``N``):
+    ``M0[b] = -M0[a]``, ``M1[b] = M1[a] = M0[N]``, ``M2[b] = -M2[a]``, ``M1[N] = M2[N] = 0``
+    (exact equality of the data: floats, or the exact integers of :func:`exact_data`) give
+    ``y_b = -y_a + 2 mu y_N``, zero when ``a`` and ``N`` are in ``J``."""
+    def same(u, v):
+        return all(p == q for p, q in zip(u, v))
+
+    def neg(u):
+        return [-p for p in u]
+
+    inJ = set(int(i) for i in J)
+    out = set()
+    for a, b in pairs:
+        for i, j in ((int(a), int(b)), (int(b), int(a))):
+            if i not in inJ or j in inJ:
+                continue
+            if not (same(M0[j], neg(M0[i])) and same(M1[j], M1[i]) and same(M2[j], neg(M2[i]))):
+                continue
+            if any(n != i and same(M1[i], M0[n]) and not any(p != 0 for p in M1[n]) and not any(p != 0 for p in M2[n])
+                   for n in inJ):
+                out.add(j)
+    return np.array(sorted(out), dtype=np.int64)
 
 
 def exact(v: float):
@@ -105,11 +155,13 @@ def _arb_interval(r):
     return float(np.nextafter(float(lo), -np.inf)), float(np.nextafter(float(hi), np.inf))
 
 
-def _decide(Q0, Q1, Q2, J, s, root) -> tuple[str, str]:
-    """'solution' / 'not' / 'undecided' for the simple real root ``root`` (an arb) of ``p_J``."""
+def _decide(Q0, Q1, Q2, J, s, root, pairs=()) -> tuple[str, str]:
+    """'solution' / 'not' / 'undecided' for the simple real root ``root`` (an arb) of ``p_J``
+    (the rows of :func:`structural_zeros` are ``y = 0`` exactly)."""
     import flint
     k = len(J)
-    rest = [i for i in range(s) if i not in J]
+    zero = set(structural_zeros(Q0, Q1, Q2, J, pairs).tolist()) if pairs else set()
+    rest = [i for i in range(s) if i not in J and i not in zero]
 
     def entry(i, j):
         return flint.arb(Q0[i][j]) + root * (flint.arb(Q1[i][j]) + root * flint.arb(Q2[i][j]))
@@ -134,6 +186,9 @@ def _decide(Q0, Q1, Q2, J, s, root) -> tuple[str, str]:
     if not (pos or neg):
         if any(v > 0 for v in x) and any(v < 0 for v in x):
             return "not", "x_J has entries of both signs"
+        if k > 1 and any(not (v > 0 or v < 0) and _cofactor_vanishes(Q0, Q1, Q2, J, row, c) for c, v in enumerate(x)):
+            # the null space is spanned by this column: x_c = 0 in every null vector
+            return "not", "x_J has an entry that is exactly 0 (a cofactor vanishing identically)"
         return "undecided", "the sign of an entry of x_J is not resolved"
     if neg:
         x = [-v for v in x]
@@ -145,15 +200,32 @@ def _decide(Q0, Q1, Q2, J, s, root) -> tuple[str, str]:
     return "undecided", "the sign of y off the support is not resolved (y = 0 within the enclosure)"
 
 
+def _cofactor_vanishes(Q0, Q1, Q2, J, row: int, c: int) -> bool:
+    """Whether the minor of ``A_JJ(mu)`` without row ``row`` and column ``c`` is the zero
+    polynomial (exact integer determinants at ``2 (|J| - 1) + 1`` points: its degree is lower)."""
+    import flint
+    R = [J[i] for i in range(len(J)) if i != row]
+    C = [J[j] for j in range(len(J)) if j != c]
+    for t in range(2 * len(R) + 1):
+        if flint.fmpz_mat([[Q0[i][j] + t * Q1[i][j] + t * t * Q2[i][j] for j in C] for i in R]).det() != 0:
+            return False
+    return True
+
+
 def prove_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_s: int = 10,
-                    deadline: float | None = None) -> QuadraticProof | None:
+                    deadline: float | None = None, pairs=()) -> QuadraticProof | None:
     """The proof above on ``[0, cap]``; None when ``s > max_s`` (not attempted). ``deadline``
-    (``time.perf_counter()`` value): stop and report the remaining supports undecided."""
+    (``time.perf_counter()`` value): stop and report the remaining supports undecided.
+    ``pairs``: the zero-reaction nodes' ``(a, b)``, verified by :func:`pairs_hold` (refused:
+    nothing proven)."""
     import flint
     t0 = time.perf_counter()
     s = A0.shape[0]
     if s > max_s:
         return None
+    pairs = [(int(a), int(b)) for a, b in pairs]
+    if not pairs_hold(A0, A1, A2, pairs):
+        return QuadraticProof(proven=False, cap=float(cap), undecided=[((), "a pair's columns are not exact negatives")])
     old = flint.ctx.prec
     flint.ctx.prec = PREC
     try:
@@ -162,11 +234,13 @@ def prove_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, 
         capq = exact(cap)
         for k in range(1, s + 1):
             for J in itertools.combinations(range(s), k):
+                if any(a in J and b in J for a, b in pairs):
+                    continue                        # reduced to a smaller support (docstring)
                 out.supports += 1
                 if deadline is not None and time.perf_counter() > deadline:
                     out.undecided.append((J, "time budget"))
                     continue
-                sols, und = decide_support(Q0, Q1, Q2, J, s, capq)
+                sols, und = decide_support(Q0, Q1, Q2, J, s, capq, pairs=pairs)
                 out.solutions += sols
                 out.undecided += [(J, why) for why, _ in und]
         out.proven = not out.undecided
@@ -177,12 +251,13 @@ def prove_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, 
         flint.ctx.prec = old
 
 
-def decide_support(Q0, Q1, Q2, J: tuple[int, ...], s: int, capq, window=None, cache=None):
+def decide_support(Q0, Q1, Q2, J: tuple[int, ...], s: int, capq, window=None, cache=None, pairs=()):
     """Steps 1-3 above for the one support ``J`` on ``[0, cap]`` (``capq`` exact): its proven
     solutions and its undecided roots, each ``(why, (lo, hi))`` with the mu it concerns (all of
     ``[0, cap]`` when no root is isolated). With ``window = (lo, hi)`` only the roots whose
     enclosure meets it are decided; ``cache`` (a dict) keeps the polynomial, its roots and the
-    decisions between calls. Runs at the caller's ball precision."""
+    decisions between calls; ``pairs``: the zero-reaction nodes' pairs, for
+    :func:`structural_zeros` (the caller has verified them). Runs at the caller's ball precision."""
     cache = {} if cache is None else cache
     if J not in cache:
         cache[J] = _support_roots(Q0, Q1, Q2, J, capq)
@@ -193,7 +268,7 @@ def decide_support(Q0, Q1, Q2, J: tuple[int, ...], s: int, capq, window=None, ca
         if window is not None and not (enc[0] <= window[1] and window[0] <= enc[1]):
             continue
         if (J, idx) not in cache:
-            cache[J, idx] = _decide_root(Q0, Q1, Q2, J, s, sq, r)
+            cache[J, idx] = _decide_root(Q0, Q1, Q2, J, s, sq, r, pairs)
         verdict, why, hit = cache[J, idx]
         if verdict == "solution":
             sols.append(hit)
@@ -236,12 +311,12 @@ def _support_roots(Q0, Q1, Q2, J, capq):
     return roots, und, sq
 
 
-def _decide_root(Q0, Q1, Q2, J, s, sq, r):
+def _decide_root(Q0, Q1, Q2, J, s, sq, r, pairs=()):
     """('solution' | 'not' | 'undecided', why, the ProvenSolution or None) at the simple root ``r``."""
-    verdict, why = _decide(Q0, Q1, Q2, J, s, r)
+    verdict, why = _decide(Q0, Q1, Q2, J, s, r, pairs)
     if verdict == "undecided" or verdict == "solution":
         r = _refine(sq, r)                        # narrower: resolves more signs, a tight enclosure
-        verdict, why = _decide(Q0, Q1, Q2, J, s, r)
+        verdict, why = _decide(Q0, Q1, Q2, J, s, r, pairs)
     if verdict == "solution":
         lo, hi = _arb_interval(r)
         return verdict, why, ProvenSolution(float(r.mid()), (max(lo, 0.0), hi), J)

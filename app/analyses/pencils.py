@@ -272,16 +272,17 @@ def split_pencil(A: np.ndarray, T: np.ndarray, N: np.ndarray, sT: np.ndarray, sN
     return SplitPencil(R0 @ AQ, R1 @ AQ, np.arange(nf, n), pairs, [f"{k}{i}" for k, i in cols])
 
 
-def split_pencils(system: System, cls: Classification, A: np.ndarray | None = None) -> SplitPencil:
+def split_pencils(system: System, cls: Classification, A: np.ndarray | None = None,
+                  Sc: np.ndarray | None = None) -> SplitPencil:
     """Dense split pencil of a state with zero-reaction nodes.
 
     Without ``A``: MCEIP-mu on the contact Schur complement (free nodes eliminated, stick DOFs
-    deleted, no x_f). With ``A`` (dense, system DOFs): the full pencil, x_f the DOFs of the
-    free nodes and of the interior.
+    deleted, no x_f; ``Sc``: that complement in other frames, default the system's). With ``A``
+    (dense, system DOFs): the full pencil, x_f the DOFs of the free nodes and of the interior.
     """
     nodes = system.nodes
     if A is None:
-        Sc = system.contact_schur()
+        Sc = system.contact_schur() if Sc is None else Sc
         free = cls.indices(FREE)
         keep = [i for i, st in enumerate(cls.status) if st in (SLIP, ZERO)]
         F = np.sort(np.concatenate([2 * free, 2 * free + 1])).astype(int)

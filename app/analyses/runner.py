@@ -19,7 +19,6 @@ from app.analyses.outcomes import (
     Deferred,
     EnumerationOutcome,
     EnumerationProblem,
-    Failed,
     MceipMuOutcome,
     NecessaryOutcome,
     NotApplicable,
@@ -79,11 +78,7 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
     na = frictionless_reason(cls, scene.mu) or _nothing_moves(system, cls)   # nothing to compute
     if na is not None:
         return {name: NotApplicable(na) for name in ANALYSES if name in scene.analyses}
-    if ZERO in cls.status:
-        if curvature.is_curved(cls):
-            why = ("UnsupportedState: zero-reaction contact nodes (the paper's set Z) on a curved obstacle: "
-                   "their rate conditions (9) in the rotating frame are not implemented")
-            return {name: Failed(why) for name in ANALYSES if name in scene.analyses}
+    if ZERO in cls.status:          # flat or curved obstacle (app/analyses/curved_split.py)
         return analyse_with_zero_nodes(system, cls, scene)
     p = StatePencils(system, cls)
     out: dict[str, Outcome] = {}

@@ -1,12 +1,20 @@
 """The analyses of a state with zero-reaction contact nodes (the paper's set Z): the rate
 conditions (9) of those nodes are complementarity conditions, so the pencils are split
-(:func:`app.analyses.pencils.split_pencils`) and searched or enumerated with them."""
+(:func:`app.analyses.pencils.split_pencils`) and searched or enumerated with them.
+
+On a curved obstacle the split pencils are built in the contact frames with the slip nodes'
+curvature terms (:mod:`app.analyses.curved_split`): MCEIP-mu is the quadratic complementarity
+eigenproblem with pairs (:func:`app.analyses.mceip_mu_quadratic.quadratic_mu_result`), and
+MCEIP-lambda^2 uses ``K*(mu) = A0 + mu A1 + mu^2 A2`` at the scene's ``lambda2_mu``."""
 from __future__ import annotations
 
 import numpy as np
 
+from app.analyses import curvature
 from app.analyses.certify import certificate, condensed_mu_result, enumeration_certificate, mu_cap
+from app.analyses.curved_split import curved_split_condensed, curved_split_full
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
+from app.analyses.mceip_mu_quadratic import enumerate_quadratic, quadratic_mu_result
 from app.analyses.mcp import search_mceip
 from app.analyses.outcomes import (
     EnumerationOutcome,
@@ -47,10 +55,91 @@ def _describe(sol: Solution | dict, labels: list[str], cls: Classification) -> S
     return Solution.from_fields(out)
 
 
+def _full_pencils(system: System, cls: Classification, mu: float, curved: bool):
+    """``(K*(mu), M*(mu), split pencil)`` of the full system for MCEIP-lambda^2, or the
+    :class:`UnsupportedState` refusing it above ``FULL_DENSE_LIMIT`` DOFs."""
+    if system.n_dofs > FULL_DENSE_LIMIT:
+        return UnsupportedState(f"{system.n_dofs} DOFs: MCEIP-lambda2 with zero-reaction nodes uses dense "
+                                f"pencils, refused above {FULL_DENSE_LIMIT}")
+    Kd, Md = dense(system.K), dense(system.mass())
+    if curved:
+        Kq = curved_split_full(system, cls, Kd, stiffness=True)
+        Mq = curved_split_full(system, cls, Md, stiffness=False)
+        return Kq.at(mu), Mq.at(mu), Kq
+    Kp, Mp = split_pencils(system, cls, Kd), split_pencils(system, cls, Md)
+    return Kp.A0 + mu * Kp.A1, Mp.A0 + mu * Mp.A1, Kp
+
+
+def _search_lambda2(Ks, Ms, sp, cls: Classification, settings) -> MceipLambda2Outcome:
+    """MCEIP-lambda^2 (12)-(14) of the split pencil ``(Ks, Ms)`` by the dense SNES VI search."""
+    tau = float(np.max(np.abs(np.diag(Ks)))) / max(float(np.max(np.abs(np.diag(Ms)))), 1e-300)
+    M0, M1 = seq_aij(Ks), seq_aij(Ms)
+    try:
+        rep = search_mceip(M0, M1, sp.comp, "lambda2", settings.mcp, value_scale=tau, pairs=sp.pairs)
+    finally:
+        M0.destroy()
+        M1.destroy()
+    return MceipLambda2Outcome(
+        solutions=[_describe(x, sp.labels, cls) for x in rep.typed_solutions()], result=rep.result(),
+        search=rep.search(),
+        certified=False, certificate=certificate("none (zero-reaction nodes: dense SNES VI search only)",
+                                                 (0.0, 0.0), "not proven: searched by SNES VI", 0.0),
+        extra={"x_c_labels": sp.labels, "zero_nodes_handled": HANDLED})
+
+
+def _mceip_mu(system: System, cls: Classification, cond, scene: Scene, curved: bool):
+    """MCEIP-mu (21)-(23) of the condensed split pencil ``cond``."""
+    settings = scene.settings
+    cap = mu_cap(scene.mu, settings.mcp)
+    if curved:
+        # quadratic in mu: every support enumerated (no pair in one), proven exactly or by the
+        # checked branch and bound (app/analyses/mceip_mu_quadratic.py)
+        d = quadratic_mu_result(cond.A0, cond.A1, cond.A2, cap, settings.enumerate_max_slip,
+                                certify=settings.mcp.certify, seconds=settings.mcp.certify_seconds, pairs=cond.pairs)
+    else:
+        # the split pencil has no x_f: dense search + certificate as for the plain condensed pencil
+        d = condensed_mu_result(cond.A0, cond.A1, cap, settings.mcp, pairs=cond.pairs)
+    if system.comm.size > 1:
+        d = system.comm.bcast(d, root=0)                               # MPI collective (see runner.state_mceip_mu)
+    d.solutions = [_describe(x, cond.labels, cls) for x in d.solutions]
+    d.extra = {"x_c_labels": cond.labels, "zero_nodes_handled": HANDLED}
+    d.method = "condensed (quadratic)" if curved else "condensed"
+    return d
+
+
+def _enumerate(problem: str, cls: Classification, cond, full, settings, mu_l: float, curved: bool) -> EnumerationProblem:
+    """One enumeration problem (24)-(26) with the pairs; the quadratic MCEIP-mu of a curve is
+    found, not proven (its proof is mceip_mu's)."""
+    quadratic = problem == "mu" and curved
+    if problem == "mu":
+        sp, A0, A1 = cond, cond.A0, cond.A1
+    else:
+        if isinstance(full, Exception):
+            raise TooManySlipNodes(str(full))
+        A0, A1, sp = full
+    if quadratic:
+        found = enumerate_quadratic(A0, A1, cond.A2, settings.enumerate_max_slip, comp=sp.comp, pairs=sp.pairs)
+    else:
+        found = enumerate_mceip(A0, A1, sp.comp, settings.enumerate_max_slip, pairs=sp.pairs)
+    sols = [Solution.from_fields(x) for x in found]
+    done = EnumerationProblem(problem=problem, solutions=[_describe(x, sp.labels, cls) for x in sols],
+                              complete=True, certified=True, certificate=enumeration_certificate(sols),
+                              mu=mu_l if problem == "lambda2" else None)
+    if quadratic:
+        for x in done.solutions:
+            x.mark(certified=False)
+        done.certified = False
+        done.certificate = certificate("exhaustive floating-point enumeration of the quadratic pattern problems",
+                                       (0.0, 0.0), "not proven", None, {"solutions": len(sols)})
+    return done
+
+
 def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -> dict[str, Outcome]:
     """MCEIP-mu, MCEIP-lambda^2 and enumeration with the rate conditions (9) of the Z nodes
-    (the necessary and sufficient conditions are :class:`~app.analyses.outcomes.Failed`)."""
+    (the necessary and sufficient conditions are :class:`~app.analyses.outcomes.Failed`); on a
+    curved obstacle in the contact frames with the slip nodes' curvature terms."""
     settings = scene.settings
+    curved = curvature.is_curved(cls)
     out: dict[str, Outcome] = {}
     why = ("zero-reaction contact nodes present: with them the conditions (17)-(19) are not linear "
            "eigenproblems (the rate conditions (9) are complementarity conditions); see mceip_mu/mceip_lambda2")
@@ -59,49 +148,19 @@ def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -
             out[name] = Failed(f"UnsupportedState: {why}")
     mu_l = scene.lambda2_mu
     wants_l2 = "mceip_lambda2" in scene.analyses or ("enumerate" in scene.analyses and "lambda2" in settings.enumerate_problems)
-    full = None
-    if wants_l2:
-        if system.n_dofs > FULL_DENSE_LIMIT:
-            full = UnsupportedState(f"{system.n_dofs} DOFs: MCEIP-lambda2 with zero-reaction nodes uses dense "
-                                    f"pencils, refused above {FULL_DENSE_LIMIT}")
-        else:
-            Kd, Md = dense(system.K), dense(system.mass())
-            Kp, Mp = split_pencils(system, cls, Kd), split_pencils(system, cls, Md)
-            full = (Kp.A0 + mu_l * Kp.A1, Mp.A0 + mu_l * Mp.A1, Kp)
-    cond = split_pencils(system, cls) if ("mceip_mu" in scene.analyses or "enumerate" in scene.analyses) else None
-
-    def search(A0, A1, sp, problem, tau=None) -> MceipLambda2Outcome:
-        M0, M1 = seq_aij(A0), seq_aij(A1)
-        try:
-            rep = search_mceip(M0, M1, sp.comp, problem, settings.mcp, value_scale=tau, pairs=sp.pairs)
-        finally:
-            M0.destroy()
-            M1.destroy()
-        return MceipLambda2Outcome(
-            solutions=[_describe(x, sp.labels, cls) for x in rep.typed_solutions()], result=rep.result(),
-            search=rep.search(),
-            certified=False, certificate=certificate("none (zero-reaction nodes: dense SNES VI search only)",
-                                                     (0.0, 0.0), "not proven: searched by SNES VI", 0.0),
-            extra={"x_c_labels": sp.labels, "zero_nodes_handled": HANDLED})
-
+    full = _full_pencils(system, cls, mu_l, curved) if wants_l2 else None
+    cond = None
+    if "mceip_mu" in scene.analyses or "enumerate" in scene.analyses:
+        cond = curved_split_condensed(system, cls) if curved else split_pencils(system, cls)
     if "mceip_mu" in scene.analyses:
         with system.stages("MCEIP-mu (21)-(23)"):
-            # the split pencil has no x_f: dense search + certificate as for the plain condensed pencil
-            d = condensed_mu_result(cond.A0, cond.A1, mu_cap(scene.mu, settings.mcp), settings.mcp, pairs=cond.pairs)
-            if system.comm.size > 1:
-                d = system.comm.bcast(d, root=0)                               # MPI collective (see runner.state_mceip_mu)
-            d.solutions = [_describe(x, cond.labels, cls) for x in d.solutions]
-            d.extra = {"x_c_labels": cond.labels, "zero_nodes_handled": HANDLED}
-            d.method = "condensed"
-            out["mceip_mu"] = d
+            out["mceip_mu"] = _mceip_mu(system, cls, cond, scene, curved)
     if "mceip_lambda2" in scene.analyses:
         if isinstance(full, Exception):
             out["mceip_lambda2"] = Failed(f"UnsupportedState: {full}")
         else:
-            Ks, Ms, sp = full
-            tau = float(np.max(np.abs(np.diag(Ks)))) / max(float(np.max(np.abs(np.diag(Ms)))), 1e-300)
             with system.stages("MCEIP-lambda2 (12)-(14)"):
-                found = search(Ks, Ms, sp, "lambda2", tau)
+                found = _search_lambda2(full[0], full[1], full[2], cls, settings)
             found.mu = mu_l
             out["mceip_lambda2"] = found
     if "enumerate" in scene.analyses:
@@ -109,19 +168,7 @@ def analyse_with_zero_nodes(system: System, cls: Classification, scene: Scene) -
         with system.stages("enumeration (24)-(26)"):
             for problem in settings.enumerate_problems:
                 try:
-                    if problem == "mu":
-                        sp, A0, A1 = cond, cond.A0, cond.A1
-                    else:
-                        if isinstance(full, Exception):
-                            raise TooManySlipNodes(str(full))
-                        A0, A1, sp = full
-                    sols = [Solution.from_fields(x)
-                            for x in enumerate_mceip(A0, A1, sp.comp, settings.enumerate_max_slip, pairs=sp.pairs)]
-                    cert = enumeration_certificate(sols)
-                    problems[problem] = EnumerationProblem(problem=problem,
-                                                           solutions=[_describe(x, sp.labels, cls) for x in sols],
-                                                           complete=True, certified=True, certificate=cert,
-                                                           mu=mu_l if problem == "lambda2" else None)
+                    problems[problem] = _enumerate(problem, cls, cond, full, settings, mu_l, curved)
                 except TooManySlipNodes as err:
                     problems[problem] = EnumerationProblem(problem=problem, solutions=[], complete=False,
                                                            refused=str(err))

@@ -121,7 +121,7 @@ def _check_quadratic(k: int, A0, A1, A2, log: dict, a: dict) -> StateCheck:
             errors.append(f"the log leaves mu >= {rep.open_from:.6g} open")
     elif log.get("format") == QUADRATIC_FORMAT:
         from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
-        proof = prove_quadratic(A0, A1, A2, float(log["cap"]), max_s=int(log["max_s"]))
+        proof = prove_quadratic(A0, A1, A2, float(log["cap"]), max_s=int(log["max_s"]), pairs=log.get("pairs", []))
         ok = onset_ok = proof is not None and proof.proven
         errors = [] if ok else ["the exact proof does not decide every support" if proof else
                                 f"s = {s} is above the stored max_s = {log['max_s']}"]
