@@ -165,7 +165,7 @@ def test_run_output_folder_cannot_be_created(kind, scene_file, tmp_path):
     blocker.write_text("not a folder\n")
     out = {"under_a_file": blocker / "x", "under_proc": pathlib.Path("/proc/forbidden/x"),
            "is_a_file": blocker}[kind]
-    proc = run_cli("run", str(scene), "-o", str(out), "-q", timeout=120)
+    proc = run_cli_here("run", str(scene), "-o", str(out), "-q")
     line = assert_one_line_error(proc, str(out), "output folder")
     assert "cannot create" in line
     assert not (tmp_path / "results.json").exists()

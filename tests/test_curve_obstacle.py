@@ -257,7 +257,6 @@ def test_shipped_curve_examples(tmp_path):
     import json
     import re
 
-    from conftest import run_cli
     from test_gmsh_examples import EX
     out = {}
     for name in ("half_disk_cylinder", "half_disk_cylinder_curve", "half_disk_ellipse"):
@@ -267,7 +266,7 @@ def test_shipped_curve_examples(tmp_path):
         (tmp_path / f"{name}.yaml").write_text(text)
         for geo in ("half_disk_curved.geo", "half_disk_on_curves.geo"):
             (tmp_path / geo).write_text((EX / geo).read_text())
-        p = run_cli("run", str(tmp_path / f"{name}.yaml"), "-o", str(tmp_path / name), "-q")
+        p = run_cli_here("run", str(tmp_path / f"{name}.yaml"), "-o", str(tmp_path / name), "-q")
         assert p.returncode == 0, p.stderr
         out[name] = json.loads((tmp_path / name / "results.json").read_text())
     a, b, e = (out[k]["states"] for k in ("half_disk_cylinder", "half_disk_cylinder_curve", "half_disk_ellipse"))

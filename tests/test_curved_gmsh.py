@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import run_scene
+from conftest import run_cli_here, run_scene
 
 GEO = """s = {scale};
 L = 80 * s; H = 40 * s; nx = 10; ny = 5;
@@ -197,7 +197,6 @@ def test_half_disk_on_a_circle_against_hertz(tmp_path, side):
     import json
     import re
 
-    from conftest import run_cli
     from test_gmsh_examples import EX, NU, E, F, _measure
     R1, R2 = 20.0, 60.0
     Re = 1.0 / (1.0 / R1 + (1.0 if side == "outside" else -1.0) / R2)
@@ -211,7 +210,7 @@ def test_half_disk_on_a_circle_against_hertz(tmp_path, side):
                         f"obstacle: {{type: circle, centre: {centre}, radius: {R2}, side: {side}}}")
     assert "type: circle" in text
     (tmp_path / "s.yaml").write_text(text)
-    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "out" / "results.json").read_text())
     assert res["states"][-1]["load"]["normal_resultant"] == pytest.approx(F, rel=1e-10)
@@ -228,7 +227,6 @@ def shipped_curved(tmp_path_factory):
     (mu_cap 100, certified) but MCEIP-mu only and without pictures: name -> (folder, results)."""
     import json
 
-    from conftest import run_cli
     from test_gmsh_examples import EX
     d = tmp_path_factory.mktemp("shipped_curved")
     (d / "half_disk_curved.geo").write_text((EX / "half_disk_curved.geo").read_text())
@@ -238,7 +236,7 @@ def shipped_curved(tmp_path_factory):
         text = re.sub(r"^analyses:.*$", "analyses: [mceip_mu]", text, flags=re.M)
         assert "mu_cap: 100" in text
         (d / f"{name}.yaml").write_text(text)
-        p = run_cli("run", str(d / f"{name}.yaml"), "-o", str(d / name), "-q")
+        p = run_cli_here("run", str(d / f"{name}.yaml"), "-o", str(d / name), "-q")
         assert p.returncode == 0, p.stderr
         out[name] = (d / name, json.loads((d / name / "results.json").read_text()))
     return out

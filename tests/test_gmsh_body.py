@@ -190,7 +190,7 @@ def test_user_mistakes_are_one_line_errors(tmp_path, geo, system, needle):
     if s["system"].get("material") is None:
         s["system"].pop("material", None)
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
-    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q", cwd="/")
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q", cwd="/")
     assert p.returncode == 2, (p.stdout, p.stderr)
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:"), p.stderr

@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import ROOT, results_on_ranks, run_cli, run_cli_here
+from conftest import ROOT, results_on_ranks, run_cli_here
 
 EX = ROOT / "app" / "scenes" / "gmsh"
 F, R, E, NU = 10.0, 20.0, 1000.0, 0.3          # the half-disk scene's data (plane strain, unit thickness)
@@ -23,7 +23,7 @@ def _half_disk(tmp_path, h):
     (tmp_path / "half_disk.geo").write_text((EX / "half_disk.geo").read_text().replace("h = 0.04;", f"h = {h};"))
     scene = re.sub(r"^outputs:.*$", "", (EX / "half_disk.yaml").read_text(), flags=re.M)
     (tmp_path / "s.yaml").write_text(scene)
-    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
     return json.loads((tmp_path / "out" / "results.json").read_text())
 
@@ -66,7 +66,7 @@ def test_half_disk_against_hertz_with_refinement():
 
 @pytest.mark.slow
 def test_l_shape_example_runs_with_outputs(tmp_path):
-    p = run_cli("run", str(EX / "l_shape.yaml"), "-o", str(tmp_path / "out"), "-q")
+    p = run_cli_here("run", str(EX / "l_shape.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "out" / "results.json").read_text())
     assert res["path"]["end"] == "all phases applied"
@@ -119,7 +119,7 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, 
     if found is not None:
         s["system"]["foundation"] = found
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
-    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "out" / "results.json").read_text())
     assert res["path"]["end"].startswith(f"gross sliding in phase 1 ('tilt gravity downhill') at step {step}:")
@@ -171,13 +171,13 @@ def test_limits_of_a_gmsh_study(tmp_path):
     many = tmp_path / "many.yaml"
     many.write_text(text.replace("steps: 500", "steps: 100000") + "settings: {limits: {max_states: 5000}}\n")
     for cmd in ("validate", "run"):
-        p = run_cli(cmd, str(many), "-o", str(tmp_path / "o1")) if cmd == "run" else run_cli(cmd, str(many))
+        p = run_cli_here(cmd, str(many), "-o", str(tmp_path / "o1")) if cmd == "run" else run_cli_here(cmd, str(many))
         assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
         assert "system.program[].steps" in p.stderr and "settings.limits.max_states = 5000" in p.stderr
     assert not (tmp_path / "o1").exists()
     fine = tmp_path / "fine.yaml"
     fine.write_text(text + "settings: {limits: {max_dofs: 100}}\n")
-    p = run_cli("run", str(fine), "-o", str(tmp_path / "o2"))
+    p = run_cli_here("run", str(fine), "-o", str(tmp_path / "o2"))
     lines = p.stderr.strip().splitlines()
     assert p.returncode != 0 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
     assert "settings.limits.max_dofs = 100" in lines[0] and "DOFs" in lines[0]
@@ -216,7 +216,7 @@ def _disk(tmp_path, h, degree, stop=None):
                     "material": {"E": 200.0, "nu": 0.25, "density": 1e-9}, "plane": "stress", "degree": degree,
                     "thickness": 2.0, "program": [press]}}
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
-    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
     return json.loads((tmp_path / "out" / "results.json").read_text())
 

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import ROOT, run_cli, run_scene
+from conftest import ROOT, run_cli, run_cli_here, run_scene
 
 from app.loading.classify import classify
 from app.loading.state import EquilibriumState
@@ -193,13 +193,13 @@ def test_a_signal_while_the_drawing_processes_start_reaches_only_the_run(tmp_pat
 @pytest.mark.slow
 def test_interrupted_overwrite_keeps_the_previous_results(tmp_path, scene_file):
     out = tmp_path / "out"
-    p = run_cli("run", str(scene_file(
+    p = run_cli_here("run", str(scene_file(
         "name: tp\nsystem: {type: two_particles, k: 1000.0, m: 2.0, phi_deg: 35.0, signs: [1, -1]}\n"
         "mu: 2.5\nanalyses: [mceip_mu]\n")), "-o", str(out), "-q")
     assert p.returncode == 0
     before = (out / "results.json").read_bytes()
     # without --overwrite the run refuses
-    p = run_cli("run", "-o", str(out), "-q")
+    p = run_cli_here("run", "-o", str(out), "-q")
     assert p.returncode == 2 and "--overwrite" in p.stderr
     proc = _start(out, "--overwrite")
     _wait_busy(proc)

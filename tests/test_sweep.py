@@ -13,7 +13,7 @@ import time
 
 import pytest
 import yaml
-from conftest import PY, ROOT, run_cli, run_cli_here
+from conftest import PY, ROOT, run_cli_here
 from mpi4py import MPI
 
 # 6 cases of the block on a small mesh, MCEIP-mu only: about 1 s each
@@ -150,17 +150,17 @@ def test_bad_sweep_is_a_one_line_user_error(bad, bad_sweep_outcomes):
 
 def test_validate_lists_the_cases(tmp_path):
     (tmp_path / "s.yaml").write_text(SWEEP)
-    p = run_cli("validate", str(tmp_path / "s.yaml"))
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"))
     assert p.returncode == 0, p.stderr
     assert "sweep 'sweep-check' of 6 case(s)" in p.stdout and NAMES[0] in p.stdout
 
 
 def test_ranks_per_case_needs_a_sweep_and_enough_ranks(tmp_path):
     (tmp_path / "one.yaml").write_text(TWO)
-    p = run_cli("run", str(tmp_path / "one.yaml"), "--ranks-per-case", "2", "-o", str(tmp_path / "o"))
+    p = run_cli_here("run", str(tmp_path / "one.yaml"), "--ranks-per-case", "2", "-o", str(tmp_path / "o"))
     assert p.returncode == 2 and "only for a scene with a 'sweep' section" in p.stderr
     (tmp_path / "s.yaml").write_text(SWEEP)
-    p = run_cli("run", str(tmp_path / "s.yaml"), "--ranks-per-case", "2", "-o", str(tmp_path / "o"))
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "--ranks-per-case", "2", "-o", str(tmp_path / "o"))
     assert p.returncode == 2 and "1 to the number of MPI ranks (1)" in p.stderr
 
 
@@ -244,7 +244,7 @@ def _assert_same_rows(a: dict, b: dict) -> None:
 def serial_sweep(tmp_path_factory):
     d = tmp_path_factory.mktemp("sweep")
     (d / "s.yaml").write_text(SWEEP)
-    p = run_cli("run", str(d / "s.yaml"), "-o", str(d / "n1"), "-q")
+    p = run_cli_here("run", str(d / "s.yaml"), "-o", str(d / "n1"), "-q")
     assert p.returncode == 0, p.stderr
     return d, _rows(d / "n1")
 
@@ -340,11 +340,11 @@ def test_swept_file_paths_are_relative_to_the_scene_file(tmp_path):
     scene = (ROOT / "app" / "scenes" / "gmsh" / "block.yaml").read_text().replace("file: block.geo", "file: sub/b20.geo")
     scene = re.sub(r"^outputs:.*$", "", scene, flags=re.M)
     (tmp_path / "s.yaml").write_text(scene + "sweep:\n  parameters:\n    system.file: [sub/b10.geo, sub/b20.geo]\n")
-    p = run_cli("validate", str(tmp_path / "s.yaml"), cwd="/")
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"), cwd="/")
     assert p.returncode == 0, p.stderr
     assert "of 2 case(s)" in p.stdout and "system.file=sub-b10.geo" in p.stdout, p.stdout
     (tmp_path / "s2.yaml").write_text(scene + "sweep:\n  parameters:\n    system.file: [sub/nope.geo]\n")
-    p = run_cli("validate", str(tmp_path / "s2.yaml"), cwd="/")
+    p = run_cli_here("validate", str(tmp_path / "s2.yaml"), cwd="/")
     assert p.returncode == 2 and str(tmp_path / "sub" / "nope.geo") in p.stderr, p.stderr
 
 
