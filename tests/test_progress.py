@@ -132,3 +132,20 @@ def test_the_prover_reports_its_tree_while_it_works(monkeypatch):
     B = rng.normal(size=(8, 8))
     mceip_mu(B @ B.T + 8 * np.eye(8), 3.0 * rng.normal(size=(8, 8)), cap=10.0)
     assert any(t.startswith("onset proof, ") and "tree nodes" in t and "at mu = " in t for t in seen), seen
+
+
+def test_writing_the_results_is_shown(tmp_path):
+    """After the analyses the run writes the proofs (hundreds of MB at 10^6 DOFs) and results.json:
+    each gets its line, with as many files as are written."""
+    from mpi4py import MPI
+
+    from app.study.driver import run_and_write
+    rec = _Recorder()
+    scene = parse_scene({"name": "w", "system": {"type": "block", "nx": 8, "ny": 4}, "mu": 1.1,
+                         "analyses": ["mceip_mu"]}, "w.yaml")
+    run_and_write(scene, MPI.COMM_SELF, tmp_path, Progress(enabled=True, comm=MPI.COMM_SELF, stream=rec))
+    n = len(list((tmp_path / "proofs").glob("state_*.npz")))
+    texts = [t for _, t in rec.lines]
+    assert n > 0 and any(t.startswith(f"writing proofs: {n}/{n} files (100%)") and t.endswith(", done") for t in texts)
+    assert any(t.startswith("writing results: 2/2 files (100%)") for t in texts), texts
+    assert (tmp_path / "results.json").is_file()

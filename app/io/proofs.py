@@ -24,17 +24,28 @@ from app.io.results import file_mode  # one-way: results.py does not import this
 FOLDER = "proofs"
 
 
-def write_proofs(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
-    """Write one ``.npz`` per proven classification (the private ``_proof`` key of its
-    ``mceip_mu`` analysis, which results.json leaves out). Returns the files written."""
-    written: list[pathlib.Path] = []
+def _stored(results: dict):
+    """``(state, proof)`` of each classification whose MCEIP-mu proof is stored (the private
+    ``_proof`` key of its ``mceip_mu`` analysis, which results.json leaves out), each proof once."""
     seen: set[int] = set()
     for st in results.get("states", []):
         a = (st.get("analyses") or {}).get("mceip_mu") or {}
         proof = a.get("_proof")
-        if not proof or id(proof) in seen:
-            continue
-        seen.add(id(proof))
+        if proof and id(proof) not in seen:
+            seen.add(id(proof))
+            yield st, proof
+
+
+def count_proofs(results: dict) -> int:
+    """The number of files :func:`write_proofs` writes."""
+    return sum(1 for _ in _stored(results))
+
+
+def write_proofs(results: dict, outdir: pathlib.Path, written_one=None) -> list[pathlib.Path]:
+    """Write one ``.npz`` per proven classification; ``written_one()`` is called after each file
+    (progress). Returns the files written."""
+    written: list[pathlib.Path] = []
+    for st, proof in _stored(results):
         folder = outdir / FOLDER
         folder.mkdir(exist_ok=True)
         path = folder / f"state_{int(st['index'])}.npz"
@@ -46,6 +57,8 @@ def write_proofs(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
         with os.fdopen(fd, "wb") as f:
             f.write(buf.getvalue())
         written.append(path)
+        if written_one is not None:
+            written_one()
     return written
 
 

@@ -109,10 +109,14 @@ def steps_csv(results: dict) -> str:
     return buf.getvalue()
 
 
-def write_results(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
-    """Write steps.csv then results.json (last: its presence marks a complete run). The MCEIP-mu
-    proofs (app/io/proofs.py) are written before, while the results still hold the pencils."""
+def write_results(results: dict, outdir: pathlib.Path, written_one=None) -> list[pathlib.Path]:
+    """Write steps.csv then results.json (last: its presence marks a complete run); ``written_one()``
+    is called after each (progress). The MCEIP-mu proofs (app/io/proofs.py) are written before,
+    while the results still hold the pencils."""
     outdir.mkdir(parents=True, exist_ok=True)
+    done = written_one or (lambda: None)
     atomic_write(outdir / "steps.csv", steps_csv(results))
+    done()
     atomic_write(outdir / "results.json", dumps_document(to_document(results)))
+    done()
     return [outdir / "steps.csv", outdir / "results.json"]

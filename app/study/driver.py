@@ -33,14 +33,20 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
         # outdir: where the scene's field outputs (if any) go, written while the system is alive
         results = study(scene, comm, progress, outdir=outdir).raw
         if comm.rank == 0:
-            from app.io.proofs import write_proofs
+            from app.io.proofs import count_proofs, write_proofs
             from app.io.results import write_results
             from app.plot.pictures import draw_after_run  # plots, screenshots, report (if asked)
             if extra:
                 results.update(extra)
-            write_proofs(results, outdir)      # before the drawing drops the in-memory pencils
+            n = count_proofs(results)
+            if n:                              # a large study stores hundreds of MB of pencils
+                bar = progress.bar(n, "writing proofs", unit="file")
+                write_proofs(results, outdir, lambda: bar.update(1))   # before the drawing drops the pencils
+                bar.close()
             results = draw_after_run(results, outdir, progress)
-            write_results(results, outdir)
+            bar = progress.bar(2, "writing results", unit="file")
+            write_results(results, outdir, lambda: bar.update(1))
+            bar.close()
     return results
 
 
