@@ -15,6 +15,7 @@ import io
 import json
 import os
 import pathlib
+import zipfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,20 @@ def _stored(results: dict):
             yield st, proof
 
 
+def npz_bytes(arrays: dict, compressed: set) -> bytes:
+    """The bytes of an ``.npz`` file (what :func:`numpy.load` reads) holding ``arrays``, the members
+    named in ``compressed`` deflated and the others stored: a dense pencil's doubles shrink by 5 %
+    at most under zlib, which cost 25 s of the 27 s of writing the proofs at 10^6 DOFs."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", allowZip64=True) as zf:
+        for name, a in arrays.items():
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED if name in compressed else zipfile.ZIP_STORED
+            with zf.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, np.asanyarray(a), allow_pickle=False)
+    return buf.getvalue()
+
+
 def count_proofs(results: dict) -> int:
     """The number of files :func:`write_proofs` writes."""
     return sum(1 for _ in _stored(results))
@@ -49,13 +64,14 @@ def write_proofs(results: dict, outdir: pathlib.Path, written_one=None) -> list[
         folder = outdir / FOLDER
         folder.mkdir(exist_ok=True)
         path = folder / f"state_{int(st['index'])}.npz"
-        buf = io.BytesIO()
-        extra = {"A2": proof["A2"]} if "A2" in proof else {}
-        np.savez_compressed(buf, A0=proof["A0"], A1=proof["A1"], log=np.array(json.dumps(proof["log"])), **extra)
+        arrays = {"A0": proof["A0"], "A1": proof["A1"], "log": np.array(json.dumps(proof["log"]))}
+        if "A2" in proof:
+            arrays["A2"] = proof["A2"]
+        data = npz_bytes(arrays, compressed={"log"})
         # exclusive create: a file of that name (not this run's) is never overwritten
         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, file_mode())
         with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
+            f.write(data)
         written.append(path)
         if written_one is not None:
             written_one()
