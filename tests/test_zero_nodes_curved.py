@@ -445,3 +445,24 @@ def test_block_zero_node_flat_limit(tmp_path):
     eb = [s["value"] for s in curved["analyses"]["enumerate"]["problems"]["mu"]["solutions"]]
     assert eb[:len(ea)] == pytest.approx(ea, rel=1e-8)
     print("flat limit: critical mu", va, vb, "largest relative difference", max(abs(x - y) / x for x, y in zip(va, vb)))
+
+
+def test_the_zero_node_state_on_a_gmsh_curve(tmp_path, block_z):
+    """The same Z state with the circle given as an arc of the Gmsh file (``type: curve``, the
+    interpolated curve of app/loading/curve.py): the same statuses, MCEIP-mu proven the same, the
+    value above the cap to 1e-9 relative."""
+    import json
+    import pathlib
+
+    from test_curve_obstacle import ARC
+    scene = _block(tmp_path)
+    (tmp_path / "c.geo").write_text(pathlib.Path(scene["system"]["file"]).read_text() + ARC.format(R=400.0))
+    scene = json.loads(json.dumps(scene))
+    scene["system"]["file"] = str(tmp_path / "c.geo")
+    scene["system"]["obstacle"] = {"type": "curve", "physical": "ob", "side": "left"}
+    a, b = block_z["states"][-1], run_scene(scene)["states"][-1]
+    assert [n["status"] for n in b["nodes"]] == [n["status"] for n in a["nodes"]] and "zero" in [n["status"] for n in b["nodes"]]
+    ma, mb = a["analyses"]["mceip_mu"], b["analyses"]["mceip_mu"]
+    assert mb["certified"] and mb["complete"]["proven"] and mb["complete"]["count"] == ma["complete"]["count"]
+    va, vb = ([s["value"] for s in m["solutions"]] for m in (ma, mb))
+    assert va and vb == pytest.approx(va, rel=1e-9)
