@@ -4,7 +4,7 @@ import os
 import subprocess
 
 import pytest
-from conftest import PY, ROOT, run_cli
+from conftest import PY, ROOT, run_cli, run_cli_here
 
 SCENE = """\
 name: mpi-check
@@ -36,7 +36,7 @@ def _numbers(res):
 def serial(tmp_path_factory):
     d = tmp_path_factory.mktemp("mpi")
     (d / "s.yaml").write_text(SCENE)
-    p = run_cli("run", str(d / "s.yaml"), "-o", str(d / "out1"), "-q")
+    p = run_cli_here("run", str(d / "s.yaml"), "-o", str(d / "out1"), "-q")
     assert p.returncode == 0, p.stderr
     return d, json.loads((d / "out1" / "results.json").read_text())
 

@@ -568,7 +568,7 @@ def _frictionless_view(res):
 def frictionless_serial(tmp_path_factory):
     d = tmp_path_factory.mktemp("mu0")
     (d / "s.yaml").write_text(BLOCK.replace("MU", "0"))
-    p = run_cli("run", str(d / "s.yaml"), "-o", str(d / "out1"))
+    p = run_cli_here("run", str(d / "s.yaml"), "-o", str(d / "out1"))
     assert p.returncode == 0, p.stderr
     return d, json.loads((d / "out1" / "results.json").read_text()), p.stdout
 
@@ -614,7 +614,7 @@ def test_small_strain_violations_are_warned(tmp_path, edit, needle):
     scene = tmp_path / "s.yaml"
     scene.write_text(BLOCK.replace("MU", "1.1").replace(edit, needle).replace(
         "[necessary, sufficient, mceip_mu, mceip_lambda2]", "[necessary]") + "outputs: {report: true}\n")
-    p = run_cli("run", str(scene), "-o", str(tmp_path / "out"))
+    p = run_cli_here("run", str(scene), "-o", str(tmp_path / "out"))
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "out" / "results.json").read_text())
     w = [x for x in res["warnings"] if "small-strain" in x]
