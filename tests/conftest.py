@@ -79,15 +79,18 @@ def run_cli(*args: str, ranks: int = 1, timeout: float = 600, cwd=None) -> subpr
 def run_cli_here(*args: str, cwd=None) -> subprocess.CompletedProcess:
     """``python -m app ARGS`` in this process: :func:`app.cli.main.main` with stdout and stderr
     captured, for the CLI's user-error paths, where a new interpreter (about 1 s of DOLFINx
-    imports) adds nothing. The root logger's handlers and level are restored afterwards."""
+    imports) adds nothing. The root logger's handlers and level, and the SIGTERM and SIGINT
+    handlers a run installs, are restored afterwards."""
     import contextlib
     import io
     import logging
+    import signal
 
     from app.cli.main import main
     out, err = io.StringIO(), io.StringIO()
     root = logging.getLogger()
     handlers, level = root.handlers[:], root.level
+    signals = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGINT)}
     try:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), contextlib.chdir(cwd or ROOT):
             try:
@@ -97,6 +100,8 @@ def run_cli_here(*args: str, cwd=None) -> subprocess.CompletedProcess:
     finally:
         root.handlers[:] = handlers
         root.setLevel(level)
+        for sig, handler in signals.items():
+            signal.signal(sig, handler)
     return subprocess.CompletedProcess([PY, "-m", "app", *args], code, out.getvalue(), err.getvalue())
 
 
