@@ -1,9 +1,12 @@
+import atexit
 import contextlib
 import errno
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
+import tempfile
 
 import pytest
 from mpi4py import MPI
@@ -21,6 +24,14 @@ if MPI.COMM_WORLD.size == 1:
 # sets for `python -m app`): the suite runs on every core (pytest-xdist), and a spinning rank
 # can slow a neighbouring test's rank a hundredfold
 os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")
+
+# Open MPI jobs started at the same time by the same user share /tmp/ompi.<host>.<uid> and race in
+# its creation and clean-up (open-mpi/ompi#8510); twice in about ten suite runs a child of a test
+# exited 1 without a word while the other worker ran an mpirun. Each worker's children get a
+# session directory tree of their own (removed when the worker ends).
+_OMPI_TMP = tempfile.mkdtemp(prefix="cd-tests-ompi-")
+os.environ.setdefault("OMPI_MCA_orte_tmpdir_base", _OMPI_TMP)
+atexit.register(shutil.rmtree, _OMPI_TMP, True)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PY = sys.executable
