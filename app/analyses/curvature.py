@@ -135,14 +135,7 @@ def rotate_petsc(A, system, cls: CurvedClassification):
     Q = PETSc.Mat().createAIJ(A.getSizes(), nnz=(2, 2), comm=A.getComm())
     Q.setUp()
     r0, r1 = Q.getOwnershipRange()
-    blocks = {}
-    for node, f in zip(system.nodes, cls.frames):
-        if f == IDENTITY:
-            continue
-        a, b, c, d = f
-        sT, sN = node.sign_T, node.sign_N
-        blocks[node.dof_T] = ((node.dof_T, a), (node.dof_N, sT * sN * c))
-        blocks[node.dof_N] = ((node.dof_T, sN * sT * b), (node.dof_N, d))
+    blocks = _frame_rows(system, cls)
     for row in range(r0, r1):
         for col, v in blocks.get(row, ((row, 1.0),)):
             Q.setValue(row, col, v)
@@ -153,14 +146,27 @@ def rotate_petsc(A, system, cls: CurvedClassification):
         Q.destroy()
 
 
-def system_frame_matrix(system, cls: CurvedClassification) -> np.ndarray:
-    """Dense ``Q`` in the system's DOFs (old components = Q new) of :func:`rotate_petsc`: each
-    rotating node's (T, N) block, with the node's own paper-axis signs kept."""
-    Q = np.eye(system.n_dofs)
-    for node, (a, b, c, d) in zip(system.nodes, cls.frames):
+def _frame_rows(system, cls: CurvedClassification) -> dict:
+    """The rows of ``Q`` (system DOFs, old components = Q new) that differ from the identity:
+    row -> ((column, value), (column, value)), each rotating node's (T, N) block with the
+    node's own paper-axis signs kept."""
+    rows = {}
+    for node, f in zip(system.nodes, cls.frames):
+        if f == IDENTITY:
+            continue
+        a, b, c, d = f
         sT, sN = node.sign_T, node.sign_N
-        Q[node.dof_T, node.dof_T], Q[node.dof_T, node.dof_N] = a, sT * sN * c
-        Q[node.dof_N, node.dof_T], Q[node.dof_N, node.dof_N] = sN * sT * b, d
+        rows[node.dof_T] = ((node.dof_T, a), (node.dof_N, sT * sN * c))
+        rows[node.dof_N] = ((node.dof_T, sN * sT * b), (node.dof_N, d))
+    return rows
+
+
+def system_frame_matrix(system, cls: CurvedClassification) -> np.ndarray:
+    """Dense ``Q`` of :func:`rotate_petsc` (system DOFs, old components = Q new)."""
+    Q = np.eye(system.n_dofs)
+    for row, entries in _frame_rows(system, cls).items():
+        for col, v in entries:
+            Q[row, col] = v
     return Q
 
 

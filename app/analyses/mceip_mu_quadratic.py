@@ -291,17 +291,15 @@ def _not_searched(search: dict, proof, s: int, cap: float) -> MceipMuOutcome:
     lb = float(min(rep.open_from, cap)) if rep is not None and not rep.errors and not rep.solutions else 0.0
     if lb > 0.0:
         status = f"not proven: proven only that no critical mu lies in [0, {lb:.6g}]"
-        return MceipMuOutcome(solutions=[], result=f"{status} ({note})", certified=False,
-                              onset=OnsetClaim(proven=False, status=status),
-                              complete=CompleteClaim(proven=False, status=status, interval=[0.0, lb]),
-                              certificate=certificate(_METHOD_BB, (0.0, lb), status, proof.seconds,
-                                                      {"s": s, "cap": float(cap), "lower_bound": lb}),
-                              search={**search, "note": note}, quadratic=True)
-    return MceipMuOutcome(solutions=[], result=f"not searched: {note}", certified=False,
-                          onset=OnsetClaim(proven=False, status="not searched"),
-                          complete=CompleteClaim(proven=False, status="not searched", interval=[0.0, 0.0]),
-                          certificate=certificate("none", (0.0, 0.0), "not attempted", 0.0),
-                          search={**search, "note": note}, quadratic=True)
+        result = f"{status} ({note})"
+        cert = certificate(_METHOD_BB, (0.0, lb), status, proof.seconds, {"s": s, "cap": float(cap), "lower_bound": lb})
+    else:
+        status, result = "not searched", f"not searched: {note}"
+        cert = certificate("none", (0.0, 0.0), "not attempted", 0.0)
+    return MceipMuOutcome(solutions=[], result=result, certified=False,
+                          onset=OnsetClaim(proven=False, status=status),
+                          complete=CompleteClaim(proven=False, status=status, interval=[0.0, lb]),
+                          certificate=cert, search={**search, "note": note}, quadratic=True)
 
 
 def _unproven(A0, A1, A2, sols: list[dict], search: dict, proof, s: int, cap: float, t0: float) -> MceipMuOutcome:

@@ -12,6 +12,11 @@ import sys
 EXIT_OK, EXIT_USER, EXIT_INCOMPLETE, EXIT_WRITE = 0, 2, 3, 4
 
 
+def point_text(xy, size: float) -> str:
+    """``(x, y)`` for messages, coordinates at round-off of ``size`` (the body's) shown as 0."""
+    return "(" + ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, xy)) + ")"
+
+
 def fail(msg: str, code: int = EXIT_USER) -> int:
     """Print ``error: msg`` on rank 0 of COMM_WORLD and return the exit status ``code``."""
     from mpi4py import MPI

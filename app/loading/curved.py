@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.common.errors import point_text
 from app.loading.contact import ContactSolveError, FrictionalContact, IncrementResult
 
 MAX_LINEARISATIONS = 50
@@ -249,9 +250,7 @@ class CurvedContact:
         past = at_end(x) & touching
         if np.any(past):
             i = int(np.flatnonzero(past)[0])
-            size = max(self.extent, 1e-300)
-            where = ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, x[i]))
-            raise ContactSolveError(f"contact node {i} at ({where}) has slid past an end of the curve "
+            raise ContactSolveError(f"contact node {i} at {point_text(x[i], self.extent)} has slid past an end of the curve "
                                     f"'{getattr(self.obstacle, 'name', 'obstacle')}': its contact point would be the "
                                     "curve's end, a corner this model does not include (extend the curve)")
 

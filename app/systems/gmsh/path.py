@@ -18,7 +18,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from app.common.errors import UnreachableLoad
+from app.common.errors import UnreachableLoad, point_text
 from app.common.stages import Stages
 from app.loading.program import ProgramPhase, run_program
 from app.systems.base import ContactNode, System
@@ -35,9 +35,6 @@ SINGULAR = ("system.prescribed: the stiffness is singular: the prescribed curves
             "a curve or give system.foundation (a weak elastic foundation)")
 
 
-def _point(xy, size: float) -> str:
-    """``(x, y)`` for messages, coordinates at round-off of the body's size shown as 0."""
-    return "(" + ", ".join(f"{(v if abs(v) > 1e-12 * size else 0.0):.6g}" for v in map(float, xy)) + ")"
 
 
 def _contact_columns(flex, loads: list[PETSc.Vec]) -> np.ndarray:
@@ -53,12 +50,12 @@ def _check_curve_start(cfg: GmshBody, ops, depth: float, where, body: float, fra
         other = "right" if cfg.obstacle.side == "left" else "left"
         raise BodyError(f"system.obstacle.side = '{cfg.obstacle.side}': the body starts on the other side of the curve "
                         f"'{cfg.obstacle.physical}' ({100 * frac:.0f} % of its nodes, up to {-depth:.3g} beyond it at "
-                        f"{_point(where, body)}): the body is on its {other}, looking along the curve's direction")
+                        f"{point_text(where, body)}): the body is on its {other}, looking along the curve's direction")
     ends = cfg.obstacle.geometry().at_end(ops.contact_xy)
     if np.any(ends):
         i = int(np.flatnonzero(ends)[0])
         raise BodyError(f"system.obstacle.physical = '{cfg.obstacle.physical}': the contact node at "
-                        f"{_point(ops.contact_xy[i], body)} lies beyond an end of the curve (its closest point is "
+                        f"{point_text(ops.contact_xy[i], body)} lies beyond an end of the curve (its closest point is "
                         "the end, not the foot of a normal): extend the curve past the contact curve")
 
 
@@ -95,23 +92,23 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     depth, where, body, frac = ops.deepest
     if depth < -1e-10 * body and frac > 0.5 and cfg.obstacle.type == "circle":
         raise BodyError(f"system.obstacle: the body starts inside the obstacle ({100 * frac:.0f} % of its nodes, up to "
-                        f"{-depth:.3g} at {_point(where, body)}; {cfg.obstacle.describe()}): check centre, radius "
+                        f"{-depth:.3g} at {point_text(where, body)}; {cfg.obstacle.describe()}): check centre, radius "
                         "and side (outside: the body outside the circle, inside: in the bore)")
     if cfg.obstacle.type == "curve":
         _check_curve_start(cfg, ops, depth, where, body, frac)
     if depth < -1e-10 * body and frac > 0.5:
         raise BodyError(f"system.obstacle: the body starts on the obstacle's side of the line ({100 * frac:.0f} % of its "
-                        f"nodes, up to {-depth:.3g} beyond it at {_point(where, body)}; line through "
+                        f"nodes, up to {-depth:.3g} beyond it at {point_text(where, body)}; line through "
                         f"{tuple(cfg.obstacle.point)}, outward normal {tuple(np.round(nvec, 6))}): the normal must "
                         "point from the body into the obstacle")
     if np.any(gaps < 0):
         i = int(np.argmin(gaps))
-        raise BodyError(f"system.obstacle: the contact node at {_point(ops.contact_xy[i], body)} "
+        raise BodyError(f"system.obstacle: the contact node at {point_text(ops.contact_xy[i], body)} "
                         f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
     if depth < -1e-10 * body:
         what = "line" if cfg.obstacle.type == "line" else cfg.obstacle.type
         w = (f"part of the body starts beyond the obstacle {what} ({100 * frac:.2g} % of its nodes, up to {-depth:.3g} "
-             f"at {_point(where, body)}): only the contact curve '{cfg.contact}' is kept out of the obstacle")
+             f"at {point_text(where, body)}): only the contact curve '{cfg.contact}' is kept out of the obstacle")
         log.warning("%s", w)
         stages.warnings.append(w)
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
@@ -126,7 +123,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         i = int(np.argmin(gl))
         g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.size else 0.0
         w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
-             f"left out of the contact set (not kept out of the obstacle), e.g. {_point(ops.left_out[i], ops.size)} "
+             f"left out of the contact set (not kept out of the obstacle), e.g. {point_text(ops.left_out[i], ops.size)} "
              f"with initial gap {g:.3g}")
         log.warning("%s", w)
         stages.warnings.append(w)
