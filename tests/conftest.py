@@ -118,11 +118,14 @@ def run_cli_here(*args: str, cwd=None) -> subprocess.CompletedProcess:
 
 def results_on_ranks(scene, outdir, ranks=(1, 2), cwd=None) -> dict:
     """results.json of ``python -m app run SCENE`` on each number of ``ranks`` (output folders
-    ``outdir/o<ranks>``), every run asserted to succeed."""
+    ``outdir/o<ranks>``), every run asserted to succeed. The one-rank run is :func:`run_cli_here`
+    (the same ``main`` on a singleton COMM_WORLD, without a new interpreter); the others run
+    under ``mpirun``."""
     import json
     out = {}
     for n in ranks:
-        p = run_cli("run", str(scene), "-o", str(outdir / f"o{n}"), "-q", ranks=n, cwd=cwd)
+        args = ("run", str(scene), "-o", str(outdir / f"o{n}"), "-q")
+        p = run_cli_here(*args, cwd=cwd) if n == 1 else run_cli(*args, ranks=n, cwd=cwd)
         assert p.returncode == 0, p.stderr
         out[n] = json.loads((outdir / f"o{n}" / "results.json").read_text())
     return out
