@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import scipy.io
 import scipy.sparse as sp
-from conftest import results_on_ranks, run_cli, run_scene
+from conftest import results_on_ranks, run_cli_here, run_scene
 from mpi4py import MPI
 from test_two_particles import CASES, PHI, analytic_lambda2, analytic_mu, assert_same_set
 from test_two_particles import K as KP
@@ -263,7 +263,7 @@ def test_user_mistakes_are_one_line_errors(tmp_path, scene_file, change, needle)
                     "state": {"reactions": [[1, -1], [0, -2]]}}}
     change(s, tmp_path)
     path = scene_file(yaml.safe_dump(s), "scene.yaml")
-    p = run_cli("validate", str(path), cwd="/")          # paths are relative to the scene file, not cwd
+    p = run_cli_here("validate", str(path), cwd="/")     # paths are relative to the scene file, not cwd
     assert p.returncode == 2, (p.stdout, p.stderr)
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:"), p.stderr
