@@ -23,7 +23,7 @@ import pathlib
 
 import pytest
 import yaml
-from conftest import ROOT, run_cli
+from conftest import ROOT, run_cli, run_cli_here
 
 import app
 from app.io.document import FORMAT_VERSION, from_document, to_document
@@ -86,7 +86,7 @@ def _differences(old, new, path: str = "", skip=frozenset()) -> list[str]:
 
 def test_two_particles_results_json_unchanged(scene_file, tmp_path):
     scene = scene_file(TWO_PARTICLES)
-    proc = run_cli("run", str(scene), "-o", str(tmp_path / "out"), "-q")
+    proc = run_cli_here("run", str(scene), "-o", str(tmp_path / "out"), "-q")
     assert proc.returncode == 0, proc.stderr
     text = (tmp_path / "out" / "results.json").read_text()
     doc = json.loads(text, parse_constant=lambda c: pytest.fail(f"results.json holds {c}"))

@@ -184,7 +184,7 @@ def test_help(args):
 
 
 def test_no_command_prints_help_and_exits_2():
-    proc = run_cli(timeout=60)
+    proc = run_cli_here()
     assert proc.returncode == 2
     assert "usage:" in proc.stdout + proc.stderr
     assert "validate" in proc.stdout + proc.stderr
@@ -202,7 +202,7 @@ def test_console_script_help():
 
 def test_validate_ok(scene_file):
     path = scene_file(VALID)
-    proc = run_cli("validate", str(path), timeout=60)
+    proc = run_cli_here("validate", str(path))
     assert proc.returncode == 0, proc.stderr
     assert "ok" in proc.stdout and "two-particles" in proc.stdout
     assert proc.stderr == ""
@@ -219,7 +219,7 @@ def _check_solution(sol: dict, n: int) -> None:
 
 def test_run_two_particles_writes_results(scene_file, tmp_path):
     out = tmp_path / "out"
-    proc = run_cli("run", str(scene_file(VALID)), "-o", str(out), "-q", timeout=300)
+    proc = run_cli_here("run", str(scene_file(VALID)), "-o", str(out), "-q")
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stdout + proc.stderr
     assert (out / "results.json").is_file() and (out / "steps.csv").is_file()

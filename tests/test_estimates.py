@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 import yaml
-from conftest import run_cli
+from conftest import run_cli_here
 
 from app.scene.limits import describe_time, estimate, time_estimate
 from app.scene.schema import default_scene_path, parse_scene
@@ -43,6 +43,6 @@ def test_time_estimate_says_what_it_does_not_count():
 
 def test_validate_prints_the_time_estimate(scene_file):
     path = scene_file("name: v\nsystem: {type: block, nx: 30, ny: 15}\nmu: 1.1\nanalyses: [mceip_mu]\n")
-    proc = run_cli("validate", str(path), timeout=60)
+    proc = run_cli_here("validate", str(path))
     assert proc.returncode == 0, proc.stderr
     assert "memory estimate" in proc.stdout and "time estimate about" in proc.stdout

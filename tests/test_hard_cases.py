@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import ROOT, run_cli, run_cli_here, run_scene
+from conftest import ROOT, run_cli_here, run_scene
 
 from app.loading.classify import classify
 from app.loading.state import EquilibriumState
@@ -95,7 +95,7 @@ def test_solver_failure_is_reported_and_the_study_goes_on(scene_file, tmp_path):
     scene = scene_file("name: failing\nsystem: {type: block, nx: 10, ny: 5}\nmu: 1.1\n"
                        "loading: {tangential_max: 2.0}\nanalyses: [necessary, mceip_mu]\n"
                        "settings: {eig: {dense_limit: 1, max_it: 1}}\n")
-    p = run_cli("run", str(scene), "-o", str(tmp_path / "out"))
+    p = run_cli_here("run", str(scene), "-o", str(tmp_path / "out"))
     assert p.returncode == 3, p.stderr
     assert "INCOMPLETE" in p.stdout
     res = json.loads((tmp_path / "out" / "results.json").read_text())

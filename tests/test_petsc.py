@@ -10,7 +10,7 @@ from contextlib import contextmanager
 
 import pytest
 import yaml
-from conftest import ROOT, one_error_line, run_cli, run_scene
+from conftest import ROOT, one_error_line, run_cli, run_cli_here, run_scene
 from petsc4py import PETSc
 
 from app.common.petsc_options import PREFIXES, split_petsc_options
@@ -145,7 +145,7 @@ def test_a_run_leaves_the_options_database_as_it_was():
 @pytest.mark.parametrize("key", ["petsc_options", "-cd_necessary_eps_monitor"])
 def test_a_scene_cannot_carry_petsc_options(scene_file, key):
     text = yaml.safe_dump({**BLOCK, key: "-cd_necessary_eps_monitor"})
-    err = one_error_line(run_cli("validate", str(scene_file(text)), timeout=120))
+    err = one_error_line(run_cli_here("validate", str(scene_file(text))))
     assert f"'{key}'" in err and "unknown key" in err, err
 
 
@@ -163,9 +163,9 @@ def test_split_petsc_options():
 
 
 def test_cli_rejects_unknown_prefix_and_options_in_one_line():
-    err = one_error_line(run_cli("run", "-cd_neccessary_eps_monitor", timeout=120))
+    err = one_error_line(run_cli_here("run", "-cd_neccessary_eps_monitor"))
     assert "-cd_neccessary_eps_monitor" in err and "cd_necessary_" in err
-    err = one_error_line(run_cli("run", "--bogus", timeout=120))
+    err = one_error_line(run_cli_here("run", "--bogus"))
     assert "unrecognized arguments: --bogus" in err
 
 
