@@ -284,12 +284,14 @@ def test_lp_fast_path_agrees_with_linprog():
         assert r.marginals.shape == (2 * s,)
 
 
-def test_product_argument_witness_is_checked():
+def test_product_argument_witness_is_checked(monkeypatch):
     """A family the sign argument cannot close (dense s = 30 pencil, every support, mu in
-    [0, 2.5]) is closed by the product argument; the checker re-verifies its witness ``M`` from
+    [0, 2.5]) is closed by the product argument (off by default in the prover, switched on
+    here: the checker accepts it in any log); the checker re-verifies its witness ``M`` from
     the pencil and rejects it once an entry that must be nonpositive is made positive, or once
     the interval is stretched."""
     from app.analyses.mceip_mu import branch
+    monkeypatch.setattr(branch, "RLT_MIN_FREE", 12)
     A0, A1 = _pd_plus_pencil(np.random.default_rng([11, 30]), 30)
     P = branch.Prover(A0, A1, 10.0)
     P.max_nodes = 8

@@ -10,7 +10,7 @@ tried from the cheapest:
   Perron-like scaling that keeps the asymmetry of the pencil; it proves the onset of the block's
   all-slip states where no symmetric test can);
 * ``farkas``: a Farkas vector of the family's linear relaxation (found by the LP of :mod:`.lp`);
-* ``rlt``: products of constraints, ``x^T M y <= 0`` (families with many free indices);
+* ``rlt``: products of constraints, ``x^T M y <= 0`` (off by default: ``RLT_MIN_FREE``);
 * ``leaf`` (``F = U``, one exact support, paper eqs. (25)-(26)): :mod:`.leaves`.
 
 A family that no test closes is split: ``bisect`` (the interval halved, while it is wide) or
@@ -37,6 +37,15 @@ from app.analyses.mceip_mu.live import LIVE
 HALVE_MIN_REL = 1e-3
 #: a family on an interval wider than this (relative to its end) is halved before any index split
 WIDE_REL = 0.03
+#: the width rule of the onset claim (families of at most ``LARGE_U`` slip nodes): wider pieces
+#: than for the list, since below the onset every piece closes and fewer pieces mean fewer index
+#: splits (dense s = 30: 15,000 nodes against 47,000 at 0.03)
+WIDE_REL_ONSET = 0.1
+#: the width rule of a family of more than ``LARGE_U`` slip nodes, and of the cheap proof of "none
+#: below the cap" (:func:`app.analyses.mceip_mu.prover.prove_none_below_cap`)
+WIDE_REL_LARGE = 0.03
+#: the sign argument also tries the diagonal scalings of :func:`perron_scaling`
+PERRON = True
 #: near mu = 0 the width rule is relative to this fraction of the cap (else it would halve forever)
 WIDE_FLOOR = 0.1
 #: a family with at most this many free indices is split on them at once (its leaves are few and
@@ -45,9 +54,11 @@ FEW_FREE = 3
 #: subgradient steps and step size of the multiplier search of the product argument
 RLT_STEPS = 40
 RLT_RATE = 0.05
-#: the product argument is tried on families with at least this many free indices (2^12 supports
-#: or more: splitting them is what it saves) and at most this many slip nodes
-RLT_MIN_FREE = 12
+#: the product argument is tried on families with at least this many free indices and at most
+#: ``RLT_MAX`` slip nodes. It is off (``10**9``): its multiplier search closed 12 % of the families
+#: it was tried on and took 80 % of the time of the dense s = 30 onset proof (168 s with it, 85 s
+#: without), and no stored study pencil was proven faster with it (docs/proofs.md); set 12 to use it
+RLT_MIN_FREE = 10**9
 RLT_MAX = 64
 #: above this many slip nodes in ``U``: a wide family is halved without its LP (a dense LP of
 #: hundreds of columns costs seconds and closes no wide family of the block's large states), and
@@ -95,6 +106,8 @@ class Prover(LeafTests):
         self.leaf_cache: dict = {}
         self.cop_failed: set = set()
         self.dvec_cache: dict = {}
+        self.cheap = False               # the cheap proof of "none below the cap" (its own width rule)
+        self.wide_rel = WIDE_REL
 
     def _dvectors(self, U: np.ndarray, a: float, b: float) -> list[np.ndarray]:
         """Candidate diagonals: ``I`` and ``z / x`` at each end (when both vectors are positive),
@@ -127,7 +140,7 @@ class Prover(LeafTests):
             if closing.closes_subsets(self.a0, self.a1, U, n.a, n.b, one, theta):
                 n.kind, n.d, n.theta = "cop", [1.0] * len(U), theta
                 return True
-        for d in self._dvectors(U, n.a, n.b)[1:]:
+        for d in (self._dvectors(U, n.a, n.b)[1:] if PERRON else ()):
             for theta in (0.0, 1.0, 0.5):
                 if closing.closes_subsets(self.a0, self.a1, U, n.a, n.b, d, theta):
                     n.kind, n.d, n.theta = "cop", [float(v) for v in d], theta
@@ -229,7 +242,7 @@ class Prover(LeafTests):
         pair = next((p for p in self.pairs if p[0] in U - F and p[1] in U - F), None)
         if pair is not None:
             i = pair[0]
-        elif width > WIDE_REL * scale and len(free) > FEW_FREE:
+        elif width > self._wide_rel(n) * scale and len(free) > FEW_FREE:
             halve = True
         elif relaxed is not None:
             x, y = relaxed
@@ -309,13 +322,16 @@ class Prover(LeafTests):
                     heapq.heappush(heap, (c.a, -c.id, c.id))
         return left
 
+    def _wide_rel(self, n: prooflog.Node) -> float:
+        return WIDE_REL_LARGE if len(n.U) > LARGE_U or self.cheap else self.wide_rel
+
     def _wide(self, n: prooflog.Node) -> bool:
         """:meth:`_split` halves ``n`` whatever its LP says (no pair inside, a wide interval)."""
         U, F = set(n.U), set(n.F)
         if any(p[0] in U - F and p[1] in U - F for p in self.pairs):
             return False
         scale = max(abs(n.b), WIDE_FLOOR * self.cap, 1e-300)
-        return n.b - n.a > WIDE_REL * scale and len(U - F) > FEW_FREE
+        return n.b - n.a > self._wide_rel(n) * scale and len(U - F) > FEW_FREE
 
     def _push(self, heap: list, queued: set, kids: list[prooflog.Node]) -> None:
         for c in self._open_under(kids):

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.analyses.mceip_mu import closing, prooflog, windows
+from app.analyses.mceip_mu import branch, closing, prooflog, windows
 from app.analyses.mceip_mu.branch import Prover
 from app.analyses.mceip_mu.heuristics import polish
 from app.analyses.mceip_mu.leaves import WINDOW_REL, Found
@@ -95,6 +95,7 @@ def prove_none_below_cap(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), m
     with one_blas_thread():
         t0 = time.perf_counter()
         P = Prover(A0, A1, cap, pairs)
+        P.cheap = True
         root, _ = P.tree.add(tuple(range(P.s)), 0.0, P.cap)
         todo = [root]
         LIVE.reset("sign argument on [0, cap]")
@@ -128,6 +129,7 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset
     LIVE.reset("onset proof")
     P = Prover(A0, A1, cap, pairs, deadline=t0 + seconds)
     P.max_nodes = onset_nodes
+    P.wide_rel = branch.WIDE_REL_ONSET
     all_idx = tuple(range(P.s))
     _seed_candidates(P, candidates)
     onset_root = onset_below = None
@@ -162,6 +164,7 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset
                 P.deadline = min(P.deadline, time.perf_counter() + all_seconds)
             P.max_nodes = len(P.tree.nodes) + all_nodes
             LIVE.phase = "list proof"
+            P.wide_rel = branch.WIDE_REL
             root2, _ = P.tree.add(all_idx, onset_below, P.cap)
             all_roots.append(root2.id)
             left = P.explore(root2)
