@@ -291,7 +291,7 @@ def test_product_argument_witness_is_checked(monkeypatch):
     the pencil and rejects it once an entry that must be nonpositive is made positive, or once
     the interval is stretched."""
     from app.analyses.mceip_mu import branch
-    monkeypatch.setattr(branch, "RLT_MIN_FREE", 12)
+    monkeypatch.setattr(branch, "USE_RLT", True)
     A0, A1 = _pd_plus_pencil(np.random.default_rng([11, 30]), 30)
     P = branch.Prover(A0, A1, 10.0)
     P.max_nodes = 8

@@ -10,7 +10,7 @@ tried from the cheapest:
   Perron-like scaling that keeps the asymmetry of the pencil; it proves the onset of the block's
   all-slip states where no symmetric test can);
 * ``farkas``: a Farkas vector of the family's linear relaxation (found by the LP of :mod:`.lp`);
-* ``rlt``: products of constraints, ``x^T M y <= 0`` (off by default: ``RLT_MIN_FREE``);
+* ``rlt``: products of constraints, ``x^T M y <= 0`` (off by default: ``USE_RLT``);
 * ``leaf`` (``F = U``, one exact support, paper eqs. (25)-(26)): :mod:`.leaves`.
 
 A family that no test closes is split: ``bisect`` (the interval halved, while it is wide) or
@@ -44,8 +44,6 @@ WIDE_REL_ONSET = 0.1
 #: the width rule of a family of more than ``LARGE_U`` slip nodes, and of the cheap proof of "none
 #: below the cap" (:func:`app.analyses.mceip_mu.prover.prove_none_below_cap`)
 WIDE_REL_LARGE = 0.03
-#: the sign argument also tries the diagonal scalings of :func:`perron_scaling`
-PERRON = True
 #: near mu = 0 the width rule is relative to this fraction of the cap (else it would halve forever)
 WIDE_FLOOR = 0.1
 #: a family with at most this many free indices is split on them at once (its leaves are few and
@@ -54,11 +52,12 @@ FEW_FREE = 3
 #: subgradient steps and step size of the multiplier search of the product argument
 RLT_STEPS = 40
 RLT_RATE = 0.05
-#: the product argument is tried on families with at least this many free indices and at most
-#: ``RLT_MAX`` slip nodes. It is off (``10**9``): its multiplier search closed 12 % of the families
-#: it was tried on and took 80 % of the time of the dense s = 30 onset proof (168 s with it, 85 s
-#: without), and no stored study pencil was proven faster with it (docs/proofs.md); set 12 to use it
-RLT_MIN_FREE = 10**9
+#: the product argument is off: its multiplier search closed 12 % of the families it was tried on
+#: and took 80 % of the time of the dense s = 30 onset proof (168 s with it, 85 s without), and no
+#: stored study pencil was proven faster with it (docs/proofs.md). When on, it is tried on families
+#: with at least ``RLT_MIN_FREE`` free indices and at most ``RLT_MAX`` slip nodes
+USE_RLT = False
+RLT_MIN_FREE = 12
 RLT_MAX = 64
 #: above this many slip nodes in ``U``: a wide family is halved without its LP (a dense LP of
 #: hundreds of columns costs seconds and closes no wide family of the block's large states), and
@@ -106,8 +105,7 @@ class Prover(LeafTests):
         self.leaf_cache: dict = {}
         self.cop_failed: set = set()
         self.dvec_cache: dict = {}
-        self.cheap = False               # the cheap proof of "none below the cap" (its own width rule)
-        self.wide_rel = WIDE_REL
+        self.wide_rel = WIDE_REL         # the claim's width rule (WIDE_REL_ONSET for the onset)
 
     def _dvectors(self, U: np.ndarray, a: float, b: float) -> list[np.ndarray]:
         """Candidate diagonals: ``I`` and ``z / x`` at each end (when both vectors are positive),
@@ -140,7 +138,7 @@ class Prover(LeafTests):
             if closing.closes_subsets(self.a0, self.a1, U, n.a, n.b, one, theta):
                 n.kind, n.d, n.theta = "cop", [1.0] * len(U), theta
                 return True
-        for d in (self._dvectors(U, n.a, n.b)[1:] if PERRON else ()):
+        for d in self._dvectors(U, n.a, n.b)[1:]:
             for theta in (0.0, 1.0, 0.5):
                 if closing.closes_subsets(self.a0, self.a1, U, n.a, n.b, d, theta):
                     n.kind, n.d, n.theta = "cop", [float(v) for v in d], theta
@@ -153,7 +151,7 @@ class Prover(LeafTests):
         two ends (from ``M = I``, the sign argument's start), then proven by the checker."""
         U = np.asarray(n.U, dtype=np.int64)
         p = len(U)
-        if p - len(n.F) < RLT_MIN_FREE or p > RLT_MAX:
+        if not USE_RLT or p - len(n.F) < RLT_MIN_FREE or p > RLT_MAX:
             return False             # a small family splits cheaply; a large U makes each step cost
         As = [self.a0[np.ix_(U, U)] + mu * self.a1[np.ix_(U, U)] for mu in ((n.a, n.b) if n.a != n.b else (n.a,))]
         free = np.eye(p, dtype=bool) | np.isin(U, np.asarray(n.F, dtype=np.int64))[None, :]
@@ -323,7 +321,7 @@ class Prover(LeafTests):
         return left
 
     def _wide_rel(self, n: prooflog.Node) -> float:
-        return WIDE_REL_LARGE if len(n.U) > LARGE_U or self.cheap else self.wide_rel
+        return WIDE_REL_LARGE if len(n.U) > LARGE_U else self.wide_rel
 
     def _wide(self, n: prooflog.Node) -> bool:
         """:meth:`_split` halves ``n`` whatever its LP says (no pair inside, a wide interval)."""

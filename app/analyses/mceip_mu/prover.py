@@ -95,7 +95,7 @@ def prove_none_below_cap(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), m
     with one_blas_thread():
         t0 = time.perf_counter()
         P = Prover(A0, A1, cap, pairs)
-        P.cheap = True
+        P.wide_rel = branch.WIDE_REL_LARGE
         root, _ = P.tree.add(tuple(range(P.s)), 0.0, P.cap)
         todo = [root]
         LIVE.reset("sign argument on [0, cap]")
