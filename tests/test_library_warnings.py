@@ -70,3 +70,23 @@ def test_default_study_raises_no_library_warning():
         res = run_study(parse_scene(data), MPI.COMM_WORLD)
     assert "library_warnings" not in res, res.get("library_warnings")
     assert res["warnings"] == []
+
+
+def test_a_cold_jit_cache_records_no_warning(tmp_path):
+    """On an empty JIT cache (a fresh machine) ffcx leaves each new C file's placeholder open,
+    which Python reports as a ResourceWarning from ffcx/codegeneration/jit.py when it closes it.
+    That warning says nothing about the computation (IGNORED_IN_LIBRARY): it is not recorded, so
+    it reaches neither results.json nor a user beside a one-line error."""
+    import dolfinx
+    import ufl
+    from app.systems.jit import JIT_PARAMS
+    mesh = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 2, 2)
+    V = dolfinx.fem.FunctionSpace(mesh, ("Lagrange", 1))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    cold = dict(JIT_PARAMS, cache_dir=str(tmp_path / "fenics"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                  # nothing may escape the block
+        with explained() as rec:
+            dolfinx.fem.form(u * v * ufl.dx, jit_params=cold)
+    assert any((tmp_path / "fenics").glob("*.c")), "the form was not compiled into the cold cache"
+    assert rec.as_list() == []

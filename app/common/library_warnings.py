@@ -10,6 +10,9 @@ kept once with a count and:
   unaffected), logged at INFO;
 - otherwise logged as a WARNING naming the app function and line that called the library.
 
+Warnings that say nothing about the computation (:data:`IGNORED_IN_LIBRARY`: a library's file
+hygiene, such as FFCx's on a cold JIT cache) are logged at DEBUG only.
+
 :func:`app.study.run.run_study` lists both kinds in results.json ``library_warnings`` (merged over
 the ranks, :func:`merged`) and adds the unknown ones to the study's ``warnings`` (the summary,
 the report).
@@ -29,6 +32,17 @@ log = logging.getLogger(__name__)
 #: (message, app function) -> why the warning there does not affect the answers (none known today:
 #: the dense search's singular-Jacobian test uses slogdet, which cannot overflow as det did)
 KNOWN: dict[tuple[str, str], str] = {}
+
+#: (category, library file) -> why a warning of that category raised there says nothing about the
+#: computation, whatever its message (which names a file): logged at DEBUG, not recorded
+IGNORED_IN_LIBRARY: dict[tuple[str, str], str] = {
+    # On a cold JIT cache ffcx claims each new C file with ``open(name, "x")`` and drops the handle
+    # unclosed (ffcx 0.5, codegeneration/jit.py get_cached_module); CPython closes it when the
+    # object is collected. It happens once per new form, never on a warm cache.
+    ("ResourceWarning", "ffcx/codegeneration/jit.py"):
+        "FFCx left the placeholder of a new C file of its JIT cache unclosed (Python closes it; "
+        "only when a form is compiled for the first time)",
+}
 
 _LIBRARY_DIRS = tuple({os.path.dirname(os.__file__), os.path.dirname(warnings.__file__)})
 
@@ -76,6 +90,14 @@ class Recorder:
         return [dict(r) for r in self.seen.values()]
 
 
+def _ignored(category: type, library_file: str) -> str | None:
+    """Why a ``category`` warning raised in ``library_file`` is ignored (:data:`IGNORED_IN_LIBRARY`), or None."""
+    for (name, suffix), why in IGNORED_IN_LIBRARY.items():
+        if category.__name__ == name and library_file.replace(os.sep, "/").endswith(suffix):
+            return why
+    return None
+
+
 def describe(rec: dict, count: bool = True) -> str:
     """One line for a user: what warned, where in the app (how often), and what it means."""
     head = f"{rec['category']} '{rec['message']}' in {rec['where']}" + (f", {rec['count']} time(s)" if count else "")
@@ -98,6 +120,10 @@ def explained() -> Iterator[Recorder]:
         pass
 
     def show(message, category, filename, lineno, file=None, line=None):
+        why = _ignored(category, filename)
+        if why:
+            log.debug("%s %s: %s", category.__name__, message, why)
+            return
         first = rec.add(category, str(message), filename, lineno)
         if first["count"] == 1:
             if first["explanation"]:
