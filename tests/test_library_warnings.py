@@ -79,6 +79,7 @@ def test_a_cold_jit_cache_records_no_warning(tmp_path):
     it reaches neither results.json nor a user beside a one-line error."""
     import dolfinx
     import ufl
+
     from app.systems.jit import JIT_PARAMS
     mesh = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 2, 2)
     V = dolfinx.fem.FunctionSpace(mesh, ("Lagrange", 1))
