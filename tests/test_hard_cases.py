@@ -190,6 +190,41 @@ def test_a_signal_while_the_drawing_processes_start_reaches_only_the_run(tmp_pat
     assert not out.exists()
 
 
+def _has_loaded(pid, library):
+    try:
+        return library in open(f"/proc/{pid}/maps").read()
+    except OSError:
+        return False
+
+
+@pytest.mark.slow
+def test_a_ctrl_c_while_gmsh_meshes_the_block_is_one_line(tmp_path, scene_file):
+    """Gmsh's Python module sets SIGINT to its default action while it is loaded: a Ctrl-C
+    during the meshing of a block that is not cached yet killed the run without a word and left
+    its staging folder behind. The signal is sent once libgmsh is mapped into the run."""
+    from app.systems.block.mesh import mesh_cache_path, mesh_file_name
+    length = 80.0 + (time.time_ns() % 10**6) * 1e-7         # a block no other run has cached
+    cached = mesh_cache_path(mesh_file_name(length, 40.0, 160, 80, "crossed"))
+    out = tmp_path / "out"
+    scene = scene_file(f"name: g\nmu: 1.1\nsystem: {{type: block, length: {length!r}, nx: 160, ny: 80}}\n"
+                       "analyses: [mceip_mu]\noutputs: {plots: false, report: false}\n")
+    proc = _start(out, str(scene))
+    try:
+        deadline = time.monotonic() + 60
+        while not _has_loaded(proc.pid, "libgmsh"):
+            assert proc.poll() is None and time.monotonic() < deadline, "the run never loaded Gmsh"
+            time.sleep(0.001)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        cached.unlink(missing_ok=True)
+    assert proc.returncode == 130, err
+    assert err.decode().startswith("error: interrupted by SIGINT") and len(err.decode().strip().splitlines()) == 1
+    assert not out.exists() and [p for p in tmp_path.iterdir() if ".partial-" in p.name] == []
+
+
 @pytest.mark.slow
 def test_interrupted_overwrite_keeps_the_previous_results(tmp_path, scene_file):
     out = tmp_path / "out"
