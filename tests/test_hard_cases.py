@@ -226,6 +226,36 @@ def test_a_ctrl_c_while_gmsh_meshes_the_block_is_one_line(tmp_path, scene_file):
 
 
 @pytest.mark.slow
+def test_a_ctrl_c_during_the_jit_compilation_leaves_the_cache_usable(tmp_path):
+    """FFCx claims a C file in the shared JIT cache (``~/.cache/fenics``) before it compiles a
+    form and releases it only when the compile ends or fails with an ``Exception``: a Ctrl-C
+    raised inside made every later DOLFINx program compiling that form wait ten minutes for it.
+    The run is interrupted once its first claim appears in an empty cache: one line, exit 130,
+    and every C file of the cache is either compiled (``.c.cached``) or released."""
+    cache = tmp_path / "cache"
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(cache))
+    proc = subprocess.Popen([sys.executable, "-m", "app", "run", "-o", str(out), "-q"], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 120
+        while not list((cache / "fenics").glob("*.c")):
+            assert proc.poll() is None and time.monotonic() < deadline, "the run compiled nothing"
+            time.sleep(0.002)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert err.decode().startswith("error: interrupted by SIGINT") and len(err.decode().strip().splitlines()) == 1
+    claims = [c.name for c in (cache / "fenics").glob("*.c") if not c.with_suffix(".c.cached").exists()]
+    assert claims == [], claims
+    assert not out.exists()
+
+
+@pytest.mark.slow
 def test_interrupted_overwrite_keeps_the_previous_results(tmp_path, scene_file):
     out = tmp_path / "out"
     p = run_cli_here("run", str(scene_file(

@@ -163,7 +163,7 @@ def _guarded(fn, args) -> int:
     except (MemoryError, OSError, RuntimeError) as err:
         msg = _write_error(err)
         if msg is None:
-            return _unexpected()
+            return _interrupted(_RECEIVED[0]) if _RECEIVED else _unexpected()
         print(f"error: {msg}", file=sys.stderr, flush=True)      # every rank that hit it: one line each
         if MPI.COMM_WORLD.size > 1:
             MPI.COMM_WORLD.Abort(EXIT_WRITE)
@@ -171,16 +171,26 @@ def _guarded(fn, args) -> int:
     except KeyboardInterrupt as err:
         # Ctrl-C (SIGINT) or SIGTERM (raised as KeyboardInterrupt("signal 15") by _terminate): one
         # line, not a traceback; the staging folder has already been removed by the run's finally
-        signum = 15 if str(err) == "signal 15" else 2
-        code = 128 + signum
-        if MPI.COMM_WORLD.rank == 0:
-            print(f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
-                  "the run stopped and wrote no results", file=sys.stderr, flush=True)
-        if MPI.COMM_WORLD.size > 1:
-            MPI.COMM_WORLD.Abort(code)
-        return code
+        return _interrupted(15 if str(err) == "signal 15" else 2)
     except Exception:
+        if _RECEIVED:            # a child (the C compiler) died of the same Ctrl-C first
+            return _interrupted(_RECEIVED[0])
         return _unexpected()
+
+
+def _interrupted(signum: int) -> int:
+    """One line for a run stopped by SIGINT or SIGTERM; exit status 128 + the signal."""
+    from mpi4py import MPI
+    for s in (signal.SIGINT, signal.SIGTERM):         # a deferred signal sent again is not raised here
+        if signal.getsignal(s) is _terminate:
+            signal.signal(s, signal.SIG_IGN)
+    code = 128 + signum
+    if MPI.COMM_WORLD.rank == 0:
+        print(f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
+              "the run stopped and wrote no results", file=sys.stderr, flush=True)
+    if MPI.COMM_WORLD.size > 1:
+        MPI.COMM_WORLD.Abort(code)
+    return code
 
 
 def _check(args) -> int:
@@ -281,20 +291,40 @@ def _main(args) -> int:
             folder.abort()              # interrupted or failed: drop the partial files (kept if the commit failed)
 
 
+#: the signal a run received and has not raised yet (set by :func:`_terminate`)
+_RECEIVED: list[int] = []
+
+
+def _deferring(frame) -> bool:
+    """Whether a signal arriving in ``frame`` must wait: inside an import (the system types
+    import DOLFINx when they build; the exception would surface from a C extension's
+    initialisation as an ImportError with a traceback), or inside FFCx's JIT compilation, which
+    claims a C file in the user's shared JIT cache before compiling and releases it only when the
+    compile ends or fails with an ``Exception``: a KeyboardInterrupt there would leave the claim,
+    and every later program compiling that form would wait for it until its timeout."""
+    f = frame
+    while f is not None:
+        name = f.f_code.co_filename
+        if name.startswith("<frozen importlib") or name.endswith(os.path.join("ffcx", "codegeneration", "jit.py")):
+            return True
+        f = f.f_back
+    return False
+
+
 def _terminate(signum, frame):
     """SIGTERM and SIGINT during a run: a KeyboardInterrupt, turned into one line by :func:`main`.
 
-    Inside an import (the system types import DOLFINx when they build) the exception would
-    surface from a C extension's initialisation as an ImportError with a traceback; there the
-    signal is sent again a tenth of a second later instead, until the import is done."""
-    f = frame
-    while f is not None:
-        if f.f_code.co_filename.startswith("<frozen importlib"):
-            again = threading.Timer(0.1, os.kill, (os.getpid(), signum))
-            again.daemon = True
-            again.start()
-            return
-        f = f.f_back
+    Where it must wait (:func:`_deferring`) the signal is sent again a tenth of a second later
+    instead, until the import or the compilation is done. A Ctrl-C also reaches the C compiler
+    FFCx runs (the terminal signals the whole process group): the compilation then fails with an
+    ordinary exception before the signal is raised, and :func:`_guarded` reports the interrupt."""
+    if signum not in _RECEIVED:
+        _RECEIVED.append(signum)
+    if _deferring(frame):
+        again = threading.Timer(0.1, os.kill, (os.getpid(), signum))
+        again.daemon = True
+        again.start()
+        return
     raise KeyboardInterrupt(f"signal {signum}")
 
 
