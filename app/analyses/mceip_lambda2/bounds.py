@@ -38,19 +38,31 @@ PROVEN = "proven"
 def _verified_pd_pencil(a0: np.ndarray, a1: np.ndarray, mu: float) -> bool:
     """``sym(a0 + mu a1)`` proven positive definite (the dense verified Cholesky of
     :func:`app.analyses.mceip_mu.rounding.verified_pd`, after an exact power-of-two diagonal
-    scaling; the rounding of ``a0 + mu a1`` and of the symmetric part is in the radius)."""
+    scaling ``S``; the rounding of ``a0 + mu a1`` and of the symmetric part is in the radius).
+
+    The rounding of ``H = sym fl(a0 + mu a1)`` is at most ``gamma_4 sym(|a0| + |mu| |a1|) +
+    gamma_1 |H|`` entrywise; its 2-norm after the scaling is bounded by the Frobenius norms
+    ``gamma_4 (||S a0 S||_F + |mu| ||S a1 S||_F) + gamma_1 ||S H S||_F`` (the absolute value and
+    the symmetric part do not increase a Frobenius norm), each ``sqrt(s2^T (X o X) s2)`` with
+    ``s2`` the squared scaling, rounded up."""
     from app.analyses.mceip_mu.rounding import gamma, rounded_up, verified_pd
-    A = a0 + mu * a1
-    H = 0.5 * (A + A.T)
+    n = a0.shape[0]
+    H = a0 + mu * a1
+    H += H.T.copy()
+    H *= 0.5
     d = np.diag(H)
     if not np.all(np.isfinite(H)) or np.any(d <= 0):
         return False
-    E = gamma(4) * (np.abs(a0) + abs(mu) * np.abs(a1))
-    E = 0.5 * (E + E.T) + gamma(1) * np.abs(H)
-    e = np.array([np.frexp(np.sqrt(v))[1] for v in d], dtype=np.int64)
-    Hs = np.ldexp(H, -(e[:, None] + e[None, :]))
-    Es = np.ldexp(E, -(e[:, None] + e[None, :]))
-    return verified_pd(Hs, float(rounded_up(np.sqrt(np.sum(Es * Es)), Es.size)))
+    scale = np.ldexp(1.0, -np.frexp(np.sqrt(d))[1])          # exact powers of two
+    Hs = H * scale[:, None]
+    Hs *= scale[None, :]
+    s2 = scale * scale
+
+    def frobenius(X: np.ndarray) -> float:
+        return float(np.sqrt((X * X) @ s2 @ s2))
+
+    radius = gamma(4) * (frobenius(a0) + abs(mu) * frobenius(a1)) + gamma(1) * float(np.sqrt(np.sum(Hs * Hs)))
+    return verified_pd(Hs, float(rounded_up(radius, 3 * n)))
 
 
 def verified_sign_argument(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,

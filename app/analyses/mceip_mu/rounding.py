@@ -76,7 +76,8 @@ def verified_pd(H: np.ndarray, radius: float = 0.0) -> bool:
     g = gamma(n + 1)
     tr = float(np.sum(d)) * (1.0 + 2.0 * gamma(n))
     shift = 2.0 * (radius + g * tr + U_ROUND * float(np.max(d))) + 8.0 * n * (n + 2) * TINY
-    Hs = H - shift * np.eye(n)
+    Hs = H.copy()
+    Hs[np.diag_indices(n)] -= shift
     try:
         L = np.linalg.cholesky(Hs)
     except np.linalg.LinAlgError:
