@@ -31,6 +31,7 @@ from app.analyses.enumerate import PatternSolution, enumerate_patterns, pencil_s
 @dataclass
 class Candidate:
     """One exact solution found by the search, with the evidence of the run(s) that found it."""
+
     exact: PatternSolution
     newton_value: float
     newton_residual: float      # |Phi| at the end of the run (scaled pencil)

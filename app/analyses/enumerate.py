@@ -44,6 +44,7 @@ BATCH_ELEMENTS = 2_000_000
 @dataclass
 class PatternSolution:
     """One exact solution of (25)-(26): the eigenpair of one support with its sign margins."""
+
     value: float
     x: np.ndarray               # restricted-space vector (free + all complementarity), x_c sums to 1
     support: np.ndarray         # bool over the complementarity unknowns: True = slip (x > 0)

@@ -54,6 +54,7 @@ MAX_NODES = 400_000
 @dataclass
 class BBProof:
     """The checker's verdict on the log, in the fields of the per-support proof."""
+
     report: Report
     cap: float
     log: dict

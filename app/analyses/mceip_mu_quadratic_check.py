@@ -125,6 +125,7 @@ def nonsingular_closes(a0, a1, a2, U, a: float, b: float) -> bool:
 class Report:
     """What the checker accepts: the proven solutions (union of the leaves), the open nodes'
     intervals, the errors (any error: nothing is accepted)."""
+
     errors: list[str] = field(default_factory=list)
     solutions: list = field(default_factory=list)
     open_from: float = np.inf                 # every solution below this mu is in ``solutions``

@@ -72,6 +72,7 @@ def _caller(depth: int = 3) -> tuple[str, str, int]:
 @dataclass
 class Recorder:
     """The distinct warnings seen, in order, with their counts."""
+
     seen: dict[tuple, dict] = field(default_factory=dict)
 
     def add(self, category: type, message: str, library_file: str, library_line: int) -> dict:

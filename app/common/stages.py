@@ -12,6 +12,7 @@ log = logging.getLogger(__name__)
 @dataclass
 class Stages:
     """Ordered record of named stages; a stage run several times is summed and counted."""
+
     records: dict[str, dict] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 

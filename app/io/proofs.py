@@ -81,6 +81,7 @@ def write_proofs(results: dict, outdir: pathlib.Path, written_one=None) -> list[
 @dataclass
 class StateCheck:
     """The re-check of one stored proof against results.json."""
+
     state: int
     s: int
     onset_claimed: bool

@@ -20,6 +20,7 @@ FREE, ZERO, STICK, SLIP = "free", "zero", "stick", "slip"
 @dataclass(frozen=True)
 class Classification:
     """Status and slip sign of every contact node; hashable so analyses can be shared."""
+
     status: tuple[str, ...]
     signs: tuple[int, ...]
 

@@ -19,6 +19,7 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Estimate:
     """Sizes of one study (upper bounds for the number of states: gross sliding may end it early)."""
+
     states: int
     dofs: int
     contact_nodes: int

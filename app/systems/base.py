@@ -27,6 +27,7 @@ from app.common.stages import Stages
 @dataclass(frozen=True)
 class ContactNode:
     """A contact candidate node: its position along the contact side and its two DOFs."""
+
     id: int
     x: float
     dof_T: int
@@ -50,6 +51,7 @@ class FieldSource(Protocol):
     ``obstacle`` is the rigid line (``point``, ``normal``: the body's outward normal) or circle
     (``centre``, ``radius``, ``side``) when there is one.
     """
+
     V: object
     length_scale: float
     contact_xy: np.ndarray
@@ -72,6 +74,7 @@ class FieldSource(Protocol):
 @dataclass
 class System:
     """Elastic system with frictional contact candidates (paper eq. (3)-(7))."""
+
     comm: MPI.Comm
     K: PETSc.Mat
     nodes: list[ContactNode]

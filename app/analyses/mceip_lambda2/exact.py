@@ -52,6 +52,7 @@ MARGIN = 1e-8
 class DynamicContact:
     """The eigen-decomposition of ``(K, M)`` seen from the contact DOFs (paper axes, order
     ``T_0, N_0, T_1, ...``), shared by every classification of one system."""
+
     omega2: np.ndarray            # eigenvalues of K Phi = M Phi Omega
     BP: np.ndarray                # contact rows of Phi, paper-axis signs
     Kcc: np.ndarray               # K and M on the contact DOFs, paper axes

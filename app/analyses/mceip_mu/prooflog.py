@@ -29,6 +29,7 @@ class Node:
     vector, and the checker's own nonsingularity cover of the rest), ``"pair"`` (``F`` holds both halves
     of a pair: no allowed support), ``"empty"`` (``U`` empty or ``F`` not inside ``U``: no
     support at all), ``"open"`` (not closed: the proof is unfinished)."""
+
     id: int
     U: list[int]
     a: float
@@ -79,6 +80,7 @@ class Node:
 class ProofLog:
     """The witnesses of one pencil's proof: the node tree, its roots (``onset`` and ``all``) and
     the exact power-of-two scale the pencil was divided by (``A / 2^k``: exact, no rounding)."""
+
     s: int
     cap: float
     scale_exp: int
@@ -127,6 +129,7 @@ class ProofLog:
 @dataclass
 class CheckReport:
     """What :func:`check_log` accepted: the onset claim, the complete-list claim, the solutions."""
+
     onset_ok: bool
     all_ok: bool
     onset: tuple[float, float] | None                 # proven enclosure of the onset (None: none below cap)

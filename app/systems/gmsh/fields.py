@@ -14,6 +14,7 @@ from app.systems.gmsh.schema import GmshBody
 @dataclass
 class FieldData:
     """What :class:`BodyFields` needs of the assembly (app/systems/gmsh/operators.py ``body_operators``)."""
+
     V: object                                     # the displacement space (vector Lagrange)
     prescribed: dict[str, dict[int, np.ndarray]]  # curve -> component -> local unrolled DOFs (incl. ghosts)
     kept_local: np.ndarray                        # local unrolled indices of the owned kept DOFs, reduced order

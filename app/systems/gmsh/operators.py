@@ -40,6 +40,7 @@ class BodyError(Exception):
 @dataclass
 class BodyOperators:
     """Reduced, obstacle-rotated operators of the body and its load parameters."""
+
     K: PETSc.Mat
     R: PETSc.Mat
     kept: PETSc.IS
