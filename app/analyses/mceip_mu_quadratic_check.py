@@ -1,4 +1,4 @@
-"""The trusted kernel and the independent checker of the quadratic MCEIP-mu branch and bound.
+r"""The trusted kernel and the independent checker of the quadratic MCEIP-mu branch and bound.
 
 Problem (paper eqs. (21)-(23) condensed on the slip nodes, docs/method.md section 8): ``mu`` in
 ``[0, cap]``, ``v >= 0``, ``v != 0``, ``y = A(mu) v >= 0``, ``v_i y_i = 0``, with
@@ -29,7 +29,7 @@ tangential rate, whose columns must be exact negatives in the pencil (verified:
 :func:`app.analyses.mceip_mu_quadratic_proof.pairs_hold`); no support needs both, so a node whose
 ``F`` holds a pair is closed (``pair``), a ``leaf`` whose support holds one has nothing to decide,
 and a ``branch`` on ``i`` may drop ``i``'s partner from the child that forces ``i``
-(``(U \\ partners(i), F + {i})``), as the linear engine's checker accepts
+(``(U \ partners(i), F + {i})``), as the linear engine's checker accepts
 (:mod:`app.analyses.mceip_mu.checker`).
 
 :func:`check_log` re-verifies a whole proof log from the pencil (this module does not import

@@ -1,4 +1,4 @@
-"""The branch and bound of the MCEIP-mu prover: the proof tree and how its nodes are closed or split.
+r"""The branch and bound of the MCEIP-mu prover: the proof tree and how its nodes are closed or split.
 
 A node is a family ``F <= P <= U`` of supports (``F`` forced, ``U`` allowed) with mu in ``[a, b]``:
 "no solution with such a support and such a mu other than the listed ones". It is closed by a
@@ -14,7 +14,7 @@ tried from the cheapest:
 * ``leaf`` (``F = U``, one exact support, paper eqs. (25)-(26)): :mod:`.leaves`.
 
 A family that no test closes is split: ``bisect`` (the interval halved, while it is wide) or
-``branch`` on an index ``i`` of ``U \\ F`` (``i`` out of the support, or forced into it), chosen
+``branch`` on an index ``i`` of ``U \ F`` (``i`` out of the support, or forced into it), chosen
 where the LP's relaxed point breaks complementarity most; pairs of zero-reaction halves first.
 The nodes are explored best first (lowest ``a``); :mod:`.prover` runs the two claims.
 """
@@ -227,8 +227,8 @@ class Prover(LeafTests):
         return False, relaxed
 
     def _split(self, n: prooflog.Node, relaxed) -> list[prooflog.Node]:
-        """Split an unclosed family: on a pair inside ``U \\ F`` first (each child then holds one
-        half), else on the index of ``U \\ F`` where the LP's relaxed point breaks complementarity
+        r"""Split an unclosed family: on a pair inside ``U \ F`` first (each child then holds one
+        half), else on the index of ``U \ F`` where the LP's relaxed point breaks complementarity
         most; by halving the interval when it is wide (more than ``WIDE_REL`` of its end, or of
         ``WIDE_FLOOR`` times the cap near 0) or when the relaxed point breaks no complementarity
         (it mixes the two ends of the interval)."""

@@ -15,15 +15,15 @@ FORMATS_READ = ("mceip-mu-proof/1", FORMAT)   # version 1: no forced sets (a lea
 
 @dataclass
 class Node:
-    """One node of the proof tree: the family of supports ``P`` with ``F <= P <= U`` (indices into
+    r"""One node of the proof tree: the family of supports ``P`` with ``F <= P <= U`` (indices into
     the slip nodes; ``F``, the forced set, is empty for "every support in ``U``") and mu in ``[a, b]``.
 
     ``kind``: ``"cop"`` (sign argument on ``U``, witness ``d``, ``theta``), ``"rlt"`` (products
     of constraints, witness ``M``, ``theta``: :func:`rlt_closes`), ``"farkas"`` (a Farkas
     vector ``w``, :func:`farkas_closes`), ``"bisect"`` (children on ``[a, m]`` and ``[m, b]``),
-    ``"branch"`` (on an index ``i`` of ``U \\ F``: ``i`` not in the support, child ``(U \\ {i}, F)``,
-    or in it, child ``(U \\ partners(i), F + {i})``), ``"pairsplit"`` (children ``U \\ {a}`` and
-    ``U \\ {b}`` for a pair ``(a, b)`` inside ``U``), ``"drop"`` (children ``U \\ {i}`` for every
+    ``"branch"`` (on an index ``i`` of ``U \ F``: ``i`` not in the support, child ``(U \ {i}, F)``,
+    or in it, child ``(U \ partners(i), F + {i})``), ``"pairsplit"`` (children ``U \ {a}`` and
+    ``U \ {b}`` for a pair ``(a, b)`` inside ``U``), ``"drop"`` (children ``U \ {i}`` for every
     ``i`` plus the exact-support leaf of ``U``), ``"leaf"`` (``F = U``, the exact support ``U``:
     ``windows`` each with one verified eigenpair, ``pieces`` of ``[a, b]`` each closed by a Farkas
     vector, and the checker's own nonsingularity cover of the rest), ``"pair"`` (``F`` holds both halves

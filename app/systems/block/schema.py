@@ -76,7 +76,7 @@ class Block(Strict):
         return 2 * nodes, contact
 
     def refined(self, nx: int) -> "Block":
-        """This block with ``nx`` cells along AB and ``ny`` scaled to keep the cells' aspect."""
+        """A copy of the block with ``nx`` cells along AB and ``ny`` scaled to keep the cells' aspect."""
         return self.model_copy(update={"nx": nx, "ny": max(1, round(nx * self.height / self.length))})
 
     def table_columns(self) -> dict[str, float]:

@@ -26,7 +26,7 @@ BYTES_PER_ENTRY = 64        # a stored entry while reading and checking (COO, CS
 
 class MatrixFileError(ValueError):
     """A file refused for its sizes or layout: ``str(err)`` is one line; ``resource``: a memory limit.
-    (A file that is not of its format at all raises a plain ValueError: "cannot read ... as ...".)"""
+    A file that is not of its format at all raises a plain ValueError ("cannot read ... as ...")."""
 
     def __init__(self, msg: str, resource: bool = False):
         super().__init__(msg)
