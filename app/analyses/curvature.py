@@ -64,6 +64,8 @@ class CurvedClassification(Classification):
 
 
 def is_curved(cls: Classification) -> bool:
+    """Whether the classification is of a state on a curved obstacle (:class:`CurvedClassification`,
+    whose pencils carry the curvature terms ``G``)."""
     return isinstance(cls, CurvedClassification)
 
 

@@ -65,18 +65,23 @@ class BBProof:
 
     @property
     def proven(self) -> bool:
+        """Whether the checker accepted the complete list of solutions in ``[0, cap]``."""
         return self.report.complete
 
     @property
     def onset_proven(self) -> bool:
+        """Whether the checker proved the onset (the smallest solution, or none below the cap)."""
         return self.report.onset_proven
 
     @property
     def solutions(self):
+        """The solutions the checker proved: enclosures of mu with their supports, lowest first."""
         return self.report.solutions
 
     @property
     def onset(self):
+        """The proven solution whose enclosure starts lowest (None without one); the onset only when
+        :attr:`onset_proven`."""
         return self.report.onset
 
 

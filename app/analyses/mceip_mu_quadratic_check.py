@@ -135,6 +135,8 @@ class Report:
 
     @property
     def complete(self) -> bool:
+        """Whether the list is complete: no error and no open node, so every solution in ``[0, cap]`` is
+        in ``solutions``."""
         return not self.errors and self.open_from == np.inf
 
     @property
@@ -145,6 +147,9 @@ class Report:
 
     @property
     def onset_proven(self) -> bool:
+        """Whether the onset is proven: no error, and either the list is complete (the onset is its
+        smallest solution, or there is none below the cap) or the smallest proven solution's enclosure
+        ends below every open node (``open_from``)."""
         if self.errors:
             return False
         on = self.onset

@@ -39,6 +39,7 @@ class ReducedSpace:
     d_local: np.ndarray       # diagonal of D on the owned kept DOFs
 
     def destroy(self) -> None:
+        """Destroy the PETSc index set of the kept DOFs."""
         self.kept.destroy()
 
 

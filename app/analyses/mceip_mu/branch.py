@@ -75,6 +75,9 @@ class Tree:
 
     def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open", tag: str = "",
             F: tuple[int, ...] = ()) -> tuple[prooflog.Node, bool]:
+        """The node of the family ``F <= P <= U`` with mu in ``[a, b]``, and whether it is new: a node
+        already built with the same ``U``, ``F``, interval and ``tag`` is returned as it is (its kind and
+        children kept), so that a family is closed once."""
         U, F = tuple(sorted(U)), tuple(sorted(F))
         key = (U, F, a, b, tag)
         if key in self.memo:
@@ -354,6 +357,9 @@ class Prover(LeafTests):
         return out
 
     def log(self, onset_root, onset_below, all_roots, witness: Found | None) -> prooflog.ProofLog:
+        """The proof log of this pencil: the tree built so far with its roots (the onset claim's root and
+        the mu below which it says there is no solution, the roots of the complete list) and the
+        verified solution just above the onset, if one was found (``witness``)."""
         w = None if witness is None else {"U": list(witness.U), "mu": witness.mu, "h": witness.h,
                                           "x": [float(v) for v in witness.x]}
         return prooflog.ProofLog(self.s, self.cap, self.scale_exp, [list(p) for p in self.pairs], self.tree.nodes,

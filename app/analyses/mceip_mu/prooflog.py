@@ -45,6 +45,8 @@ class Node:
     M: list[list[float]] | None = None                     # rlt: the multiplier matrix (on U)
 
     def as_dict(self) -> dict:
+        """The node as JSON data (docs/proofs.md): its id, ``U``, ``a``, ``b``, kind and only the fields
+        its kind uses."""
         out = {"id": self.id, "U": self.U, "a": self.a, "b": self.b, "kind": self.kind}
         if self.F:
             out["F"] = self.F
@@ -66,6 +68,8 @@ class Node:
 
     @classmethod
     def from_dict(cls, d: dict, version: int = 2) -> "Node":
+        """The node read from :meth:`as_dict`'s data of format ``version`` (1: a leaf or pair node had no
+        ``F``, its forced set is then all of ``U``)."""
         U = [int(i) for i in d["U"]]
         kind = str(d["kind"])
         F = [int(i) for i in d.get("F", [])]
@@ -106,6 +110,7 @@ class ProofLog:
         self.nodes = [n for n in self.nodes if n.id in keep]
 
     def to_json(self) -> dict:
+        """The log as JSON data in the current format (:data:`FORMAT`, docs/proofs.md)."""
         return {"format": FORMAT, "s": self.s, "cap": self.cap, "scale_exp": self.scale_exp,
                 "pairs": [list(p) for p in self.pairs], "onset_root": self.onset_root,
                 "onset_below": self.onset_below, "all_roots": self.all_roots,
@@ -114,6 +119,7 @@ class ProofLog:
 
     @classmethod
     def from_json(cls, d: dict) -> "ProofLog":
+        """The log read from JSON data of a format in :data:`FORMATS_READ`; ValueError for any other."""
         if d.get("format") not in FORMATS_READ:
             raise ValueError(f"proof log format {d.get('format')!r}, expected one of {FORMATS_READ}")
         version = FORMATS_READ.index(d["format"]) + 1
@@ -123,6 +129,7 @@ class ProofLog:
                    d.get("bound"))
 
     def dumps(self) -> str:
+        """The log as compact JSON text (no spaces)."""
         return json.dumps(self.to_json(), separators=(",", ":"))
 
 
