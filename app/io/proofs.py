@@ -93,6 +93,8 @@ class StateCheck:
 
     @property
     def ok(self) -> bool:
+        """Whether the re-check agrees with results.json: every claim it makes (the proven onset, the
+        complete list) accepted by the checker, and its values inside the checker's enclosures."""
         return (self.onset_accepted or not self.onset_claimed) and (self.all_accepted or not self.all_claimed) \
             and self.values_match
 
