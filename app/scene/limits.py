@@ -26,6 +26,7 @@ class Estimate:
     memory_bytes: int
 
     def describe(self) -> str:
+        """The estimate in one line for the log: states, DOFs, contact nodes and memory in GiB."""
         return (f"pre-flight: at most {self.states} load states, {self.dofs} DOFs, {self.contact_nodes} contact "
                 f"nodes, memory estimate {self.memory_bytes / 2**30:.2g} GiB")
 

@@ -86,6 +86,10 @@ class EigSettings(Strict):
 
 
 class Settings(Strict):
+    """Solver settings: the tolerance of the node classification, the MCP search and SLEPc settings,
+    the enumeration's size limit and problems, the MCEIP-mu method and the resource limits checked
+    before any work."""
+
     classify_rtol: Annotated[float, Field(gt=0, lt=1)] = 1e-8
     mcp: McpSettings = McpSettings()
     eig: EigSettings = EigSettings()
@@ -267,6 +271,7 @@ class Outputs(Strict):
 
     @property
     def any(self) -> bool:
+        """Something is asked for: fields (ParaView files or screenshots), plots or the report."""
         return self.fields or self.plots or self.report
 
 
