@@ -20,10 +20,10 @@ MARKERS = {  # legend label, colour
 }
 
 def import_pyvista():
-    # Off screen, with no X server: pick EGL directly when there is no display (VTK would try X first
-    # and print a warning before falling back).
     """pyvista, set to draw off screen (with EGL when there is no display, so that VTK neither tries X
     first nor warns)."""
+    # Off screen, with no X server: pick EGL directly when there is no display (VTK would try X first
+    # and print a warning before falling back).
     if not os.environ.get("DISPLAY"):
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv

@@ -90,6 +90,7 @@ class System:
 
     @property
     def n_dofs(self) -> int:
+        """Number of DOFs of the system (the global size of ``K``)."""
         return self.K.getSize()[0]
 
     def mass(self) -> PETSc.Mat:
@@ -116,6 +117,8 @@ class System:
         self.destroy()
 
     def destroy(self) -> None:
+        """Destroy the system's PETSc objects: a builder's factorisation and operators, the objects it
+        handed over (``extra["owned"]``), ``K`` and the mass matrix if it was built."""
         for name in ("flexibility", "operators"):   # a builder's factorisation and operators (its K is self.K)
             obj = self.extra.get(name)
             if obj is not None and hasattr(obj, "destroy"):

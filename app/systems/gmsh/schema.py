@@ -156,6 +156,8 @@ class Obstacle(StrictModel):
         return (np.asarray(xy) - np.array(self.point)) @ self.frame()[0]
 
     def describe(self) -> str:
+        """The obstacle in words for messages: the line's point and outward normal of the body, or the
+        circle or curve as its geometry describes itself."""
         if self.type != "line":
             return "obstacle " + self.geometry().describe()
         return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
@@ -332,6 +334,8 @@ class GmshBody(StrictModel):
         return self
 
     def material_of(self, surface: str) -> Material:
+        """The material of the physical surface ``surface``: the one ``material``, or that surface's
+        entry of ``materials``."""
         return self.material if self.material is not None else self.materials[surface]
 
     @classmethod
