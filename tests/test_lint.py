@@ -1,4 +1,4 @@
-"""Static checks: ruff (pyflakes, import order, docstrings of the public API; configured in
+"""Static checks: ruff (pyflakes, import order, docstrings of every module of app/; configured in
 pyproject.toml), no import cycle between the modules of app/, the layout of app/ (one folder per
 stage of the data flow, imports only down the stages) and the size limits of modules and functions."""
 from __future__ import annotations

@@ -112,6 +112,9 @@ class BorderedMcp:
         return self.tbar + self.sigma * zeta
 
     def residual(self, snes, X: PETSc.Vec, F: PETSc.Vec) -> None:
+        """SNES function: ``F(z) = ((A0 + t A1) x, sum(x_c) - c)`` at ``z = (x, zeta)``, with
+        ``t = t_bar + sigma * zeta``; the last row, the normalisation of ``x_c``, lives on the last
+        rank (MPI collective)."""
         t = self._split(X)
         xa = X.getArray(readonly=True)
         csum = float(np.sum(xa[self.comp_local]))
@@ -123,6 +126,9 @@ class BorderedMcp:
             fa[-1] = csum - self.c
 
     def jacobian(self, snes, X: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
+        """SNES Jacobian: ``P`` assembled as ``[A0 + t A1, sigma A1 x]`` with, on the last rank, the
+        border row (ones on the complementarity columns, 0 on ``zeta``); ``P`` is the matrix ``J`` the
+        SNES was given (MPI collective)."""
         t = self._split(X)
         vals = np.empty(self.nvals + (len(self.comp) + 1 if self.is_last else 0))
         vals[self.pos_main] = self.V0 + t * self.V1
@@ -372,6 +378,8 @@ class BorderedMcp:
                            pattern_residual=pres, pattern_verified=bool(verified))
 
     def destroy(self) -> None:
+        """Destroy the PETSc objects of the problem: the kept factorisations of ``A_ff(t)``, the free
+        blocks, the Jacobian and the work vectors (collective)."""
         for pair in self._lifts.values():
             for obj in pair:
                 obj.destroy()

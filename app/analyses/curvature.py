@@ -44,6 +44,7 @@ class CurvedClassification(Classification):
     """A classification on a curved obstacle: also ``geometric[i] = kappa_i P_i`` (0 off the
     slip nodes) and the contact frames of the slip and zero-reaction nodes (``frames[i]``,
     identity elsewhere: free and stick nodes' frames change no answer)."""
+
     geometric: tuple[float, ...] = ()
     frames: tuple[tuple[float, float, float, float], ...] = ()
 
@@ -63,6 +64,8 @@ class CurvedClassification(Classification):
 
 
 def is_curved(cls: Classification) -> bool:
+    """Whether the classification is of a state on a curved obstacle (:class:`CurvedClassification`,
+    whose pencils carry the curvature terms ``G``)."""
     return isinstance(cls, CurvedClassification)
 
 

@@ -28,6 +28,7 @@ from app.systems.base import System
 class QuadraticSplitPencil:
     """Dense split pencil ``A0 + mu A1 + mu^2 A2`` with zero-reaction nodes; fields as
     :class:`app.analyses.pencils.SplitPencil` (``pairs``: the ``(a, b)`` halves of each zero node)."""
+
     A0: np.ndarray
     A1: np.ndarray
     A2: np.ndarray

@@ -31,6 +31,7 @@ from app.analyses.enumerate import PatternSolution, enumerate_patterns, pencil_s
 @dataclass
 class Candidate:
     """One exact solution found by the search, with the evidence of the run(s) that found it."""
+
     exact: PatternSolution
     newton_value: float
     newton_residual: float      # |Phi| at the end of the run (scaled pencil)
@@ -38,6 +39,9 @@ class Candidate:
     found_by: list[str] = field(default_factory=list)
 
     def as_dict(self, comp: np.ndarray) -> dict:
+        """The exact solution's record (:meth:`app.analyses.enumerate.PatternSolution.as_dict`) with
+        the Newton evidence: iterations, final residual, the labels of the first 8 starts that found
+        it and their count."""
         d = self.exact.as_dict(comp)
         d.update({"iterations": int(self.iterations), "newton_residual": float(self.newton_residual),
                   "found_by": self.found_by[:8], "found_count": len(self.found_by)})
@@ -46,6 +50,10 @@ class Candidate:
 
 @dataclass
 class DenseSearchReport:
+    """What a dense search did: the candidates found (exact solutions, by value), the number of
+    starts, of converged runs and of converged runs whose support gave no exact solution, the wall
+    time in seconds and a note on the method (a search, not a proof)."""
+
     candidates: list[Candidate]
     starts: int
     converged: int

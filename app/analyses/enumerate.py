@@ -29,6 +29,10 @@ from app.linalg import one_blas_thread
 
 
 class TooManySlipNodes(Exception):
+    """An enumeration refused as too large (more slip nodes than ``settings.enumerate_max_slip``,
+    or a full-size pencil too large to be dense); the message says which, and the caller records
+    the problem as not enumerated."""
+
     pass
 
 
@@ -44,6 +48,7 @@ BATCH_ELEMENTS = 2_000_000
 @dataclass
 class PatternSolution:
     """One exact solution of (25)-(26): the eigenpair of one support with its sign margins."""
+
     value: float
     x: np.ndarray               # restricted-space vector (free + all complementarity), x_c sums to 1
     support: np.ndarray         # bool over the complementarity unknowns: True = slip (x > 0)
@@ -55,6 +60,9 @@ class PatternSolution:
     min_y_all: float = 0.0        # min y_c / scale over all complementarity unknowns (evidence)
 
     def as_dict(self, comp: np.ndarray) -> dict:
+        """The solution as reported in the results: value, ``x_Ts`` (the complementarity part of ``x``,
+        positions ``comp``), the slip/stick pattern, residual, complementarity, the sign margins of
+        (26) relative to the pencil's scale and ``ill_conditioned``."""
         xc = self.x[comp]
         return {"value": float(self.value), "x_Ts": [float(v) for v in xc],
                 "pattern": ["slip" if b else "stick" for b in self.support],

@@ -1,4 +1,4 @@
-"""The branch and bound that proves the quadratic MCEIP-mu of a curved obstacle beyond the reach of
+r"""The branch and bound that proves the quadratic MCEIP-mu of a curved obstacle beyond the reach of
 the per-support proof (docs/method.md section 8, paper eqs. (21)-(23) condensed on the slip nodes).
 
 A node is a family ``F <= P <= U`` of supports with mu in ``[a, b]``, the root every support on
@@ -7,13 +7,13 @@ A node is a family ``F <= P <= U`` of supports with mu in ``[a, b]``, the root e
 lifting of ``mu^2``, with ``D = I`` or a Perron-like scaling; a Farkas vector found by an LP;
 nonsingularity of ``A_UU`` when ``F = U``), or, when ``F = U = J``, is a *leaf* decided exactly by
 the per-support proof. A node nothing closes is split: its interval halved while it is wide,
-else on an index ``i`` of ``U \\ F`` (``i`` out of the support, or forced in) where the smallest
+else on an index ``i`` of ``U \ F`` (``i`` out of the support, or forced in) where the smallest
 eigenvector of ``sym(A_UU)`` at the midpoint is largest. Nodes are explored lowest ``a`` first, so
 a time budget leaves the nodes of high mu open and the onset is proven first.
 
 Zero-reaction nodes (``pairs``: the halves ``(a, b)`` of a split tangential rate, whose columns
 are opposite, so no test can close a family holding both): a family with a pair inside
-``U \\ F`` is split on it first, ``(U \\ {a}, F)`` and ``(U \\ {b}, F + {a})``, and every forced
+``U \ F`` is split on it first, ``(U \ {a}, F)`` and ``(U \ {b}, F + {a})``, and every forced
 index drops its partner from ``U``, as in the linear engine (:mod:`app.analyses.mceip_mu.branch`);
 a family whose ``F`` holds a pair is closed as ``pair``.
 
@@ -54,6 +54,7 @@ MAX_NODES = 400_000
 @dataclass
 class BBProof:
     """The checker's verdict on the log, in the fields of the per-support proof."""
+
     report: Report
     cap: float
     log: dict
@@ -64,18 +65,23 @@ class BBProof:
 
     @property
     def proven(self) -> bool:
+        """Whether the checker accepted the complete list of solutions in ``[0, cap]``."""
         return self.report.complete
 
     @property
     def onset_proven(self) -> bool:
+        """Whether the checker proved the onset (the smallest solution, or none below the cap)."""
         return self.report.onset_proven
 
     @property
     def solutions(self):
+        """The solutions the checker proved: enclosures of mu with their supports, lowest first."""
         return self.report.solutions
 
     @property
     def onset(self):
+        """The proven solution whose enclosure starts lowest (None without one); the onset only when
+        :attr:`onset_proven`."""
         return self.report.onset
 
 
@@ -188,7 +194,7 @@ class _Tree:
         return np.minimum(r.x[:s], ub[:s])
 
     def _pair_inside(self, U, F):
-        """A pair with both halves in ``U \\ F``, else None."""
+        r"""A pair with both halves in ``U \ F``, else None."""
         free = set(U) - set(F)
         return next((p for p in self.pairs if p[0] in free and p[1] in free), None)
 

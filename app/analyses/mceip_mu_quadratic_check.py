@@ -1,4 +1,4 @@
-"""The trusted kernel and the independent checker of the quadratic MCEIP-mu branch and bound.
+r"""The trusted kernel and the independent checker of the quadratic MCEIP-mu branch and bound.
 
 Problem (paper eqs. (21)-(23) condensed on the slip nodes, docs/method.md section 8): ``mu`` in
 ``[0, cap]``, ``v >= 0``, ``v != 0``, ``y = A(mu) v >= 0``, ``v_i y_i = 0``, with
@@ -29,7 +29,7 @@ tangential rate, whose columns must be exact negatives in the pencil (verified:
 :func:`app.analyses.mceip_mu_quadratic_proof.pairs_hold`); no support needs both, so a node whose
 ``F`` holds a pair is closed (``pair``), a ``leaf`` whose support holds one has nothing to decide,
 and a ``branch`` on ``i`` may drop ``i``'s partner from the child that forces ``i``
-(``(U \\ partners(i), F + {i})``), as the linear engine's checker accepts
+(``(U \ partners(i), F + {i})``), as the linear engine's checker accepts
 (:mod:`app.analyses.mceip_mu.checker`).
 
 :func:`check_log` re-verifies a whole proof log from the pencil (this module does not import
@@ -125,6 +125,7 @@ def nonsingular_closes(a0, a1, a2, U, a: float, b: float) -> bool:
 class Report:
     """What the checker accepts: the proven solutions (union of the leaves), the open nodes'
     intervals, the errors (any error: nothing is accepted)."""
+
     errors: list[str] = field(default_factory=list)
     solutions: list = field(default_factory=list)
     open_from: float = np.inf                 # every solution below this mu is in ``solutions``
@@ -134,6 +135,8 @@ class Report:
 
     @property
     def complete(self) -> bool:
+        """Whether the list is complete: no error and no open node, so every solution in ``[0, cap]`` is
+        in ``solutions``."""
         return not self.errors and self.open_from == np.inf
 
     @property
@@ -144,6 +147,9 @@ class Report:
 
     @property
     def onset_proven(self) -> bool:
+        """Whether the onset is proven: no error, and either the list is complete (the onset is its
+        smallest solution, or there is none below the cap) or the smallest proven solution's enclosure
+        ends below every open node (``open_from``)."""
         if self.errors:
             return False
         on = self.onset

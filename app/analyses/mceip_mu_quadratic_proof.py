@@ -50,6 +50,9 @@ PREC = 256          # bits of the ball arithmetic at the roots
 
 @dataclass
 class ProvenSolution:
+    """A solution of the quadratic MCEIP-mu proven exactly: its mu (the midpoint of the enclosure),
+    the rigorous enclosure of mu (rounded outwards to doubles) and its support ``J``."""
+
     value: float                      # midpoint of the enclosure
     enclosure: tuple[float, float]    # rigorous (rounded outwards to doubles)
     support: tuple[int, ...]
@@ -57,6 +60,10 @@ class ProvenSolution:
 
 @dataclass
 class QuadraticProof:
+    """The per-support proof on ``[0, cap]``: ``proven`` when every support was decided (the list of
+    solutions is then complete), the proven solutions by enclosure, the undecided supports with the
+    reason, the number of supports examined and the wall time in seconds."""
+
     proven: bool                      # every support decided: the list in [0, cap] is complete
     cap: float
     solutions: list[ProvenSolution] = field(default_factory=list)
@@ -66,6 +73,8 @@ class QuadraticProof:
 
     @property
     def onset(self) -> ProvenSolution | None:
+        """The proven solution whose enclosure starts lowest (None without one); the onset only when
+        :attr:`proven` (an undecided support may hide a lower one)."""
         return min(self.solutions, key=lambda p: p.enclosure[0]) if self.solutions else None
 
 
@@ -109,6 +118,7 @@ def structural_zeros(M0, M1, M2, J, pairs) -> np.ndarray:
 
 
 def exact(v: float):
+    """The double ``v`` as the exact rational number it stores (a FLINT ``fmpq``)."""
     import flint
     return flint.fmpq(*float(v).as_integer_ratio())
 

@@ -15,6 +15,7 @@ from app.analyses.outcomes import Solution
 @dataclass
 class McpSolution:
     """One solution of an MCEIP, with the evidence that it is one."""
+
     value: float
     x_c: np.ndarray             # complementarity block x_Ts, normalised to sum 1
     pattern: list[str]          # "slip" where x_c > 0, "stick" where x_c = 0
@@ -46,6 +47,7 @@ class McpSolution:
 @dataclass
 class SearchReport:
     """All distinct solutions found and how the search was bounded."""
+
     problem: str
     solutions: list[McpSolution]
     attempts: int = 0

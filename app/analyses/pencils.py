@@ -31,6 +31,7 @@ class UnsupportedState(Exception):
 @dataclass
 class ReducedSpace:
     """Kept DOFs of a classified state and where the slip nodes' x_Ts sit among them."""
+
     kept: PETSc.IS            # system DOFs kept (owned part on each rank), ascending
     n: int                    # global number of kept DOFs (N* of the paper)
     comp: np.ndarray          # global positions of x_Ts in the kept numbering, slip-node order
@@ -38,6 +39,7 @@ class ReducedSpace:
     d_local: np.ndarray       # diagonal of D on the owned kept DOFs
 
     def destroy(self) -> None:
+        """Destroy the PETSc index set of the kept DOFs."""
         self.kept.destroy()
 
 
@@ -231,6 +233,7 @@ def condensed_mu_pencil(Sc: np.ndarray, cls: Classification) -> tuple[np.ndarray
 @dataclass
 class SplitPencil:
     """Dense pencil (A0, A1) with zero-reaction nodes; x = (x_f, x_c), x_c complementarity block."""
+
     A0: np.ndarray
     A1: np.ndarray
     comp: np.ndarray                 # positions of x_c in x

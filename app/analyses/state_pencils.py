@@ -52,6 +52,7 @@ class StatePencils:
 
     @property
     def space(self):
+        """The kept DOFs of the state (:func:`app.analyses.pencils.reduced_space`), built on first use."""
         if self._space is None:
             with self.system.stages("reduced pencils"):
                 self._space = reduced_space(self.system, self.cls)
@@ -75,6 +76,7 @@ class StatePencils:
         return self._K
 
     def M(self):
+        """``(M0, M1)``, the reduced mass pencil ``M* = M0 + mu M1`` of (15)-(16), built on first use."""
         if self._M is None:
             self._M = self._reduced(self.system.mass())
         return self._M
@@ -101,6 +103,9 @@ class StatePencils:
             return curvature.condensed_quadratic(Sc, self.cls)
 
     def condensed_mu(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(A0, A1)``: the condensed MCEIP-mu pencil ``A0 + mu A1`` on the slip nodes (21)-(23), built on
+        first use from the contact Schur complement; RuntimeError on a curved obstacle, whose
+        condensed pencil is quadratic (:meth:`condensed_mu_quadratic`)."""
         if curvature.is_curved(self.cls):
             raise RuntimeError("the condensed pencil of a curved obstacle is quadratic in mu: use condensed_mu_quadratic")
         if self._cond is None:
@@ -110,6 +115,8 @@ class StatePencils:
         return self._cond
 
     def destroy(self):
+        """Destroy every PETSc object built: the reduced pencils, the ``star`` pencils and the kept
+        DOFs."""
         for pair in (self._K, self._M, *self._star.values()):
             if pair is not None:
                 for m in pair:

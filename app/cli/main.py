@@ -126,6 +126,9 @@ def _write_error(err: BaseException) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line with ``argv`` (default ``sys.argv[1:]``; PETSc options such as
+    ``-ksp_view`` are split off and applied around the run) and return the exit status: 0 success,
+    2 a user mistake, 3 some states failed, 4 the results could not be written."""
     if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
         # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -72,9 +72,14 @@ def _caller(depth: int = 3) -> tuple[str, str, int]:
 @dataclass
 class Recorder:
     """The distinct warnings seen, in order, with their counts."""
+
     seen: dict[tuple, dict] = field(default_factory=dict)
 
     def add(self, category: type, message: str, library_file: str, library_line: int) -> dict:
+        """Count one warning of ``category`` with ``message``, raised at ``library_file:library_line``
+        on behalf of the app function found on the stack, and return its record: ``category``,
+        ``message``, ``where`` (the app's file, line and function), ``library``, ``count`` and
+        ``explanation`` (from :data:`KNOWN`, None for an unknown warning)."""
         where, function, line = _caller()
         key = (category.__name__, message, where, function)
         rec = self.seen.get(key)
@@ -87,6 +92,7 @@ class Recorder:
         return rec
 
     def as_list(self) -> list[dict]:
+        """Copies of the records, in the order the warnings were first seen."""
         return [dict(r) for r in self.seen.values()]
 
 

@@ -23,6 +23,9 @@ class _Filter(logging.Filter):
 
 
 def setup_logging(level_name: str = "WARNING", rank: int = 0) -> None:
+    """Log to stderr at ``level_name`` (``"DEBUG"``, ``"INFO"``, ...) on rank 0 and at WARNING and
+    above, prefixed ``[rank N]``, on the other ranks; other libraries' records below WARNING are
+    shown only at DEBUG. Replaces the root logger's handlers."""
     level = getattr(logging, str(level_name).upper())
     app_level = level if rank == 0 else max(level, logging.WARNING)
     handler = logging.StreamHandler(sys.stderr)

@@ -179,6 +179,9 @@ class Progress:
         self.interval = interval
 
     def bar(self, total: int, desc: str, unit: str = "state"):
+        """A progress bar of ``total`` items (``unit``) named ``desc``, with ``update(n)`` and
+        ``close()``: tqdm on a terminal, a plain line at most every ``interval`` seconds otherwise, and
+        nothing on ranks other than 0 or when disabled."""
         if not self.enabled:
             return _Null()
         stream = self.stream or sys.stderr

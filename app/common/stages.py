@@ -12,11 +12,14 @@ log = logging.getLogger(__name__)
 @dataclass
 class Stages:
     """Ordered record of named stages; a stage run several times is summed and counted."""
+
     records: dict[str, dict] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
     @contextlib.contextmanager
     def __call__(self, name: str):
+        """Time the block of a ``with`` as the stage ``name``: its wall time is added to the stage's
+        record (made on first use) and its count incremented, also when the block raises."""
         t0 = time.perf_counter()
         try:
             yield
@@ -28,7 +31,10 @@ class Stages:
             log.debug("stage '%s': %.3f s", name, dt)
 
     def ran(self, name: str) -> bool:
+        """Whether a stage called ``name`` has run."""
         return name in self.records
 
     def as_list(self) -> list[dict]:
+        """Copies of the records in the order the stages first ran, ``{"name", "seconds", "count"}``
+        each (results.json "stages")."""
         return [dict(r) for r in self.records.values()]

@@ -87,6 +87,7 @@ def number_kind(tp: Any) -> str | None:
 
 class Strict(BaseModel):
     """Frozen scene section that forbids unknown keys and refuses booleans where numbers are expected."""
+
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
 
     @model_validator(mode="before")

@@ -174,6 +174,8 @@ class FolderLock:
         return f"cannot lock {self.path}: it keeps being replaced"
 
     def release(self) -> None:
+        """Unlock: close the lock file, and remove it first if this run created it (a no-op when not
+        held)."""
         if self._fd is not None:
             if self._created:
                 try:

@@ -81,6 +81,7 @@ def write_proofs(results: dict, outdir: pathlib.Path, written_one=None) -> list[
 @dataclass
 class StateCheck:
     """The re-check of one stored proof against results.json."""
+
     state: int
     s: int
     onset_claimed: bool
@@ -92,6 +93,8 @@ class StateCheck:
 
     @property
     def ok(self) -> bool:
+        """Whether the re-check agrees with results.json: every claim it makes (the proven onset, the
+        complete list) accepted by the checker, and its values inside the checker's enclosures."""
         return (self.onset_accepted or not self.onset_claimed) and (self.all_accepted or not self.all_claimed) \
             and self.values_match
 

@@ -20,6 +20,8 @@ def _plain(sel):
 
 
 def describe(sel) -> str:
+    """The selector of ``outputs.states`` in words, e.g. "state 3", "final state" or "first state
+    with 2 slip"."""
     sel = _plain(sel)
     if isinstance(sel, dict):
         return "first state with " + ", ".join(f"{v} {k}" for k, v in sel.items())

@@ -30,6 +30,9 @@ def proof_word(analysis: dict) -> str:
 
 
 def summary(results: dict, outdir: pathlib.Path) -> str:
+    """The summary of a study from its results dictionary: the path, the first state where MCEIP-mu
+    has a solution, the final state's analyses with what is proven, the warnings, failures, wall
+    time per stage and the files written in ``outdir``."""
     states = results["states"]
     lines = [f"scene '{results['scene']}': {results['system']}",
              f"  {len(states)} equilibrium state(s), {results['distinct_classifications']} distinct "

@@ -20,6 +20,7 @@ FREE, ZERO, STICK, SLIP = "free", "zero", "stick", "slip"
 @dataclass(frozen=True)
 class Classification:
     """Status and slip sign of every contact node; hashable so analyses can be shared."""
+
     status: tuple[str, ...]
     signs: tuple[int, ...]
 
@@ -29,20 +30,27 @@ class Classification:
         return self.status, tuple(s if st == SLIP else 0 for s, st in zip(self.signs, self.status))
 
     def indices(self, status: str) -> np.ndarray:
+        """Indices of the contact nodes of ``status`` (``free``, ``zero``, ``stick`` or ``slip``),
+        ascending."""
         return np.array([i for i, s in enumerate(self.status) if s == status], dtype=np.int64)
 
     @property
     def slip(self) -> np.ndarray:
+        """Indices of the slip nodes, ascending."""
         return self.indices(SLIP)
 
     @property
     def slip_signs(self) -> np.ndarray:
+        """Slip signs ``S`` of the slip nodes (+1 or -1), in the order of :attr:`slip`."""
         return np.array([self.signs[i] for i in self.slip], dtype=float)
 
     def counts(self) -> dict[str, int]:
+        """Number of contact nodes of each status."""
         return {s: self.status.count(s) for s in (FREE, ZERO, STICK, SLIP)}
 
     def label(self) -> str:
+        """The counts in words, ``"12 stick / 4 slip / 3 free"``, with ``" / 1 zero"`` when some node
+        is zero."""
         c = self.counts()
         return f"{c[STICK]} stick / {c[SLIP]} slip / {c[FREE]} free" + (f" / {c[ZERO]} zero" if c[ZERO] else "")
 

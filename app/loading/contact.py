@@ -29,6 +29,11 @@ from app.linalg import configure_direct, from_options, one_blas_thread, owned, s
 
 @dataclass
 class IncrementResult:
+    """One contact increment, per contact node in its contact frame (paper axes): displacements
+    ``u_T``, ``u_N`` (``u_N = -g``, minus the gap), reactions ``r_T``, ``r_N``, the slip increment
+    ``d`` since the previous state; the solver's iterations and method, the largest violation of
+    (1)-(2) relative to the reaction scale, and the solver's own records (``extra``)."""
+
     u_T: np.ndarray
     u_N: np.ndarray
     r_T: np.ndarray
@@ -41,6 +46,10 @@ class IncrementResult:
 
 
 class ContactSolveError(RuntimeError):
+    """A contact increment that no solver run brought to the conditions (1)-(2) (on a curved
+    obstacle also: one whose exact geometry breaks them, or a node slid past an end of the curve);
+    the loading path ends there, with the message as its failure."""
+
     pass
 
 

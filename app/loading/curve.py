@@ -102,6 +102,8 @@ class SmoothCurve:
         return C.chebval(xi[:, None], np.moveaxis(coef[j], 1, 0), tensor=False)   # (n, 2)
 
     def value(self, s):
+        """Points ``p(s)`` of the curve at the parameters ``s``, shape (n, 2) (``s`` taken modulo ``P``
+        on a closed curve)."""
         return self._eval(self.c0, np.atleast_1d(s))
 
     def _check_smooth(self, corner_rad: float) -> None:
@@ -234,6 +236,8 @@ class SmoothCurve:
         return self.value(np.linspace(0.0, float(self.P), self.P * per_panel + 1))
 
     def describe(self) -> str:
+        """The curve in words for messages: its name, panels, length, range of signed curvature for the
+        body's side, and that side."""
         k = self.sign * self._signed_curvature_range()
         return (f"curve '{self.name}' of the Gmsh file ({self.P} panels, length {self.cum[-1]:.6g}, curvature "
                 f"{min(k):.4g} to {max(k):.4g}), body on its {self.side}")

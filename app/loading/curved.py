@@ -66,6 +66,7 @@ class Circle:
 
     @property
     def curvature(self) -> float:
+        """Signed curvature ``kappa``: ``-1/R`` with the body outside, ``+1/R`` inside."""
         return -self.sign / self.R
 
     @property
@@ -106,6 +107,8 @@ class Circle:
         return (-self.sign) * self.R * self._polar(x)[0]
 
     def describe(self) -> str:
+        """The circle in words for messages: centre, radius and the body's side (convex cylinder or
+        concave bore)."""
         return (f"circle, centre ({self.c[0]:.6g}, {self.c[1]:.6g}), radius {self.R:.6g}, body {self.side} "
                 f"({'convex cylinder' if self.side == 'outside' else 'concave bore'})")
 
@@ -133,6 +136,8 @@ class CurvedContact:
         self.reach = float(np.max(np.abs(self.X - obstacle.anchor)))     # size of the positions the gaps are computed from
 
     def positions(self, u: np.ndarray) -> np.ndarray:
+        """Node positions ``x = X + t0 u_T + n0 u_N`` for the contact displacements ``u`` (interleaved
+        T, N in the system frames), shape (n, 2)."""
         return self.X + np.outer(u[0::2], self.t0) + np.outer(u[1::2], self.n0)
 
     def frame_matrix(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -150,6 +155,12 @@ class CurvedContact:
 
     def solve(self, u0: np.ndarray, u_T_prev: np.ndarray, g_prev: np.ndarray,
               d_prev: np.ndarray | None = None) -> IncrementResult:
+        """The increment for the load's contact displacements ``u0`` (r = 0, system frames) from the
+        previous displacements ``(u_T_prev, -g_prev)``: linearisations of the exact gap, each solved as
+        the flat problem, until the iterate stops moving, then the exact conditions checked at the final
+        contact points (module docstring). ``d_prev`` is taken for the flat solver's signature and not
+        used. Raises :class:`ContactSolveError` when the linearisations do not converge within
+        :data:`MAX_LINEARISATIONS` or the exact conditions fail."""
         n = self.n
         u_prev = np.ravel(np.column_stack([u_T_prev, -np.asarray(g_prev)]))
         x_prev = self.positions(u_prev)
@@ -255,4 +266,6 @@ class CurvedContact:
                                     "curve's end, a corner this model does not include (extend the curve)")
 
     def destroy(self) -> None:
+        """Nothing to free (each linearisation's flat solver is freed with its increment); kept for the
+        calling convention of :class:`FrictionalContact`."""
         pass

@@ -34,6 +34,7 @@ def contact_entries(v: PETSc.Vec, dofs: np.ndarray, signs: np.ndarray) -> np.nda
 @dataclass
 class ContactFlexibility:
     """Contact flexibility in the paper's axes, order (T_0, N_0, T_1, N_1, ...)."""
+
     W: np.ndarray                 # u_c = u0x gx + u0y gy + W r   [mm/N]
     u0x: np.ndarray               # contact displacements for a unit gx with r = 0 [mm/mm]
     u0y: np.ndarray

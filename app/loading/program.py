@@ -34,6 +34,7 @@ class ProgramError(Exception):
 @dataclass
 class ProgramPhase:
     """A phase in parameter form: increment ``da`` of the load parameters in ``steps`` steps."""
+
     name: str
     steps: int
     da: np.ndarray                        # the increment (with ``normal_force``: the part it scales, the motions)

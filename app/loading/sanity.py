@@ -1,4 +1,4 @@
-"""Physical sanity of a loading path: is small-strain linear elasticity still valid?
+"""Physical sanity of a loading path: whether small-strain linear elasticity still holds.
 
 The app's model is linear elasticity with small strains (docs/method.md section 1). A path whose
 displacements are comparable to the body, or whose nominal strains exceed a few percent, is

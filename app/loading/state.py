@@ -13,6 +13,7 @@ class EquilibriumState:
     Paper convention: ``u_N <= 0`` (no penetration), ``r_N <= 0`` (compression),
     ``|r_T| <= -mu r_N``.
     """
+
     index: int
     load: dict
     u_T: np.ndarray

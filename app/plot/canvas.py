@@ -20,6 +20,8 @@ MARKERS = {  # legend label, colour
 }
 
 def import_pyvista():
+    """pyvista, set to draw off screen (with EGL when there is no display, so that VTK neither tries X
+    first nor warns)."""
     # Off screen, with no X server: pick EGL directly when there is no display (VTK would try X first
     # and print a warning before falling back).
     if not os.environ.get("DISPLAY"):
@@ -60,6 +62,8 @@ class FieldData:
         self.small = min(self.width, self.height) or self.size   # its smaller side (mode amplitude, strip depth)
 
     def grid(self, displacement: np.ndarray):
+        """The body as a pyvista grid of its P1 or P2 triangles (z = 0), each point moved by its row of
+        ``displacement`` (already scaled for the drawing)."""
         pv = import_pyvista()
         vtk_type = pv.CellType.TRIANGLE if self.cell_type == "triangle" else pv.CellType.QUADRATIC_TRIANGLE
         k = self.cells.shape[1]
@@ -68,6 +72,8 @@ class FieldData:
         return pv.UnstructuredGrid(conn, np.full(len(self.cells), vtk_type, dtype=np.uint8), pts)
 
     def mode(self, name: str) -> np.ndarray:
+        """The displacement of the mode named ``name`` at every point, shape (N, 2), normalised to
+        max |v| = 1."""
         names = [m["name"] for m in self.modes]
         return self.mode_v[names.index(name)]
 
@@ -110,6 +116,8 @@ def close_plotters() -> None:
 
 
 def font_size(res) -> int:
+    """Font size in points for a picture of ``res`` pixels: 11 at 1000 x 640, scaled by the smaller
+    of the two ratios, at least 8."""
     return max(8, int(round(11 * min(res[0] / 1000, res[1] / 640))))
 
 
@@ -246,6 +254,8 @@ def markers(pl, pts: np.ndarray, groups: dict[str, list[int]], size: float) -> l
 
 
 def text(pl, text: str, x: float, y: float, size: int, colour: str = "black") -> None:
+    """Write ``text`` at ``(x, y)`` in viewport coordinates (0 to 1) in ``size`` points, in the
+    TrueType font when there is one (:func:`truetype_font`)."""
     font = truetype_font()
     kw = {"font_file": font} if font else {}
     pl.add_text(text, position=(x, y), viewport=True, font_size=size, color=colour, **kw)
@@ -314,6 +324,8 @@ def _wrap(text: str, width: int) -> list[str]:
 
 
 def bar_args(title: str, fmt: str, res) -> dict:
+    """Keyword arguments of pyvista's horizontal colour bar titled ``title`` at the bottom centre,
+    labels formatted by ``fmt``, fonts scaled with the resolution (:func:`font_size`)."""
     fs = font_size(res)
     return {"title": title, "vertical": False, "position_x": 0.25, "position_y": 0.02, "width": 0.5,
             "height": 0.08, "color": "black", "fmt": fmt, "title_font_size": int(fs * 2.1),

@@ -24,10 +24,12 @@ PICTURE_STAGES = ("plots (matplotlib)", "screenshots (pyvista)", "report")
 
 
 def outputs_config(results: dict) -> dict:
+    """The scene's ``outputs`` section as stored in results.json (``scene_config``), empty if none."""
     return ((results.get("scene_config") or {}).get("outputs")) or {}
 
 
 def wants_pictures(results: dict) -> bool:
+    """Whether the scene's ``outputs`` ask for plots, screenshots or the report."""
     cfg = outputs_config(results)
     return bool(cfg.get("plots") or cfg.get("screenshots") or cfg.get("report"))
 

@@ -118,6 +118,9 @@ def _few_states(ax, idx: np.ndarray) -> None:
 
 
 def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """The contact status (stick, slip, free, zero) of every node at every state: one row per node at
+    its position along the contact line, states left to right; ``status_map.png`` and ``.svg`` in
+    ``outdir``, whose paths are returned."""
     plt = _plt()
     import matplotlib
     from matplotlib.collections import PolyCollection
@@ -173,6 +176,9 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
 
 
 def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Normal and tangential reactions along the contact at the ``pictured`` states (the final state
+    when none of them is a state of the results), with the Coulomb limits ``+-mu |r_N|`` and the slip
+    nodes marked; ``reactions.png`` and ``.svg`` in ``outdir``, whose paths are returned."""
     plt = _plt()
     by_index = {s["index"]: s for s in results["states"]}
     ids = [i for i in pictured if i in by_index] or [results["states"][-1]["index"]]
@@ -220,6 +226,9 @@ def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[
 
 
 def mceip_mu(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """MCEIP-mu along the loading: every value found and the smallest one at each state, the scene's
+    mu and the number of slip nodes; ``mceip_mu.png`` and ``.svg`` in ``outdir``, whose paths are
+    returned."""
     plt = _plt()
     states = results["states"]
     idx = np.array([s["index"] for s in states])
@@ -263,6 +272,9 @@ def mceip_mu(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
 
 
 def necessary(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """The necessary condition (19) along the loading: the smallest eigenvalue of sym K*(mu) at each
+    state, the states where (19) holds shaded, a note when sym M*(mu) is indefinite somewhere;
+    ``necessary.png`` and ``.svg`` in ``outdir``, whose paths are returned."""
     plt = _plt()
     states = results["states"]
     idx = np.array([s["index"] for s in states])

@@ -12,6 +12,10 @@ import sys
 
 
 def render_main(args) -> int:
+    """``python -m app render``: redraw the pictures of the results folder ``args.results`` on rank 0
+    (the other ranks return at once). Exit status 0 when drawn or nothing is asked for, 1 when a
+    picture failed, 2 when the folder is not one this app wrote or its results.json cannot be
+    used."""
     from mpi4py import MPI
 
     from app.common.logs import setup_logging

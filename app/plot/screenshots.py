@@ -45,6 +45,9 @@ PROBLEM_TITLE = {"mceip_mu": "MCEIP-\u03bc mode: \u03bc", "mceip_lambda2": "MCEI
 
 def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, path: pathlib.Path,
                   units: dict, scene: str) -> pathlib.Path:
+    """Screenshot of the body at ``state``, coloured by ``field`` (``von_mises`` per cell, else the
+    displacement magnitude), displacements drawn ``scale`` times, contact nodes marked by status;
+    written to ``path`` as a PNG of ``res`` pixels, which is returned."""
     k = fd.state_index.index(state["index"])
     u = fd.state_u[k]
     grid = fd.grid(scale * u)
@@ -79,6 +82,9 @@ def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, pat
 
 def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path, scene: str,
                  units: dict | None = None) -> pathlib.Path:
+    """Screenshot of the mode ``meta`` (an MCEIP solution at ``state``), drawn with its largest
+    displacement 12 % of the body's smaller side and coloured by magnitude; the slip nodes are marked
+    by whether they slip or stay stuck in the mode. Written to ``path``, which is returned."""
     v = fd.mode(meta["name"])
     amp = 0.12 * fd.small                        # max mode displacement drawn: 12 % of the smaller side
     grid = fd.grid(amp * v)

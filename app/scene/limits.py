@@ -19,12 +19,14 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Estimate:
     """Sizes of one study (upper bounds for the number of states: gross sliding may end it early)."""
+
     states: int
     dofs: int
     contact_nodes: int
     memory_bytes: int
 
     def describe(self) -> str:
+        """The estimate in one line for the log: states, DOFs, contact nodes and memory in GiB."""
         return (f"pre-flight: at most {self.states} load states, {self.dofs} DOFs, {self.contact_nodes} contact "
                 f"nodes, memory estimate {self.memory_bytes / 2**30:.2g} GiB")
 

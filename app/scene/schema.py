@@ -67,6 +67,7 @@ SCENE_FILE_MAX = 1 << 20   # bytes: larger scene files are refused unread
 
 class Scene(Strict):
     """A loading study: system, friction coefficient, loading and the analyses wanted."""
+
     name: Annotated[str, Field(min_length=1, max_length=NAME_MAX)]
     system: Annotated[Union[registered_schemas()], Field(discriminator="type")]
     mu: NonNegFloat

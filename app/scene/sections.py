@@ -18,6 +18,7 @@ from app.systems.schema import Limits, NonNegFloat, PosFloat
 
 class McpSettings(Strict):
     """Search settings for the MCPs of Propositions 1-2 (PETSc SNES VI)."""
+
     rtol: Annotated[float, Field(gt=0, lt=1)] = 1e-12
     max_it: Annotated[int, Field(ge=1, le=10000)] = 50
     stol: Annotated[float, Field(ge=0, lt=1)] = 1e-10
@@ -77,6 +78,7 @@ class McpSettings(Strict):
 
 class EigSettings(Strict):
     """SLEPc settings for the necessary and sufficient conditions."""
+
     dense_limit: Annotated[int, Field(ge=1, le=10_000)] = 500
     nev: Annotated[int, Field(ge=1, le=1000)] = 30
     tol: Annotated[float, Field(gt=0, lt=1)] = 1e-10
@@ -84,6 +86,10 @@ class EigSettings(Strict):
 
 
 class Settings(Strict):
+    """Solver settings: the tolerance of the node classification, the MCP search and SLEPc settings,
+    the enumeration's size limit and problems, the MCEIP-mu method and the resource limits checked
+    before any work."""
+
     classify_rtol: Annotated[float, Field(gt=0, lt=1)] = 1e-8
     mcp: McpSettings = McpSettings()
     eig: EigSettings = EigSettings()
@@ -141,6 +147,7 @@ class Sweep(Strict):
     """A batch of studies: the scene with ``parameters`` (dotted key paths into the scene, e.g.
     ``system.length``) set to each of their values; ``product`` runs every combination, ``zip``
     runs the i-th values together. Values: a list, or a range {start, stop, num|step}."""
+
     mode: Literal["product", "zip"] = "product"
     parameters: dict[str, list[Any]]
 
@@ -203,6 +210,7 @@ _STATE_ALLOWED = ("allowed: a state index (an integer >= 0), 'final', 'first_mce
 
 class StateCounts(Strict):
     """The first state whose node counts equal every count given, e.g. {stick: 2, slip: 15, free: 4}."""
+
     stick: Optional[Annotated[int, Field(ge=0)]] = None
     slip: Optional[Annotated[int, Field(ge=0)]] = None
     free: Optional[Annotated[int, Field(ge=0)]] = None
@@ -211,6 +219,7 @@ class StateCounts(Strict):
 
 class Screenshots(Strict):
     """Off-screen pyvista pictures of the body (app/plot/screenshots.py)."""
+
     resolution: tuple[Annotated[int, Field(ge=100, le=8192)], Annotated[int, Field(ge=100, le=8192)]] = (1200, 800)
     field: Literal["displacement", "von_mises"] = "von_mises"
     modes: bool = True               # also draw every divergence mode found at the pictured states
@@ -219,6 +228,7 @@ class Screenshots(Strict):
 
 class Outputs(Strict):
     """Files and pictures for people (app/io/, app/plot/); all off unless asked for."""
+
     paraview: bool = False           # XDMF time series of the states, VTU of the modes (systems with a mesh)
     plots: bool = False              # matplotlib PNG + SVG
     report: bool = False             # report.md
@@ -261,6 +271,7 @@ class Outputs(Strict):
 
     @property
     def any(self) -> bool:
+        """Something is asked for: fields (ParaView files or screenshots), plots or the report."""
         return self.fields or self.plots or self.report
 
 
@@ -274,6 +285,7 @@ def annotation_types(tp: Any) -> list:
 class Refinement(Strict):
     """A mesh-refinement study of a block scene (app/study/refinement.py): the scene at every mesh level
     (nx cells along AB, ny = nx * height / length), every degree and every plane model."""
+
     levels: Annotated[list[Annotated[int, Field(ge=1, le=4096)]], Field(min_length=2, max_length=50)]
     degrees: Annotated[list[Literal[1, 2]], Field(min_length=1, max_length=2)] = [1]
     planes: Annotated[list[Literal["stress", "strain"]], Field(min_length=1, max_length=2)] = ["stress"]

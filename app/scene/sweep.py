@@ -23,6 +23,10 @@ from app.scene.schema import Scene, SceneError, format_error, scene_context
 
 @dataclass(frozen=True)
 class Case:
+    """One case of a sweep: its position in the sweep, its folder name, the value of each swept key,
+    its validated scene and the hash of that scene (:func:`scene_hash`, which tells a restart
+    whether stored results are this case's)."""
+
     index: int
     name: str
     values: dict              # swept key -> value

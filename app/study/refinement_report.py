@@ -157,6 +157,9 @@ def fmt(v, digits: int = 6) -> str:
 
 
 def markdown(summary: dict) -> str:
+    """The text of refinement.md: per degree and plane model the table of levels (sizes, quantities
+    of interest, wall times) and the observed orders; per plane model the reference values and the
+    cheapest level reaching 10 %, 1 % and 0.1 %; why orders can be poor here; the levels skipped."""
     rows, conv = summary["rows"], summary["convergence"]
     units = summary["units"]
     length = units["length"]
@@ -213,6 +216,9 @@ def markdown(summary: dict) -> str:
 
 
 def plot(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Relative error of each quantity of interest against the wall time of its level, one series per
+    degree and plane model (log-log, points labelled with nx); writes ``refinement.png`` and
+    ``.svg`` in ``outdir`` and returns their paths."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -245,6 +251,8 @@ def plot(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
 
 
 def write_outputs(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """Write the study's ``refinement.csv`` (unit in each header), ``refinement.md``, the plots and
+    ``refinement.json`` (the whole summary) into ``outdir``; returns the paths written."""
     outdir.mkdir(parents=True, exist_ok=True)
     buf = io.StringIO()
     w = csv.writer(buf)

@@ -47,6 +47,7 @@ from app.study.taskfarm import run_farm, sleep_until
 
 
 def case_dir(outdir: pathlib.Path, case: Case) -> pathlib.Path:
+    """The results folder of ``case``: ``outdir/cases/<case name>``."""
     return outdir / "cases" / case.name
 
 
@@ -154,6 +155,8 @@ class Dispatcher:
                 f.write("\n")
 
     def log(self, event: str, case: Case | None = None, detail: str = "") -> None:
+        """Append one line to ``sweep.log``: a timestamp (milliseconds), the event, the case's name (``-``
+        for none) and ``detail``, separated by tabs."""
         stamp = datetime.datetime.now().isoformat(timespec="milliseconds")
         line = "\t".join([stamp, event, case.name if case else "-", detail]).rstrip("\t")
         with open(self.outdir / "sweep.log", "a", encoding="utf-8") as f:

@@ -115,6 +115,8 @@ def case_row(results: dict, case: Case, ran: str = "this run") -> dict:
 
 
 def error_row(case: Case, message: str, ran: str = "this run") -> dict:
+    """The sweep table's row of a case that failed: its name, index and swept values, every quantity
+    empty, status ``error: <message>`` and ``ran`` (``this run`` or ``earlier``)."""
     row: dict[str, Any] = {"case": case.name, "index": case.index}
     row.update({k: format_value(v) if isinstance(v, (list, tuple)) else v for k, v in case.values.items()})
     row.update({q: None for q, _ in QUANTITIES})

@@ -32,6 +32,7 @@ class SystemType:
     ``position_axis``: axis label of the contact nodes' ``x`` (``{length}``: the length unit),
     None when the nodes are only numbered.
     """
+
     name: str
     schema: type
     module: str

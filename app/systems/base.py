@@ -27,6 +27,7 @@ from app.common.stages import Stages
 @dataclass(frozen=True)
 class ContactNode:
     """A contact candidate node: its position along the contact side and its two DOFs."""
+
     id: int
     x: float
     dof_T: int
@@ -50,6 +51,7 @@ class FieldSource(Protocol):
     ``obstacle`` is the rigid line (``point``, ``normal``: the body's outward normal) or circle
     (``centre``, ``radius``, ``side``) when there is one.
     """
+
     V: object
     length_scale: float
     contact_xy: np.ndarray
@@ -72,6 +74,7 @@ class FieldSource(Protocol):
 @dataclass
 class System:
     """Elastic system with frictional contact candidates (paper eq. (3)-(7))."""
+
     comm: MPI.Comm
     K: PETSc.Mat
     nodes: list[ContactNode]
@@ -87,6 +90,7 @@ class System:
 
     @property
     def n_dofs(self) -> int:
+        """Number of DOFs of the system (the global size of ``K``)."""
         return self.K.getSize()[0]
 
     def mass(self) -> PETSc.Mat:
@@ -113,6 +117,8 @@ class System:
         self.destroy()
 
     def destroy(self) -> None:
+        """Destroy the system's PETSc objects: a builder's factorisation and operators, the objects it
+        handed over (``extra["owned"]``), ``K`` and the mass matrix if it was built."""
         for name in ("flexibility", "operators"):   # a builder's factorisation and operators (its K is self.K)
             obj = self.extra.get(name)
             if obj is not None and hasattr(obj, "destroy"):

@@ -32,6 +32,7 @@ FORMAT = 1          # layout of the saved arrays (bump when it changes)
 @dataclass(frozen=True)
 class MeshArrays:
     """What ``model_to_mesh`` hands to DOLFINx on the reading rank (gmsh node order in cells)."""
+
     x: npt.NDArray[np.float64]             # (N, 3) node coordinates, row i = gmsh node tag i + 1
     cells: npt.NDArray[np.int64]           # (C, k) the highest-dimensional elements
     cell_values: npt.NDArray[np.int32]     # (C,) their physical tags

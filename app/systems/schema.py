@@ -42,6 +42,7 @@ def base_dir(info: ValidationInfo | None) -> pathlib.Path:
 # system schemas read their files (matrices, Gmsh models) under these limits while a scene is validated.
 class Limits(Strict):
     """Resource limits checked before any work starts (app/scene/limits.py); raise them deliberately."""
+
     max_states: Annotated[int, Field(ge=1, le=10**9)] = Field(
         100_000, description="most load states (normal_steps + tangential_max / tangential_step)")
     max_dofs: Annotated[int, Field(ge=1, le=10**9)] = Field(2_000_000, description="most DOFs of the block mesh")

@@ -52,6 +52,7 @@ MARGIN = 1e-8
 class DynamicContact:
     """The eigen-decomposition of ``(K, M)`` seen from the contact DOFs (paper axes, order
     ``T_0, N_0, T_1, ...``), shared by every classification of one system."""
+
     omega2: np.ndarray            # eigenvalues of K Phi = M Phi Omega
     BP: np.ndarray                # contact rows of Phi, paper-axis signs
     Kcc: np.ndarray               # K and M on the contact DOFs, paper axes
@@ -61,6 +62,9 @@ class DynamicContact:
 
     @classmethod
     def from_dense(cls, K: np.ndarray, M: np.ndarray, dofs: np.ndarray, signs: np.ndarray) -> "DynamicContact":
+        """The decomposition from dense ``K`` and ``M`` (``scipy.linalg.eigh``: ``K`` symmetric, ``M`` SPD):
+        ``dofs`` the contact DOFs in the order ``T_0, N_0, T_1, ...`` and ``signs`` their paper-axis
+        signs; the time it took is kept in ``seconds``."""
         t0 = time.perf_counter()
         w, Phi = scipy.linalg.eigh(K, M)
         BP = signs[:, None] * Phi[dofs, :]

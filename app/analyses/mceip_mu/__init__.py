@@ -27,6 +27,7 @@ ENUMERATE_CANDIDATES_MAX = 12
 @dataclass
 class Solution:
     """A critical mu: support (slip nodes that keep slipping), enclosure, mode and margins."""
+
     value: float
     enclosure: tuple[float, float]     # proven to contain the exact critical mu (if ``proven``)
     support: np.ndarray                # bool over the s slip nodes
@@ -42,6 +43,7 @@ class Claim:
     """One of the two claims: ``onset`` (the smallest critical mu, or none below the cap) and
     ``all`` (every critical mu in ``[0, cap]``). ``interval``: the part of ``[0, cap]`` the claim
     is proven on (``[0, lower_bound]`` when unfinished)."""
+
     name: str
     proven: bool
     status: str
@@ -54,6 +56,7 @@ class Claim:
 @dataclass
 class MuProof:
     """The result of :func:`mceip_mu` for one pencil."""
+
     s: int
     cap: float
     onset: Claim

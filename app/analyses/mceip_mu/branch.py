@@ -1,4 +1,4 @@
-"""The branch and bound of the MCEIP-mu prover: the proof tree and how its nodes are closed or split.
+r"""The branch and bound of the MCEIP-mu prover: the proof tree and how its nodes are closed or split.
 
 A node is a family ``F <= P <= U`` of supports (``F`` forced, ``U`` allowed) with mu in ``[a, b]``:
 "no solution with such a support and such a mu other than the listed ones". It is closed by a
@@ -14,7 +14,7 @@ tried from the cheapest:
 * ``leaf`` (``F = U``, one exact support, paper eqs. (25)-(26)): :mod:`.leaves`.
 
 A family that no test closes is split: ``bisect`` (the interval halved, while it is wide) or
-``branch`` on an index ``i`` of ``U \\ F`` (``i`` out of the support, or forced into it), chosen
+``branch`` on an index ``i`` of ``U \ F`` (``i`` out of the support, or forced into it), chosen
 where the LP's relaxed point breaks complementarity most; pairs of zero-reaction halves first.
 The nodes are explored best first (lowest ``a``); :mod:`.prover` runs the two claims.
 """
@@ -69,11 +69,15 @@ LARGE_U = 64
 @dataclass
 class Tree:
     """The nodes built so far, with the memo ``(U, a, b) -> id``."""
+
     nodes: list[prooflog.Node] = field(default_factory=list)
     memo: dict = field(default_factory=dict)
 
     def add(self, U: tuple[int, ...], a: float, b: float, kind: str = "open", tag: str = "",
             F: tuple[int, ...] = ()) -> tuple[prooflog.Node, bool]:
+        """The node of the family ``F <= P <= U`` with mu in ``[a, b]``, and whether it is new: a node
+        already built with the same ``U``, ``F``, interval and ``tag`` is returned as it is (its kind and
+        children kept), so that a family is closed once."""
         U, F = tuple(sorted(U)), tuple(sorted(F))
         key = (U, F, a, b, tag)
         if key in self.memo:
@@ -226,8 +230,8 @@ class Prover(LeafTests):
         return False, relaxed
 
     def _split(self, n: prooflog.Node, relaxed) -> list[prooflog.Node]:
-        """Split an unclosed family: on a pair inside ``U \\ F`` first (each child then holds one
-        half), else on the index of ``U \\ F`` where the LP's relaxed point breaks complementarity
+        r"""Split an unclosed family: on a pair inside ``U \ F`` first (each child then holds one
+        half), else on the index of ``U \ F`` where the LP's relaxed point breaks complementarity
         most; by halving the interval when it is wide (more than ``WIDE_REL`` of its end, or of
         ``WIDE_FLOOR`` times the cap near 0) or when the relaxed point breaks no complementarity
         (it mixes the two ends of the interval)."""
@@ -353,6 +357,9 @@ class Prover(LeafTests):
         return out
 
     def log(self, onset_root, onset_below, all_roots, witness: Found | None) -> prooflog.ProofLog:
+        """The proof log of this pencil: the tree built so far with its roots (the onset claim's root and
+        the mu below which it says there is no solution, the roots of the complete list) and the
+        verified solution just above the onset, if one was found (``witness``)."""
         w = None if witness is None else {"U": list(witness.U), "mu": witness.mu, "h": witness.h,
                                           "x": [float(v) for v in witness.x]}
         return prooflog.ProofLog(self.s, self.cap, self.scale_exp, [list(p) for p in self.pairs], self.tree.nodes,

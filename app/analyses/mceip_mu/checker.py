@@ -32,6 +32,8 @@ def scaled(A0: np.ndarray, A1: np.ndarray, scale_exp: int) -> tuple[np.ndarray, 
 
 
 def allowed(U: list[int], pairs) -> bool:
+    """Whether the support ``U`` holds no pair ``(a, b)`` of ``pairs`` whole (both halves of a split
+    tangential rate in one support: not a solution to report)."""
     su = set(U)
     return not any(a in su and b in su for a, b in pairs)
 

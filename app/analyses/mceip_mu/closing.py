@@ -71,13 +71,13 @@ def closes_subsets(a0, a1, U: np.ndarray, a: float, b: float, d: np.ndarray, the
 
 
 def rlt_closes(a0: np.ndarray, a1: np.ndarray, U: np.ndarray, F, a: float, b: float, M, theta: float) -> bool:
-    """No solution whose support ``P`` satisfies ``F <= P <= U`` has mu in ``[a, b]``, by a
+    r"""No solution whose support ``P`` satisfies ``F <= P <= U`` has mu in ``[a, b]``, by a
     product-of-constraints argument (reformulation-linearisation): a ``|U| x |U|`` matrix ``M``
     with ``M_ij <= 0`` for ``i != j`` and ``U[j]`` not in ``F`` (diagonal and forced columns of any
     sign), and ``sym(M A_UU(mu))`` strictly copositive at ``a`` and ``b`` (exact split
     ``P + N``, ``P`` proven positive definite, as :func:`copositive_at`).
 
-    At such a solution ``x_U^T M A_UU x_U = x^T M y = sum_{i in P, j in U \\ P} x_i M_ij y_j <= 0``
+    At such a solution ``x_U^T M A_UU x_U = x^T M y = sum_{i in P, j in U \ P} x_i M_ij y_j <= 0``
     (``x_i = 0`` off ``P``, ``y_j = 0`` on ``P``, ``j`` off ``P`` is not in ``F``, ``y_j >= 0``), which
     strict copositivity forbids. ``M = D`` positive diagonal is the sign argument. Affine in mu,
     so both ends cover the interval."""

@@ -25,6 +25,7 @@ FARKAS_DEPTH = 6
 @dataclass
 class Found:
     """A verified solution: exact support ``U``, window witness and enclosure."""
+
     U: tuple[int, ...]
     mu: float
     h: float

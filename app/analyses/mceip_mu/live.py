@@ -15,6 +15,7 @@ class LiveStatus:
         self.reset()
 
     def reset(self, phase: str = "") -> None:
+        """Start the phase ``phase`` with no tree node and no mu reached (``""``: idle)."""
         self.phase, self.nodes, self.mu = phase, 0, None
 
     def text(self) -> str:

@@ -27,6 +27,9 @@ _INF = 1e20                             # HiGHS' infinity, as linprog passes it
 
 @dataclass
 class LPResult:
+    """The answer of :func:`solve`: whether an optimal solution was found, the solution and the duals
+    (marginals) of the inequality rows, None where there is none."""
+
     ok: bool                            # an optimal solution was found
     x: np.ndarray | None                # the solution
     marginals: np.ndarray | None        # duals of the inequality rows (linprog's sign convention)

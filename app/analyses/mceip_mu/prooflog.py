@@ -15,20 +15,21 @@ FORMATS_READ = ("mceip-mu-proof/1", FORMAT)   # version 1: no forced sets (a lea
 
 @dataclass
 class Node:
-    """One node of the proof tree: the family of supports ``P`` with ``F <= P <= U`` (indices into
+    r"""One node of the proof tree: the family of supports ``P`` with ``F <= P <= U`` (indices into
     the slip nodes; ``F``, the forced set, is empty for "every support in ``U``") and mu in ``[a, b]``.
 
     ``kind``: ``"cop"`` (sign argument on ``U``, witness ``d``, ``theta``), ``"rlt"`` (products
     of constraints, witness ``M``, ``theta``: :func:`rlt_closes`), ``"farkas"`` (a Farkas
     vector ``w``, :func:`farkas_closes`), ``"bisect"`` (children on ``[a, m]`` and ``[m, b]``),
-    ``"branch"`` (on an index ``i`` of ``U \\ F``: ``i`` not in the support, child ``(U \\ {i}, F)``,
-    or in it, child ``(U \\ partners(i), F + {i})``), ``"pairsplit"`` (children ``U \\ {a}`` and
-    ``U \\ {b}`` for a pair ``(a, b)`` inside ``U``), ``"drop"`` (children ``U \\ {i}`` for every
+    ``"branch"`` (on an index ``i`` of ``U \ F``: ``i`` not in the support, child ``(U \ {i}, F)``,
+    or in it, child ``(U \ partners(i), F + {i})``), ``"pairsplit"`` (children ``U \ {a}`` and
+    ``U \ {b}`` for a pair ``(a, b)`` inside ``U``), ``"drop"`` (children ``U \ {i}`` for every
     ``i`` plus the exact-support leaf of ``U``), ``"leaf"`` (``F = U``, the exact support ``U``:
     ``windows`` each with one verified eigenpair, ``pieces`` of ``[a, b]`` each closed by a Farkas
     vector, and the checker's own nonsingularity cover of the rest), ``"pair"`` (``F`` holds both halves
     of a pair: no allowed support), ``"empty"`` (``U`` empty or ``F`` not inside ``U``: no
     support at all), ``"open"`` (not closed: the proof is unfinished)."""
+
     id: int
     U: list[int]
     a: float
@@ -44,6 +45,8 @@ class Node:
     M: list[list[float]] | None = None                     # rlt: the multiplier matrix (on U)
 
     def as_dict(self) -> dict:
+        """The node as JSON data (docs/proofs.md): its id, ``U``, ``a``, ``b``, kind and only the fields
+        its kind uses."""
         out = {"id": self.id, "U": self.U, "a": self.a, "b": self.b, "kind": self.kind}
         if self.F:
             out["F"] = self.F
@@ -65,6 +68,8 @@ class Node:
 
     @classmethod
     def from_dict(cls, d: dict, version: int = 2) -> "Node":
+        """The node read from :meth:`as_dict`'s data of format ``version`` (1: a leaf or pair node had no
+        ``F``, its forced set is then all of ``U``)."""
         U = [int(i) for i in d["U"]]
         kind = str(d["kind"])
         F = [int(i) for i in d.get("F", [])]
@@ -79,6 +84,7 @@ class Node:
 class ProofLog:
     """The witnesses of one pencil's proof: the node tree, its roots (``onset`` and ``all``) and
     the exact power-of-two scale the pencil was divided by (``A / 2^k``: exact, no rounding)."""
+
     s: int
     cap: float
     scale_exp: int
@@ -104,6 +110,7 @@ class ProofLog:
         self.nodes = [n for n in self.nodes if n.id in keep]
 
     def to_json(self) -> dict:
+        """The log as JSON data in the current format (:data:`FORMAT`, docs/proofs.md)."""
         return {"format": FORMAT, "s": self.s, "cap": self.cap, "scale_exp": self.scale_exp,
                 "pairs": [list(p) for p in self.pairs], "onset_root": self.onset_root,
                 "onset_below": self.onset_below, "all_roots": self.all_roots,
@@ -112,6 +119,7 @@ class ProofLog:
 
     @classmethod
     def from_json(cls, d: dict) -> "ProofLog":
+        """The log read from JSON data of a format in :data:`FORMATS_READ`; ValueError for any other."""
         if d.get("format") not in FORMATS_READ:
             raise ValueError(f"proof log format {d.get('format')!r}, expected one of {FORMATS_READ}")
         version = FORMATS_READ.index(d["format"]) + 1
@@ -121,12 +129,14 @@ class ProofLog:
                    d.get("bound"))
 
     def dumps(self) -> str:
+        """The log as compact JSON text (no spaces)."""
         return json.dumps(self.to_json(), separators=(",", ":"))
 
 
 @dataclass
 class CheckReport:
     """What :func:`check_log` accepted: the onset claim, the complete-list claim, the solutions."""
+
     onset_ok: bool
     all_ok: bool
     onset: tuple[float, float] | None                 # proven enclosure of the onset (None: none below cap)

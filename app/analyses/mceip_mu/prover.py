@@ -24,6 +24,7 @@ from app.linalg import one_blas_thread
 @dataclass
 class ProofOutcome:
     """What the prover built (to be accepted by the checker): the log and the open nodes."""
+
     log: prooflog.ProofLog
     found: list[Found]
     ill: list[Found]

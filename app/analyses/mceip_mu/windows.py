@@ -22,6 +22,7 @@ from app.analyses.mceip_mu.rounding import TINY, U_ROUND, mr_mul, norm_inf_up, p
 class Window:
     """The result of :func:`verify_window`: the enclosure of the only eigenpair of support ``P``
     with mu in ``[mu_lo, mu_hi]`` (the window) and what its signs say."""
+
     ok: bool                    # Krawczyk inclusion and uniqueness proven
     mu_lo: float                # the window (every eigenvalue of P in it is the enclosed one)
     mu_hi: float

@@ -26,6 +26,8 @@ class BlockFields:
         self.obstacle = {"point": [0.0, 0.0], "normal": [0.0, -1.0]}
 
     def von_mises(self, u):
+        """UFL expression of the von Mises stress of the displacement ``u`` (the block's E, nu and plane
+        model)."""
         from app.systems.elasticity import lame_parameters
         mu, lmbda = lame_parameters(self.cfg.E, self.cfg.nu, self.cfg.plane)
         return von_mises(u, mu, lmbda, self.cfg.plane)
@@ -35,7 +37,12 @@ class BlockFields:
         return (0.0, 0.0) if load is None else (float(load["u_x"]), float(load["u_y"]))
 
     def response(self, load: Optional[dict], r: np.ndarray) -> PETSc.Vec:
+        """Reduced displacement for the state's motion of CD (``load["u_x"]``, ``load["u_y"]``; none
+        when ``load`` is None) and the contact reactions ``r`` in paper axes (one solve with the
+        factorised K; the caller destroys the vector)."""
         return self.flex.field(*self._cd(load), r)
 
     def to_function(self, u: PETSc.Vec, load: Optional[dict]):
+        """The whole displacement field of the reduced ``u`` with CD moved as ``load`` says, as a
+        DOLFINx Function of ``V``."""
         return self.ops.to_function(u, *self._cd(load))

@@ -93,18 +93,27 @@ def structured_triangulation(length: float, height: float, nx: int, ny: int,
     For ``pattern == "crossed"`` the centre of cell (i, j) follows as node
     (nx+1)*(ny+1) + j*nx + i.
 
-    Args:
-        length: Length of the block (x direction).
-        height: Height of the block (y direction).
-        nx: Number of cells along x.
-        ny: Number of cells along y.
-        pattern: "crossed" (4 triangles per cell), "right" (diagonal from
-            lower left to upper right), "left" (lower right to upper
-            left) or "alternate" (checkerboard of right and left).
+    Parameters
+    ----------
+    length
+        Length of the block (x direction).
+    height
+        Height of the block (y direction).
+    nx
+        Number of cells along x.
+    ny
+        Number of cells along y.
+    pattern
+        "crossed" (4 triangles per cell), "right" (diagonal from
+        lower left to upper right), "left" (lower right to upper
+        left) or "alternate" (checkerboard of right and left).
 
-    Returns:
-        ``(x, cells)``: node coordinates of shape (num_nodes, 2) and
-        zero-based triangle connectivity of shape (num_cells, 3).
+    Returns
+    -------
+    x
+        Node coordinates, of shape (num_nodes, 2).
+    cells
+        Zero-based triangle connectivity, of shape (num_cells, 3).
     """
     if pattern not in ("crossed", "right", "left", "alternate"):
         raise ValueError(f"Not a structured pattern: {pattern!r}")
@@ -280,21 +289,33 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
     as a ``.npz`` file (reused if present: gmsh is then not imported), and distributed over
     ``comm`` as :func:`dolfinx.io.gmshio.model_to_mesh` would (app/systems/mesh_arrays.py).
 
-    Args:
-        comm: MPI communicator of the mesh.
-        length: Length of AB (x direction), in mm.
-        height: Height of the block (y direction), in mm.
-        nx: Number of cells along x (structured patterns).
-        ny: Number of cells along y (structured patterns).
-        pattern: One of :data:`PATTERNS`.
-        mesh_size: Target element size (required for "unstructured",
-            ignored otherwise).
-        cache_dir: Directory of the cached ``.npz`` files (None: the install folder's
-            ``meshes/`` if writable, else the user's cache folder, :func:`mesh_cache_path`).
+    Parameters
+    ----------
+    comm
+        MPI communicator of the mesh.
+    length
+        Length of AB (x direction), in mm.
+    height
+        Height of the block (y direction), in mm.
+    nx
+        Number of cells along x (structured patterns).
+    ny
+        Number of cells along y (structured patterns).
+    pattern
+        One of :data:`PATTERNS`.
+    mesh_size
+        Target element size (required for "unstructured",
+        ignored otherwise).
+    cache_dir
+        Directory of the cached ``.npz`` files (None: the install folder's
+        ``meshes/`` if writable, else the user's cache folder, :func:`mesh_cache_path`).
 
-    Returns:
-        ``(mesh, facet_tags)`` with facet tags :data:`AB`, :data:`CD` and
-        :data:`LATERAL`.
+    Returns
+    -------
+    mesh
+        The distributed mesh.
+    facet_tags
+        Its facet tags :data:`AB`, :data:`CD` and :data:`LATERAL`.
     """
     if pattern not in PATTERNS:
         raise ValueError(f"Unknown pattern {pattern!r}, expected one of {PATTERNS}")

@@ -38,21 +38,33 @@ __all__ = ["BlockOperators", "block_operators"]
 class BlockOperators:
     """Reduced stiffness (and mass) operators of the block.
 
-    Attributes:
-        mesh: The mesh.
-        facet_tags: Facet tags (AB, CD, LATERAL).
-        V: Vector Lagrange space of the displacement.
-        K: Reduced stiffness in N/mm (CD dofs removed), SPD, distributed.
-        kept: Owned global DOLFINx (unrolled) dof indices kept in the
-            reduced system, ascending; rank-ordered they define the
-            reduced numbering.
-        load_x: Reduced right-hand side -K_{kept,D} u_D for u_D = (1, 0) on CD.
-        load_y: Same for u_D = (0, 1).
-        contact_x: x coordinate of every dof-carrying node of AB, sorted
-            from A to B, identical on every rank.
-        contact_dof_x: Reduced global index of the ux dof of each contact node.
-        contact_dof_y: Reduced global index of the uy dof of each contact node.
-        mass_kind: "consistent" or "lumped" (row sums).
+    Attributes
+    ----------
+    mesh
+        The mesh.
+    facet_tags
+        Facet tags (AB, CD, LATERAL).
+    V
+        Vector Lagrange space of the displacement.
+    K
+        Reduced stiffness in N/mm (CD dofs removed), SPD, distributed.
+    kept
+        Owned global DOLFINx (unrolled) dof indices kept in the
+        reduced system, ascending; rank-ordered they define the
+        reduced numbering.
+    load_x
+        Reduced right-hand side -K_{kept,D} u_D for u_D = (1, 0) on CD.
+    load_y
+        Same for u_D = (0, 1).
+    contact_x
+        x coordinate of every dof-carrying node of AB, sorted
+        from A to B, identical on every rank.
+    contact_dof_x
+        Reduced global index of the ux dof of each contact node.
+    contact_dof_y
+        Reduced global index of the uy dof of each contact node.
+    mass_kind
+        "consistent" or "lumped" (row sums).
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -83,13 +95,16 @@ class BlockOperators:
     def mass(self, full: bool = False) -> PETSc.Mat:
         """Mass matrix in tonne (density * thickness * int u.v), built on first call and cached.
 
-        Args:
-            full: If True, return the matrix on all dofs of ``V`` (CD
-                included, DOLFINx numbering) instead of the reduced one.
+        Parameters
+        ----------
+        full
+            If True, return the matrix on all dofs of ``V`` (CD
+            included, DOLFINx numbering) instead of the reduced one.
 
-        Returns:
-            The consistent or row-sum lumped mass matrix, according to
-            :attr:`mass_kind`.
+        Returns
+        -------
+        PETSc.Mat
+            The consistent or row-sum lumped mass matrix, according to :attr:`mass_kind`.
         """
         if self._M_full is None:
             M_full = dolfinx.fem.petsc.assemble_matrix(self._mass_form)
@@ -110,16 +125,22 @@ class BlockOperators:
     def to_function(self, u_reduced: PETSc.Vec | np.ndarray, gx: float, gy: float) -> dolfinx.fem.Function:
         """Full displacement field from a reduced vector and the displacement (gx, gy) of CD.
 
-        Args:
-            u_reduced: Reduced displacement: a PETSc vector with the layout
-                of ``K``, or a numpy array holding either this rank's part
-                (length ``kept.getLocalSize()``) or the whole reduced vector
-                (length ``kept.getSize()``).
-            gx: Prescribed x displacement of CD.
-            gy: Prescribed y displacement of CD.
+        Parameters
+        ----------
+        u_reduced
+            Reduced displacement: a PETSc vector with the layout
+            of ``K``, or a numpy array holding either this rank's part
+            (length ``kept.getLocalSize()``) or the whole reduced vector
+            (length ``kept.getSize()``).
+        gx
+            Prescribed x displacement of CD.
+        gy
+            Prescribed y displacement of CD.
 
-        Returns:
-            The displacement as a Function in ``V`` (ghosts updated).
+        Returns
+        -------
+        dolfinx.fem.Function
+            The displacement in ``V`` (ghosts updated).
         """
         n_local = self._kept_local.size
         if isinstance(u_reduced, PETSc.Vec):
@@ -191,19 +212,31 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
                     mass_kind: str = "consistent") -> BlockOperators:
     """Assemble the reduced elasticity operators of the block (collective).
 
-    Args:
-        mesh: Mesh of the block (see :func:`app.systems.block.mesh.block_mesh`).
-        facet_tags: Facet tags with AB and CD.
-        E: Young's modulus in MPa.
-        nu: Poisson's ratio.
-        thickness: Out-of-plane thickness in mm (multiplies K and M).
-        density: Density in tonne/mm^3.
-        plane: "stress" or "strain".
-        degree: Degree of the vector Lagrange space (1 or 2).
-        mass_kind: "consistent" or "lumped" (row sums of the consistent
-            matrix; singular for degree 2, whose vertex row sums vanish).
+    Parameters
+    ----------
+    mesh
+        Mesh of the block (see :func:`app.systems.block.mesh.block_mesh`).
+    facet_tags
+        Facet tags with AB and CD.
+    E
+        Young's modulus in MPa.
+    nu
+        Poisson's ratio.
+    thickness
+        Out-of-plane thickness in mm (multiplies K and M).
+    density
+        Density in tonne/mm^3.
+    plane
+        "stress" or "strain".
+    degree
+        Degree of the vector Lagrange space (1 or 2).
+    mass_kind
+        "consistent" or "lumped" (row sums of the consistent
+        matrix; singular for degree 2, whose vertex row sums vanish).
 
-    Returns:
+    Returns
+    -------
+    BlockOperators
         The reduced operators.
     """
     if degree not in (1, 2):

@@ -19,6 +19,7 @@ from app.systems.schema import PosFloat
 
 class Loading(Strict):
     """Quasi-static loading of the block: press CD down, then drag it to the left. N and mm."""
+
     normal_force: PosFloat = 55.0
     normal_steps: Annotated[int, Field(ge=1, le=10000)] = 10
     tangential_step: PosFloat = 0.02
@@ -27,6 +28,7 @@ class Loading(Strict):
 
 class Block(Strict):
     """The elastic block of Villechaise and Zeghloul (the paper's section 5). Units: mm, MPa, tonne/mm^3."""
+
     has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/io/fields.py)
     refinable: ClassVar[bool] = True        # a mesh-refinement study (app/study/refinement.py)
     type: Literal["block"]
@@ -74,7 +76,7 @@ class Block(Strict):
         return 2 * nodes, contact
 
     def refined(self, nx: int) -> "Block":
-        """This block with ``nx`` cells along AB and ``ny`` scaled to keep the cells' aspect."""
+        """A copy of the block with ``nx`` cells along AB and ``ny`` scaled to keep the cells' aspect."""
         return self.model_copy(update={"nx": nx, "ny": max(1, round(nx * self.height / self.length))})
 
     def table_columns(self) -> dict[str, float]:

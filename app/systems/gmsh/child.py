@@ -227,6 +227,9 @@ def extract(gmsh) -> dict:
 
 
 def main(argv: list[str]) -> int:
+    """Read FILE into OUTDIR as the module docstring says (``argv``: FILE OUTDIR MAX_NODES
+    MAX_ELEMENTS MAX_DOFS). Returns 0 when written, :data:`EXIT_MODEL_ERROR` with the one-line error
+    in ``info.json`` when the checks or gmsh refuse the model; a MemoryError is not caught."""
     path, out = pathlib.Path(argv[0]), pathlib.Path(argv[1])
     max_nodes, max_elements, max_dofs = int(argv[2]), int(argv[3]), int(argv[4])
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))     # child_curves.py (python -I drops it)

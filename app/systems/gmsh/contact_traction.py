@@ -29,6 +29,7 @@ class ContactRecovery:
     traction on the vertices to P2 nodal forces, ``C_ij = int phi_i psi_j ds``, and ``I``
     interpolates it to every contact node: ``p = I argmin |t C q - r|`` is the smooth recovery.
     Curve nodes outside the contact set (a prescribed component) are left out."""
+
     M: np.ndarray
     C: np.ndarray | None = None
     I: np.ndarray | None = None

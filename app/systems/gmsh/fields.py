@@ -14,6 +14,7 @@ from app.systems.gmsh.schema import GmshBody
 @dataclass
 class FieldData:
     """What :class:`BodyFields` needs of the assembly (app/systems/gmsh/operators.py ``body_operators``)."""
+
     V: object                                     # the displacement space (vector Lagrange)
     prescribed: dict[str, dict[int, np.ndarray]]  # curve -> component -> local unrolled DOFs (incl. ghosts)
     kept_local: np.ndarray                        # local unrolled indices of the owned kept DOFs, reduced order
@@ -60,6 +61,8 @@ class BodyFields:
         self._index = {parameter_name(k): j for k, j in ops.params.items()}
 
     def von_mises(self, u):
+        """UFL expression of the von Mises stress of the displacement ``u`` (Lamé parameters per cell:
+        the material of each physical surface)."""
         from app.systems.stress import von_mises
         return von_mises(u, self.ops.field_data.mu, self.ops.field_data.lmbda, self.cfg.plane)
 
@@ -70,10 +73,15 @@ class BodyFields:
         return a
 
     def response(self, load: dict | None, r: np.ndarray) -> PETSc.Vec:
+        """Reduced, rotated displacement for the state's load parameters and the contact reactions
+        ``r`` (see the class docstring; the caller destroys the vector)."""
         a = self._parameters(load)
         return self.flex.response([(a[j], self.ops.loads[j]) for j in np.flatnonzero(a)], r)
 
     def to_function(self, u: PETSc.Vec, load: dict | None):
+        """The whole displacement field in x/y as a DOLFINx Function of ``V``: the reduced ``u`` rotated
+        back from the node frames on the kept DOFs, the prescribed curves moved as the state's load
+        parameters say (translation and linearised rotation about the origin)."""
         import dolfinx.fem
         d = self.ops.field_data
         a = self._parameters(load)

@@ -78,6 +78,9 @@ class GeoRefused(ValueError):
 
 @dataclass(frozen=True)
 class Token:
+    """One token of a .geo text: its kind (``string``, ``number``, ``ident`` or ``op``), its text and
+    its line number."""
+
     kind: str       # string, number, ident, op
     text: str
     line: int

@@ -28,6 +28,7 @@ _CACHE_SIZE = 4
 @dataclass(frozen=True)
 class ModelInfo:
     """What a scene may refer to in a Gmsh model, and its sizes."""
+
     curves: dict[str, tuple[int, int]]        # physical curve name -> (tag, number of line elements)
     surfaces: dict[str, tuple[int, int]]      # physical surface name -> (tag, number of triangles)
     n_nodes: int

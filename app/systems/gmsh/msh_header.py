@@ -23,6 +23,9 @@ class MshRefused(ValueError):
 
 @dataclass(frozen=True)
 class MshHeader:
+    """What a .msh file's headers say: the format version, whether it is binary, and the node and
+    element counts (None where the section is missing)."""
+
     version: str
     binary: bool
     nodes: int | None           # None: no $Nodes section found (Gmsh reports it)

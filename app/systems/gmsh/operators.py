@@ -40,6 +40,7 @@ class BodyError(Exception):
 @dataclass
 class BodyOperators:
     """Reduced, obstacle-rotated operators of the body and its load parameters."""
+
     K: PETSc.Mat
     R: PETSc.Mat
     kept: PETSc.IS
@@ -88,6 +89,7 @@ class BodyOperators:
             M.destroy()
 
     def destroy(self) -> None:
+        """Destroy the PETSc objects: ``K``, the rotation ``R``, the kept DOFs and the unit loads."""
         for obj in (self.K, self.R, self.kept, *self.loads):
             obj.destroy()
 

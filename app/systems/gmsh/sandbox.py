@@ -54,6 +54,7 @@ class SandboxError(Exception):
 @dataclass(frozen=True)
 class SandboxLimits:
     """Limits of one child (see the module docstring)."""
+
     seconds: float
     memory_bytes: int | None
     max_nodes: int

@@ -58,6 +58,7 @@ Vec2 = tuple[Finite, Finite]
 
 class Material(StrictModel):
     """Isotropic linear elastic material (E [stress], nu, density [mass/length^3])."""
+
     E: PosFloat
     nu: Annotated[float, Field(gt=-1.0, lt=0.5, allow_inf_nan=False)]
     density: PosFloat = 1.2e-9
@@ -75,6 +76,7 @@ class Obstacle(StrictModel):
     continuous tangent. Gaps, frames and curvature at the contact points are exact for a circle and
     interpolated to 1e-11 of the body's size for a curve (app/loading/curve.py; docs/method.md
     section 8); the contact DOFs stay in the global axes (t = +x, n = -y)."""
+
     type: Literal["line", "circle", "curve"] = Field("line", description="line (straight), circle or curve (a "
                                                      "physical curve of the .geo file)")
     point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length] (type line)")
@@ -154,6 +156,8 @@ class Obstacle(StrictModel):
         return (np.asarray(xy) - np.array(self.point)) @ self.frame()[0]
 
     def describe(self) -> str:
+        """The obstacle in words for messages: the line's point and outward normal of the body, or the
+        circle or curve as its geometry describes itself."""
         if self.type != "line":
             return "obstacle " + self.geometry().describe()
         return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
@@ -162,6 +166,7 @@ class Obstacle(StrictModel):
 class Motion(StrictModel):
     """Increment of a prescribed curve's displacement during a phase: a rigid translation and an
     optional (linearised) rotation ``rotation_deg`` about ``about``."""
+
     translation: Vec2 = Field((0.0, 0.0), description="rigid translation increment [length]")
     rotation_deg: Annotated[float, Field(ge=-3600, le=3600, allow_inf_nan=False)] = Field(
         0.0, description="rotation increment, linearised, counter-clockwise [deg] (at most ten turns)")
@@ -170,11 +175,13 @@ class Motion(StrictModel):
 
 class Until(StrictModel):
     """Force control of a displacement phase: scale it to reach this normal resultant on the contact curve."""
+
     normal_force: PosFloat = Field(description="normal resultant on the contact curve at the phase's end [force]")
 
 
 class Phase(StrictModel):
     """One phase of the loading program, applied in ``steps`` equal increments."""
+
     name: str = Field("", description="a label of the phase (results.json load.name)")
     steps: Annotated[int, Field(ge=1, le=100000)] = Field(1, description="equal increments of the phase")
     displacement: dict[str, Motion] = Field({}, description="motion increments of prescribed curves")
@@ -188,6 +195,7 @@ class Phase(StrictModel):
 
 class GmshBody(StrictModel):
     """A 2D body meshed by Gmsh (physical groups name its curves and surfaces)."""
+
     type: Literal["gmsh"]
     has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/io/fields.py)
     file: str = Field(description="Gmsh .geo or .msh file, relative to the scene file")
@@ -326,6 +334,8 @@ class GmshBody(StrictModel):
         return self
 
     def material_of(self, surface: str) -> Material:
+        """The material of the physical surface ``surface``: the one ``material``, or that surface's
+        entry of ``materials``."""
         return self.material if self.material is not None else self.materials[surface]
 
     @classmethod

@@ -26,7 +26,7 @@ BYTES_PER_ENTRY = 64        # a stored entry while reading and checking (COO, CS
 
 class MatrixFileError(ValueError):
     """A file refused for its sizes or layout: ``str(err)`` is one line; ``resource``: a memory limit.
-    (A file that is not of its format at all raises a plain ValueError: "cannot read ... as ...".)"""
+    A file that is not of its format at all raises a plain ValueError ("cannot read ... as ...")."""
 
     def __init__(self, msg: str, resource: bool = False):
         super().__init__(msg)
@@ -35,6 +35,9 @@ class MatrixFileError(ValueError):
 
 @dataclass(frozen=True)
 class Header:
+    """What a matrix file's header says: rows, columns, number of stored values (rows x cols for a
+    dense file) and whether it is dense."""
+
     rows: int
     cols: int
     entries: int            # values stored (a dense file: rows x cols)
@@ -42,6 +45,8 @@ class Header:
 
 
 def kind_of(path: pathlib.Path) -> str:
+    """The format of a matrix file by its suffix: ``Matrix Market`` (``.mtx``, ``.mm``), ``NumPy
+    .npy``, else ``PETSc binary``."""
     suffix = path.suffix.lower()
     return "Matrix Market" if suffix in MM_SUFFIXES else "NumPy .npy" if suffix == ".npy" else "PETSc binary"
 

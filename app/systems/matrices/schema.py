@@ -140,6 +140,7 @@ def read_vector(key: str, value: Any, path: Optional[pathlib.Path], limits=None)
 
 class ForcePhase(StrictModel):
     """One phase of applied forces: ``force`` (the increment of the whole phase) in ``steps`` equal steps."""
+
     force: Union[list[Finite], str] = Field(description="force increment of the phase: a vector file or a list")
     steps: Annotated[int, Field(ge=1, le=100000)] = Field(1, description="equal increments of the phase")
 
@@ -158,6 +159,7 @@ class ForcePhase(StrictModel):
 
 class StaticState(StrictModel):
     """Reactions of one equilibrium state, paper axes: [r_T, r_N] per contact node, r_N <= 0."""
+
     reactions: Annotated[list[tuple[Finite, Finite]], Field(min_length=1)] = Field(
         description="[r_T, r_N] per contact node, paper axes (r_N <= 0)")
     u_T: Optional[list[Finite]] = Field(None, description="tangential displacements (reported only)")
@@ -181,6 +183,7 @@ def _contact_entry(i: int, e: Any) -> tuple[int, int, int, int]:
 
 class Matrices(StrictModel):
     """A discrete elastic system from matrix files (K SPD, M SPD) with contact DOF pairs."""
+
     type: Literal["matrices"]
     K: str = Field(description="stiffness matrix file (.mtx/.mm, .npy or PETSc binary), symmetric positive definite")
     M: Optional[str] = Field(None, description="mass matrix file; needed by necessary, sufficient, mceip_lambda2")

@@ -21,6 +21,7 @@ class ParticleObstacle(Strict):
     ``radius`` with the particles outside it (``side: outside``, a convex cylinder) or inside it
     (``side: inside``, a concave bore). The springs' matrix is written in each particle's own
     contact frame, so the circle's centre plays no part (docs/method.md section 8)."""
+
     type: Literal["line", "circle"] = Field("line", description="line (the paper's) or circle")
     radius: Optional[PosFloat] = Field(None, description="radius of the circle [mm] (type circle only)")
     side: Optional[Literal["outside", "inside"]] = Field(
@@ -41,6 +42,7 @@ class ParticleObstacle(Strict):
 
 class TwoParticles(Strict):
     """The two-particle system of the paper, section 5, Fig. 1 (docs/method.md section 4)."""
+
     has_fields: ClassVar[bool] = False      # no mesh: no ParaView files, no screenshots
     refinable: ClassVar[bool] = False       # no mesh to refine
     type: Literal["two_particles"]
