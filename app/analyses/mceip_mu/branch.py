@@ -68,7 +68,7 @@ LARGE_U = 64
 
 @dataclass
 class Tree:
-    """The nodes built so far, with the memo ``(U, a, b) -> id``."""
+    """The nodes built so far, with the memo ``(U, F, a, b, tag) -> id`` (see :meth:`add`)."""
 
     nodes: list[prooflog.Node] = field(default_factory=list)
     memo: dict = field(default_factory=dict)
