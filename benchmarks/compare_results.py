@@ -7,6 +7,13 @@ under, so evidence that legitimately varies with the code path (solver iteration
 SCIP's node count) is easy to tell apart from answers.
 
     .venv/bin/python benchmarks/compare_results.py BEFORE/results.json AFTER/results.json [--rtol 1e-8]
+    .venv/bin/python benchmarks/compare_results.py --answers BEFORE AFTER   # the answers only
+    .venv/bin/python benchmarks/compare_results.py --write-answers RESULTS.json OUT.json
+
+``--answers`` compares what :func:`answers` extracts (the values, patterns, classifications and
+certificate statuses; BEFORE and AFTER may each be a results.json or a file written by
+``--write-answers``). The tests compare the default study and a shipped example so
+(tests/test_default_answers.py, tests/test_gmsh_examples.py).
 
 Both files are read with ``app.io.document.from_document``, so files of older formats compare
 with newer ones under the newer key names (format 3: ``path.normal_displacement_mm`` is
@@ -58,20 +65,71 @@ def compare(a, b, rtol: float) -> dict[str, list[str]]:
     return diffs
 
 
+def answers(doc: dict) -> dict:
+    """The answers of a study in a compact form: per state its classification, the status and
+    slip sign of every contact node and the state it shares its analyses with; per distinct
+    classification (key: the state index) the necessary condition (19) (satisfied, smallest
+    eigenvalues), the sufficient condition (17)-(18) (satisfied, lambda^2 values), every solution
+    of MCEIP-mu and MCEIP-lambda^2 (value, mode x_Ts, pattern) and the certificate statuses
+    (certified; for MCEIP-mu the onset and the complete list proven); a failed analysis as
+    ``{"failed": true}``. ``doc``: results.json data (``app.io.document.from_document``)."""
+    out: dict = {"states": [], "analyses": {}}
+    for s in doc["states"]:
+        out["states"].append({"index": s["index"], "classification": s["classification"],
+                              "status": "".join(n["status"][1] for n in s["nodes"]),   # t(ick), l(ip), r(ee), e(ro)
+                              "signs": [n["sign"] for n in s["nodes"]],
+                              "shared_with": s.get("analyses_shared_with")})
+        if s.get("analyses_shared_with") is not None:
+            continue
+        d = {}
+        for name, a in s.get("analyses", {}).items():
+            if a.get("failed"):
+                d[name] = {"failed": True}
+            elif name == "necessary":
+                d[name] = {k: a[k] for k in ("satisfied", "min_eig_K_sym", "min_eig_M_sym")}
+            elif name == "sufficient":
+                d[name] = {"satisfied": a["satisfied"], "lambda2": a["lambda2"]}
+            elif "solutions" in a:
+                d[name] = {"solutions": [{"value": x["value"], "x_Ts": x["x_Ts"], "pattern": x["pattern"]}
+                                         for x in a["solutions"]],
+                           "certified": a.get("certified")}
+                for claim in ("onset", "complete"):
+                    if isinstance(a.get(claim), dict):
+                        d[name][f"{claim}_proven"] = a[claim].get("proven")
+        out["analyses"][str(s["index"])] = d
+    return out
+
+
+def _read(path: str) -> dict:
+    """A results.json (any format version, infinities as floats) or an answers file."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+    from app.io.document import from_document
+    with open(path) as f:
+        data = json.load(f)
+    if "format_version" not in data and set(data) == {"states", "analyses"}:
+        return data
+    data = from_document(data)
+    data.pop("format_version", None)
+    return data
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("before")
     ap.add_argument("after")
     ap.add_argument("--rtol", type=float, default=1e-8)
+    ap.add_argument("--answers", action="store_true", help="compare the answers only (see answers())")
+    ap.add_argument("--write-answers", action="store_true",
+                    help="write the answers of BEFORE (a results.json) to the file AFTER")
     args = ap.parse_args()
-    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-    from app.io.document import from_document  # any format version, infinities as floats
-    with open(args.before) as f:
-        a = from_document(json.load(f))
-    with open(args.after) as f:
-        b = from_document(json.load(f))
-    a.pop("format_version", None)
-    b.pop("format_version", None)
+    a = _read(args.before)
+    if args.write_answers:
+        pathlib.Path(args.after).write_text(json.dumps(answers(a), indent=0) + "\n")
+        return 0
+    b = _read(args.after)
+    if args.answers:
+        a = a if set(a) == {"states", "analyses"} else answers(a)
+        b = b if set(b) == {"states", "analyses"} else answers(b)
     diffs = compare(a, b, args.rtol)
     if not diffs:
         print(f"identical: every value to {args.rtol:g}, every string and list (timings skipped)")

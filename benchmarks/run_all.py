@@ -522,7 +522,7 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
     from app.scene.schema import default_scene_path, load_scene
     from app.study.run import run_study
     sys.path.insert(0, str(ROOT / "tests"))
-    from test_default_answers import REFERENCE, _compare, answers
+    from test_default_answers import REFERENCE, differences
     say("\n== speed (issue 14): machine shared with other jobs, load "
         f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; times are noisy, ratios are within one run ==")
     scene = load_scene(default_scene_path())
@@ -532,9 +532,7 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
     res = run_study(scene, MPI.COMM_WORLD)
     wall = time.perf_counter() - t0
     stages = {r["name"]: r["seconds"] for r in res["stages"]}
-    bad: list[str] = []
-    if REFERENCE.exists():
-        _compare(json.loads(REFERENCE.read_text()), answers(res["states"]), "", bad)
+    bad: list[str] = differences(json.loads(REFERENCE.read_text()), res) if REFERENCE.exists() else []
 
     # floor: LU of K + W, the loading path, and one dense eigen-decomposition per distinct classification
     floor_captured: dict = {}

@@ -78,6 +78,10 @@ def test_l_shape_example_runs_with_outputs(tmp_path):
     final = res["states"][-1]
     assert final["classification"]["slip"] > 0
     assert any(s["analyses"]["mceip_mu"]["solutions"] for s in res["states"] if "mceip_mu" in s["analyses"])
+    # the answers of the stored run (benchmarks/compare_results.py; see tests/test_default_answers.py)
+    from test_default_answers import differences
+    bad = differences(json.loads((ROOT / "tests" / "data" / "answers_l_shape.json").read_text()), res)
+    assert not bad, f"{len(bad)} kinds of differences, first: {bad[:5]}"
     for name in ("status_map", "reactions", "mceip_mu", "necessary"):
         assert (tmp_path / "out" / "plots" / f"{name}.png").stat().st_size > 1000
     assert "gmsh body l_shape.geo" in (tmp_path / "out" / "report.md").read_text()
