@@ -11,7 +11,12 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class Stages:
-    """Ordered record of named stages; a stage run several times is summed and counted."""
+    """Ordered record of named stages; a stage run several times is summed and counted.
+
+    Not ``dolfinx.common.Timer``: DOLFINx's timers go into one process-wide table that
+    ``list_timings`` aggregates by name with DOLFINx's own internal timers and that cannot be
+    reset per study, while a sweep or a refinement study runs many studies in one process and
+    each needs its own record, in the order the stages first ran, for its results.json."""
 
     records: dict[str, dict] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)

@@ -123,7 +123,12 @@ class FolderLock:
     """An exclusive ``flock`` on ``.NAME.lock`` beside a folder (refuses a second concurrent run).
 
     The lock file is removed at the end only by the run that created it: a file of that name
-    that was already there (a user's own, or one left by a killed run) is locked but kept."""
+    that was already there (a user's own, or one left by a killed run) is locked but kept.
+
+    ``fcntl.flock`` directly rather than the filelock package: the kernel releases the lock when
+    the process dies, even by SIGKILL, and filelock's Unix lock is that same call with thread
+    re-entrancy and a timeout loop the app does not need; what it cannot give is the rule above
+    (never delete a lock file the run did not create), which is the part written here."""
 
     def __init__(self, folder: pathlib.Path):
         self.path = folder.parent / f".{folder.name}.lock"

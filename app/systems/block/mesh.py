@@ -62,7 +62,11 @@ def _usable_dir(folder: pathlib.Path) -> bool:
 
 
 def user_cache_dir() -> pathlib.Path:
-    """``$XDG_CACHE_HOME/contact-divergence/meshes``, else ``~/.cache/contact-divergence/meshes``."""
+    """``$XDG_CACHE_HOME/contact-divergence/meshes``, else ``~/.cache/contact-divergence/meshes``.
+
+    Written out rather than ``platformdirs.user_cache_dir``: the XDG base directory specification
+    says a relative ``XDG_CACHE_HOME`` is invalid and must be ignored, which platformdirs does not
+    do (it would put the cache under the current directory), and the app runs on Linux only."""
     base = os.environ.get("XDG_CACHE_HOME")
     root = pathlib.Path(base) if base and os.path.isabs(base) else pathlib.Path.home() / ".cache"
     return root / APP_NAME / "meshes"
