@@ -10,9 +10,9 @@ drawn by child interpreters, ``python -m app.plot.worker KIND [ARG]``:
 * the plots and the screenshots are drawn at the same time, one child each.
 
 Plain ``subprocess`` children rather than a ``concurrent.futures`` process pool: a pool's workers
-cannot be started in a session of their own (a Ctrl-C at the terminal must reach the run only,
-not a worker still importing its libraries), nor be told to die with the run (PR_SET_PDEATHSIG),
-and a pool would pickle the job instead of handing over a file that ``render`` reads too.
+start in the run's process group (an initializer could call ``setsid`` only after the
+interpreter's start-up, the very moment a Ctrl-C at the terminal prints a traceback in a child),
+and a pool would pickle the job instead of handing over the file that ``render`` reads too.
 
 A child warms up, then reads one job file name on its standard input (EOF: no job, it exits),
 draws, and prints ``{"files": [...], "notes": [...], "seconds": ...}`` as its last line.
