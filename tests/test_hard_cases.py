@@ -345,3 +345,33 @@ def test_a_signal_during_an_import_is_sent_again_after_it(tmp_path, monkeypatch)
     while not sent and time.monotonic() < deadline:
         time.sleep(0.02)
     assert sent == [(os.getpid(), signal.SIGTERM)]
+
+
+def test_a_jit_claim_left_by_a_killed_process_is_named(tmp_path, caplog):
+    """A process killed while FFCx compiled a form leaves its claim (the C file) in the shared JIT
+    cache, and every later process compiling that form waits for it: the wait is one warning
+    naming the claim and its age, and running out of time one line saying what to delete."""
+    import logging
+
+    import ffcx.parameters
+    from ffcx.codegeneration import jit as ffcx_jit
+
+    from app.cli.main import _write_error
+    from app.systems import jit
+    ffcx_log = logging.getLogger("ffcx")
+    level = ffcx_log.level
+    try:
+        jit.params()                                            # what every form of the app is built with
+        ffcx.parameters.get_parameters(dict(jit.FORM_PARAMS))  # as at each compile: the logger's level
+        assert ffcx_log.level == logging.INFO
+        claim = tmp_path / "libffcx_forms_left.c"
+        claim.write_text("")                                    # a compile that never finished
+        with caplog.at_level(logging.WARNING, logger="app.systems.jit"):
+            with pytest.raises(TimeoutError) as err:
+                ffcx_jit.get_cached_module("libffcx_forms_left", ["form_x"], tmp_path, timeout=3)
+    finally:
+        ffcx_log.setLevel(level)
+    notes = [r.getMessage() for r in caplog.records if r.name == "app.systems.jit"]
+    assert len(notes) == 1 and str(claim) in notes[0] and "s old" in notes[0], notes
+    line = _write_error(err.value)
+    assert line is not None and str(claim) in line and "delete the file" in line, line

@@ -122,6 +122,10 @@ def _write_error(err: BaseException) -> str | None:
     if _no_space(err):
         where = getattr(err, "filename", None)
         return f"no space left on the device{f' (writing {where})' if where else ''}: the results were not written"
+    if isinstance(err, TimeoutError) and "JIT compilation timed out" in str(err):
+        claim = str(err).split("remove ", 1)[-1].split(")", 1)[0] if "remove " in str(err) else "its C file"
+        return (f"the JIT compiler waited too long for another process compiling a form (FFCx: {claim}); if no "
+                "other FEniCSx program is running, a killed process left that claim: delete the file and run again")
     return None
 
 

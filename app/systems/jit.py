@@ -10,17 +10,24 @@ function space, form and expression of the app is therefore built with ``FORM_PA
 The JIT cache stays where DOLFINx puts it (``$XDG_CACHE_HOME/fenics``, default
 ``~/.cache/fenics``). ``timeout`` is how long a process waits for another process that is
 compiling the same form (two runs of a sweep, or two test workers, on a fresh cache): DOLFINx's
-10 s is too short on a loaded machine, where the wait then ends in an error.
+10 s is too short on a loaded machine, where the wait then ends in an error. FFCx claims a form's
+C file before it compiles it; a process killed while compiling leaves the claim, and every later
+process compiling that form waits for it. FFCx says so only in INFO records (``verbosity`` 20
+below lets them through; the command line shows other libraries' INFO records only at DEBUG), so
+:func:`params` attaches :class:`WaitNotice`, which turns the first of them into one warning
+naming the claim and its age.
 """
 from __future__ import annotations
 
+import logging
 import os
+import time
 from pathlib import Path
 
 #: FFCx's parameters (ffcx.parameters.FFCX_DEFAULT_PARAMETERS, FFCx 0.5), all given
 FORM_PARAMS: dict = {"epsilon": 1e-14, "scalar_type": "double", "tabulate_tensor_void": False,
                      "table_rtol": 1e-6, "table_atol": 1e-9, "assume_aligned": -1, "padlen": 1,
-                     "verbosity": 30}
+                     "verbosity": 20}
 
 #: DOLFINx's JIT parameters (dolfinx.jit.DOLFINX_DEFAULT_JIT_PARAMETERS, DOLFINx 0.5), all given
 JIT_PARAMS: dict = {"cache_dir": Path(os.getenv("XDG_CACHE_HOME", default=Path.home() / ".cache")) / "fenics",
@@ -28,7 +35,46 @@ JIT_PARAMS: dict = {"cache_dir": Path(os.getenv("XDG_CACHE_HOME", default=Path.h
                     "cffi_libraries": None, "timeout": 600}
 
 
+log = logging.getLogger(__name__)
+
+
+class WaitNotice(logging.Handler):
+    """FFCx's "Waiting for X.c.cached to appear." (logged once a second while another process
+    holds the claim ``X.c``) as one warning per claim, with the claim's age and what to do."""
+
+    PREFIX, SUFFIX = "Waiting for ", " to appear."
+
+    def __init__(self):
+        super().__init__(logging.INFO)
+        self.seen: set[str] = set()
+
+    def emit(self, record: logging.LogRecord) -> None:
+        """Warn on the first wait for a claim (the other records pass by)."""
+        text = record.getMessage()
+        if not (text.startswith(self.PREFIX) and text.endswith(self.SUFFIX)):
+            return
+        ready = text[len(self.PREFIX):-len(self.SUFFIX)]
+        if ready in self.seen:
+            return
+        self.seen.add(ready)
+        claim = ready[:-len(".cached")] if ready.endswith(".cached") else ready
+        try:
+            age = f"{time.time() - os.path.getmtime(claim):.0f} s old"
+        except OSError:
+            age = "age unknown"
+        log.warning("waiting for another process to compile a form into the JIT cache (its claim %s is %s); "
+                    "if no other FEniCSx program is running, the claim was left by a killed process: delete "
+                    "that file (this run waits up to %d s)", claim, age, JIT_PARAMS["timeout"])
+
+
+def _attach_wait_notice() -> None:
+    ffcx_log = logging.getLogger("ffcx")
+    if not any(isinstance(h, WaitNotice) for h in ffcx_log.handlers):
+        ffcx_log.addHandler(WaitNotice())
+
+
 def params() -> dict:
     """Keyword arguments for ``dolfinx.fem.form``, ``FunctionSpace``, ``VectorFunctionSpace`` and
     ``Expression``: fresh copies (DOLFINx writes ``scalar_type`` into the dict it is given)."""
+    _attach_wait_notice()
     return {"form_compiler_params": dict(FORM_PARAMS), "jit_params": dict(JIT_PARAMS)}
