@@ -9,6 +9,7 @@ import pydantic
 import pytest
 from conftest import run_scene
 
+from app.io.result import StudyResult
 from app.io.results import write_results
 from app.io.schema import ResultsDocument, State, json_schema, validate
 
@@ -47,7 +48,7 @@ def test_results_schema_is_generated_from_the_models():
 @pytest.fixture(scope="module", params=[BLOCK, TWO_PARTICLES], ids=["block", "two_particles"])
 def document(request, tmp_path_factory):
     out = tmp_path_factory.mktemp("schema")
-    write_results(run_scene(request.param), out)
+    write_results(StudyResult.from_dict(run_scene(request.param)), out)
     return (out / "results.json").read_text()
 
 

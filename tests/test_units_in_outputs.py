@@ -36,7 +36,7 @@ def _keys(obj):
 @pytest.fixture(scope="module")
 def si_outputs(tmp_path_factory):
     out = tmp_path_factory.mktemp("si")
-    write_results(run_scene(SI_BLOCK), out)
+    write_results(StudyResult.from_dict(run_scene(SI_BLOCK)), out)
     return out
 
 

@@ -3,12 +3,13 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 import pathlib
 import tempfile
 
-from app.io.document import dumps_document, to_document
-from app.io.result import StateResult
+from app.io.document import dumps_document
+from app.io.result import StateResult, StudyResult
 
 
 def _umask() -> int:
@@ -66,57 +67,53 @@ def csv_header(column: str, quantity: str | None, units: dict) -> str:
     return f"{column} [{unit}]" if unit and unit != "1" else column
 
 
-def step_rows(results: dict) -> list[dict]:
-    """One row per state for steps.csv."""
-    rows = []
-    for st in results["states"]:
-        a = st.get("analyses", {})
-        load = st.get("load", {})
-        res = StateResult.from_dict(st)
-        mu_sols = [] if res.mceip_mu is None else [float(v) for v in res.mceip_mu.values]
-        l2_sols = [] if res.mceip_lambda2 is None else [float(v) for v in res.mceip_lambda2.values]
-        suff = a.get("sufficient", {}).get("lambda2", [])
-        nec = a.get("necessary", {})
-        c = st["classification"]
-        rows.append({
-            "index": st["index"], "phase": load.get("phase", ""), "step": load.get("step", ""),
-            # a loading program's parameters (a body from Gmsh: motions, loads, gravity), name=value;...
-            "load_parameters": ";".join(f"{k}={v!r}" for k, v in (load.get("parameters") or {}).items()),
-            "u_x_CD": load.get("u_x", ""), "u_y_CD": load.get("u_y", ""),
-            "normal_resultant": load.get("normal_resultant", ""),
-            "tangential_resultant": load.get("tangential_resultant", ""),
-            "n_free": c["free"], "n_zero": c["zero"], "n_stick": c["stick"], "n_slip": c["slip"],
-            "necessary_min_eig_K_sym": nec.get("min_eig_K_sym", ""),
-            "necessary_satisfied": nec.get("satisfied", ""),
-            "sufficient_max_lambda2": max(suff) if suff else "",
-            "mceip_mu_min": min(mu_sols) if mu_sols else "",
-            "mceip_mu_count": len(mu_sols) if "solutions" in (a.get("mceip_mu") or {}) else "",
-            "mceip_lambda2_max": max(l2_sols) if l2_sols else "",
-            "shared_with": "" if st.get("analyses_shared_with") is None else st["analyses_shared_with"],
-            "analysis_seconds": st.get("analysis_seconds", ""),
-        })
-    return rows
+def _cell(v: float | None):
+    """A number of steps.csv: empty when absent or not finite (results.json writes those as null)."""
+    return "" if v is None or not math.isfinite(v) else float(v)
 
 
-def steps_csv(results: dict) -> str:
-    """The text of steps.csv: a header (units from results ``units``, :func:`csv_header`) and one
-    row per state (:func:`step_rows`)."""
-    units = results.get("units") or {}
+def step_row(st: StateResult) -> dict:
+    """The steps.csv row of one typed state."""
+    load, c = st.load, st.classification
+    mu, l2 = st.mu_values(), ([] if st.mceip_lambda2 is None else st.mceip_lambda2.values)
+    return {
+        "index": st.index, "phase": load.get("phase", ""), "step": load.get("step", ""),
+        # a loading program's parameters (a body from Gmsh: motions, loads, gravity), name=value;...
+        "load_parameters": ";".join(f"{k}={v!r}" for k, v in (load.get("parameters") or {}).items()),
+        "u_x_CD": load.get("u_x", ""), "u_y_CD": load.get("u_y", ""),
+        "normal_resultant": load.get("normal_resultant", ""),
+        "tangential_resultant": load.get("tangential_resultant", ""),
+        "n_free": c["free"], "n_zero": c["zero"], "n_stick": c["stick"], "n_slip": c["slip"],
+        "necessary_min_eig_K_sym": "" if st.necessary is None else _cell(st.necessary.min_eig_K_sym),
+        "necessary_satisfied": "" if st.necessary is None else st.necessary.satisfied,
+        "sufficient_max_lambda2": _cell(st.max_lambda2()),
+        "mceip_mu_min": float(min(mu)) if len(mu) else "",
+        "mceip_mu_count": "" if st.mceip_mu is None else len(mu),
+        "mceip_lambda2_max": float(max(l2)) if len(l2) else "",
+        "shared_with": "" if st.analyses_shared_with is None else st.analyses_shared_with,
+        "analysis_seconds": st.raw.get("analysis_seconds", ""),
+    }
+
+
+def steps_csv(study: StudyResult) -> str:
+    """The text of steps.csv: a header (units from the study's ``units``, :func:`csv_header`) and
+    one row per state (:func:`step_row`)."""
     buf = io.StringIO()
     w = csv.writer(buf)
-    w.writerow([csv_header(c, STEP_UNITS.get(c), units) for c in STEP_COLUMNS])
-    w.writerows([row[c] for c in STEP_COLUMNS] for row in step_rows(results))
+    w.writerow([csv_header(c, STEP_UNITS.get(c), study.units or {}) for c in STEP_COLUMNS])
+    w.writerows([row[c] for c in STEP_COLUMNS] for row in map(step_row, study.states))
     return buf.getvalue()
 
 
-def write_results(results: dict, outdir: pathlib.Path, written_one=None) -> list[pathlib.Path]:
-    """Write steps.csv then results.json (last: its presence marks a complete run); ``written_one()``
-    is called after each (progress). The MCEIP-mu proofs (app/io/proofs.py) are written before,
-    while the results still hold the pencils."""
+def write_results(study: StudyResult, outdir: pathlib.Path, written_one=None) -> list[pathlib.Path]:
+    """Write steps.csv then results.json (last: its presence marks a complete run) of the typed
+    ``study`` (results.json is :meth:`StudyResult.to_json`); ``written_one()`` is called after
+    each (progress). The MCEIP-mu proofs (app/io/proofs.py) are written before, while the results
+    still hold the pencils."""
     outdir.mkdir(parents=True, exist_ok=True)
     done = written_one or (lambda: None)
-    atomic_write(outdir / "steps.csv", steps_csv(results))
+    atomic_write(outdir / "steps.csv", steps_csv(study))
     done()
-    atomic_write(outdir / "results.json", dumps_document(to_document(results)))
+    atomic_write(outdir / "results.json", dumps_document(study.to_json()))
     done()
     return [outdir / "steps.csv", outdir / "results.json"]

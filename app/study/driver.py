@@ -26,12 +26,15 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
     ``extra``: keys added to the results before they are written (e.g. a sweep case's identity).
     Returns the results dictionary (on rank 0 with the pictures drawn recorded in it).
     """
+    import dataclasses
+
     from app.plot.pictures import prestarted
     from app.study.run import study
     progress = progress or Progress(enabled=False)
     with prestarted(scene, comm):     # rank 0: the drawing processes warm up during the study
         # outdir: where the scene's field outputs (if any) go, written while the system is alive
-        results = study(scene, comm, progress, outdir=outdir).raw
+        result = study(scene, comm, progress, outdir=outdir)
+        results = result.raw
         if comm.rank == 0:
             from app.io.proofs import count_proofs, write_proofs
             from app.io.results import write_results
@@ -43,9 +46,10 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
                 bar = progress.bar(n, "writing proofs", unit="file")
                 write_proofs(results, outdir, lambda: bar.update(1))   # before the drawing drops the pencils
                 bar.close()
+            # the drawing records its files, notes and stages in the results (as JSON data)
             results = draw_after_run(results, outdir, progress)
             bar = progress.bar(2, "writing results", unit="file")
-            write_results(results, outdir, lambda: bar.update(1))
+            write_results(dataclasses.replace(result, raw=results), outdir, lambda: bar.update(1))
             bar.close()
     return results
 

@@ -196,6 +196,7 @@ def _warm_up(scene: Scene, comm: MPI.Comm) -> None:
 def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = None,
                    outdir: pathlib.Path | None = None, log=print) -> dict:
     """Run every level; rank 0 writes the outputs into ``outdir``. Returns the summary."""
+    from app.io.result import StudyResult
     from app.io.results import steps_csv
     ref = scene.refinement
     t0 = time.perf_counter()
@@ -219,7 +220,7 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
                     if outdir is not None:
                         d = outdir / "levels" / f"P{deg}-{plane}-nx{nx}"
                         d.mkdir(parents=True, exist_ok=True)
-                        (d / "steps.csv").write_text(steps_csv(res))
+                        (d / "steps.csv").write_text(steps_csv(StudyResult.from_dict(res)))
     conv = analyse_convergence(rows)
     cfg = scene.system
     units = CONTINUUM_UNITS[scene.units]
