@@ -344,11 +344,11 @@ def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
         from app.study.refinement import main as refinement_main
         return refinement_main(scene, args, comm, folder, outdir)
     try:
-        results = driver.run_and_write(scene, comm, outdir, Progress(enabled=not args.quiet, comm=comm))
+        result = driver.run_and_write(scene, comm, outdir, Progress(enabled=not args.quiet, comm=comm))
     except UnreachableLoad as err:   # raised identically on every rank
         return _fail(driver.loading_error(args.scene or "default scene", err))
     final = driver.commit(folder, comm)
     if comm.rank == 0 and not args.quiet:
         from app.io.summary import summary
-        print(summary(results, final))
-    return driver.exit_status(results["failures"])
+        print(summary(result, final))
+    return driver.exit_status(list(result.failures))

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pathlib
 
-from app.io.result import StudyResult
+from app.io.result import MceipResult, StudyResult
 
 
 def proof_word(analysis: dict) -> str:
@@ -29,56 +29,57 @@ def proof_word(analysis: dict) -> str:
     return "found (not proven)"
 
 
-def summary(results: dict, outdir: pathlib.Path) -> str:
-    """The summary of a study from its results dictionary: the path, the first state where MCEIP-mu
-    has a solution, the final state's analyses with what is proven, the warnings, failures, wall
-    time per stage and the files written in ``outdir``."""
-    states = results["states"]
-    lines = [f"scene '{results['scene']}': {results['system']}",
-             f"  {len(states)} equilibrium state(s), {results['distinct_classifications']} distinct "
-             f"classification(s); path: {results['path'].get('end', '')}"]
-    first_mu = StudyResult.from_dict(results).first_instability()
+def _patterns(m: MceipResult) -> str:
+    """The solutions of an MCEIP as ``value (pattern)``, or why there are none."""
+    vals = ", ".join(f"{float(x.value):.6g} ({''.join('S' if p == 'slip' else '-' for p in x.pattern)})"
+                     for x in m.solutions)
+    return vals or ("not searched" if m.result.startswith("not searched") else "none found")
+
+
+def summary(study: StudyResult, outdir: pathlib.Path) -> str:
+    """The summary of a study: the path, the first state where MCEIP-mu has a solution, the
+    final state's analyses with what is proven, the warnings, failures, wall time per stage and
+    the files written in ``outdir``. ``study.raw`` holds the run's record (stages, wall time,
+    files written)."""
+    run = study.raw
+    lines = [f"scene '{study.scene}': {study.system}",
+             f"  {len(study)} equilibrium state(s), {run['distinct_classifications']} distinct "
+             f"classification(s); path: {study.path.get('end', '')}"]
+    first_mu = study.first_instability()
     if first_mu is not None:
-        c = first_mu.classification
-        lines.append(f"  MCEIP-mu first has a solution at state {first_mu.index} "
-                     f"({c['stick']} stick / {c['slip']} slip / {c['free']} free)")
-    if not states:
+        lines.append(f"  MCEIP-mu first has a solution at state {first_mu.index} ({first_mu.counts()})")
+    if not study.states:
         lines.append("  no equilibrium state: nothing to analyse")
         return "\n".join(lines)
-    last = states[-1]
-    c = last["classification"]
-    lines.append(f"  final state {last['index']}: {c['stick']} stick / {c['slip']} slip / {c['free']} free"
-                 + (f" / {c['zero']} zero" if c["zero"] else ""))
-    a = {k: v for k, v in last["analyses"].items() if not v.get("failed") and not v.get("not_applicable")}
-    for k, v in last["analyses"].items():
-        if v.get("failed"):
-            lines.append(f"    {k}: FAILED ({v['reason']})")
-    na = sorted({v["reason"] for v in last["analyses"].values() if v.get("not_applicable")})
-    for reason in na:
+    last = study.final
+    lines.append(f"  final state {last.index}: {last.counts()}")
+    for k, reason in last.failed.items():
+        lines.append(f"    {k}: FAILED ({reason})")
+    blocks = last.raw.get("analyses") or {}
+    for reason in sorted({v["reason"] for v in blocks.values() if v.get("not_applicable")}):
         lines.append(f"    stability analyses: {reason}")
-    if "necessary" in a:
-        lines.append(f"    necessary condition (19): {'satisfied' if a['necessary']['satisfied'] else 'not satisfied'}"
-                     f" (min eig sym K* = {a['necessary']['min_eig_K_sym']:.6g})")
-    if "sufficient" in a:
-        lam = a["sufficient"]["lambda2"]
-        lines.append("    sufficient condition (17)-(18): " + (f"satisfied, lambda^2 = {max(lam):.6g} 1/s^2" if lam else "not satisfied"))
-    for key, name in (("mceip_mu", "MCEIP-mu"), ("mceip_lambda2", "MCEIP-lambda^2")):
-        if key in a:
-            sols = a[key]["solutions"]
-            vals = ", ".join(f"{s['value']:.6g} ({''.join('S' if p == 'slip' else '-' for p in s['pattern'])})"
-                             for s in sols) or ("not searched" if str(a[key].get("result", "")).startswith("not searched")
-                                                else "none found")
-            extra = f" at mu = {a[key]['mu']}" if key == "mceip_lambda2" else ""
-            lines.append(f"    {name}{extra}: {vals} [{proof_word(a[key])}]")
-    for w in results.get("warnings", []):
+    if last.necessary is not None:
+        lines.append(f"    necessary condition (19): {'satisfied' if last.necessary.satisfied else 'not satisfied'}"
+                     f" (min eig sym K* = {last.necessary.min_eig_K_sym:.6g})")
+    if last.sufficient is not None:
+        lam = last.max_lambda2()
+        lines.append("    sufficient condition (17)-(18): "
+                     + (f"satisfied, lambda^2 = {lam:.6g} 1/s^2" if lam is not None else "not satisfied"))
+    if last.mceip_mu is not None:
+        lines.append(f"    MCEIP-mu: {_patterns(last.mceip_mu)} [{proof_word(last.mceip_mu.raw)}]")
+    if last.mceip_lambda2 is not None:
+        m = last.mceip_lambda2
+        mu = m.raw.get("mu", m.mu)
+        lines.append(f"    MCEIP-lambda^2 at mu = {mu}: {_patterns(m)} [{proof_word(m.raw)}]")
+    for w in study.warnings:
         lines.append(f"  WARNING: {w}")
-    if results["failures"]:
-        lines.append(f"  INCOMPLETE: {len(results['failures'])} state(s) failed: "
-                     + "; ".join(f"state {f['state']} {f.get('analysis', '')}: {f['reason']}" for f in results["failures"][:3]))
-    lines.append(f"  wall time {results['wall_seconds']:.2f} s; stages: "
-                 + ", ".join(f"{s['name']} {s['seconds']:.2f} s" for s in results["stages"]))
+    if study.failures:
+        lines.append(f"  INCOMPLETE: {len(study.failures)} state(s) failed: "
+                     + "; ".join(f"state {f['state']} {f.get('analysis', '')}: {f['reason']}" for f in study.failures[:3]))
+    lines.append(f"  wall time {run['wall_seconds']:.2f} s; stages: "
+                 + ", ".join(f"{s['name']} {s['seconds']:.2f} s" for s in run["stages"]))
     lines.append(f"  results: {outdir / 'results.json'}, {outdir / 'steps.csv'}")
-    files = (results.get("outputs") or {}).get("files") or []
+    files = (run.get("outputs") or {}).get("files") or []
     if files:
         parts = [str(outdir / "report.md")] if "report.md" in files else []
         for k in ("plots", "screenshots", "paraview"):
@@ -86,6 +87,6 @@ def summary(results: dict, outdir: pathlib.Path) -> str:
             if n:
                 parts.append(f"{n} file(s) in {outdir / k}")
         lines.append("  outputs: " + ", ".join(parts))
-    for note in (results.get("outputs") or {}).get("notes") or []:
+    for note in (run.get("outputs") or {}).get("notes") or []:
         lines.append(f"  note: {note}")
     return "\n".join(lines)

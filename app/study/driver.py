@@ -16,15 +16,16 @@ from typing import Any, Optional
 
 from app.common.errors import EXIT_INCOMPLETE, EXIT_OK
 from app.common.progress import Progress
+from app.io.result import StudyResult
 from app.scene.schema import Scene
 
 
 def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[Progress] = None,
-                  extra: Optional[dict[str, Any]] = None) -> dict:
+                  extra: Optional[dict[str, Any]] = None) -> StudyResult:
     """Run ``scene`` on ``comm`` (MPI collective), then rank 0 draws and writes into ``outdir``.
 
     ``extra``: keys added to the results before they are written (e.g. a sweep case's identity).
-    Returns the results dictionary (on rank 0 with the pictures drawn recorded in it).
+    Returns the typed result (on rank 0 its ``raw`` records the pictures drawn).
     """
     import dataclasses
 
@@ -49,9 +50,10 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
             # the drawing records its files, notes and stages in the results (as JSON data)
             results = draw_after_run(results, outdir, progress)
             bar = progress.bar(2, "writing results", unit="file")
-            write_results(dataclasses.replace(result, raw=results), outdir, lambda: bar.update(1))
+            result = dataclasses.replace(result, raw=results)
+            write_results(result, outdir, lambda: bar.update(1))
             bar.close()
-    return results
+    return result
 
 
 def commit(folder, comm) -> Optional[pathlib.Path]:

@@ -85,7 +85,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
                                "values": case.values, "scene_hash": case.scene_hash}}
     try:
         try:
-            results = driver.run_and_write(case.scene, gcomm, staging, extra=identity)
+            results = driver.run_and_write(case.scene, gcomm, staging, extra=identity).raw
         except UnreachableLoad as err:   # raised identically on every rank of the group
             error = f"loading: {err}"
     except Exception as err:             # noqa: BLE001
