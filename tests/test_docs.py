@@ -93,9 +93,9 @@ def test_readme_is_a_front_page():
     # the summary shown is the one the default study prints (up to its timings and folders)
     from app.io.summary import summary as printed
     from app.scene.schema import Outputs, load_scene
-    from app.study.run import run_study
+    from app.study.run import study
     scene = load_scene(ROOT / "app" / "scenes" / "villechaise_block.yaml")
-    res = run_study(scene.model_copy(update={"outputs": Outputs()}), MPI.COMM_WORLD)      # no files or pictures
+    res = study(scene.model_copy(update={"outputs": Outputs()}), MPI.COMM_WORLD)      # no files or pictures
     shown = summary.group(1).split("\n  wall time")[0].splitlines()
     assert shown == printed(res, pathlib.Path("output/villechaise-block")).split("\n  wall time")[0].splitlines()
     assert not (ROOT / "NOTES.md").exists()       # replaced by CHANGELOG.md and docs/limitations.md
