@@ -13,9 +13,9 @@ compiling the same form (two runs of a sweep, or two test workers, on a fresh ca
 10 s is too short on a loaded machine, where the wait then ends in an error. FFCx claims a form's
 C file before it compiles it; a process killed while compiling leaves the claim, and every later
 process compiling that form waits for it. FFCx says so only in INFO records (``verbosity`` 20
-below lets them through; the command line shows other libraries' INFO records only at DEBUG), so
-:func:`params` attaches :class:`WaitNotice`, which turns the first of them into one warning
-naming the claim and its age.
+below lets them through), so :func:`params` attaches the filter :class:`WaitNotice` to FFCx's
+logger, which turns the first of them into one warning naming the claim and its age and drops
+FFCx's other INFO records.
 """
 from __future__ import annotations
 
@@ -38,22 +38,29 @@ JIT_PARAMS: dict = {"cache_dir": Path(os.getenv("XDG_CACHE_HOME", default=Path.h
 log = logging.getLogger(__name__)
 
 
-class WaitNotice(logging.Handler):
-    """FFCx's "Waiting for X.c.cached to appear." (logged once a second while another process
-    holds the claim ``X.c``) as one warning per claim, with the claim's age and what to do."""
+class WaitNotice(logging.Filter):
+    """A filter on FFCx's logger: its "Waiting for X.c.cached to appear." (logged once a second
+    while another process holds the claim ``X.c``) becomes one warning per claim, with the
+    claim's age and what to do; FFCx's other records below WARNING are dropped, as they were at
+    its default ``verbosity`` (FFCx calls ``logging.basicConfig()`` on import, so they would
+    otherwise be printed)."""
 
     PREFIX, SUFFIX = "Waiting for ", " to appear."
 
     def __init__(self):
-        super().__init__(logging.INFO)
+        super().__init__()
         self.seen: set[str] = set()
 
-    def emit(self, record: logging.LogRecord) -> None:
-        """Warn on the first wait for a claim (the other records pass by)."""
+    def filter(self, record: logging.LogRecord) -> bool:
+        """Pass FFCx's warnings and errors; note a wait; drop the rest."""
+        if record.levelno >= logging.WARNING:
+            return True
         text = record.getMessage()
-        if not (text.startswith(self.PREFIX) and text.endswith(self.SUFFIX)):
-            return
-        ready = text[len(self.PREFIX):-len(self.SUFFIX)]
+        if text.startswith(self.PREFIX) and text.endswith(self.SUFFIX):
+            self._notice(text[len(self.PREFIX):-len(self.SUFFIX)])
+        return False
+
+    def _notice(self, ready: str) -> None:
         if ready in self.seen:
             return
         self.seen.add(ready)
@@ -69,8 +76,8 @@ class WaitNotice(logging.Handler):
 
 def _attach_wait_notice() -> None:
     ffcx_log = logging.getLogger("ffcx")
-    if not any(isinstance(h, WaitNotice) for h in ffcx_log.handlers):
-        ffcx_log.addHandler(WaitNotice())
+    if not any(isinstance(f, WaitNotice) for f in ffcx_log.filters):
+        ffcx_log.addFilter(WaitNotice())
 
 
 def params() -> dict:
