@@ -51,15 +51,17 @@ def main() -> None:
 
     def counted(system, p, sc, s, **kw):
         """MCEIP-mu of one classification (rank 0's share under MPI), with a progress line."""
-        out = mceip_mu(system, p, sc, s, **kw)
+        out = mceip_mu(system, p, sc, s, **kw)          # a typed outcome (app.analyses.outcomes)
         count[0] += 1
         if comm.rank == 0:
+            cert = getattr(out, "certificate", None)
+            sols = getattr(out, "solutions", None) or []
             print(json.dumps({"classification": count[0], "slip": s, "t": round(time.perf_counter() - t0, 3),
-                              "search_s": (out.get("search") or {}).get("seconds"),
-                              "certificate_s": (out.get("certificate") or {}).get("seconds"),
-                              "status": (out.get("certificate") or {}).get("status"),
-                              "found": len(out.get("solutions", [])),
-                              "values": [round(x["value"], 6) for x in out.get("solutions", [])][:4]}), flush=True)
+                              "search_s": (getattr(out, "search", None) or {}).get("seconds"),
+                              "certificate_s": None if cert is None else cert.seconds,
+                              "status": None if cert is None else cert.status,
+                              "found": len(sols), "values": [round(float(x.value), 6) for x in sols][:4]}),
+                  flush=True)
         return out
 
     runner.state_mceip_mu = counted       # analyse_state (s = 0) and analyse_condensed_distributed call it
@@ -71,7 +73,10 @@ def main() -> None:
         t = time.perf_counter()
         cls = classify(states[-1], scene.mu, scene.settings.classify_rtol)
         out = analyse(system, cls, scene.model_copy(update={"analyses": ["sufficient"]}))
-        return {"sufficient": out.get("sufficient"), "seconds": time.perf_counter() - t}
+        suff = out.get("sufficient")
+        return {"sufficient": None if suff is None else {"satisfied": bool(suff.satisfied),
+                                                         "lambda2": [float(v) for v in suff.lambda2]},
+                "seconds": time.perf_counter() - t}
 
     res = study.run_study(scene, comm, inspect=final_sufficient)
     wall = time.perf_counter() - t0
