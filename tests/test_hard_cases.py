@@ -108,8 +108,9 @@ def test_solver_failure_is_reported_and_the_study_goes_on(scene_file, tmp_path):
     assert res["states"][-1]["analyses"]["mceip_mu"]["solutions"]
 
 
-def _start(out, *extra):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+def _start(out, *extra, **env_extra):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               **env_extra)
     # SIGINT as a terminal delivers it: a test suite started in the background inherits it ignored
     return subprocess.Popen([sys.executable, "-m", "app", "run", "-o", str(out), "-q", *extra], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
@@ -208,21 +209,30 @@ def test_a_ctrl_c_while_gmsh_meshes_the_block_is_one_line(tmp_path, scene_file):
     out = tmp_path / "out"
     scene = scene_file(f"name: g\nmu: 1.1\nsystem: {{type: block, length: {length!r}, nx: 160, ny: 80}}\n"
                        "analyses: [mceip_mu]\noutputs: {plots: false, report: false}\n")
-    proc = _start(out, str(scene))
     try:
-        deadline = time.monotonic() + 60
-        while not _has_loaded(proc.pid, "libgmsh"):
-            assert proc.poll() is None and time.monotonic() < deadline, "the run never loaded Gmsh"
+        err = _interrupt_when(_start(out, str(scene)), lambda pid: _has_loaded(pid, "libgmsh"), "the run never loaded Gmsh")
+    finally:
+        cached.unlink(missing_ok=True)
+    assert not out.exists() and [p for p in tmp_path.iterdir() if ".partial-" in p.name] == [], err
+
+
+def _interrupt_when(proc, ready, never: str, seconds: float = 120) -> str:
+    """SIGINT to the run's process group (a Ctrl-C) once ``ready(pid)`` holds; asserts the run's
+    one ``error:`` line and exit status 130 and returns it. ``never``: the message when the run
+    ends first."""
+    try:
+        deadline = time.monotonic() + seconds
+        while not ready(proc.pid):
+            assert proc.poll() is None and time.monotonic() < deadline, never
             time.sleep(0.001)
         os.killpg(proc.pid, signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
+        err = proc.communicate(timeout=seconds)[1].decode()
     finally:
         if proc.poll() is None:
             proc.kill()
-        cached.unlink(missing_ok=True)
     assert proc.returncode == 130, err
-    assert err.decode().startswith("error: interrupted by SIGINT") and len(err.decode().strip().splitlines()) == 1
-    assert not out.exists() and [p for p in tmp_path.iterdir() if ".partial-" in p.name] == []
+    assert err.startswith("error: interrupted by SIGINT") and len(err.strip().splitlines()) == 1, err
+    return err
 
 
 @pytest.mark.slow
@@ -234,22 +244,8 @@ def test_a_ctrl_c_during_the_jit_compilation_leaves_the_cache_usable(tmp_path):
     and every C file of the cache is either compiled (``.c.cached``) or released."""
     cache = tmp_path / "cache"
     out = tmp_path / "out"
-    env = dict(os.environ, PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(cache))
-    proc = subprocess.Popen([sys.executable, "-m", "app", "run", "-o", str(out), "-q"], cwd=ROOT, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    try:
-        deadline = time.monotonic() + 120
-        while not list((cache / "fenics").glob("*.c")):
-            assert proc.poll() is None and time.monotonic() < deadline, "the run compiled nothing"
-            time.sleep(0.002)
-        os.killpg(proc.pid, signal.SIGINT)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130, err
-    assert err.decode().startswith("error: interrupted by SIGINT") and len(err.decode().strip().splitlines()) == 1
+    _interrupt_when(_start(out, XDG_CACHE_HOME=str(cache)), lambda pid: list((cache / "fenics").glob("*.c")),
+                    "the run compiled nothing")
     claims = [c.name for c in (cache / "fenics").glob("*.c") if not c.with_suffix(".c.cached").exists()]
     assert claims == [], claims
     assert not out.exists()
