@@ -34,14 +34,17 @@ log = logging.getLogger(__name__)
 KNOWN: dict[tuple[str, str], str] = {}
 
 #: (category, library file) -> why a warning of that category raised there says nothing about the
-#: computation, whatever its message (which names a file): logged at DEBUG, not recorded
+#: computation, whatever its message (which names a file): logged at DEBUG, not recorded. An empty
+#: library file matches every library.
 IGNORED_IN_LIBRARY: dict[tuple[str, str], str] = {
-    # On a cold JIT cache ffcx claims each new C file with ``open(name, "x")`` and drops the handle
-    # unclosed (ffcx 0.5, codegeneration/jit.py get_cached_module); CPython closes it when the
-    # object is collected. It happens once per new form, never on a warm cache.
-    ("ResourceWarning", "ffcx/codegeneration/jit.py"):
-        "FFCx left the placeholder of a new C file of its JIT cache unclosed (Python closes it; "
-        "only when a form is compiled for the first time)",
+    # A file or socket a library left unclosed, which CPython closes when the object is collected:
+    # FFCx claims each new C file of its JIT cache with ``open(name, "x")`` and drops the handle
+    # (ffcx 0.5, codegeneration/jit.py get_cached_module); threadpoolctl's reading of
+    # /proc/self/maps is left open when a Ctrl-C's KeyboardInterrupt lands inside it. File
+    # hygiene only: no number of the study depends on it.
+    ("ResourceWarning", ""):
+        "a library left a file unclosed (Python closes it when the object is collected; file hygiene "
+        "only, e.g. FFCx's placeholder of a new C file of its JIT cache)",
 }
 
 _LIBRARY_DIRS = tuple({os.path.dirname(os.__file__), os.path.dirname(warnings.__file__)})
