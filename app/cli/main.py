@@ -191,6 +191,10 @@ def _interrupted(signum: int) -> int:
     for s in (signal.SIGINT, signal.SIGTERM):         # a deferred signal sent again is not raised here
         if signal.getsignal(s) is _terminate:
             signal.signal(s, signal.SIG_IGN)
+    # An object the interrupt left half-built (an .npz file being opened, say) may fail in its
+    # destructor when the process ends ("Exception ignored in ... __del__"): expected after an
+    # interrupt, so such reports go to the debug log instead of beside the one line below.
+    sys.unraisablehook = _after_interrupt
     code = 128 + signum
     if MPI.COMM_WORLD.rank == 0:
         print(f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
@@ -198,6 +202,12 @@ def _interrupted(signum: int) -> int:
     if MPI.COMM_WORLD.size > 1:
         MPI.COMM_WORLD.Abort(code)
     return code
+
+
+def _after_interrupt(unraisable) -> None:
+    """``sys.unraisablehook`` once a run is interrupted (see :func:`_interrupted`)."""
+    import logging
+    logging.getLogger(__name__).debug("after the interrupt: %r in %r", unraisable.exc_value, unraisable.object)
 
 
 def _check(args) -> int:
