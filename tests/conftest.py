@@ -175,3 +175,14 @@ def fill_disk(folder: pathlib.Path) -> pathlib.Path:
     finally:
         os.close(fd)
     return path
+
+
+@pytest.fixture(autouse=True)
+def _no_interrupt_left_behind():
+    """A test that exercises the CLI's signal handler in this process must not leave a received
+    signal behind: the next study's checkpoints would raise it (app/common/interrupt.py)."""
+    yield
+    from app.common import interrupt
+    left = list(interrupt.RECEIVED)
+    interrupt.clear()
+    assert not left, f"a test left the received signal(s) {left} behind"

@@ -329,10 +329,17 @@ def test_a_signal_during_an_import_is_sent_again_after_it(tmp_path, monkeypatch)
     where it would come out of a C extension's initialisation as an ImportError and a traceback:
     there the signal is sent again a tenth of a second later."""
     import app.cli.main as cli
+    from app.common import interrupt
     sent = []
     monkeypatch.setattr(cli.os, "kill", lambda pid, sig: sent.append((pid, sig)))
+    monkeypatch.setattr(interrupt, "RECEIVED", [])     # this process's own record stays untouched
+    monkeypatch.setattr(interrupt, "RAISED", [])
     with pytest.raises(KeyboardInterrupt, match="signal 15"):
         cli._terminate(signal.SIGTERM, sys._getframe())
+    assert interrupt.RECEIVED == [signal.SIGTERM] and interrupt.raised()
+    with pytest.raises(KeyboardInterrupt, match="signal 15"):
+        interrupt.checkpoint()          # raised again where the run goes on, if it was swallowed
+    interrupt.clear()
     (tmp_path / "importing_now.py").write_text(
         "import sys, signal\nimport app.cli.main as cli\ncli._terminate(signal.SIGTERM, sys._getframe())\n")
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -341,6 +348,7 @@ def test_a_signal_during_an_import_is_sent_again_after_it(tmp_path, monkeypatch)
     while not sent and time.monotonic() < deadline:
         time.sleep(0.02)
     assert sent == [(os.getpid(), signal.SIGTERM)]
+    assert interrupt.RECEIVED == [signal.SIGTERM] and not interrupt.raised()     # deferred: not raised yet
 
 
 def test_a_jit_claim_left_by_a_killed_process_is_named(tmp_path, caplog):
@@ -394,3 +402,30 @@ def test_destructors_failing_after_an_interrupt_print_nothing():
                        env=dict(os.environ, PYTHONPATH=str(ROOT)))
     assert p.returncode == 130 and p.stderr.strip().splitlines() == [
         "error: interrupted by SIGINT (Ctrl-C); the run stopped and wrote no results"], p.stderr
+
+
+def test_a_ctrl_c_whose_keyboardinterrupt_is_swallowed_still_stops_the_run(tmp_path):
+    """pybind11 builds the message of a call that matches no overload from the arguments' repr,
+    and a KeyboardInterrupt raised there is lost; DOLFINx 0.5's create_mesh first tries such an
+    overload. A Ctrl-C landing there let the run go on and exit 0 with its results (a fresh-clone
+    CI run saw it). Here a library swallows the KeyboardInterrupt of a real SIGINT at the same
+    call: the run still stops with the one interrupt line, exit 130, and writes nothing."""
+    out = tmp_path / "out"
+    code = ("import os, signal, sys, time\n"
+            "import dolfinx.mesh\n"
+            "real = dolfinx.mesh.create_mesh\n"
+            "def swallowing(*args, **kwargs):\n"
+            "    try:\n"
+            "        os.kill(os.getpid(), signal.SIGINT)\n"
+            "        time.sleep(2)\n"
+            "    except KeyboardInterrupt:\n"
+            "        pass                       # what pybind11's error formatting does\n"
+            "    return real(*args, **kwargs)\n"
+            "dolfinx.mesh.create_mesh = swallowing\n"
+            "from app.cli.main import main\n"
+            f"sys.exit(main(['run', '-o', {str(out)!r}, '-q']))\n")
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300,
+                       env=dict(os.environ, PYTHONPATH=str(ROOT)), preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert p.returncode == 130 and p.stderr.strip().splitlines() == [
+        "error: interrupted by SIGINT (Ctrl-C); the run stopped and wrote no results"], (p.returncode, p.stderr)
+    assert not out.exists()

@@ -14,6 +14,7 @@ from app.analyses.outcomes import Failed, MceipMuOutcome, Outcome, one_line
 from app.analyses.pencils import UnsupportedState
 from app.analyses.runner import ANALYSES, state_mceip_mu
 from app.analyses.state_pencils import StatePencils
+from app.common.interrupt import checkpoint
 from app.common.progress import Progress
 from app.loading.classify import ZERO, Classification
 from app.scene.schema import Scene
@@ -51,6 +52,7 @@ def analyse_condensed_distributed(system: System, scene: Scene, jobs: list[tuple
 
     def run_chain(c: int, tasks, counter=None) -> None:
         for k in chains[c]:
+            checkpoint()              # a Ctrl-C whose KeyboardInterrupt was swallowed (app/common/interrupt.py)
             cls = jobs[k][0]
             warm = _warm_starts(jobs[k - 1][0], mine.get(k - 1), cls) if k != chains[c][0] else None
             LIVE.reset()

@@ -170,7 +170,8 @@ def _guarded(fn, args) -> int:
     except (MemoryError, OSError, RuntimeError) as err:
         msg = _write_error(err)
         if msg is None:
-            return _interrupted(_RECEIVED[0]) if _RECEIVED else _unexpected()
+            from app.common import interrupt
+            return _interrupted(interrupt.RECEIVED[0]) if interrupt.RECEIVED else _unexpected()
         print(f"error: {msg}", file=sys.stderr, flush=True)      # every rank that hit it: one line each
         if MPI.COMM_WORLD.size > 1:
             MPI.COMM_WORLD.Abort(EXIT_WRITE)
@@ -180,8 +181,9 @@ def _guarded(fn, args) -> int:
         # line, not a traceback; the staging folder has already been removed by the run's finally
         return _interrupted(15 if str(err) == "signal 15" else 2)
     except Exception:
-        if _RECEIVED:            # a child (the C compiler) died of the same Ctrl-C first
-            return _interrupted(_RECEIVED[0])
+        from app.common import interrupt
+        if interrupt.RECEIVED:   # a child (the C compiler) died of the same Ctrl-C first
+            return _interrupted(interrupt.RECEIVED[0])
         return _unexpected()
 
 
@@ -195,6 +197,8 @@ def _interrupted(signum: int) -> int:
     # destructor when the process ends ("Exception ignored in ... __del__"): expected after an
     # interrupt, so such reports go to the debug log instead of beside the one line below.
     sys.unraisablehook = _after_interrupt
+    from app.common import interrupt
+    interrupt.clear()
     code = 128 + signum
     if MPI.COMM_WORLD.rank == 0:
         print(f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
@@ -298,6 +302,8 @@ def _main(args) -> int:
     # Everything is written into the staging folder (created and probed by check()) and moved into
     # place at the very end; the lock on the folder is held until then.
     outdir = folder.staging
+    from app.common import interrupt
+    interrupt.clear()
     signal.signal(signal.SIGTERM, _terminate)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
         signal.signal(signal.SIGINT, _terminate)
@@ -306,10 +312,6 @@ def _main(args) -> int:
     finally:
         if comm.rank == 0:
             folder.abort()              # interrupted or failed: drop the partial files (kept if the commit failed)
-
-
-#: the signal a run received and has not raised yet (set by :func:`_terminate`)
-_RECEIVED: list[int] = []
 
 
 def _deferring(frame) -> bool:
@@ -334,15 +336,19 @@ def _terminate(signum, frame):
     Where it must wait (:func:`_deferring`) the signal is sent again a tenth of a second later
     instead, until the import or the compilation is done. A Ctrl-C also reaches the C compiler
     FFCx runs (the terminal signals the whole process group): the compilation then fails with an
-    ordinary exception before the signal is raised, and :func:`_guarded` reports the interrupt."""
-    if signum not in _RECEIVED:
-        _RECEIVED.append(signum)
+    ordinary exception before the signal is raised, and :func:`_guarded` reports the interrupt.
+    The signal is recorded in :mod:`app.common.interrupt`, whose checkpoints raise it again if
+    the KeyboardInterrupt is swallowed on its way."""
+    from app.common import interrupt
+    interrupt.record(signum)
+    if interrupt.raised():           # on its way up, or swallowed: app.common.interrupt.checkpoint raises it again
+        return
     if _deferring(frame):
         again = threading.Timer(0.1, os.kill, (os.getpid(), signum))
         again.daemon = True
         again.start()
         return
-    raise KeyboardInterrupt(f"signal {signum}")
+    raise interrupt.interrupt()
 
 
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
@@ -357,6 +363,8 @@ def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
         result = driver.run_and_write(scene, comm, outdir, Progress(enabled=not args.quiet, comm=comm))
     except UnreachableLoad as err:   # raised identically on every rank
         return _fail(driver.loading_error(args.scene or "default scene", err))
+    from app.common.interrupt import checkpoint
+    checkpoint()                     # a Ctrl-C whose KeyboardInterrupt was swallowed: no results
     final = driver.commit(folder, comm)
     if comm.rank == 0 and not args.quiet:
         from app.io.summary import summary

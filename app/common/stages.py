@@ -6,6 +6,8 @@ import logging
 import time
 from dataclasses import dataclass, field
 
+from app.common.interrupt import checkpoint
+
 log = logging.getLogger(__name__)
 
 
@@ -24,7 +26,9 @@ class Stages:
     @contextlib.contextmanager
     def __call__(self, name: str):
         """Time the block of a ``with`` as the stage ``name``: its wall time is added to the stage's
-        record (made on first use) and its count incremented, also when the block raises."""
+        record (made on first use) and its count incremented, also when the block raises. A
+        received Ctrl-C is raised before the stage begins (:func:`app.common.interrupt.checkpoint`)."""
+        checkpoint()
         t0 = time.perf_counter()
         try:
             yield

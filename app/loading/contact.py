@@ -24,6 +24,7 @@ from typing import Optional
 import numpy as np
 from petsc4py import PETSc
 
+from app.common.interrupt import checkpoint
 from app.linalg import configure_direct, from_options, one_blas_thread, owned, set_linesearch, with_prefix
 
 
@@ -156,8 +157,9 @@ class FrictionalContact:
         ``d_prev`` (the previous increment's ``slip_increment``; zero when None): along a steady
         loading the nodes that slid keep sliding by about the same amount, so the start is
         near the new active set."""
+        checkpoint()                  # a Ctrl-C whose KeyboardInterrupt was swallowed (app/common/interrupt.py)
         # the dense 2n x 2n work (LU factorisations, products with Kc) is 2-3x faster on one BLAS
-        # thread on this kind of machine (issue 14)
+        # thread on this kind of machine
         with one_blas_thread():
             return self._solve(u0, u_T_prev, g_prev, d_prev)
 

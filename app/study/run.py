@@ -14,6 +14,7 @@ from app.analyses.curvature import attach as attach_curvature
 from app.analyses.distributed import analyse_condensed_distributed
 from app.analyses.outcomes import Deferred, Failed, analyses_document
 from app.analyses.runner import analyse_state
+from app.common.interrupt import checkpoint
 from app.common.library_warnings import describe, explained, merged
 from app.common.progress import Progress
 from app.common.stages import Stages
@@ -86,6 +87,7 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
     failures = [path_info["failure"]] if path_info.get("failure") else []
     bar = progress.bar(len(states), "analyses")
     for state in states:
+        checkpoint()                  # a Ctrl-C whose KeyboardInterrupt was swallowed (app/common/interrupt.py)
         t_state = time.perf_counter()
         # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/curvature.py)
         cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
