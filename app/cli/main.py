@@ -15,6 +15,7 @@ import signal
 import sys
 import threading
 
+from app.common import interrupt
 from app.common.errors import EXIT_WRITE
 from app.common.errors import fail as _fail
 
@@ -170,7 +171,6 @@ def _guarded(fn, args) -> int:
     except (MemoryError, OSError, RuntimeError) as err:
         msg = _write_error(err)
         if msg is None:
-            from app.common import interrupt
             return _interrupted(interrupt.RECEIVED[0]) if interrupt.RECEIVED else _unexpected()
         print(f"error: {msg}", file=sys.stderr, flush=True)      # every rank that hit it: one line each
         if MPI.COMM_WORLD.size > 1:
@@ -181,7 +181,6 @@ def _guarded(fn, args) -> int:
         # line, not a traceback; the staging folder has already been removed by the run's finally
         return _interrupted(15 if str(err) == "signal 15" else 2)
     except Exception:
-        from app.common import interrupt
         if interrupt.RECEIVED:   # a child (the C compiler) died of the same Ctrl-C first
             return _interrupted(interrupt.RECEIVED[0])
         return _unexpected()
@@ -197,7 +196,6 @@ def _interrupted(signum: int) -> int:
     # destructor when the process ends ("Exception ignored in ... __del__"): expected after an
     # interrupt, so such reports go to the debug log instead of beside the one line below.
     sys.unraisablehook = _after_interrupt
-    from app.common import interrupt
     interrupt.clear()
     code = 128 + signum
     if MPI.COMM_WORLD.rank == 0:
@@ -302,7 +300,6 @@ def _main(args) -> int:
     # Everything is written into the staging folder (created and probed by check()) and moved into
     # place at the very end; the lock on the folder is held until then.
     outdir = folder.staging
-    from app.common import interrupt
     interrupt.clear()
     signal.signal(signal.SIGTERM, _terminate)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
@@ -339,7 +336,6 @@ def _terminate(signum, frame):
     ordinary exception before the signal is raised, and :func:`_guarded` reports the interrupt.
     The signal is recorded in :mod:`app.common.interrupt`, whose checkpoints raise it again if
     the KeyboardInterrupt is swallowed on its way."""
-    from app.common import interrupt
     interrupt.record(signum)
     if interrupt.raised():           # on its way up, or swallowed: app.common.interrupt.checkpoint raises it again
         return
@@ -363,8 +359,7 @@ def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:
         result = driver.run_and_write(scene, comm, outdir, Progress(enabled=not args.quiet, comm=comm))
     except UnreachableLoad as err:   # raised identically on every rank
         return _fail(driver.loading_error(args.scene or "default scene", err))
-    from app.common.interrupt import checkpoint
-    checkpoint()                     # a Ctrl-C whose KeyboardInterrupt was swallowed: no results
+    interrupt.checkpoint()           # a Ctrl-C whose KeyboardInterrupt was swallowed: no results
     final = driver.commit(folder, comm)
     if comm.rank == 0 and not args.quiet:
         from app.io.summary import summary
