@@ -13,6 +13,7 @@ import hashlib
 import json
 import os
 import pathlib
+import signal
 import stat
 import subprocess
 import time
@@ -189,7 +190,12 @@ def test_two_concurrent_runs_to_one_folder_one_is_refused(tmp_path):
     t0 = time.time()
     while not lock.exists() and first.poll() is None and time.time() - t0 < 60:
         time.sleep(0.01)
-    second = run_cli("run", str(scene), "-o", str(out), "-q")
+    # the first run is held while the second starts (its start-up alone can outlast a small study)
+    os.kill(first.pid, signal.SIGSTOP)
+    try:
+        second = run_cli("run", str(scene), "-o", str(out), "-q")
+    finally:
+        os.kill(first.pid, signal.SIGCONT)
     rc1 = first.wait(timeout=300)
     assert rc1 == 0, first.stderr.read()
     line = _one_error_line(second)
