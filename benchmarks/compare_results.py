@@ -102,7 +102,9 @@ def answers(doc: dict) -> dict:
 
 def _read(path: str) -> dict:
     """A results.json (any format version, infinities as floats) or an answers file."""
-    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+    root = str(pathlib.Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        sys.path.insert(0, root)
     from app.io.document import from_document
     with open(path) as f:
         data = json.load(f)

@@ -344,7 +344,7 @@ def _terminate(signum, frame):
         again.daemon = True
         again.start()
         return
-    raise interrupt.interrupt()
+    raise interrupt.keyboard_interrupt()
 
 
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:

@@ -29,7 +29,7 @@ def raised() -> bool:
     return bool(RAISED)
 
 
-def interrupt() -> KeyboardInterrupt:
+def keyboard_interrupt() -> KeyboardInterrupt:
     """The KeyboardInterrupt for the first received signal (``"signal N"``), marked as raised."""
     RAISED[:] = [True]
     return KeyboardInterrupt(f"signal {RECEIVED[0]}")
@@ -39,7 +39,7 @@ def checkpoint() -> None:
     """Raise the KeyboardInterrupt of a received signal (again, if it was swallowed). Call it only
     in the normal flow of the run, never from a ``finally`` or ``except`` block."""
     if RECEIVED:
-        raise interrupt()
+        raise keyboard_interrupt()
 
 
 def clear() -> None:

@@ -75,7 +75,6 @@ def _cell(v: float | None):
 def step_row(st: StateResult) -> dict:
     """The steps.csv row of one typed state."""
     load, c = st.load, st.classification
-    mu, l2 = st.mu_values(), ([] if st.mceip_lambda2 is None else st.mceip_lambda2.values)
     return {
         "index": st.index, "phase": load.get("phase", ""), "step": load.get("step", ""),
         # a loading program's parameters (a body from Gmsh: motions, loads, gravity), name=value;...
@@ -87,9 +86,9 @@ def step_row(st: StateResult) -> dict:
         "necessary_min_eig_K_sym": "" if st.necessary is None else _cell(st.necessary.min_eig_K_sym),
         "necessary_satisfied": "" if st.necessary is None else st.necessary.satisfied,
         "sufficient_max_lambda2": _cell(st.max_lambda2()),
-        "mceip_mu_min": float(min(mu)) if len(mu) else "",
-        "mceip_mu_count": "" if st.mceip_mu is None else len(mu),
-        "mceip_lambda2_max": float(max(l2)) if len(l2) else "",
+        "mceip_mu_min": _cell(st.min_mu()),
+        "mceip_mu_count": "" if st.mceip_mu is None else len(st.mceip_mu.solutions),
+        "mceip_lambda2_max": "" if st.mceip_lambda2 is None else _cell(st.mceip_lambda2.max()),
         "shared_with": "" if st.analyses_shared_with is None else st.analyses_shared_with,
         "analysis_seconds": st.raw.get("analysis_seconds", ""),
     }
