@@ -7,22 +7,26 @@ its analyses with.
 from __future__ import annotations
 
 import time
+from itertools import starmap
 
+import numpy as np
 from mpi4py import MPI
 
 from app.analyses.curvature import attach as attach_curvature
-from app.analyses.distributed import analyse_condensed_distributed
+from app.analyses.distributed import EarlyChains, analyse_condensed_distributed
 from app.analyses.outcomes import Deferred, Failed, analyses_document
 from app.analyses.runner import analyse_state
 from app.common.interrupt import checkpoint
 from app.common.library_warnings import describe, explained, merged
 from app.common.progress import Progress
 from app.common.stages import Stages
+from app.io.document import PlainRecords
 from app.io.from_outcomes import state_view
 from app.io.result import Node, StudyResult
 from app.linalg import one_blas_thread
-from app.loading.classify import classify
+from app.loading.classify import ZERO, classify
 from app.scene.schema import Scene
+from app.study import stream
 from app.systems import get as system_type
 
 
@@ -64,71 +68,143 @@ def study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspec
 def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir,
          t_start: float) -> tuple[dict, tuple]:
     """The body of :func:`run_study` (library warnings are caught around it)."""
+    kind = system_type(scene.system.type)
+    if stream.applies(scene, comm, kind):
+        # rank 0 walks the path while the other ranks already prove what it has passed
+        system, walk = kind.walker(scene, comm, stages)
+        try:
+            with EarlyChains(system, scene, comm) as early:                 # MPI collective (window)
+                per_state = Classified(system, scene, progress if comm.rank == 0 else None)
+                states, path_info = stream.walk(comm, walk, progress, stages, per_state, early)
+                per_state.finish_postponed()          # ranks > 0: the states that needed all ranks
+                return _study(scene, comm, stages, progress, inspect, outdir, t_start, system, states, path_info,
+                              per_state, early)
+        finally:
+            system.destroy()
     # the system type's own module (app/systems/) builds the system and runs its loading path
-    system, states, path_info = system_type(scene.system.type).path(scene, comm, stages, progress)
+    system, states, path_info = kind.path(scene, comm, stages, progress)
     try:
         return _study(scene, comm, stages, progress, inspect, outdir, t_start, system, states, path_info)
     finally:
         system.destroy()              # its PETSc objects, on every path (errors included)
 
 
+class Classified:
+    """The per-state part of a study, state by state: each state classified, its contact nodes
+    typed, and the scene's analyses run once per distinct classification (the condensed MCEIP-mu
+    left :class:`Deferred` in :attr:`deferred` for app/analyses/distributed.py).
+
+    ``postpone``: a state whose analyses would need every rank (a new classification with
+    zero-reaction nodes: its dense answer is broadcast from rank 0) is kept for
+    :meth:`finish_postponed`; used by ranks > 0 while rank 0 walks the path (app/study/stream.py)."""
+
+    def __init__(self, system, scene: Scene, progress: Progress | None):
+        self.system, self.scene = system, scene
+        self.cache: dict = {}       # classification key -> (first state, its analyses)
+        self.deferred: list = []    # (classification, its analyses, state index): condensed MCEIP-mu
+        self.out_states: list = []
+        self.typed_nodes: list = []   # per state: its contact nodes as app.io.result.Node
+        self.failures: list = []
+        self.postponed: list = []   # (entry, classification) whose analyses wait for every rank
+        self.progress = progress
+        self._ids = [int(n.id) for n in system.nodes]
+        self._xs = [float(n.x) for n in system.nodes]
+        self._xs_finite = bool(np.isfinite(self._xs).all())
+
+    def add(self, state, postpone: bool = False) -> tuple | None:
+        """Classify and analyse ``state``; returns its deferred job ``(classification, analyses)`` if
+        it opened one."""
+        checkpoint()                  # a Ctrl-C whose KeyboardInterrupt was swallowed (app/common/interrupt.py)
+        t_state = time.perf_counter()
+        system, scene = self.system, self.scene
+        # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/curvature.py)
+        cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
+        # one row per contact node, from Python numbers (a 100k-DOF study has 10^5 of them)
+        values = [np.asarray(v, dtype=float) for v in (state.u_N, state.u_T, state.r_N, state.r_T)]
+        rows = list(zip(self._ids, self._xs, cls.status, cls.signs, *(v.tolist() for v in values)))
+        self.typed_nodes.append(tuple(starmap(Node, rows)))
+        nodes = [{"id": i, "x": x, "status": st, "sign": sg, "u_N": uN, "u_T": uT, "r_N": rN, "r_T": rT}
+                 for i, x, st, sg, uN, uT, rN, rT in rows]
+        if self._xs_finite and all(np.isfinite(v).all() for v in values):
+            nodes = PlainRecords(nodes)       # JSON data as it is (app/io/document.py)
+        entry = {"index": state.index, "load": state.load, "classification": cls.counts(), "nodes": nodes,
+                 **state.extra}
+        self.out_states.append(entry)
+        job = None
+        if cls.key in self.cache:
+            first, analyses = self.cache[cls.key]
+            entry["analyses_shared_with"] = first
+        elif postpone and ZERO in cls.status:
+            analyses = {}             # filled in place by finish_postponed (shared by later states)
+            self.postponed.append((entry, cls))
+            self.cache[cls.key] = (state.index, analyses)
+            entry["analyses_shared_with"] = None
+        else:
+            analyses = self._analyse(cls, state.index)
+            if isinstance(analyses.get("mceip_mu"), Deferred):
+                self.deferred.append((cls, analyses, state.index))
+                job = (cls, analyses)
+            self.cache[cls.key] = (state.index, analyses)
+            entry["analyses_shared_with"] = None
+        entry["analyses"] = analyses
+        entry["analysis_seconds"] = time.perf_counter() - t_state
+        return job
+
+    def _analyse(self, cls, index: int) -> dict:
+        # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
+        # 3-6x faster than OpenBLAS's default on these sizes
+        with one_blas_thread():
+            analyses = analyse_state(self.system, cls, self.scene, defer_condensed=True)
+        for name, a in analyses.items():
+            if isinstance(a, Failed):
+                self.failures.append({"state": index, "analysis": name, "reason": a.reason})
+        return analyses
+
+    def add_all(self, states) -> None:
+        """:meth:`add` every state, with a progress bar."""
+        bar = (self.progress or Progress(enabled=False)).bar(len(states), "analyses")
+        for state in states:
+            self.add(state)
+            bar.update(1)
+        bar.close()
+
+    def finish_postponed(self) -> None:
+        """The analyses of the postponed states, in path order (every rank takes part in the same
+        order as rank 0's :meth:`add`)."""
+        for entry, cls in self.postponed:
+            t = time.perf_counter()
+            entry["analyses"].update(self._analyse(cls, entry["index"]))
+            entry["analysis_seconds"] += time.perf_counter() - t
+        self.postponed = []
+
+
 def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float,
-           system, states, path_info) -> tuple[dict, tuple]:
+           system, states, path_info, per_state: Classified | None = None,
+           early: EarlyChains | None = None) -> tuple[dict, tuple]:
     """The per-state analyses and fields of :func:`_run` on the built ``system``: the results
     dictionary and the typed state views.
 
     The states hold the typed outcomes (:mod:`app.analyses.outcomes`) until every analysis is
     done; their ``analyses`` blocks are then written once per distinct classification and the
-    views built from the outcomes."""
-    cache: dict = {}
-    deferred: list = []     # (classification, its analyses, state index): condensed MCEIP-mu, distributed below
-    out_states = []
-    typed_nodes = []          # per state: its contact nodes as app.io.result.Node
+    views built from the outcomes. ``per_state``: the states already classified (on ranks > 0
+    while rank 0 walked the path; rank 0 classifies them here); ``early``: the MCEIP-mu chains
+    those ranks began (app/analyses/distributed.py)."""
+    if per_state is None:
+        per_state = Classified(system, scene, progress)
+        per_state.add_all(states)
+    out_states = per_state.out_states
     failures = [path_info["failure"]] if path_info.get("failure") else []
-    bar = progress.bar(len(states), "analyses")
-    for state in states:
-        checkpoint()                  # a Ctrl-C whose KeyboardInterrupt was swallowed (app/common/interrupt.py)
-        t_state = time.perf_counter()
-        # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/curvature.py)
-        cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
-        nodes = tuple(Node(id=n.id, x=float(n.x), status=st, sign=int(sg), u_N=float(uN), u_T=float(uT),
-                           r_N=float(rN), r_T=float(rT))
-                      for n, st, sg, uN, uT, rN, rT in zip(system.nodes, cls.status, cls.signs,
-                                                          state.u_N, state.u_T, state.r_N, state.r_T))
-        typed_nodes.append(nodes)
-        entry = {"index": state.index, "load": state.load, "classification": cls.counts(),
-                 "nodes": [{"id": n.id, "x": n.x, "status": n.status, "sign": n.sign, "u_N": n.u_N, "u_T": n.u_T,
-                            "r_N": n.r_N, "r_T": n.r_T} for n in nodes],
-                 **state.extra}
-        if cls.key in cache:
-            first, analyses = cache[cls.key]
-            entry["analyses_shared_with"] = first
-        else:
-            # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
-            # 3-6x faster than OpenBLAS's default on these sizes
-            with one_blas_thread():
-                analyses = analyse_state(system, cls, scene, defer_condensed=True)
-            for name, a in analyses.items():
-                if isinstance(a, Failed):
-                    failures.append({"state": state.index, "analysis": name, "reason": a.reason})
-            if isinstance(analyses.get("mceip_mu"), Deferred):
-                deferred.append((cls, analyses, state.index))
-            cache[cls.key] = (state.index, analyses)
-            entry["analyses_shared_with"] = None
-        entry["analyses"] = analyses
-        entry["analysis_seconds"] = time.perf_counter() - t_state
-        out_states.append(entry)
-        bar.update(1)
-    bar.close()
-    if deferred:   # the condensed MCEIP-mu of every classification, one rank each under MPI
+    failures += per_state.failures
+    deferred = per_state.deferred
+    if deferred or early is not None:   # the condensed MCEIP-mu of every classification, one rank each under MPI
         with one_blas_thread():
             failed = analyse_condensed_distributed(system, scene, [(c, a) for c, a, _ in deferred], comm,
-                                                   progress)
+                                                   progress, early)
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
-    inspection = inspect(system, states, cache) if inspect is not None else None
+    inspection = inspect(system, states, per_state.cache) if inspect is not None else None
     outcomes = [entry["analyses"] for entry in out_states]
     _write_analyses(out_states)
-    views = tuple(state_view(e, n, a, e["analyses"]) for e, n, a in zip(out_states, typed_nodes, outcomes))
+    views = tuple(state_view(e, n, a, e["analyses"]) for e, n, a in zip(out_states, per_state.typed_nodes, outcomes))
     outputs_record = None
     from app.io.fields import wants_fields
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
@@ -136,7 +212,7 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
         outputs_record = compute_fields(scene, system, out_states, stages, progress, outdir)
     return {**({"inspection": inspection} if inspect is not None else {}), "scene": scene.name, "units": system.units, "system": system.description,
             "mu": scene.mu, "analyses_requested": list(scene.analyses),
-            "path": path_info, "distinct_classifications": len(cache),
+            "path": path_info, "distinct_classifications": len(per_state.cache),
             "stages": stages.as_list(), "failures": failures, "warnings": stages.warnings,
             "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
             "scene_config": scene.model_dump(mode="json", exclude_none=True),

@@ -8,7 +8,8 @@ Modules are imported on first use, so validating a scene never loads PETSc or DO
 Data flow: scene -> ``SYSTEM_TYPES[type].schema`` -> ``build`` -> ``path`` -> per-state analyses
 -> outputs. Nothing outside this package tests the system type: where the rest of the app needs
 type-specific behaviour it asks for a capability, either of the registered :class:`SystemType`
-(``contact_line``, ``position_axis``, ``preload``; usable on a results.json alone) or of the
+(``contact_line``, ``position_axis``, ``preload``, ``walks_alone``; the first two usable on a
+results.json alone) or of the
 validated schema object (``has_fields``, ``refinable``, ``check_scene``, ``mesh_sizes``,
 ``refined``, ``table_columns``; absent means "not supported").
 """
@@ -55,6 +56,18 @@ class SystemType:
     def path(self, scene, comm, stages, progress):
         """``(system, states, path_info)``: the system and the equilibrium states of its loading."""
         return self._impl().path(scene, comm, stages, progress)
+
+    def walker(self, scene, comm, stages):
+        """``(system, walk)`` when the type's loading runs on one rank alone (no MPI inside; the
+        module defines ``walker``, see app/systems/block/path.py), else None: the system is built
+        (MPI collective) and ``walk(progress, on_state)`` gives ``(states, path_info)``, calling
+        ``on_state`` with each state as it is made (app/study/stream.py)."""
+        impl = self._impl()
+        return impl.walker(scene, comm, stages) if hasattr(impl, "walker") else None
+
+    def walks_alone(self) -> bool:
+        """Whether :meth:`walker` is available (the module defines ``walker``)."""
+        return hasattr(self._impl(), "walker")
 
 
 SYSTEM_TYPES: dict[str, SystemType] = {}

@@ -83,16 +83,28 @@ def _state(index: int, phase: str, gx: float, gy: float, inc, extra: dict) -> Eq
 def path(scene, comm: MPI.Comm, stages: Stages, progress: Progress):
     """Build the block and run its loading; returns (system, states, path_info). The caller owns
     the system (``system.destroy()``); it is destroyed here if the loading fails."""
-    system, ops, flex = build_block_system(scene.system, comm, stages, scene.units)
+    system, walk = walker(scene, comm, stages)
     try:
-        states, info = _loading(scene, flex, len(system.nodes), stages, progress)
+        states, info = walk(progress)
     except BaseException:
         system.destroy()
         raise
     return system, states, info
 
 
-def _loading(scene, flex, n: int, stages: Stages, progress: Progress):
+def walker(scene, comm: MPI.Comm, stages: Stages):
+    """Build the block (MPI collective) and return ``(system, walk)``: ``walk(progress,
+    on_state=None) -> (states, path_info)`` runs the loading on this rank alone (dense work on
+    the contact flexibility, no MPI), calling ``on_state(state)`` with each state as soon as it
+    is known (app/study/stream.py sends them to the other ranks). The caller owns the system."""
+    system, ops, flex = build_block_system(scene.system, comm, stages, scene.units)
+
+    def walk(progress: Progress, on_state=None):
+        return _loading(scene, flex, len(system.nodes), stages, progress, on_state or (lambda state: None))
+    return system, walk
+
+
+def _loading(scene, flex, n: int, stages: Stages, progress: Progress, on_state):
     """Press CD down, then drag it (the body of :func:`path`); returns (states, path_info)."""
     cfg: Block = scene.system
     ld = scene.loading
@@ -125,6 +137,8 @@ def _loading(scene, flex, n: int, stages: Stages, progress: Progress):
             if abs(fn - ld.normal_force) <= 1e-10 * ld.normal_force:
                 break
         states = [_state(i, "normal", gx, gy, r, {}) for i, (gx, gy, r) in enumerate(phase1)]
+        for st in states:
+            on_state(st)
         uT, g = phase1[-1][2].u_T, -phase1[-1][2].u_N
         gy = -depth
         failure = None
@@ -143,6 +157,7 @@ def _loading(scene, flex, n: int, stages: Stages, progress: Progress):
             uT, g, d = inc.u_T, -inc.u_N, inc.slip_increment
             st = _state(len(states), "tangential", gx, gy, inc, {})
             states.append(st)
+            on_state(st)
             bar.update(1)
             cls = classify(st, scene.mu, scene.settings.classify_rtol)
             contact = [s for s in cls.status if s not in (FREE,)]
