@@ -28,17 +28,18 @@ def walk(*a, **k):
 stream.walk = walk
 scene = parse_scene({{"name": "streamed", "system": {{"type": "block", "nx": 16, "ny": 8}}, "mu": 1.1,
                      "analyses": ["mceip_mu"],
-                     "settings": {{"mcp": {{"search_full_max": 3, "warm_chain": 3}}}}}})
+                     "settings": {settings}}})
 doc = lambda r: from_document(json_clean(r.to_json()))
 mine = answers(doc(study(scene, comm)))
 every = comm.gather(mine)
 if comm.rank == 0:
     stream.walk = real
     alone = answers(doc(study(scene, MPI.COMM_SELF)))
-    differ = [compare(alone, a, 1e-12) for a in every]
-    jobs = sum(1 for s in alone["states"] if s["shared_with"] is None)
+    differ = [compare(alone, a, 1e-8) for a in every]     # the rank count changes W in its last digits
+    new = [s for s in alone["states"] if s["shared_with"] is None]
     print(json.dumps({{"streamed": used, "differences": [sum(map(len, d.values())) for d in differ],
-                      "classifications": jobs}}), flush=True)
+                      "classifications": len(new), "with_zero": sum(1 for s in new if "e" in s["status"])}}),
+          flush=True)
 """
 
 FAILS = """
@@ -70,27 +71,35 @@ except UnreachableLoad as err:
 """
 
 
-def _mpirun(tmp_path, text: str, ranks: int) -> subprocess.CompletedProcess:
+def _mpirun(tmp_path, text: str, ranks: int, **fields) -> subprocess.CompletedProcess:
     script = tmp_path / "script.py"
-    script.write_text(text.format(root=str(ROOT), bench=str(ROOT / "benchmarks")))
+    script.write_text(text.format(root=str(ROOT), bench=str(ROOT / "benchmarks"), **fields))
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMPI_MCA_rmaps_base_oversubscribe="1")
     return subprocess.run(["mpirun", "--oversubscribe", "-n", str(ranks), PY, str(script)], capture_output=True,
                           text=True, timeout=300, env=env)
 
 
+#: chains of several jobs (warm starts); zero-reaction nodes (a wide classification tolerance):
+#: their states are analysed by every rank together after the path
+CASES = {"chains": '{"mcp": {"search_full_max": 3, "warm_chain": 3}}', "zero nodes": '{"classify_rtol": 0.03}'}
+
+
 @pytest.mark.mpi
-@pytest.mark.parametrize("ranks", [2, 3])
-def test_streamed_answers_are_those_of_one_rank_on_every_rank(tmp_path, ranks):
+@pytest.mark.parametrize("ranks,case", [(2, "chains"), (3, "chains"), (2, "zero nodes"), (3, "zero nodes")])
+def test_streamed_answers_are_those_of_one_rank_on_every_rank(tmp_path, ranks, case):
     """MCEIP-mu alone on the block: the path is streamed (every rank enters it) and every rank's
-    answers (values, modes, patterns, classifications, certificate statuses) equal a one-rank run's."""
+    answers (values, modes, patterns, classifications, certificate statuses) equal a one-rank run's (values to
+    1e-8, as every comparison across rank counts)."""
     import json
-    p = _mpirun(tmp_path, SCRIPT, ranks)
+    p = _mpirun(tmp_path, SCRIPT, ranks, settings=CASES[case])
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("{")]
     assert lines, p.stdout + p.stderr
     got = json.loads(lines[-1])
     assert got["streamed"] == [True]                 # rank 0's own record
-    assert got["classifications"] > 10               # chains of several jobs were run while streaming
+    assert got["classifications"] > 10
+    if case == "zero nodes":
+        assert got["with_zero"] > 5                  # postponed during the path
     assert got["differences"] == [0] * ranks, got
 
 
