@@ -5,8 +5,8 @@
 along the path), one rank per chain, and gathers the answers on every rank.
 
 Under MPI the ranks other than 0 may start before the loading path ends (:class:`EarlyChains`,
-driven by app/study/stream.py): they run each chain as soon as rank 0's path has passed its last
-classification, while rank 0 is still walking; the chains, and so the answers, are the same.
+driven by app/study/stream.py): they run the jobs of each chain as rank 0's path passes their
+classifications, while rank 0 is still walking; the chains, and so the answers, are the same.
 """
 from __future__ import annotations
 

@@ -3,10 +3,10 @@ classifications it has passed (two or more MPI ranks).
 
 The loading path is a sequence of increments, each starting from the previous state, and its
 dense work on the contact flexibility W is the same on every rank; the condensed MCEIP-mu of the
-classifications (paper (21)-(23)) is independent per classification. So instead of every rank
+classifications (paper (21)-(23)) is independent per chain of classifications. So instead of every rank
 walking the same path and then sharing out the MCEIP-mu jobs, rank 0 walks it alone and sends each
 state as soon as it is made (non-blocking, pickled); the other ranks classify the states as they
-arrive and run every chain of jobs that rank 0's path has completed
+arrive and run the MCEIP-mu jobs rank 0's path has passed, chain by chain and one job at a time
 (:class:`app.analyses.distributed.EarlyChains`). Rank 0 joins the jobs left after its path. The
 chains, and so every answer, are those of one rank.
 
