@@ -58,15 +58,14 @@ class SystemType:
         return self._impl().path(scene, comm, stages, progress)
 
     def walker(self, scene, comm, stages):
-        """``(system, walk)`` when the type's loading runs on one rank alone (no MPI inside; the
-        module defines ``walker``, see app/systems/block/path.py), else None: the system is built
-        (MPI collective) and ``walk(progress, on_state)`` gives ``(states, path_info)``, calling
+        """``(system, walk)`` of a type whose loading runs on one rank alone (no MPI inside; only
+        when :meth:`walks_alone`, see app/systems/block/path.py): the system is built (MPI
+        collective) and ``walk(progress, on_state)`` gives ``(states, path_info)``, calling
         ``on_state`` with each state as it is made (app/study/stream.py)."""
-        impl = self._impl()
-        return impl.walker(scene, comm, stages) if hasattr(impl, "walker") else None
+        return self._impl().walker(scene, comm, stages)
 
     def walks_alone(self) -> bool:
-        """Whether :meth:`walker` is available (the module defines ``walker``)."""
+        """Whether the type's module defines ``walker``."""
         return hasattr(self._impl(), "walker")
 
 
