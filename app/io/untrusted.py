@@ -1,0 +1,156 @@
+"""Reading the files of a results folder, which anyone may have changed since the app wrote them.
+
+A results folder is read again by ``python -m app render`` (and ``--overwrite`` reads its
+marker). Nothing there is trusted: a name may be a symbolic link, a FIFO (opening it for reading
+would wait forever), a device, or a huge or deeply nested file. Every file is therefore checked
+before it is read: ``lstat`` (a regular file, not a link), then ``open`` with ``O_NOFOLLOW`` and
+``O_NONBLOCK`` and ``fstat`` on the open file (still a regular file, the same one, not larger
+than the caller allows). The ``.npy`` headers of an ``.npz`` archive are checked against the
+archive's sizes and the memory limit before any array is allocated.
+
+Each problem is an :class:`UntrustedFile` whose text is one line naming the file.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import os
+import pathlib
+import stat
+import zipfile
+from typing import Iterator
+
+import numpy as np
+
+
+class UntrustedFile(Exception):
+    """A file of a results folder that cannot be used; ``str(err)`` is one line naming it."""
+
+
+def _size(n: float) -> str:
+    """A byte count for people: ``3.0 GiB``, ``12.4 MiB``, ``512 bytes``."""
+    for unit, scale in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{int(n)} bytes"
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular file is, in words."""
+    for test, name in ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def open_regular(path: pathlib.Path, max_bytes: int) -> int:
+    """A read-only descriptor of the regular file ``path`` of at most ``max_bytes`` bytes.
+
+    Never follows a symbolic link and never waits on a FIFO or a device: those are refused
+    before (``lstat``) and after (``fstat``) the ``open``. Raises :class:`UntrustedFile`
+    (FileNotFoundError for a missing file)."""
+    try:
+        before = os.lstat(path)
+    except FileNotFoundError:
+        raise
+    except OSError as err:
+        raise UntrustedFile(f"{path}: cannot be read ({err.strerror or err})") from None
+    if not stat.S_ISREG(before.st_mode):
+        raise UntrustedFile(f"{path}: is {_kind(before.st_mode)}, not a regular file: it is not read")
+    flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(path, flags)
+    except OSError as err:
+        raise UntrustedFile(f"{path}: cannot be read ({err.strerror or err})") from None
+    try:
+        now = os.fstat(fd)
+        if not stat.S_ISREG(now.st_mode) or not os.path.samestat(before, now):
+            raise UntrustedFile(f"{path}: was replaced while it was opened: it is not read")
+        if now.st_size > max_bytes:
+            raise UntrustedFile(f"{path}: {_size(now.st_size)} ({now.st_size} bytes) is over the "
+                                f"{_size(max_bytes)} allowed for this file: it is not read")
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+@contextlib.contextmanager
+def opened(path: pathlib.Path, max_bytes: int) -> Iterator[io.BufferedReader]:
+    """:func:`open_regular` as a binary file object, closed at the end."""
+    with os.fdopen(open_regular(path, max_bytes), "rb") as f:
+        yield f
+
+
+def read_bytes(path: pathlib.Path, max_bytes: int) -> bytes:
+    """The bytes of the regular file ``path`` (:func:`open_regular`); never more than ``max_bytes``."""
+    with opened(path, max_bytes) as f:
+        data = f.read(max_bytes + 1)
+    if len(data) > max_bytes:
+        raise UntrustedFile(f"{path}: grew over the {_size(max_bytes)} allowed for this file while it was read")
+    return data
+
+
+def load_json(path: pathlib.Path, max_bytes: int):
+    """The JSON value of ``path``; malformed, too large or too deeply nested JSON is one line."""
+    text = read_bytes(path, max_bytes)
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise UntrustedFile(f"{path}: nested too deeply to be read (not a file this app wrote)") from None
+    except ValueError as err:
+        raise UntrustedFile(f"{path}: not valid JSON ({err})") from None
+
+
+def memory_limit() -> float:
+    """The memory a results folder's arrays may take: the default of ``settings.limits.max_memory_gb``
+    (80 % of the machine's RAM); a limit given in the results is not trusted."""
+    from app.systems.schema import Limits
+    return Limits().memory_cap()[0]
+
+
+def _npy_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, where: str) -> int:
+    """The data bytes the ``.npy`` member ``info`` declares, checked against its size in the archive."""
+    fmt = np.lib.format
+    with archive.open(info) as member:
+        try:
+            version = fmt.read_magic(member)
+            read_header = {(1, 0): fmt.read_array_header_1_0, (2, 0): fmt.read_array_header_2_0}.get(version)
+            if read_header is None:
+                raise ValueError(f".npy format version {version}: allowed: 1.0 and 2.0")
+            shape, _, dtype = read_header(member)
+        except (ValueError, TypeError, SyntaxError, EOFError, OSError) as err:
+            raise UntrustedFile(f"{where}: {info.filename}: not a readable .npy header ({err})") from None
+        header_end = member.tell()
+    if dtype.hasobject:
+        raise UntrustedFile(f"{where}: {info.filename}: holds Python objects ({dtype}): only numbers and text are read")
+    count = math.prod(int(n) for n in shape)
+    declared = count * dtype.itemsize
+    if declared != info.file_size - header_end:
+        raise UntrustedFile(f"{where}: {info.filename}: its header declares shape {tuple(shape)} of {dtype} "
+                            f"({_size(declared)}) but the member holds {_size(max(0, info.file_size - header_end))}")
+    return declared
+
+
+def check_npz(f: io.BufferedReader, where: str, memory: float | None = None) -> None:
+    """Check every ``.npy`` header of the ``.npz`` archive ``f`` before any array is read: each
+    declares exactly the data its member holds, and all of them together fit in ``memory`` bytes
+    (default :func:`memory_limit`). ``where`` names the file in the error line."""
+    memory = memory_limit() if memory is None else memory
+    try:
+        archive = zipfile.ZipFile(f)
+    except (zipfile.BadZipFile, OSError, ValueError) as err:
+        raise UntrustedFile(f"{where}: not an .npz archive ({err})") from None
+    total = 0
+    with archive:
+        for info in archive.infolist():
+            if info.filename.endswith(".npy"):
+                total += _npy_member(archive, info, where)
+    if total > memory:
+        raise UntrustedFile(f"{where}: its arrays need {_size(total)} of memory, over the limit of {_size(memory)} "
+                            f"(80 % of this machine's RAM)")
+    f.seek(0)
