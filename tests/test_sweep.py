@@ -351,11 +351,13 @@ def test_swept_file_paths_are_relative_to_the_scene_file(tmp_path):
 def test_a_case_folder_is_replaced_only_when_it_holds_only_app_files(tmp_path):
     """A rerun case replaces its earlier folder when that holds only what the app writes; a file
     of the user's in it keeps the folder (and the new results stay in the staging folder)."""
+    from app.io.folder import seal
     from app.study.sweep import _commit_case
     cases = tmp_path / "cases"
     (cases / "a" / "proofs").mkdir(parents=True)
     (cases / "a" / "results.json").write_text("old")
     (cases / "a" / "proofs" / "state_1.npz").write_text("old")
+    seal(cases / "a")                                  # as a run of the sweep leaves it: every file recorded
     new = cases / ".a.partial-1-1"
     new.mkdir()
     (new / "results.json").write_text("new")

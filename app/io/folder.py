@@ -2,9 +2,12 @@
 
 A run writes into a hidden staging folder beside the target (``.NAME.partial-PID-TIME``) and
 moves it into place only when everything is written. The app marks every folder it writes with
-a small file (:data:`MARKER`: the app's name, the folder kind and a format version). An existing
-target is replaced (``--overwrite``) only when it is empty or carries that marker; a folder
-holding anything else is refused, and nothing in it is touched.
+a small file (:data:`MARKER`: the app's name, the folder kind, a format version and, once a
+results folder is complete, the list of every sub-folder and file the app wrote there). An
+existing target is replaced (``--overwrite``) only when it is empty or carries that marker and
+holds nothing else; a folder holding anything else is refused, and nothing in it is touched.
+The previous results are then deleted file by file from that list (:func:`remove_recorded`),
+never by removing a whole tree.
 
 Everything the final rename needs is checked before the work starts (the target is not ``.``,
 not a mount point, its parent is writable, a folder can be created and renamed there, the
@@ -18,40 +21,68 @@ from __future__ import annotations
 import errno
 import fcntl
 import json
+import logging
 import os
 import pathlib
 import shutil
 import stat
 import time
 
+log = logging.getLogger(__name__)
+
 APP = "contact-divergence"
-FORMAT_VERSION = 1
+#: format 2 records every file and sub-folder of a results folder (format 1: its top-level names)
+FORMAT_VERSION = 2
 MARKER = ".contact-divergence.json"
-# Top-level names the app writes into a results folder (``render`` may add some after the run).
-APP_ENTRIES = frozenset({"results.json", "steps.csv", "report.md", "plots", "screenshots", "paraview", "fields",
-                         "proofs", "levels", "refinement.csv", "refinement.json", "refinement.md", "refinement.png",
-                         "refinement.svg"})
+#: the largest marker read (its file list of a study with many proofs and pictures)
+MARKER_MAX_BYTES = 64 * 2**20
 
 
 class CommitError(Exception):
     """The final rename failed; ``str(err)`` is one line saying where the results were kept."""
 
 
-def write_marker(folder: pathlib.Path, kind: str, entries: list[str] | None = None) -> None:
-    """Mark ``folder`` as written by this app (``kind``: 'results' or 'sweep'; ``entries``: the
-    top-level names the app wrote there, recorded at the commit of a results folder)."""
+def write_marker(folder: pathlib.Path, kind: str, tree: tuple[list[str], list[str]] | None = None) -> None:
+    """Mark ``folder`` as written by this app (``kind``: 'results' or 'sweep'). ``tree``: the
+    sub-folders and files the app wrote there (:func:`app_tree`), recorded when a results folder
+    is complete; only those are ever replaced or deleted later."""
     from app.version import __version__
-    data = {"app": APP, "kind": kind, "format": FORMAT_VERSION, "version": __version__}
-    if entries is not None:
-        data["entries"] = sorted(entries)
+    data: dict = {"app": APP, "kind": kind, "format": FORMAT_VERSION, "version": __version__}
+    if tree is not None:
+        folders, files = tree
+        data["entries"] = sorted({p.split("/")[0] for p in folders + files})
+        data["folders"], data["files"] = sorted(folders), sorted(files)
     from app.io.results import atomic_write
     atomic_write(folder / MARKER, json.dumps(data) + "\n")
 
 
+def app_tree(folder: pathlib.Path) -> tuple[list[str], list[str]]:
+    """(sub-folders, regular files) under ``folder`` as relative POSIX paths, the marker left out;
+    symbolic links are not followed and not listed (the app writes none)."""
+    folders: list[str] = []
+    files: list[str] = []
+    for root, dirs, names in os.walk(folder):
+        rel = pathlib.Path(root).relative_to(folder)
+        for d in list(dirs):
+            if os.path.islink(os.path.join(root, d)):
+                dirs.remove(d)
+            else:
+                folders.append((rel / d).as_posix())
+        files += [(rel / n).as_posix() for n in names
+                  if (root != str(folder) or n != MARKER) and stat.S_ISREG(os.lstat(os.path.join(root, n)).st_mode)]
+    return folders, files
+
+
+def seal(folder: pathlib.Path, kind: str = "results") -> None:
+    """Record everything in the freshly written ``folder`` as the app's (its marker's file list)."""
+    write_marker(folder, kind, app_tree(folder))
+
+
 def _marker(folder: pathlib.Path) -> dict | None:
+    from app.io.untrusted import UntrustedFile, load_json
     try:
-        data = json.loads((folder / MARKER).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        data = load_json(folder / MARKER, MARKER_MAX_BYTES)
+    except (OSError, UntrustedFile):
         return None
     if isinstance(data, dict) and data.get("app") == APP and isinstance(data.get("kind"), str):
         return data
@@ -64,21 +95,101 @@ def marker_kind(folder: pathlib.Path) -> str | None:
     return None if data is None else data["kind"]
 
 
-def foreign_entries(folder: pathlib.Path) -> list[str]:
-    """Top-level names in a marked folder that the app did not record writing there."""
+def recorded(folder: pathlib.Path) -> tuple[set[str], set[str]] | None:
+    """(sub-folders, files) the marker of ``folder`` records as the app's, None when it records
+    none (no marker, a sweep folder, or a folder of an earlier version)."""
     data = _marker(folder) or {}
-    known = data.get("entries")
-    if not isinstance(known, list):
-        return []
+    folders, files = data.get("folders"), data.get("files")
+    if not (isinstance(folders, list) and isinstance(files, list)
+            and all(isinstance(p, str) for p in folders + files)):
+        return None
+    return set(folders), set(files)
+
+
+def foreign_paths(folder: pathlib.Path) -> list[str] | None:
+    """Paths under ``folder`` the app did not record writing (sub-folders with a trailing ``/``;
+    a symbolic link, a FIFO or a file where the app recorded another kind count as foreign);
+    None when the marker records no file list (then nothing there can be told apart)."""
+    known = recorded(folder)
+    if known is None:
+        return None
+    folders, files = known
+    out: list[str] = []
+
+    def walk(path: pathlib.Path, rel: str) -> None:
+        try:
+            entries = sorted(os.scandir(path), key=lambda e: e.name)
+        except OSError:
+            out.append(rel + "/" if rel else "./")
+            return
+        for e in entries:
+            name = f"{rel}/{e.name}" if rel else e.name
+            if not rel and e.name == MARKER:
+                continue
+            if e.is_dir(follow_symlinks=False) and name in folders:
+                walk(pathlib.Path(e.path), name)
+            elif not (e.is_file(follow_symlinks=False) and name in files):
+                out.append(name + "/" if e.is_dir(follow_symlinks=False) else name)
+
+    walk(folder, "")
+    return out
+
+
+def foreign_entries(folder: pathlib.Path) -> list[str]:
+    """Paths in a marked folder that the app did not record writing ([] when it records none)."""
+    return foreign_paths(folder) or []
+
+
+def remove_recorded(folder: pathlib.Path) -> bool:
+    """Delete what the marker of ``folder`` records as the app's, then the folder if that empties
+    it; anything else stays. Never follows a symbolic link. True when the folder is gone."""
+    known = recorded(folder)
+    if known is not None:
+        folders, files = known
+        for rel in sorted(files):
+            path = folder / rel
+            try:
+                if stat.S_ISREG(os.lstat(path).st_mode) and _inside(folder, path.parent, folders):
+                    os.unlink(path)
+            except OSError:
+                pass
+        for rel in sorted(folders, key=lambda p: -p.count("/")):     # deepest first
+            try:
+                os.rmdir(folder / rel)
+            except OSError:
+                pass
     try:
-        names = os.listdir(folder)
+        os.unlink(folder / MARKER)
+        os.rmdir(folder)
     except OSError:
-        return []
-    return sorted(n for n in names if n != MARKER and n not in known and n not in APP_ENTRIES)
+        return False
+    return True
+
+
+def _inside(folder: pathlib.Path, parent: pathlib.Path, folders: set[str]) -> bool:
+    """``parent`` (a folder under ``folder``) is reached through recorded real folders only."""
+    rel = parent.relative_to(folder)
+    for k in range(1, len(rel.parts) + 1):
+        sub = pathlib.PurePosixPath(*rel.parts[:k]).as_posix()
+        if sub not in folders or not stat.S_ISDIR(os.lstat(folder / sub).st_mode):
+            return False
+    return True
+
+
+def describe_foreign(folder: pathlib.Path) -> str:
+    """Why ``folder`` is not the app's alone, as a parenthesis for an error line."""
+    extra = foreign_paths(folder)
+    if extra:
+        return f" ({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''} besides this app's results)"
+    if extra is None and marker_kind(folder) == "results":
+        return (" (written by an earlier version of this app, which recorded no list of its files: "
+                "they cannot be told from yours)")
+    return " (not results written by this app)"
 
 
 def folder_state(folder: pathlib.Path) -> str:
-    """'missing', 'empty', 'ours' (carries the marker), 'other' (anything else) or 'not-a-folder'."""
+    """'missing', 'empty', 'ours' (carries the marker and nothing the app did not record writing),
+    'other' (anything else) or 'not-a-folder'."""
     if not folder.exists() and not folder.is_symlink():
         return "missing"
     if folder.is_symlink() or not folder.is_dir():
@@ -88,7 +199,8 @@ def folder_state(folder: pathlib.Path) -> str:
             return "empty"
     except OSError:
         return "other"
-    if marker_kind(folder) is None or foreign_entries(folder):
+    kind = marker_kind(folder)
+    if kind is None or (kind == "results" and foreign_paths(folder) != []):
         return "other"
     return "ours"
 
@@ -229,10 +341,7 @@ class ResultsFolder:
         if state == "not-a-folder":
             return f"cannot create the output folder {final}: a file of that name exists"
         if state == "other":
-            extra = foreign_entries(final)
-            shown = f" ({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''} besides this app's results)" \
-                if extra else " (not results written by this app)"
-            return (f"the output folder {final} holds other files{shown}: "
+            return (f"the output folder {final} holds other files{describe_foreign(final)}: "
                     f"nothing was changed; choose a new or empty folder with -o"
                     + (" (--overwrite only replaces results this app wrote)" if self.overwrite else ""))
         if state == "ours" and marker_kind(final) != self.kind:
@@ -288,8 +397,7 @@ class ResultsFolder:
         files, or a rename fails, the staged results stay where they are (:class:`CommitError`)."""
         state = folder_state(self.final)
         try:
-            entries = [n for n in os.listdir(self.staging) if n != MARKER]
-            write_marker(self.staging, self.kind, entries)      # what the app wrote: only that is replaced later
+            seal(self.staging, self.kind)      # what the app wrote: only that is replaced or deleted later
             if state == "other" or state == "not-a-folder":
                 raise CommitError(f"the output folder {self.final} now holds other files")
             if state == "ours":
@@ -306,8 +414,8 @@ class ResultsFolder:
             self._kept = True
             raise CommitError(f"could not move the results into {self.final} ({why}); "
                               f"the complete results are kept in {self.staging}") from None
-        if state == "ours":
-            shutil.rmtree(self._old, ignore_errors=True)   # a folder the app wrote (marker checked)
+        if state == "ours" and not remove_recorded(self._old):
+            log.warning("kept %s: it holds files this app did not write", self._old)
         self.lock.release()
         return self.final
 

@@ -105,36 +105,39 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
 
 def _remove_unfinished(folder: pathlib.Path) -> None:
     """Staging folders of ``folder``'s case left by a killed run of this sweep (the sweep folder
-    is locked: none is in use)."""
+    is locked: none is in use), and the recorded files of a replaced case folder left behind."""
     import shutil
-    for p in [*folder.parent.glob(f".{folder.name}.partial-*"), *folder.parent.glob(f".{folder.name}.old-*")]:
+
+    from app.io.folder import remove_recorded
+    for p in folder.parent.glob(f".{folder.name}.partial-*"):
         if p.is_dir() and not p.is_symlink():
             shutil.rmtree(p)
-
-
-#: names the app writes into a case folder (besides a results folder's, app/io/folder.py)
-CASE_ENTRIES = frozenset({"error.json"})
+    for p in folder.parent.glob(f".{folder.name}.old-*"):
+        if p.is_dir() and not p.is_symlink():
+            remove_recorded(p)
 
 
 def _commit_case(staging: pathlib.Path, folder: pathlib.Path) -> str | None:
-    """Move the written case into place; an earlier run's folder of the same case (an error, or a
-    case scene that changed) is replaced only when it holds nothing but what the app writes there.
-    Otherwise both are left as they are and the reason is returned (one line)."""
-    import shutil
-
-    from app.io.folder import APP_ENTRIES, MARKER
-    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+    """Record what the app wrote in the case's staging folder (its marker's file list) and move it
+    into place; an earlier run's folder of the same case (an error, or a case scene that changed)
+    is replaced only when it holds nothing but the files its marker records, and only those are
+    deleted. Otherwise both are left as they are and the reason is returned (one line)."""
+    from app.io.folder import describe_foreign, folder_state, remove_recorded, seal
+    seal(staging)
+    state = folder_state(folder)
+    if state == "not-a-folder":
         return f"{folder} is not a folder the app wrote; the case's results are kept in {staging}"
-    if folder.exists():
-        foreign = sorted(n for n in os.listdir(folder) if n not in APP_ENTRIES | CASE_ENTRIES | {MARKER})
-        if foreign:
-            return (f"{folder} holds files the app did not write ({', '.join(foreign[:3])}); "
-                    f"left as it is, the case's results are kept in {staging}")
+    if state == "other":
+        return (f"{folder} holds files the app did not write{describe_foreign(folder)}; "
+                f"left as it is, the case's results are kept in {staging}")
+    if state == "ours":
         old = folder.parent / f".{folder.name}.old-{os.getpid()}-{time.time_ns()}"
         os.rename(folder, old)
         os.rename(staging, folder)
-        shutil.rmtree(old)
+        remove_recorded(old)
     else:
+        if state == "empty":
+            os.rmdir(folder)
         os.rename(staging, folder)
     return None
 
