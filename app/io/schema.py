@@ -235,6 +235,23 @@ class State(Record):
     contact_solve: Optional[dict[str, Any]] = Field(None, description="how the contact increment was solved")
 
 
+class ModeField(Record):
+    """A mode whose field was written (ParaView, fields.npz) and how its shape was built."""
+
+    name: str
+    built: str
+
+
+class OutputsRecord(Record):
+    """The fields and pictures a run made (with the scene's ``outputs``)."""
+
+    notes: list[str] = Field(default_factory=list, description="what was left out or failed, in words")
+    files: list[str] = Field(default_factory=list, description="files written, relative to the results folder")
+    pictured_states: Optional[list[int]] = None
+    modes: Optional[list[ModeField]] = None
+    fields_not_applicable: Optional[str] = Field(None, description="why the system has no fields (no mesh)")
+
+
 class ResultsDocument(Record):
     """results.json, format 3 (docs/outputs.md).
 
@@ -259,7 +276,7 @@ class ResultsDocument(Record):
     mpi_ranks: int
     wall_seconds: Number
     scene_config: dict[str, Any] = Field(description="the validated scene with its defaults (docs/scene-keys.md)")
-    outputs: Optional[dict[str, Any]] = Field(None, description="fields and pictures made (with outputs:)")
+    outputs: Optional[OutputsRecord] = Field(None, description="fields and pictures made (with outputs:)")
     versions: Optional[dict[str, str]] = Field(None, description="software versions (runs with outputs)")
     library_warnings: Optional[list[Any]] = Field(None, description="warnings of libraries, each kind once")
     sweep_case: Optional[dict[str, Any]] = Field(None, description="a case of a sweep: its name, values and hash")
