@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import pathlib
+import typing
 
 import numpy as np
 
@@ -34,7 +35,7 @@ def import_pyvista():
 class FieldData:
     """The content of fields/fields.npz."""
 
-    def __init__(self, path: pathlib.Path):
+    def __init__(self, path: "pathlib.Path | typing.BinaryIO"):
         with np.load(path, allow_pickle=False) as z:
             self.points = z["points"]
             self.cells = z["cells"]

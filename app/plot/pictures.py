@@ -34,14 +34,6 @@ def wants_pictures(results: dict) -> bool:
     return bool(cfg.get("plots") or cfg.get("screenshots") or cfg.get("report"))
 
 
-def _remove_old(folder: pathlib.Path, patterns: tuple[str, ...]) -> None:
-    """Remove the pictures an earlier run or render left in one of the app's own picture folders."""
-    if folder.is_dir():
-        for pat in patterns:
-            for p in folder.glob(pat):
-                p.unlink()
-
-
 @contextlib.contextmanager
 def _survive(what: str, notes: list[str]):
     """A picture that cannot be drawn is a note, not a lost study: the results are still written."""
@@ -53,13 +45,17 @@ def _survive(what: str, notes: list[str]):
                      f"redraw with python -m app render")
 
 
-def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str]:
-    """Draw every picture asked for; returns the files drawn (relative to ``outdir``) and updates
-    ``results["outputs"]`` (files, notes, pictured states) and ``results["stages"]``.
+def draw_outputs(results: dict, outdir: pathlib.Path, progress=None, fields: pathlib.Path | None = None) -> list[str]:
+    """Draw every picture asked for into ``outdir``, a folder holding no earlier pictures (a run's
+    staging folder, or the new folder of a redraw); returns the files drawn (relative to
+    ``outdir``) and updates ``results["outputs"]`` (files, notes, pictured states) and
+    ``results["stages"]``. ``fields``: the screenshots' fields.npz (default
+    ``outdir/fields/fields.npz``).
 
     ``results`` must be JSON-like (as read back from results.json) so that a run and a later
     render draw the same pictures.
     """
+    fields = outdir / "fields" / "fields.npz" if fields is None else fields
     cfg = outputs_config(results)
     record = results.setdefault("outputs", {"notes": [], "files": []})
     record.setdefault("notes", [])
@@ -78,21 +74,19 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     if "dolfinx.cpp" in sys.modules:
         # after a run: two child processes draw the plots and the screenshots at the same time
         if want_plots or want_shots:
-            plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, progress, stages, notes,
-                                                       want_plots, want_shots)
+            plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, fields, progress, stages,
+                                                       notes, want_plots, want_shots)
     else:                    # no DOLFINx here (e.g. python -m app render): drawn in this process
         if want_plots:
             with stages(PICTURE_STAGES[0]), _survive("plots", notes):
                 from app.plot.plots import draw_plots
-                _remove_old(outdir / "plots", ("*.png", "*.svg"))
                 plot_files, n = draw_plots(results, pictured, outdir / "plots")
                 notes += n
         if want_shots:
             with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
                 from app.plot.screenshots import draw_screenshots
-                _remove_old(outdir / "screenshots", ("*.png",))
                 shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
-                                                 outdir / "fields" / "fields.npz", progress)
+                                                 fields, progress)
                 notes += n
     record["notes"] += notes
     for n in notes:
@@ -113,8 +107,8 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None) -> list[str
     return drawn
 
 
-def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, progress, stages,
-                      notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
+def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields: pathlib.Path,
+                      progress, stages, notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
     """Plots and screenshots drawn by two child processes at once (app/plot/worker.py: VTK cannot
     run next to DOLFINx; the children started by :func:`prestarted` are already warm). Each
     picture stage records the drawing time its child reports."""
@@ -126,12 +120,7 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     running, out = [], {}
     try:
         with _survive("plots and screenshots", notes):
-            if want_plots:
-                _remove_old(outdir / "plots", ("*.png", "*.svg"))
-            if want_shots:
-                _remove_old(outdir / "screenshots", ("*.png",))
-            data = job_of(results, pictured, shots_cfg, outdir / "screenshots", outdir / "fields" / "fields.npz",
-                          progress)
+            data = job_of(results, pictured, shots_cfg, outdir / "screenshots", fields, progress)
             # a new file of this run's own (exclusive create), removed below
             fd, name = tempfile.mkstemp(dir=outdir, prefix=".pictures-job-", suffix=".json")
             job = pathlib.Path(name)

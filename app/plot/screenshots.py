@@ -20,6 +20,7 @@ the machine, say) from taking the study's results with it.
 """
 from __future__ import annotations
 
+import os
 import pathlib
 import sys
 
@@ -149,9 +150,9 @@ def resolution_arg(cfg: dict) -> str:
 def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
           fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
     from app.io.select import analyses_of, mode_name, modes_of
-    if not fields_path.exists():
+    if not os.path.lexists(fields_path):
         return [], [f"screenshots left out: {fields_path} is missing (the fields are computed by the run)"]
-    fd = FieldData(fields_path)
+    fd = read_fields(fields_path)
     res = tuple(cfg.get("resolution") or (1200, 800))
     field = cfg.get("field", "von_mises")
     scale = float(cfg.get("scale", 1.0))
@@ -192,6 +193,16 @@ def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
         if bar is not None:
             bar.close()
     return files, notes
+
+
+def read_fields(path: pathlib.Path) -> FieldData:
+    """The fields of ``path`` (a fields.npz of a results folder, not trusted): a regular file whose
+    arrays, by their ``.npy`` headers, fit in memory (app/io/untrusted.py); raises
+    :class:`app.io.untrusted.UntrustedFile` otherwise."""
+    from app.io.untrusted import check_npz, memory_limit, opened
+    with opened(path, int(min(memory_limit(), 2**62))) as f:
+        check_npz(f, str(path))
+        return FieldData(f)
 
 
 def _value(v) -> float:
