@@ -37,7 +37,7 @@ def _size(n: float) -> str:
     return f"{int(n)} bytes"
 
 
-def _kind(mode: int) -> str:
+def kind_of(mode: int) -> str:
     """What a file that is not a regular file is, in words."""
     for test, name in ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
                        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
@@ -60,7 +60,7 @@ def open_regular(path: pathlib.Path, max_bytes: int) -> int:
     except OSError as err:
         raise UntrustedFile(f"{path}: cannot be read ({err.strerror or err})") from None
     if not stat.S_ISREG(before.st_mode):
-        raise UntrustedFile(f"{path}: is {_kind(before.st_mode)}, not a regular file: it is not read")
+        raise UntrustedFile(f"{path}: is {kind_of(before.st_mode)}, not a regular file: it is not read")
     flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
     try:
         fd = os.open(path, flags)

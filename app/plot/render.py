@@ -156,8 +156,8 @@ def _real_folder_or_missing(path: pathlib.Path) -> None:
     except FileNotFoundError:
         return
     if not stat.S_ISDIR(mode):
-        from app.io.untrusted import _kind
-        raise Refused(f"{path}: is {_kind(mode)}, not the folder this app wrote: nothing was redrawn")
+        from app.io.untrusted import kind_of
+        raise Refused(f"{path}: is {kind_of(mode)}, not the folder this app wrote: nothing was redrawn")
 
 
 def redraw(results: dict, outdir: pathlib.Path, progress=None) -> tuple[list[str], list[str]]:
