@@ -195,10 +195,23 @@ def test_a_folder_of_an_earlier_version_is_neither_redrawn_nor_replaced(made, ou
     marker = _marker(out)
     marker.pop("files"), marker.pop("folders")
     (out / MARKER).write_text(json.dumps({**marker, "format": 1}))
-    _refused(out, "earlier version", "no list of its files")
+    _refused(out, "earlier version", "no usable list of its files")
     before = _snapshot(out)
     line = one_error_line(run_cli_here("run", str(made / "scene.yaml"), "-o", str(out), "-q", "--overwrite"))
     assert "earlier version" in line and _snapshot(out) == before
+
+
+@pytest.mark.parametrize("bad", ["../victim/mine.txt", "/tmp/x", "plots/../../victim/mine.txt", "plots//x"])
+def test_a_marker_listing_paths_outside_the_folder_is_not_used(made, out, bad):
+    """A marker whose list names a path outside the folder (edited by hand, or by an attacker) is
+    not a list the app writes: --overwrite and render refuse the folder, nothing is deleted."""
+    (out.parent / "victim" / "mine.txt").write_text("mine")
+    _set_marker(out, files=_marker(out)["files"] + [bad], folders=_marker(out)["folders"] + [".."])
+    _refused(out, "no usable list of its files")
+    before = _snapshot(out)
+    line = one_error_line(run_cli_here("run", str(made / "scene.yaml"), "-o", str(out), "-q", "--overwrite"))
+    assert "no usable list of its files" in line and _snapshot(out) == before
+    assert (out.parent / "victim" / "mine.txt").read_text() == "mine"
 
 
 def test_overwrite_refuses_a_folder_with_a_users_file_in_an_app_folder(made, out):

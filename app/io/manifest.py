@@ -79,13 +79,19 @@ def marker_kind(folder: pathlib.Path) -> str | None:
 
 def recorded(folder: pathlib.Path) -> tuple[set[str], set[str]] | None:
     """(sub-folders, files) the marker of ``folder`` records as the app's, None when it records
-    none (no marker, a sweep folder, or a folder of an earlier version)."""
+    none (no marker, a sweep folder, a folder of an earlier version) or a list the app never
+    writes (a path that is not a plain relative path inside the folder: ``..``, ``/x``, ``a//b``)."""
     data = read_marker(folder) or {}
     folders, files = data.get("folders"), data.get("files")
-    if not (isinstance(folders, list) and isinstance(files, list)
-            and all(isinstance(p, str) for p in folders + files)):
+    if not (isinstance(folders, list) and isinstance(files, list) and all(map(_plain, folders + files))):
         return None
     return set(folders), set(files)
+
+
+def _plain(path) -> bool:
+    """``path`` is a relative POSIX path of plain names (no ``.``, ``..``, empty part or NUL)."""
+    return (isinstance(path, str) and bool(path) and "\0" not in path
+            and all(part not in ("", ".", "..") for part in path.split("/")))
 
 
 def foreign_paths(folder: pathlib.Path) -> list[str] | None:
@@ -164,6 +170,6 @@ def describe_foreign(folder: pathlib.Path) -> str:
     if extra:
         return f" ({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''} besides this app's results)"
     if extra is None and marker_kind(folder) == "results":
-        return (" (written by an earlier version of this app, which recorded no list of its files: "
+        return (" (its marker has no usable list of its files: written by an earlier version of this app, or changed; "
                 "they cannot be told from yours)")
     return " (not results written by this app)"

@@ -100,8 +100,8 @@ def read_results(outdir: pathlib.Path) -> dict:
         raise Refused(f"{outdir}: a {marker_kind(outdir)} folder of this app, not the results of one study: "
                       f"render one of its results folders")
     if recorded(outdir) is None:
-        raise Refused(f"{outdir}: written by an earlier version of this app, which recorded no list of its files: "
-                      f"its pictures cannot be told from other files; run the scene again to redraw")
+        raise Refused(f"{outdir}: its marker has no usable list of its files (written by an earlier version of this "
+                      f"app, or changed): its pictures cannot be told from other files; run the scene again to redraw")
     for name in PICTURE_FOLDERS + ("fields",):
         _real_folder_or_missing(outdir / name)
     try:
