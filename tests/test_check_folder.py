@@ -1,4 +1,4 @@
-"""``python -m app check RESULTS``: every stored proof re-verified from the stored pencil, for the
+"""``python -m app check RESULTS``: every claim re-verified from the stored pencils, for the
 flat obstacle (proof logs, independent checker) and the curved one (the exact quadratic proof run
 again); a tampered file is rejected with exit status 1. (The first check of each test is a new
 process, as a user runs it; the runs and the re-checks run in this one.)"""
@@ -25,6 +25,11 @@ def _run(tmp_path, text, name):
     return out
 
 
+def res_states(out):
+    """The states of ``out`` claiming something proven about MCEIP-mu (here: every state)."""
+    return json.loads((out / "results.json").read_text())["states"]
+
+
 def _rewrite(path, **changes):
     with np.load(path, allow_pickle=False) as z:
         data = {k: z[k] for k in z.files}
@@ -40,14 +45,14 @@ def test_check_reverifies_and_rejects_tampering(tmp_path):
     assert files
     p = run_cli("check", str(out))
     assert p.returncode == 0, p.stdout + p.stderr
-    assert f"{len(files)} of {len(files)} stored proofs re-verified" in p.stdout
+    assert f"({len(res_states(out))} states, {len(files)} proof files)" in p.stdout and "NOT VERIFIED" not in p.stdout
     # a pencil changed after the run: the log no longer proves what results.json claims
     target = max(files, key=lambda f: np.load(f)["A0"].shape[0])
     with np.load(target) as z:
         A1 = z["A1"].copy()
     _rewrite(target, A1=A1 - 5.0 * np.abs(A1).max() * np.eye(A1.shape[0]))
     p = run_cli_here("check", str(out))
-    assert p.returncode == 1 and "rejected" in p.stdout, p.stdout + p.stderr
+    assert p.returncode == 1 and "NOT VERIFIED" in p.stdout, p.stdout + p.stderr
 
 
 def test_check_proves_a_curved_obstacle_again(tmp_path):
@@ -59,7 +64,7 @@ def test_check_proves_a_curved_obstacle_again(tmp_path):
     assert files and all("A2" in np.load(f).files for f in files)
     p = run_cli("check", str(out))
     assert p.returncode == 0, p.stdout + p.stderr
-    assert f"{len(files)} of {len(files)} stored proofs re-verified" in p.stdout
+    assert f"({len(res_states(out))} states, {len(files)} proof files)" in p.stdout and "NOT VERIFIED" not in p.stdout
     # another curvature term: the proven list no longer matches results.json
     with np.load(files[-1]) as z:
         A2 = z["A2"].copy()

@@ -289,5 +289,5 @@ def test_curved_examples_proven_beyond_ten_slip_nodes(shipped_curved):
             found = [x["value"] for x in enumerate_quadratic(A0, A1, A2, 14) if x["value"] <= 100]
             assert proven == pytest.approx(found, rel=1e-9)
         p = run_cli("check", str(folder))
-        assert p.returncode == 0 and "stored proofs re-verified" in p.stdout, p.stdout + p.stderr
+        assert p.returncode == 0 and "claims re-verified from the stored pencils" in p.stdout, p.stdout + p.stderr
 

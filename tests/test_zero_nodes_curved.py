@@ -390,14 +390,15 @@ def test_stored_proof_of_a_zero_node_state_is_rechecked(tmp_path):
     import yaml
     from conftest import run_cli_here
 
-    from app.io.proofs import check_folder
+    from app.io.check import check_folder
     sc = _block(tmp_path)
     sc["system"]["file"] = "b0.geo"                     # written by _block, relative to the scene
     sc["analyses"] = ["mceip_mu"]
     (tmp_path / "z.yaml").write_text(yaml.safe_dump(sc))
     assert run_cli_here("run", str(tmp_path / "z.yaml"), "-o", str(tmp_path / "out"), "-q", cwd=tmp_path).returncode == 0
-    checks = check_folder(tmp_path / "out")
-    assert len(checks) == 1 and checks[0].ok and checks[0].all_accepted and checks[0].s == 4
+    checks = [c for c in check_folder(tmp_path / "out").states if c.s]
+    assert checks and all(c.ok and c.s == 4 for c in checks)
+    assert any(v.startswith("complete list") for v in checks[0].verified)
     path = next((tmp_path / "out" / "proofs").glob("*.npz"))
     with np.load(path) as z:
         arrays = {k: z[k] for k in z.files}
@@ -407,8 +408,8 @@ def test_stored_proof_of_a_zero_node_state_is_rechecked(tmp_path):
         buf = io.BytesIO()
         np.savez(buf, **{**arrays, "log": np.array(json.dumps({**log, "pairs": bad}))})
         path.write_bytes(buf.getvalue())
-        checks = check_folder(tmp_path / "out")
-        assert not checks[0].ok and not checks[0].all_accepted, bad
+        checks = [c for c in check_folder(tmp_path / "out").states if c.s]
+        assert not checks[0].ok and any("pairs" in f for f in checks[0].failed), bad
 
 
 def _tilted(tmp_path, obstacle):

@@ -39,7 +39,7 @@ examples:
   python -m app run scene.yaml -o out/      # results in out/results.json and out/steps.csv
   mpirun -n 2 python -m app run scene.yaml  # same numbers, in parallel
   python -m app validate scene.yaml         # check a scene file without running it
-  python -m app check out/                  # re-verify the MCEIP-mu proofs stored in out/proofs
+  python -m app check out/                  # re-verify every MCEIP-mu claim from out/proofs
   mpirun -n 4 python -m app run sweep.yaml --ranks-per-case 2   # a scene with a 'sweep' section:
                                             # its cases farmed out to groups of 2 ranks
 PETSc options: any PETSc/SLEPc option, placed after the scene file, reaches the app's solvers by
@@ -95,11 +95,15 @@ def _parser() -> argparse.ArgumentParser:
                          description="Check a scene file without running it (exit status 0 ok, 2 bad "
                                      "input); then run it with: python -m app run SCENE")
     val.add_argument("scene", help="scene YAML file")
-    chk = sub.add_parser("check", help="re-verify the MCEIP-mu proofs stored in a results folder",
-                         description="Re-run the independent proof checker on every proof stored in a "
-                                     "results folder (proofs/state_<k>.npz: the condensed pencil and its proof "
-                                     "log) and compare what it accepts with what results.json claims.",
-                         epilog="exit status: 0 every claim re-verified, 1 a claim was not, 2 bad input")
+    chk = sub.add_parser("check", help="re-verify every MCEIP-mu claim of a results folder from its stored pencils",
+                         description="Re-derive every MCEIP-mu claim results.json makes (proven onsets, complete "
+                                     "lists, certified values, lower bounds) from the stored pencils "
+                                     "(proofs/state_<k>.npz): the pencil's structure comes from the state's "
+                                     "classification, the proof log is re-verified by the independent checker, "
+                                     "and each claimed value must lie in its proven enclosure. A claim whose "
+                                     "proof file is missing is not verified. What is trusted: docs/proofs.md.",
+                         epilog="exit status: 0 every claim re-verified, 1 a claim was not, 2 the folder cannot "
+                                "be read as this app's results")
     chk.add_argument("results", help="results folder (the one holding results.json and proofs/)")
     chk.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
     return p
@@ -213,31 +217,32 @@ def _after_interrupt(unraisable) -> None:
 
 
 def _check(args) -> int:
-    """``python -m app check RESULTS``: every stored proof re-verified by the checker."""
-    import json
-    import zipfile
-
-    from app.io.proofs import check_folder
+    """``python -m app check RESULTS``: every MCEIP-mu claim of results.json re-derived from the
+    stored pencils (app/io/check.py). Exit status 0 every claim re-verified, 1 a claim was not, 2
+    the folder cannot be read as results of this app."""
+    from app.io.check import MalformedResults, check_folder
+    from app.io.untrusted import UntrustedFile
     folder = pathlib.Path(args.results)
-    if not (folder / "results.json").is_file():
-        return _fail(f"{folder}: no results.json (give the folder a run wrote)")
+    if not folder.is_dir():
+        return _fail(f"{folder}: not a folder (give the results folder a run wrote)")
     try:
-        checks = check_folder(folder)
-    except (OSError, ValueError, KeyError, json.JSONDecodeError, zipfile.BadZipFile) as err:
-        return _fail(f"{folder}: cannot read the stored proofs: {type(err).__name__}: {err}")
-    bad = [c for c in checks if not c.ok]
+        report = check_folder(folder)
+    except FileNotFoundError:
+        return _fail(f"{folder}: no results.json (give the results folder a run wrote)")
+    except (UntrustedFile, MalformedResults) as err:
+        return _fail(f"{err}")
+    except MemoryError:
+        return _fail(f"{folder}: the stored proofs do not fit in this machine's memory", EXIT_WRITE)
     if not args.quiet:
-        for c in checks:
-            claims = f"onset {'re-verified' if c.onset_accepted else 'REJECTED' if c.onset_claimed else 'not claimed'}, " \
-                     f"list {'re-verified' if c.all_accepted else 'REJECTED' if c.all_claimed else 'not claimed'}"
-            extra = "" if c.values_match else ", values differ from results.json"
-            print(f"state {c.state} (s = {c.s}): {claims}{extra}" + (f" ({'; '.join(c.errors)})" if not c.ok else ""))
-    if not checks:
-        print(f"{folder}: no stored proofs (proofs/ is empty or absent)")
+        for line in report.lines():
+            print(line)
+    if not report.states:
+        print(f"{folder}: results.json claims nothing proven about MCEIP-mu: nothing to verify")
         return 0
-    print(f"{folder}: {len(checks) - len(bad)} of {len(checks)} stored proofs re-verified"
-          + ("" if not bad else f"; {len(bad)} rejected"))
-    return 1 if bad else 0
+    print(f"{folder}: {report.claims - report.failed} of {report.claims} claims re-verified from the stored pencils "
+          f"({len(report.states)} states, {report.proof_files} proof files)"
+          + ("" if report.ok else f"; {report.failed} NOT VERIFIED"))
+    return 0 if report.ok else 1
 
 
 def _unexpected() -> int:

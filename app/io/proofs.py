@@ -2,12 +2,8 @@
 
 ``proofs/state_<k>.npz`` holds, for the first state ``k`` of each distinct classification whose
 condensed MCEIP-mu was proven (or partly proven), the pencil ``A0``, ``A1`` and the proof log
-(JSON text, format in docs/proofs.md). :func:`check_folder` re-verifies every log with the
-independent checker and compares what it accepts with what results.json claims. A curved
-obstacle's quadratic pencil (``A2`` too) is proven again from the stored pencil by the exact
-proof of :mod:`app.analyses.mceip_mu_quadratic_proof` (log format ``mceip-mu-quadratic/1``), or its
-branch-and-bound log (``mceip-mu-quadratic-bb/1``) is re-verified by
-:mod:`app.analyses.mceip_mu_quadratic_check`.
+(JSON text, format in docs/proofs.md); a curved obstacle's quadratic pencil adds ``A2``.
+:mod:`app.io.check` re-derives every claim of results.json from these files.
 """
 from __future__ import annotations
 
@@ -16,7 +12,6 @@ import json
 import os
 import pathlib
 import zipfile
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -76,98 +71,3 @@ def write_proofs(results: dict, outdir: pathlib.Path, written_one=None) -> list[
         if written_one is not None:
             written_one()
     return written
-
-
-@dataclass
-class StateCheck:
-    """The re-check of one stored proof against results.json."""
-
-    state: int
-    s: int
-    onset_claimed: bool
-    onset_accepted: bool
-    all_claimed: bool
-    all_accepted: bool
-    values_match: bool
-    errors: list[str]
-
-    @property
-    def ok(self) -> bool:
-        """Whether the re-check agrees with results.json: every claim it makes (the proven onset, the
-        complete list) accepted by the checker, and its values inside the checker's enclosures."""
-        return (self.onset_accepted or not self.onset_claimed) and (self.all_accepted or not self.all_claimed) \
-            and self.values_match
-
-
-def check_folder(folder: pathlib.Path) -> list[StateCheck]:
-    """Re-verify every stored proof of a results folder (raises ``FileNotFoundError`` when the
-    folder has no results.json)."""
-    from app.analyses.mceip_mu.checker import check_log
-    from app.analyses.mceip_mu.prooflog import ProofLog
-    from app.io.document import from_document
-    results = from_document(json.loads((folder / "results.json").read_text(encoding="utf-8")))
-    by_index = {int(st["index"]): st for st in results.get("states", [])}
-    out: list[StateCheck] = []
-    for path in sorted((folder / FOLDER).glob("state_*.npz"), key=lambda p: int(p.stem.split("_")[1])):
-        k = int(path.stem.split("_")[1])
-        a = ((by_index.get(k) or {}).get("analyses") or {}).get("mceip_mu") or {}
-        with np.load(path, allow_pickle=False) as z:
-            A0, A1 = z["A0"], z["A1"]
-            raw = json.loads(str(z["log"]))
-            if "A2" in z.files:
-                out.append(_check_quadratic(k, A0, A1, z["A2"], raw, a))
-                continue
-            log = ProofLog.from_json(raw)
-        rep = check_log(A0, A1, log)
-        onset_claimed = bool((a.get("onset") or {}).get("proven"))
-        all_claimed = bool(a.get("certified"))
-        match = True
-        if all_claimed and rep.all_ok:
-            claimed = sorted(float(d["value"]) for d in a.get("solutions", []) if d.get("certified"))
-            match = len(claimed) == len(rep.solutions) and all(
-                lo <= v <= hi or abs(v - 0.5 * (lo + hi)) <= 1e-9 * max(1.0, abs(v))
-                for v, (_, lo, hi) in zip(claimed, rep.solutions))
-        if onset_claimed and rep.onset_ok:
-            v = (a.get("onset") or {}).get("value")
-            if v is not None and rep.onset is not None:
-                match = match and rep.onset[0] <= float(v) <= rep.onset[1]
-            elif (v is None) != (rep.onset is None):
-                match = False
-        out.append(StateCheck(k, log.s, onset_claimed, rep.onset_ok, all_claimed, rep.all_ok, match, rep.errors[:3]))
-    return out
-
-
-def _check_quadratic(k: int, A0, A1, A2, log: dict, a: dict) -> StateCheck:
-    """Verify a stored quadratic proof again and compare the proven list in ``[0, cap]`` with the
-    certified solutions of results.json: a per-support proof is proven again from the pencil
-    (exact arithmetic, no time limit), a branch and bound's log is re-verified by its checker."""
-    from app.analyses.mceip_mu_quadratic import QUADRATIC_BB_FORMAT, QUADRATIC_FORMAT
-    s = A0.shape[0]
-    claimed = bool(a.get("certified"))
-    onset_claimed = bool((a.get("onset") or {}).get("proven"))
-    if log.get("format") == QUADRATIC_BB_FORMAT:
-        from app.analyses.mceip_mu_quadratic_check import check_log
-        rep = check_log(A0, A1, A2, log)
-        ok, onset_ok, errors, solutions, onset = rep.complete, rep.onset_proven, rep.errors[:3], rep.solutions, rep.onset
-        if not rep.errors and not ok:
-            errors.append(f"the log leaves mu >= {rep.open_from:.6g} open")
-    elif log.get("format") == QUADRATIC_FORMAT:
-        from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
-        proof = prove_quadratic(A0, A1, A2, float(log["cap"]), max_s=int(log["max_s"]), pairs=log.get("pairs", []))
-        ok = onset_ok = proof is not None and proof.proven
-        errors = [] if ok else ["the exact proof does not decide every support" if proof else
-                                f"s = {s} is above the stored max_s = {log['max_s']}"]
-        solutions, onset = (proof.solutions, proof.onset) if ok else ([], None)
-    else:
-        return StateCheck(k, s, onset_claimed, False, claimed, False, False,
-                          [f"proof format {log.get('format')!r}, expected {QUADRATIC_FORMAT!r} or {QUADRATIC_BB_FORMAT!r}"])
-    match = True
-    if ok and claimed:
-        values = sorted(float(d["value"]) for d in a.get("solutions", []) if d.get("certified"))
-        got = sorted(solutions, key=lambda p: p.enclosure[0])
-        match = len(values) == len(got) and all(p.enclosure[0] <= v <= p.enclosure[1] for v, p in zip(values, got))
-    if onset_ok and onset_claimed:
-        v = (a.get("onset") or {}).get("value")
-        if (v is None) != (onset is None) or (v is not None and not onset.enclosure[0] <= float(v) <= onset.enclosure[1]):
-            match = False
-    return StateCheck(k, s, onset_claimed, onset_ok, claimed, ok, match, errors)

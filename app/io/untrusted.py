@@ -95,15 +95,41 @@ def read_bytes(path: pathlib.Path, max_bytes: int) -> bytes:
     return data
 
 
-def load_json(path: pathlib.Path, max_bytes: int):
-    """The JSON value of ``path``; malformed, too large or too deeply nested JSON is one line."""
-    text = read_bytes(path, max_bytes)
+def parse_json(text: str | bytes, where: str):
+    """The JSON value of ``text`` (``where`` names it); malformed or too deeply nested JSON is one line."""
     try:
         return json.loads(text)
     except RecursionError:
-        raise UntrustedFile(f"{path}: nested too deeply to be read (not a file this app wrote)") from None
+        raise UntrustedFile(f"{where}: nested too deeply to be read (not a file this app wrote)") from None
     except ValueError as err:
-        raise UntrustedFile(f"{path}: not valid JSON ({err})") from None
+        raise UntrustedFile(f"{where}: not valid JSON ({err})") from None
+
+
+def load_json(path: pathlib.Path, max_bytes: int):
+    """The JSON value of ``path``; malformed, too large or too deeply nested JSON is one line."""
+    return parse_json(read_bytes(path, max_bytes), str(path))
+
+
+def inside(folder: pathlib.Path, *parts: str) -> pathlib.Path:
+    """``folder / parts...`` with every folder on the way checked: a symbolic link or a file there is
+    refused (:class:`UntrustedFile`), so nothing reached through the folder leads out of it (the
+    folder itself may be a link the user gave). A missing part is not checked: opening the path
+    then raises FileNotFoundError."""
+    path = pathlib.Path(folder)
+    for name in parts:
+        if name in ("", ".", "..") or "/" in name:
+            raise UntrustedFile(f"{path}: {name!r} is not a plain name")
+    for name in parts[:-1]:
+        path = path / name
+        try:
+            mode = os.lstat(path).st_mode
+        except FileNotFoundError:
+            return pathlib.Path(folder).joinpath(*parts)
+        except OSError as err:
+            raise UntrustedFile(f"{path}: cannot be read ({err.strerror or err})") from None
+        if not stat.S_ISDIR(mode):
+            raise UntrustedFile(f"{path}: is {kind_of(mode)}, not a folder: nothing in it is read")
+    return path / parts[-1]
 
 
 def memory_limit() -> float:
@@ -154,3 +180,37 @@ def check_npz(f: io.BufferedReader, where: str, memory: float | None = None) -> 
         raise UntrustedFile(f"{where}: its arrays need {_size(total)} of memory, over the limit of {_size(memory)} "
                             f"(80 % of this machine's RAM)")
     f.seek(0)
+
+
+def read_npz(path: pathlib.Path, members: dict[str, tuple[str, int]], optional: frozenset[str] = frozenset(),
+             max_side: int | None = None, memory: float | None = None) -> dict[str, np.ndarray]:
+    """The arrays ``members`` (name -> (dtype kind, number of dimensions): ``("f", 2)`` a float64
+    matrix, ``("U", 0)`` a text) of the ``.npz`` file ``path``; those in ``optional`` may be absent.
+    Every header is checked first (:func:`check_npz`: declared sizes, objects, memory), then each
+    member's dtype, dimensions and sides (at most ``max_side``), before any array is read."""
+    with opened(path, int(min(memory_limit() if memory is None else memory, 2**62))) as f:
+        check_npz(f, str(path), memory)
+        try:
+            archive = zipfile.ZipFile(f)
+        except (zipfile.BadZipFile, OSError, ValueError) as err:
+            raise UntrustedFile(f"{path}: not an .npz archive ({err})") from None
+        out = {}
+        with archive:
+            names = set(archive.namelist())
+            for name, (kind, ndim) in members.items():
+                if f"{name}.npy" not in names:
+                    if name in optional:
+                        continue
+                    raise UntrustedFile(f"{path}: no array {name!r}")
+                with archive.open(f"{name}.npy") as member:
+                    version = np.lib.format.read_magic(member)
+                    shape, _, dtype = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                                       else np.lib.format.read_array_header_2_0)(member)
+                if dtype.kind != kind or (kind == "f" and dtype.itemsize != 8) or len(shape) != ndim \
+                        or (max_side is not None and any(n > max_side for n in shape)):
+                    want = ("a float64" if kind == "f" else "a text") + f" array of {ndim} dimension(s)"
+                    raise UntrustedFile(f"{path}: {name}.npy is {dtype} of shape {tuple(shape)}, expected {want}"
+                                        + (f" with sides of at most {max_side}" if max_side is not None else ""))
+                with archive.open(f"{name}.npy") as member:
+                    out[name] = np.lib.format.read_array(member, allow_pickle=False)
+        return out
