@@ -334,3 +334,73 @@ def test_render_deeply_nested_results_json_is_one_line(out, where):
         text = (out / "results.json").read_text()
         (out / "results.json").write_text(text.replace('"scene_config": {', '"scene_config": {"deep": ' + deep + ", ", 1))
     _refused(out, str(out / "results.json"))
+
+
+# --- a sweep folder resumed in place ----------------------------------------------------------------
+
+SWEEP = ("name: sw\nsystem: {type: two_particles, k: 1000.0, m: 2.0, phi_deg: 35.0, signs: [1, -1]}\n"
+         "mu: 2.5\nanalyses: [mceip_mu]\nsweep: {parameters: {mu: [1.0, 2.0]}}\n")
+
+
+@pytest.fixture(scope="module")
+def sweep_folder(tmp_path_factory):
+    """A finished two-case sweep (its folder is resumed and written in place)."""
+    tmp = tmp_path_factory.mktemp("sweep")
+    (tmp / "sw.yaml").write_text(SWEEP)
+    assert run_cli_here("run", str(tmp / "sw.yaml"), "-o", str(tmp / "out"), "-q").returncode == 0
+    assert (tmp / "out" / "plots").is_dir() and (tmp / "out" / "sweep.log").is_file()
+    return tmp
+
+
+@pytest.mark.parametrize("name", ["sweep.log", "plots", "sweep.csv"])
+def test_a_sweep_writes_through_no_link_in_its_folder(sweep_folder, tmp_path, name):
+    """A resumed sweep whose ``sweep.log``, ``plots/`` or ``sweep.csv`` is a symbolic link (to a user's
+    file or folder) is refused with one line, and the user's file is unchanged."""
+    out = tmp_path / "out"
+    shutil.copytree(sweep_folder / "out", out)
+    target = tmp_path / "users"
+    if name == "plots":
+        target.mkdir()
+        (target / "mu.png").write_bytes(b"mine")
+    else:
+        target.write_text("my own notes\n")
+    path = out / name
+    shutil.rmtree(path) if path.is_dir() else path.unlink()
+    path.symlink_to(target)
+    before = _tree(tmp_path / "users") if name == "plots" else target.read_bytes()
+    line = one_error_line(run_cli_here("run", str(sweep_folder / "sw.yaml"), "-o", str(out), "-q", "--overwrite"))
+    assert "symbolic link" in line and name in line
+    assert (_tree(target) if name == "plots" else target.read_bytes()) == before
+
+
+def test_a_sweep_log_with_another_hard_link_is_not_appended_to(sweep_folder, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(sweep_folder / "out", out)
+    mine = tmp_path / "mine.txt"
+    mine.write_text("my own notes\n")
+    (out / "sweep.log").unlink()
+    os.link(mine, out / "sweep.log")
+    line = one_error_line(run_cli_here("run", str(sweep_folder / "sw.yaml"), "-o", str(out), "-q", "--overwrite"))
+    assert "hard links" in line
+    assert mine.read_text() == "my own notes\n"
+
+
+def test_a_sweep_does_not_hang_on_a_fifo_in_a_case_folder(sweep_folder, tmp_path):
+    """A FIFO in place of a case's results.json: the case is not taken as complete, and nothing waits on it."""
+    out = tmp_path / "out"
+    shutil.copytree(sweep_folder / "out", out)
+    case = next((out / "cases").iterdir())
+    (case / "results.json").unlink()
+    os.mkfifo(case / "results.json")
+    p = run_cli("run", str(sweep_folder / "sw.yaml"), "-o", str(out), timeout=300)
+    assert "Traceback" not in p.stdout + p.stderr and "1 skipped" in p.stdout, p.stdout + p.stderr
+    assert stat_is_fifo(case / "results.json")          # a foreign file in the case folder: kept
+
+
+def stat_is_fifo(path: pathlib.Path) -> bool:
+    import stat
+    return stat.S_ISFIFO(os.lstat(path).st_mode)
+
+
+def _tree(folder: pathlib.Path) -> dict:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}

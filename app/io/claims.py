@@ -13,10 +13,7 @@ import math
 import pathlib
 from dataclasses import dataclass
 
-from app.io.untrusted import inside, load_json
-
-#: largest results.json read (a study at the default limits writes far less)
-MAX_RESULTS_BYTES = 1 << 30
+from app.io.untrusted import RESULTS_MAX_BYTES, inside, load_json
 
 
 class MalformedResults(ValueError):
@@ -188,7 +185,7 @@ def _claim_cap(cert: dict, a: dict, where: str) -> float:
 def read_results(folder: pathlib.Path) -> dict:
     """results.json of ``folder``, bounded and checked (:class:`UntrustedFile`, :class:`MalformedResults`)."""
     from app.io.document import from_document
-    doc = load_json(inside(folder, "results.json"), MAX_RESULTS_BYTES)
+    doc = load_json(inside(folder, "results.json"), RESULTS_MAX_BYTES)
     if not isinstance(doc, dict):
         raise MalformedResults(f"results.json: expected an object, found {type(doc).__name__}")
     try:

@@ -50,6 +50,28 @@ def atomic_write(path: pathlib.Path, text: str) -> None:
         raise
 
 
+def append_line(path: pathlib.Path, text: str, complete_last: bool = False) -> None:
+    """Append ``text`` to the log file ``path`` (created with the usual mode), never through a
+    symbolic link (``O_NOFOLLOW``) nor into a file that is not a regular file or has other hard
+    links (OSError). ``complete_last``: first end a last line cut short (by a killed run) with a
+    newline."""
+    import errno
+    import stat
+    flags = os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
+    fd = os.open(path, flags, file_mode())
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+            raise OSError(errno.EPERM, "not a regular file of its own (a FIFO, a device or a hard link): "
+                                       "not written", str(path))
+        if complete_last and st.st_size and os.pread(fd, 1, st.st_size - 1) != b"\n":
+            text = "\n" + text
+        if text:
+            os.write(fd, text.encode("utf-8"))
+    finally:
+        os.close(fd)
+
+
 STEP_COLUMNS = ["index", "phase", "u_x_CD", "u_y_CD", "normal_resultant", "tangential_resultant",
                 "n_free", "n_zero", "n_stick", "n_slip", "necessary_min_eig_K_sym", "necessary_satisfied",
                 "sufficient_max_lambda2", "mceip_mu_min", "mceip_mu_count", "mceip_lambda2_max",

@@ -24,6 +24,9 @@ from typing import Iterator
 
 import numpy as np
 
+#: the largest results.json read back (the default ``max_states``, 100,000, at 10 kB a state)
+RESULTS_MAX_BYTES = 2**30
+
 
 class UntrustedFile(Exception):
     """A file of a results folder that cannot be used; ``str(err)`` is one line naming it."""

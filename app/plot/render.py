@@ -23,8 +23,6 @@ import stat
 import sys
 import tempfile
 
-#: the largest results.json read: the default ``max_states`` (100,000) at 10 kB a state
-RESULTS_MAX_BYTES = 2**30
 #: the app's sub-folders a redraw writes into
 PICTURE_FOLDERS = ("plots", "screenshots")
 
@@ -89,7 +87,7 @@ def read_results(outdir: pathlib.Path) -> dict:
     from app.io import schema
     from app.io.document import from_document
     from app.io.folder import MARKER, marker_kind, recorded
-    from app.io.untrusted import UntrustedFile, read_bytes
+    from app.io.untrusted import RESULTS_MAX_BYTES, UntrustedFile, read_bytes
     res_file = outdir / "results.json"
     if os.path.lexists(res_file) and marker_kind(outdir) is None:
         # redrawing replaces the pictures in plots/ and screenshots/: only in a folder the app wrote

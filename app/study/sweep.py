@@ -35,11 +35,13 @@ import datetime
 import json
 import os
 import pathlib
+import stat
 import time
 import traceback
 from collections import deque
 
 from app.io.document import from_document
+from app.io.results import append_line
 from app.scene.schema import Scene, SceneError
 from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.study.sweep.expand)
 from app.study.sweep_table import case_row, error_row, summary_table, write_plots, write_tables
@@ -53,10 +55,15 @@ def case_dir(outdir: pathlib.Path, case: Case) -> pathlib.Path:
 
 def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
     """The case's results.json if it is complete and was computed from the same case scene."""
-    path = case_dir(outdir, case) / "results.json"
+    from pydantic import ValidationError
+
+    from app.io import schema
+    from app.io.untrusted import RESULTS_MAX_BYTES, UntrustedFile, inside, read_bytes
     try:
-        res = from_document(json.loads(path.read_text(encoding="utf-8")))
-    except (OSError, ValueError):
+        text = read_bytes(inside(outdir, "cases", case.name, "results.json"), RESULTS_MAX_BYTES)
+        schema.validate(text)              # a malformed or foreign results.json: the case runs again
+        res = from_document(json.loads(text))
+    except (OSError, ValueError, UntrustedFile, ValidationError, RecursionError):
         return None
     if not isinstance(res, dict) or (res.get("sweep_case") or {}).get("scene_hash") != case.scene_hash:
         return None
@@ -152,18 +159,14 @@ class Dispatcher:
         self.rows = rows
         self.n_todo, self.n_done = len(todo), 0
         self.running: dict[int, int] = {}      # group -> case index
-        log = outdir / "sweep.log"
-        if log.exists() and log.stat().st_size and not log.read_bytes().endswith(b"\n"):
-            with open(log, "a", encoding="utf-8") as f:       # a line cut short by a killed run
-                f.write("\n")
+        append_line(outdir / "sweep.log", "", complete_last=True)     # a line cut short by a killed run
 
     def log(self, event: str, case: Case | None = None, detail: str = "") -> None:
         """Append one line to ``sweep.log``: a timestamp (milliseconds), the event, the case's name (``-``
         for none) and ``detail``, separated by tabs."""
         stamp = datetime.datetime.now().isoformat(timespec="milliseconds")
         line = "\t".join([stamp, event, case.name if case else "-", detail]).rstrip("\t")
-        with open(self.outdir / "sweep.log", "a", encoding="utf-8") as f:
-            f.write(line + "\n")
+        append_line(self.outdir / "sweep.log", line + "\n")
 
     def handle(self, group: int, row: dict | None) -> int | None:
         """Group ``group`` finished its case (``row``, or None on its first request): its next case."""
@@ -334,9 +337,22 @@ def _check_writable(outdir: pathlib.Path, mark: bool = False) -> str | None:
         except OSError as err:
             return f"cannot create the output folder {outdir}: {err.strerror or err}"
         return None
+    for name, folder in (("cases", True), ("plots", True), ("sweep.log", False), ("sweep.csv", False),
+                         ("sweep.json", False)):
+        try:
+            st = os.lstat(outdir / name)
+        except FileNotFoundError:
+            continue
+        except OSError as err:
+            return f"cannot use the output folder {outdir}: {name}: {err.strerror or err}"
+        if not (stat.S_ISDIR(st.st_mode) if folder else stat.S_ISREG(st.st_mode)):
+            from app.io.untrusted import kind_of
+            return (f"the output folder {outdir}: {name} is {kind_of(st.st_mode)}, not the "
+                    f"{'folder' if folder else 'file'} this app writes there: nothing was changed")
+        if name == "sweep.log" and st.st_nlink != 1:       # appended to in place: never another file's content
+            return (f"the output folder {outdir}: {name} has {st.st_nlink} hard links (another file shares its "
+                    f"content): nothing was changed")
     cases = outdir / "cases"
-    if cases.exists() and (cases.is_symlink() or not cases.is_dir()):
-        return f"the output folder {outdir}: {cases} is not a folder"
     try:
         cases.mkdir(parents=True, exist_ok=True)
         if state != "ours":

@@ -7,11 +7,14 @@ import csv
 import io
 import json
 import math
+import os
 import pathlib
 import re
+import tempfile
 from typing import Any
 
 from app.io.result import StateResult
+from app.io.results import file_mode
 from app.scene.schema import Scene
 from app.scene.sweep import Case, format_value
 
@@ -212,7 +215,16 @@ def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[i
         fig.suptitle(f"{cases[0].scene.name}: quantities against {key}", fontsize=10)
         fig.tight_layout()
         path = outdir / "plots" / f"{re.sub(r'[^A-Za-z0-9_.=-]', '-', key)}.png"
-        fig.savefig(path, dpi=90)
+        # drawn into a new file and renamed over the old one: a link in its place is replaced, never followed
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                fig.savefig(f, dpi=90, format="png")
+            os.chmod(tmp, file_mode())
+            os.replace(tmp, path)
+        except BaseException:
+            pathlib.Path(tmp).unlink(missing_ok=True)
+            raise
         plt.close(fig)
         out.append(path)
     return out
