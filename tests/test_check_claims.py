@@ -270,3 +270,15 @@ def test_results_json_that_is_huge_a_fifo_or_a_symlink_is_refused_unread(folder,
     path.symlink_to(tmp_path / "other.json")
     p = _check(out)
     assert p.returncode == 2 and "symbolic link" in p.stderr, p.stderr
+
+
+def test_a_state_whose_counts_deny_its_slip_nodes_is_refused(folder):
+    """'No slip node, no critical mu' needs no pencil: the classification's counts must agree with
+    its nodes' statuses."""
+    out, k = folder
+    res = _results(out)
+    st = res["states"][k]
+    st["classification"]["slip"] = 0
+    _save_results(out, res)
+    p = _check(out)
+    assert p.returncode == 1 and "its classification counts 0 slip" in p.stdout, p.stdout

@@ -302,6 +302,12 @@ def check_folder(folder: pathlib.Path) -> FolderCheck:
     cache: dict[int, Proven | str] = {}
     checks = []
     for c in claims:
+        if c.statuses and (c.statuses.count("slip"), c.statuses.count("zero")) != (c.slip, c.zero):
+            out = StateCheck(c.state, c.s, c.proof_state)
+            out.failed.append(f"its classification counts {c.slip} slip and {c.zero} zero-reaction nodes, its "
+                              f"nodes {c.statuses.count('slip')} and {c.statuses.count('zero')}")
+            checks.append(out)
+            continue
         if c.s == 0:
             checks.append(_no_slip(c))
             continue
