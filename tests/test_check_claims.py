@@ -230,6 +230,7 @@ def test_the_quadratic_proof_ignores_the_logs_max_s(tmp_path):
     for st in res["states"]:
         if st["index"] == k or st["analyses_shared_with"] == k:
             st["classification"]["slip"] = s
+            st["nodes"] = [{**st["nodes"][0], "id": i, "status": "slip"} for i in range(s)]
     _save_results(out, res)
     p = run_cli("check", str(out), timeout=300)
     assert p.returncode == 1 and "re-run up to 8 slip nodes" in p.stdout, p.stdout + p.stderr
