@@ -283,3 +283,39 @@ def test_a_state_whose_counts_deny_its_slip_nodes_is_refused(folder):
     _save_results(out, res)
     p = _check(out)
     assert p.returncode == 1 and "its classification counts 0 slip" in p.stdout, p.stdout
+
+
+def _mutations(log: dict, rng) -> list[dict]:
+    """Damaged copies of a proof log: a field of a node given another type, an index out of range, a
+    witness cut short, a root or cap changed."""
+    out = []
+    nodes = log["nodes"]
+    for _ in range(12):
+        bad = json.loads(json.dumps(log))
+        n = bad["nodes"][int(rng.integers(len(nodes)))]
+        key = str(rng.choice([k for k in n if k != "id"] or ["kind"]))
+        values = [None, "x", -1, 10**9, [10**9], [[1, 2]], {"a": 1}, 1e308, True]
+        n[key] = values[int(rng.integers(len(values)))] if key != "kind" else "leaf"
+        out.append(bad)
+    for key, value in (("onset_root", 10**9), ("all_roots", ["x"]), ("cap", "11"), ("nodes", {"0": 1}),
+                       ("scale_exp", 10**6), ("s", -1), ("onset_witness", {"U": [99], "mu": 1.7, "h": 1, "x": []})):
+        out.append({**log, key: value})
+    return out
+
+
+def test_a_damaged_proof_log_is_a_claim_not_verified_never_a_traceback(folder):
+    """Damaged logs of the onset state, from the checker's point of view: every one either still proves
+    the claims or is reported as not verified (exit 1), never a traceback."""
+    from app.io.check import check_folder
+    out, k = folder
+    A0, A1, log = _pencil(out, k)
+    rng = np.random.default_rng(7)
+    verdicts = []
+    for bad in _mutations(log, rng):
+        _save_proof(out, k, A0, A1, bad)
+        report = check_folder(out)                # raises on a traceback
+        state = next(c for c in report.states if c.state == k)
+        verdicts.append(state.ok)
+        if not state.ok:
+            assert state.failed and all(isinstance(f, str) for f in state.failed)
+    assert verdicts.count(False) >= 16, verdicts       # most damage is caught (some touch unused fields)

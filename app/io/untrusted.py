@@ -186,11 +186,13 @@ def check_npz(f: io.BufferedReader, where: str, memory: float | None = None) -> 
 
 
 def read_npz(path: pathlib.Path, members: dict[str, tuple[str, int]], optional: frozenset[str] = frozenset(),
-             max_side: int | None = None, memory: float | None = None) -> dict[str, np.ndarray]:
+             max_side: int | None = None, memory: float | None = None,
+             max_text: int = 2**28) -> dict[str, np.ndarray]:
     """The arrays ``members`` (name -> (dtype kind, number of dimensions): ``("f", 2)`` a float64
-    matrix, ``("U", 0)`` a text) of the ``.npz`` file ``path``; those in ``optional`` may be absent.
-    Every header is checked first (:func:`check_npz`: declared sizes, objects, memory), then each
-    member's dtype, dimensions and sides (at most ``max_side``), before any array is read."""
+    matrix, ``("U", 0)`` a text of at most ``max_text`` characters) of the ``.npz`` file ``path``;
+    those in ``optional`` may be absent. Every header is checked first (:func:`check_npz`:
+    declared sizes, objects, memory), then each member's dtype, dimensions and sides (at most
+    ``max_side``), before any array is read."""
     with opened(path, int(min(memory_limit() if memory is None else memory, 2**62))) as f:
         check_npz(f, str(path), memory)
         try:
@@ -210,7 +212,8 @@ def read_npz(path: pathlib.Path, members: dict[str, tuple[str, int]], optional: 
                     shape, _, dtype = (np.lib.format.read_array_header_1_0 if version == (1, 0)
                                        else np.lib.format.read_array_header_2_0)(member)
                 if dtype.kind != kind or (kind == "f" and dtype.itemsize != 8) or len(shape) != ndim \
-                        or (max_side is not None and any(n > max_side for n in shape)):
+                        or (max_side is not None and any(n > max_side for n in shape)) \
+                        or (kind == "U" and dtype.itemsize > 4 * max_text):
                     want = ("a float64" if kind == "f" else "a text") + f" array of {ndim} dimension(s)"
                     raise UntrustedFile(f"{path}: {name}.npy is {dtype} of shape {tuple(shape)}, expected {want}"
                                         + (f" with sides of at most {max_side}" if max_side is not None else ""))
