@@ -9,7 +9,8 @@ import pathlib
 import resource
 import subprocess
 
-from conftest import PY, ROOT
+import pytest
+from conftest import PY, ROOT, one_error_line
 
 GEO_SCENE = """\
 name: g
@@ -104,3 +105,91 @@ def test_geo_scene_runs_under_hard_batch_limits(tmp_path):
     assert (tmp_path / "out" / "results.json").is_file()
     lines = p.stderr.splitlines()
     assert len(lines) == 1 and "ulimit -v" in lines[0] and "Traceback" not in p.stderr, p.stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# Cache folders: XDG_CACHE_HOME a file, HOME not writable
+
+
+def _one_warning_then_results(p: subprocess.CompletedProcess, out: pathlib.Path, variable: str) -> None:
+    assert p.returncode == 0 and "Traceback" not in p.stderr, p.stderr
+    lines = p.stderr.splitlines()
+    assert len(lines) == 1 and variable in lines[0] and "contact-divergence-cache-" in lines[0], p.stderr
+    assert {"results.json", "plots", "screenshots"} <= {f.name for f in out.iterdir()}
+    assert list((out / "plots").glob("*.png")) and list((out / "screenshots").glob("*.png"))
+
+
+PICTURES = "outputs: {plots: true, screenshots: true}\n"
+
+
+def test_xdg_cache_home_a_file_falls_back_to_a_working_cache(tmp_path):
+    """The JIT cache (``$XDG_CACHE_HOME/fenics``) and matplotlib's folder cannot be created under
+    a file: the run used to end in a traceback from FFCx. The caches go to this user's folder in
+    the temporary folder, with one warning naming the variable."""
+    (tmp_path / "cache").write_text("a file")
+    scene = tmp_path / "s.yaml"
+    scene.write_text(BLOCK + PICTURES)
+    p = subprocess.run([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out"), "-q"], capture_output=True,
+                       text=True, cwd=tmp_path, env=_env(XDG_CACHE_HOME=str(tmp_path / "cache")), timeout=600)
+    _one_warning_then_results(p, tmp_path / "out", "XDG_CACHE_HOME")
+
+
+def test_read_only_home_falls_back_to_a_working_cache(tmp_path):
+    """HOME on a read-only file system (a service account's, a batch job's) and no XDG_CACHE_HOME:
+    the run works, with one warning (matplotlib's own two lines are not printed)."""
+    from conftest import tmpfs
+    with tmpfs(tmp_path / "home", "1m") as home:
+        subprocess.run(["mount", "-o", "remount,ro", str(home)], check=True)
+        scene = tmp_path / "s.yaml"
+        scene.write_text(BLOCK + PICTURES)
+        env = _env(HOME=str(home))
+        for variable in ("XDG_CACHE_HOME", "XDG_CONFIG_HOME", "MPLCONFIGDIR"):
+            env.pop(variable, None)
+        p = subprocess.run([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out"), "-q"],
+                           capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600)
+        _one_warning_then_results(p, tmp_path / "out", "HOME")
+
+
+def test_no_writable_cache_anywhere_is_one_line(tmp_path, monkeypatch):
+    """Neither the user's cache folder nor the temporary folder can be written: one line naming
+    XDG_CACHE_HOME, exit status 2 (the JIT cache is asked for before any form is compiled)."""
+    import tempfile
+
+    from conftest import run_cli_here
+    blocker = tmp_path / "file"
+    blocker.write_text("a file")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))
+    monkeypatch.setenv("TMPDIR", str(blocker / "tmp"))
+    monkeypatch.setattr(tempfile, "tempdir", str(blocker / "tmp"))
+    scene = tmp_path / "s.yaml"
+    scene.write_text(BLOCK)
+    line = one_error_line(run_cli_here("run", str(scene), "-o", str(tmp_path / "out"), "-q"))
+    assert "XDG_CACHE_HOME" in line and str(blocker) in line, line
+    assert not (tmp_path / "out").exists()
+
+
+def test_mesh_cache_falls_back_when_xdg_cache_home_is_a_file(tmp_path, monkeypatch):
+    """The install folder's meshes/ and $XDG_CACHE_HOME cannot be written: the block mesh is
+    cached in this user's folder in the temporary folder; with no folder at all, one line."""
+    import tempfile
+
+    from mpi4py import MPI
+
+    import app.systems.block.mesh as bm
+    from app.common.cache import CacheUnusable
+    blocker = tmp_path / "file"
+    blocker.write_text("a file")
+    monkeypatch.setattr(bm, "DEFAULT_CACHE_DIR", blocker / "meshes")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    mesh, _ = bm.block_mesh(MPI.COMM_WORLD, 80.0, 40.0, 3, 2, "right")
+    assert mesh.topology.index_map(2).size_global == 12
+    name = bm.mesh_file_name(80.0, 40.0, 3, 2, "right", None)
+    assert (tmp_path / "tmp" / f"contact-divergence-cache-{os.getuid()}" / "contact-divergence" / "meshes"
+            / name).is_file()
+    monkeypatch.setenv("TMPDIR", str(blocker / "tmp"))
+    monkeypatch.setattr(tempfile, "tempdir", str(blocker / "tmp"))
+    with pytest.raises(CacheUnusable, match="XDG_CACHE_HOME"):
+        bm.block_mesh(MPI.COMM_WORLD, 80.0, 40.0, 3, 2, "right")

@@ -167,11 +167,14 @@ def _guarded(fn, args) -> int:
     print it and abort the whole job instead."""
     from mpi4py import MPI
 
+    from app.common.cache import CacheUnusable
     from app.io.folder import CommitError
     try:
         return fn(args)
     except CommitError as err:
         return _fail(str(err), EXIT_WRITE)
+    except CacheUnusable as err:          # raised on every rank alike
+        return _fail(str(err))
     except (MemoryError, OSError, RuntimeError) as err:
         msg = _write_error(err)
         if msg is None:

@@ -26,6 +26,8 @@ import subprocess
 import sys
 import time
 
+from app.common.cache import cache_dir, usable_dir
+
 KINDS = ("plots", "screenshots")
 PARENT_VARIABLE = "APP_DRAWING_PARENT_PID"
 NICE = 5              # niceness added to the drawing processes
@@ -44,6 +46,7 @@ class Worker:
         root = str(pathlib.Path(__file__).resolve().parents[2])
         env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
         env[PARENT_VARIABLE] = str(os.getpid())
+        env.update(_cache_folders(env))
         # A session of its own: a Ctrl-C at the terminal (sent to the whole foreground process
         # group) is for the run, not for a child still importing its libraries, where a SIGINT
         # would print a traceback before any handler exists. The run stops its children itself
@@ -88,6 +91,21 @@ class Worker:
         for f in (self.proc.stdin, self.proc.stdout):
             if f is not None and not f.closed:
                 f.close()
+
+
+def _cache_folders(env: dict[str, str]) -> dict[str, str]:
+    """The cache and configuration folders of a drawing child: ``XDG_CACHE_HOME`` the app's
+    writable cache folder (app/common/cache.py: the user's, else this user's folder in the
+    temporary folder), so that matplotlib's font cache and Mesa's shader cache (VTK's off-screen
+    OpenGL) neither print warnings nor go to a new temporary folder each time; ``MPLCONFIGDIR``
+    the same folder's ``matplotlib`` when matplotlib's configuration folder
+    (``$XDG_CONFIG_HOME/matplotlib``, default ``~/.config/matplotlib``) cannot be written."""
+    out = {"XDG_CACHE_HOME": str(cache_dir(""))}
+    if not env.get("MPLCONFIGDIR"):
+        config = env.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
+        if not os.path.isabs(config) or usable_dir(pathlib.Path(config) / "matplotlib") is not None:
+            out["MPLCONFIGDIR"] = str(cache_dir("matplotlib"))
+    return out
 
 
 _STARTED: dict[tuple[str, str], Worker] = {}
