@@ -193,3 +193,68 @@ def test_mesh_cache_falls_back_when_xdg_cache_home_is_a_file(tmp_path, monkeypat
     monkeypatch.setattr(tempfile, "tempdir", str(blocker / "tmp"))
     with pytest.raises(CacheUnusable, match="XDG_CACHE_HOME"):
         bm.block_mesh(MPI.COMM_WORLD, 80.0, 40.0, 3, 2, "right")
+
+
+# ---------------------------------------------------------------------------------------------
+# The drawing processes: any output path, no traceback, a full disk is the run's full disk
+
+
+def test_output_path_with_a_newline_gets_its_pictures(tmp_path):
+    """The job file's name used to be handed to the drawing processes as a line: a newline in the
+    output folder's name cut it, and the pictures went missing with exit status 0."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(BLOCK + PICTURES)
+    out = tmp_path / "out\nx"
+    p = subprocess.run([PY, "-m", "app", "run", str(scene), "-o", str(out), "-q"], capture_output=True, text=True,
+                       cwd=tmp_path, env=_env(), timeout=600)
+    assert p.returncode == 0 and p.stderr == "", p.stderr
+    assert list((out / "plots").glob("*.png")) and list((out / "screenshots").glob("*.png"))
+    import json
+    res = json.loads((out / "results.json").read_text())
+    assert not [n for n in res["outputs"]["notes"] if "failed" in n], res["outputs"]["notes"]
+
+
+def _plots_job(tmp_path: pathlib.Path, plots_dir: pathlib.Path) -> pathlib.Path:
+    """A drawing job of the plots of a small two-particle study, drawing into ``plots_dir``."""
+    import json
+
+    from conftest import run_cli_here
+    scene = tmp_path / "tp.yaml"
+    scene.write_text("name: tp\nsystem: {type: two_particles, k: 1000.0, m: 2.0, phi_deg: 35.0, signs: [1, -1]}\n"
+                     "mu: 2.5\nanalyses: [mceip_mu]\noutputs: {plots: true}\n")
+    assert run_cli_here("run", str(scene), "-o", str(tmp_path / "tp"), "-q").returncode == 0
+    res = json.loads((tmp_path / "tp" / "results.json").read_text())
+    job = tmp_path / "job.json"
+    job.write_text(json.dumps({"results": res, "pictured": res["outputs"]["pictured_states"],
+                               "plots_dir": str(plots_dir)}))
+    return job
+
+
+def test_a_failing_drawing_process_is_a_note_and_one_warning(tmp_path, capfd):
+    """A drawing child that fails prints no traceback: the parent gets its one-line reason as a
+    note and logs it as one warning."""
+    from app.plot.worker import Worker
+    files, notes, seconds = Worker("plots").submit(tmp_path / "no such job.json").wait()
+    err = capfd.readouterr().err
+    assert files == [] and seconds is None and len(notes) == 1, notes
+    assert "plots failed: FileNotFoundError" in notes[0] and "no such job.json" in notes[0], notes
+    assert "Traceback" not in err and err.count("\n") <= 1, err
+
+
+def test_full_disk_in_a_drawing_process_is_the_runs_full_disk(tmp_path, capfd):
+    """The plots child writes onto a full file system: no traceback from it, and the parent gets
+    the child's ENOSPC as an OSError, which ends a run with 'no space left' (exit status 4)."""
+    import errno
+
+    from conftest import fill_disk, tmpfs
+
+    from app.plot.worker import Worker
+    job = _plots_job(tmp_path, tmp_path / "mnt" / "plots")
+    with tmpfs(tmp_path / "mnt", "1m") as mnt:
+        fill_disk(mnt)
+        capfd.readouterr()
+        with pytest.raises(OSError) as info:
+            Worker("plots").submit(job).wait()
+        err = capfd.readouterr().err
+    assert info.value.errno == errno.ENOSPC, info.value
+    assert err == "", err
