@@ -258,3 +258,72 @@ def test_full_disk_in_a_drawing_process_is_the_runs_full_disk(tmp_path, capfd):
         err = capfd.readouterr().err
     assert info.value.errno == errno.ENOSPC, info.value
     assert err == "", err
+
+
+# ---------------------------------------------------------------------------------------------
+# Ctrl-C of a sweep
+
+
+SWEEP = """\
+name: sw
+system: {type: block, nx: 10, ny: 5}
+mu: 1.1
+loading: {normal_force: 55.0, normal_steps: 3, tangential_step: 0.01, tangential_max: 1.5}
+analyses: [mceip_mu]
+sweep: {parameters: {mu: [%s]}}
+""" % ", ".join(f"{0.5 + 0.02 * i:.2f}" for i in range(60))
+
+
+def _interrupt_sweep(tmp_path: pathlib.Path, ranks: int) -> tuple[subprocess.Popen, str, pathlib.Path]:
+    """A sweep started as from a terminal (``mpirun -n ranks`` when ranks > 1), sent SIGINT once
+    it has completed a few cases (so every rank is past its imports); (process, stderr, folder)."""
+    import signal
+    import time
+    scene = tmp_path / "sw.yaml"
+    scene.write_text(SWEEP)
+    out = tmp_path / "out"
+    cmd = [PY, "-m", "app", "run", str(scene), "-o", str(out), "-q"]
+    if ranks > 1:
+        cmd = ["mpirun", "--oversubscribe", "-n", str(ranks), *cmd]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 300
+        while len(list(out.glob("cases/*/results.json"))) < 2 * ranks:
+            assert proc.poll() is None and time.monotonic() < deadline, "the sweep ended before it was interrupted"
+            time.sleep(0.01)
+        os.killpg(proc.pid, signal.SIGINT)          # a Ctrl-C: the terminal signals the foreground group
+        err = proc.communicate(timeout=120)[1].decode()
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.poll() is not None and len(list(out.glob("cases/*/results.json"))) < 60, "the sweep was not stopped"
+    return proc, err, out
+
+
+def _stopped_sweep_left_its_complete_cases(err: str, out: pathlib.Path, signal_name: str) -> None:
+    assert "Traceback" not in err and len(err.splitlines()) == 1, err
+    assert err.startswith(f"error: interrupted by {signal_name}") and "the sweep stopped" in err, err
+    assert str(out) in err
+    cases = sorted(p.name for p in (out / "cases").iterdir())
+    assert not [c for c in cases if ".partial-" in c], cases
+    assert all((out / "cases" / c / "results.json").is_file() for c in cases), cases
+    assert not list(out.parent.glob(".out.lock"))
+
+
+def test_ctrl_c_of_a_sweep_is_one_line_and_130(tmp_path):
+    proc, err, out = _interrupt_sweep(tmp_path, 1)
+    assert proc.returncode == 130, err
+    _stopped_sweep_left_its_complete_cases(err, out, "SIGINT")
+
+
+@pytest.mark.mpi
+def test_ctrl_c_of_an_mpirun_sweep_is_one_line(tmp_path):
+    """A Ctrl-C reaches mpirun (the ranks are in process groups of their own), which sends SIGTERM
+    to every rank and exits 1 whatever the ranks do (Open MPI 4: it neither forwards SIGINT nor
+    passes the ranks' status on). Every rank removes its unfinished case and ends; rank 0 prints
+    the one line. It used to print nothing."""
+    proc, err, out = _interrupt_sweep(tmp_path, 2)
+    assert proc.returncode == 1, err
+    _stopped_sweep_left_its_complete_cases(err, out, "SIGTERM")
