@@ -327,3 +327,31 @@ def test_ctrl_c_of_an_mpirun_sweep_is_one_line(tmp_path):
     proc, err, out = _interrupt_sweep(tmp_path, 2)
     assert proc.returncode == 1, err
     _stopped_sweep_left_its_complete_cases(err, out, "SIGTERM")
+
+
+def test_disk_full_while_the_plots_are_drawn(tmp_path):
+    """The file system fills up once the plots child has begun writing (its plots/ folder exists):
+    one 'no space left' line, exit status 4, no traceback from the child, nothing left behind."""
+    import time
+
+    from conftest import fill_disk, tmpfs
+    scene = tmp_path / "s.yaml"
+    scene.write_text(BLOCK + "outputs: {plots: true, report: true}\n")
+    with tmpfs(tmp_path / "mnt", "64m") as mnt:
+        proc = subprocess.Popen([PY, "-m", "app", "run", str(scene), "-o", str(mnt / "out"), "-q"], cwd=tmp_path,
+                                env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            deadline = time.monotonic() + 300
+            while not list(mnt.glob(".out.partial-*/plots")):
+                assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+                time.sleep(0.001)
+            fill_disk(mnt)
+            stdout, stderr = proc.communicate(timeout=300)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        (mnt / "fill").unlink()
+        assert proc.returncode == 4, (stdout, stderr)
+        assert len(stderr.splitlines()) == 1 and "no space left" in stderr and "Traceback" not in stderr, stderr
+        assert os.listdir(mnt) == []
