@@ -37,8 +37,9 @@ from app.common.cache import cache_dir, usable_dir
 
 KINDS = ("plots", "screenshots")
 PARENT_VARIABLE = "APP_DRAWING_PARENT_PID"
-log = logging.getLogger(__name__)
 NICE = 5              # niceness added to the drawing processes
+
+log = logging.getLogger(__name__)
 
 
 class Worker:
