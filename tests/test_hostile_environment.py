@@ -129,9 +129,12 @@ def test_xdg_cache_home_a_file_falls_back_to_a_working_cache(tmp_path):
     (tmp_path / "cache").write_text("a file")
     scene = tmp_path / "s.yaml"
     scene.write_text(BLOCK + PICTURES)
+    (tmp_path / "tmp").mkdir()
     p = subprocess.run([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out"), "-q"], capture_output=True,
-                       text=True, cwd=tmp_path, env=_env(XDG_CACHE_HOME=str(tmp_path / "cache")), timeout=600)
+                       text=True, cwd=tmp_path, timeout=600,
+                       env=_env(XDG_CACHE_HOME=str(tmp_path / "cache"), TMPDIR=str(tmp_path / "tmp")))
     _one_warning_then_results(p, tmp_path / "out", "XDG_CACHE_HOME")
+    assert list((tmp_path / "tmp").glob("contact-divergence-cache-*/fenics/*.so"))
 
 
 def test_read_only_home_falls_back_to_a_working_cache(tmp_path):
@@ -142,12 +145,14 @@ def test_read_only_home_falls_back_to_a_working_cache(tmp_path):
         subprocess.run(["mount", "-o", "remount,ro", str(home)], check=True)
         scene = tmp_path / "s.yaml"
         scene.write_text(BLOCK + PICTURES)
-        env = _env(HOME=str(home))
+        (tmp_path / "tmp").mkdir()
+        env = _env(HOME=str(home), TMPDIR=str(tmp_path / "tmp"))
         for variable in ("XDG_CACHE_HOME", "XDG_CONFIG_HOME", "MPLCONFIGDIR"):
             env.pop(variable, None)
         p = subprocess.run([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out"), "-q"],
                            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600)
         _one_warning_then_results(p, tmp_path / "out", "HOME")
+        assert list((tmp_path / "tmp").glob("contact-divergence-cache-*/matplotlib"))
 
 
 def test_no_writable_cache_anywhere_is_one_line(tmp_path, monkeypatch):
