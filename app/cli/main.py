@@ -167,11 +167,14 @@ def _guarded(fn, args) -> int:
     print it and abort the whole job instead."""
     from mpi4py import MPI
 
+    from app.common.cache import CacheUnusable
     from app.io.folder import CommitError
     try:
         return fn(args)
     except CommitError as err:
         return _fail(str(err), EXIT_WRITE)
+    except CacheUnusable as err:          # raised on every rank alike
+        return _fail(str(err))
     except (MemoryError, OSError, RuntimeError) as err:
         msg = _write_error(err)
         if msg is None:
@@ -183,15 +186,23 @@ def _guarded(fn, args) -> int:
     except KeyboardInterrupt as err:
         # Ctrl-C (SIGINT) or SIGTERM (raised as KeyboardInterrupt("signal 15") by _terminate): one
         # line, not a traceback; the staging folder has already been removed by the run's finally
-        return _interrupted(15 if str(err) == "signal 15" else 2)
+        return _interrupted(15 if str(err) == "signal 15" else 2, getattr(err, "left", None))
     except Exception:
         if interrupt.RECEIVED:   # a child (the C compiler) died of the same Ctrl-C first
             return _interrupted(interrupt.RECEIVED[0])
         return _unexpected()
 
 
-def _interrupted(signum: int) -> int:
-    """One line for a run stopped by SIGINT or SIGTERM; exit status 128 + the signal."""
+def _interrupted(signum: int, left: str | None = None) -> int:
+    """One line for a run stopped by SIGINT or SIGTERM (``left``: what the stopped command keeps,
+    default none of its results); exit status 128 + the signal.
+
+    Under mpirun a Ctrl-C reaches mpirun, which sends SIGTERM to every rank and exits 1 (Open
+    MPI 4). A study's ranks may wait for each other inside a collective, which only MPI_Abort
+    ends. A sweep's ranks (``left`` given) wait for their cases in Python (app/study/taskfarm.py
+    polls), so each one ends itself with the status, without MPI_Abort's banner beside the one
+    line; a signal that reaches one rank only still ends the job, as mpirun ends a job when a
+    rank exits with a non-zero status."""
     from mpi4py import MPI
     for s in (signal.SIGINT, signal.SIGTERM):         # a deferred signal sent again is not raised here
         if signal.getsignal(s) is _terminate:
@@ -204,7 +215,10 @@ def _interrupted(signum: int) -> int:
     code = 128 + signum
     if MPI.COMM_WORLD.rank == 0:
         print(f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
-              "the run stopped and wrote no results", file=sys.stderr, flush=True)
+              f"{left or 'the run stopped and wrote no results'}", file=sys.stderr, flush=True)
+    if MPI.COMM_WORLD.size > 1 and left is not None:
+        sys.stderr.flush()
+        os._exit(code)
     if MPI.COMM_WORLD.size > 1:
         MPI.COMM_WORLD.Abort(code)
     return code
@@ -271,6 +285,7 @@ def _main(args) -> int:
     comm = MPI.COMM_WORLD
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
         from app.study.sweep import main as sweep_main  # a batch of cases (app/study/sweep.py)
+        _catch_signals()
         return sweep_main(scene, args, comm)
     from app.scene import limits as preflight
     try:
@@ -305,15 +320,20 @@ def _main(args) -> int:
     # Everything is written into the staging folder (created and probed by check()) and moved into
     # place at the very end; the lock on the folder is held until then.
     outdir = folder.staging
-    interrupt.clear()
-    signal.signal(signal.SIGTERM, _terminate)
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
-        signal.signal(signal.SIGINT, _terminate)
+    _catch_signals()
     try:
         return _run(args, scene, comm, folder, outdir)
     finally:
         if comm.rank == 0:
             folder.abort()              # interrupted or failed: drop the partial files (kept if the commit failed)
+
+
+def _catch_signals() -> None:
+    """From here on SIGTERM and SIGINT stop the run with one line (:func:`_terminate`)."""
+    interrupt.clear()
+    signal.signal(signal.SIGTERM, _terminate)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
+        signal.signal(signal.SIGINT, _terminate)
 
 
 def _deferring(frame) -> bool:

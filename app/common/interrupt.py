@@ -46,3 +46,12 @@ def clear() -> None:
     """Forget the received signals (a new run in the same process, or the interrupt reported)."""
     RECEIVED.clear()
     RAISED.clear()
+
+
+class Stopped(KeyboardInterrupt):
+    """The KeyboardInterrupt of a command that keeps part of its work (a sweep keeps the cases it
+    completed): ``left`` says what is left, for the one line that reports the interrupt."""
+
+    def __init__(self, interrupted: KeyboardInterrupt, left: str):
+        super().__init__(*interrupted.args)
+        self.left = left

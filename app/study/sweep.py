@@ -35,11 +35,13 @@ import datetime
 import json
 import os
 import pathlib
+import shutil
 import stat
 import time
 import traceback
 from collections import deque
 
+from app.common.interrupt import Stopped
 from app.io.document import from_document
 from app.io.results import append_line
 from app.scene.schema import Scene, SceneError
@@ -95,6 +97,10 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
             results = driver.run_and_write(case.scene, gcomm, staging, extra=identity).raw
         except UnreachableLoad as err:   # raised identically on every rank of the group
             error = f"loading: {err}"
+    except KeyboardInterrupt:            # a signal: the unfinished case leaves nothing
+        if gcomm.rank == 0:
+            shutil.rmtree(staging, ignore_errors=True)
+        raise
     except Exception as err:             # noqa: BLE001
         if gcomm.size > 1:               # may be on this rank only: the CLI aborts the job
             raise
@@ -312,6 +318,9 @@ def main(scene: Scene, args, comm) -> int:
     try:
         return run_sweep(scene, cases, comm, outdir, rpc, quiet=args.quiet,
                          rerun=bool(getattr(args, "overwrite", False)))
+    except KeyboardInterrupt as err:     # a signal (app/cli/main.py): the complete cases stay
+        raise Stopped(err, f"the sweep stopped; the cases it completed are in {outdir} (run it again to "
+                           "run the others)") from None
     finally:
         if comm.rank == 0:
             lock.release()

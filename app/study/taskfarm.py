@@ -58,6 +58,8 @@ def _serve_or_abort(farm, handle: Handle, n_groups: int) -> None:
     from mpi4py import MPI
     try:
         _serve(farm, handle, n_groups)
+    except KeyboardInterrupt:         # a signal to this rank: the command line reports it (one line)
+        raise
     except BaseException:             # noqa: BLE001 - the workers would wait forever
         traceback.print_exc()
         print("error: the task dispatcher failed; aborting all ranks", file=sys.stderr, flush=True)

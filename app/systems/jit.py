@@ -8,7 +8,8 @@ function space, form and expression of the app is therefore built with ``FORM_PA
 ``JIT_PARAMS`` below, which give every parameter a value and so take priority over both files.
 
 The JIT cache stays where DOLFINx puts it (``$XDG_CACHE_HOME/fenics``, default
-``~/.cache/fenics``). ``timeout`` is how long a process waits for another process that is
+``~/.cache/fenics``) when that folder can be written; else it is this user's folder in the
+temporary folder, with a warning (app/common/cache.py). ``timeout`` is how long a process waits for another process that is
 compiling the same form (two runs of a sweep, or two test workers, on a fresh cache): DOLFINx's
 10 s is too short on a loaded machine, where the wait then ends in an error. FFCx claims a form's
 C file before it compiles it; a process killed while compiling leaves the claim, and every later
@@ -22,7 +23,8 @@ from __future__ import annotations
 import logging
 import os
 import time
-from pathlib import Path
+
+from app.common.cache import cache_dir
 
 #: FFCx's parameters (ffcx.parameters.FFCX_DEFAULT_PARAMETERS, FFCx 0.5), all given
 FORM_PARAMS: dict = {"epsilon": 1e-14, "scalar_type": "double", "tabulate_tensor_void": False,
@@ -30,8 +32,8 @@ FORM_PARAMS: dict = {"epsilon": 1e-14, "scalar_type": "double", "tabulate_tensor
                      "verbosity": 20}
 
 #: DOLFINx's JIT parameters (dolfinx.jit.DOLFINX_DEFAULT_JIT_PARAMETERS, DOLFINx 0.5), all given
-JIT_PARAMS: dict = {"cache_dir": Path(os.getenv("XDG_CACHE_HOME", default=Path.home() / ".cache")) / "fenics",
-                    "cffi_debug": False, "cffi_extra_compile_args": ["-O2", "-g0"], "cffi_verbose": False,
+#: but ``cache_dir``, which :func:`params` adds (app/common/cache.py)
+JIT_PARAMS: dict = {"cffi_debug": False, "cffi_extra_compile_args": ["-O2", "-g0"], "cffi_verbose": False,
                     "cffi_libraries": None, "timeout": 600}
 
 
@@ -82,6 +84,7 @@ def _attach_wait_notice() -> None:
 
 def params() -> dict:
     """Keyword arguments for ``dolfinx.fem.form``, ``FunctionSpace``, ``VectorFunctionSpace`` and
-    ``Expression``: fresh copies (DOLFINx writes ``scalar_type`` into the dict it is given)."""
+    ``Expression``: fresh copies (DOLFINx writes ``scalar_type`` into the dict it is given).
+    Raises :class:`app.common.cache.CacheUnusable` when no cache folder can be written."""
     _attach_wait_notice()
-    return {"form_compiler_params": dict(FORM_PARAMS), "jit_params": dict(JIT_PARAMS)}
+    return {"form_compiler_params": dict(FORM_PARAMS), "jit_params": dict(JIT_PARAMS, cache_dir=cache_dir("fenics"))}

@@ -24,7 +24,6 @@ Physical groups (= DOLFINx facet/cell tag values)::
 from __future__ import annotations
 
 import hashlib
-import os
 import pathlib
 import tempfile
 import uuid
@@ -35,6 +34,7 @@ import numpy.typing as npt
 from dolfinx.cpp.mesh import MeshTags_int32
 from mpi4py import MPI
 
+from app.common.cache import APP_NAME, CacheUnusable, cache_dir, usable_dir
 from app.systems import mesh_arrays
 from app.systems.gmsh.mesh import GMSH_LINE, GMSH_TRIANGLE, gmsh_initialize
 
@@ -46,30 +46,12 @@ CELLS = 1
 PATTERNS = ("crossed", "right", "left", "alternate", "unstructured")
 DEFAULT_CACHE_DIR = pathlib.Path(__file__).resolve().parents[3] / "meshes"
 
-APP_NAME = "contact-divergence"
-
-
-def _usable_dir(folder: pathlib.Path) -> bool:
-    """``folder`` exists (or can be created) and a file can be created in it."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(dir=folder, prefix=".probe-", suffix=".tmp")
-        os.close(fd)
-        os.unlink(probe)
-        return True
-    except OSError:
-        return False
-
-
 def user_cache_dir() -> pathlib.Path:
-    """``$XDG_CACHE_HOME/contact-divergence/meshes``, else ``~/.cache/contact-divergence/meshes``.
-
-    Written out rather than ``platformdirs.user_cache_dir``: the XDG base directory specification
-    says a relative ``XDG_CACHE_HOME`` is invalid and must be ignored, which platformdirs does not
-    do (it would put the cache under the current directory), and the app runs on Linux only."""
-    base = os.environ.get("XDG_CACHE_HOME")
-    root = pathlib.Path(base) if base and os.path.isabs(base) else pathlib.Path.home() / ".cache"
-    return root / APP_NAME / "meshes"
+    """``$XDG_CACHE_HOME/contact-divergence/meshes``, else ``~/.cache/contact-divergence/meshes``,
+    else this user's folder in the temporary folder (app/common/cache.py: a relative
+    ``XDG_CACHE_HOME`` is ignored, as the XDG base directory specification says; an unusable one
+    falls back with a warning; :class:`app.common.cache.CacheUnusable` when nothing works)."""
+    return cache_dir(f"{APP_NAME}/meshes")
 
 
 def mesh_cache_path(name: str, install_dir: pathlib.Path | None = None) -> pathlib.Path:
@@ -80,7 +62,7 @@ def mesh_cache_path(name: str, install_dir: pathlib.Path | None = None) -> pathl
     without write access to the installation can still run any mesh.
     """
     install_dir = pathlib.Path(DEFAULT_CACHE_DIR if install_dir is None else install_dir)
-    if (install_dir / name).is_file() or _usable_dir(install_dir):
+    if (install_dir / name).is_file() or usable_dir(install_dir) is None:
         return install_dir / name
     return user_cache_dir() / name
 
@@ -339,14 +321,18 @@ def block_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int, p
 
     # Rank 0 reads (or generates and caches) the arrays; errors are broadcast so that no rank
     # is left waiting in the distribution.
-    error, arrays = None, None
+    error, arrays, no_cache = None, None, None
     if comm.rank == root:
         try:
             arrays = _cached_arrays(path if path is not None else mesh_cache_path(name), length, height, nx, ny,
                                     pattern, mesh_size)
+        except CacheUnusable as e:
+            no_cache = str(e)
         except Exception as e:  # noqa: BLE001 -- re-raised on every rank below
             error = f"{type(e).__name__}: {e}"
-    error = comm.bcast(error, root=root)                                 # MPI collective
+    error, no_cache = comm.bcast((error, no_cache), root=root)          # MPI collective
+    if no_cache is not None:
+        raise CacheUnusable(no_cache)
     if error is not None:
         raise RuntimeError(f"block_mesh: mesh generation failed on rank {root}: {error}")
     mesh, _cell_tags, facet_tags = mesh_arrays.build(comm, arrays, root, gdim=2)     # MPI collective

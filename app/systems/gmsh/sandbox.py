@@ -7,7 +7,9 @@ node tags). So Gmsh never runs in the app's process. The child
 * runs under a time limit (``settings.limits.max_file_seconds``, wall clock; the process group
   is killed at the limit), an address-space limit (``RLIMIT_AS``: the scene's memory limit,
   ``settings.limits.max_memory_gb`` or 80 % of the RAM) and node/element limits derived from
-  ``settings.limits.max_dofs``, with no core files and a bounded file size;
+  ``settings.limits.max_dofs``, with no core files and a bounded file size; each limit at most
+  the one this process inherited (a batch job's ``ulimit -v``, ``ulimit -f``: a lower inherited
+  limit is kept and a warning says so, app/common/rlimits.py);
 * has HOME, TMPDIR and its working folder in a fresh temporary folder, created by this module
   and removed by it afterwards, and a minimal environment;
 * runs inside bubblewrap (``bwrap``, Debian package ``bubblewrap``, installed by
@@ -34,6 +36,8 @@ import tempfile
 from dataclasses import dataclass
 
 import numpy as np
+
+from app.common.rlimits import INFINITY, Limit, setter, within_inherited
 
 log = logging.getLogger(__name__)
 
@@ -100,17 +104,17 @@ def bwrap_usable() -> bool:
     return _BWRAP["usable"]
 
 
-def _set_limits(limits: SandboxLimits, file_bytes: int):
-    """The child's resource limits (run in the child between fork and exec)."""
-    def apply() -> None:
-        if limits.memory_bytes is not None:
-            cap = limits.memory_bytes + BASE_ADDRESS_SPACE
-            resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-        resource.setrlimit(resource.RLIMIT_FSIZE, (file_bytes, file_bytes))
-        cpu = int(limits.seconds) + 2
-        resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
-    return apply
+def child_limits(limits: SandboxLimits, file_bytes: int, current=resource.getrlimit,
+                 ) -> tuple[dict[int, Limit], list[str]]:
+    """The child's resource limits and notes on those the inherited limits keep lower
+    (app/common/rlimits.py: a limit is never raised above this process's own, ``current``, e.g.
+    a batch job's ``ulimit -v``)."""
+    cpu = int(limits.seconds) + 2
+    wanted = {resource.RLIMIT_CORE: Limit(0, 0), resource.RLIMIT_FSIZE: Limit(file_bytes, file_bytes),
+              resource.RLIMIT_CPU: Limit(cpu, cpu + 1)}
+    cap = INFINITY if limits.memory_bytes is None else limits.memory_bytes + BASE_ADDRESS_SPACE
+    wanted[resource.RLIMIT_AS] = Limit(cap, cap)
+    return within_inherited(wanted, current)
 
 
 def _signal_name(code: int) -> str:
@@ -137,13 +141,17 @@ def _run(path: pathlib.Path, limits: SandboxLimits, tmp: pathlib.Path) -> tuple[
            str(limits.max_dofs)]
     if bwrap_usable():
         cmd = _bwrap_command(tmp) + ["--"] + cmd
+    rlimits, notes = child_limits(limits, file_bytes)
+    if notes:
+        log.warning("gmsh sandbox: reading %s with lower limits than the app sets, as this process's own are "
+                    "lower: %s", name, "; ".join(notes))
     env = {"HOME": str(tmp), "TMPDIR": str(tmp), "PATH": "/usr/bin:/bin", "LANG": "C.UTF-8",
            "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     with open(tmp / "stderr.txt", "wb") as err_file:
         try:
             proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err_file,
                                     cwd=tmp, env=env, start_new_session=True,
-                                    preexec_fn=_set_limits(limits, file_bytes))
+                                    preexec_fn=setter(rlimits))
         except OSError as err:
             raise SandboxError(f"cannot start the process that reads {name}: {err.strerror or err}") from None
         try:
@@ -172,10 +180,11 @@ def _run(path: pathlib.Path, limits: SandboxLimits, tmp: pathlib.Path) -> tuple[
     if "MemoryError" in stderr or "bad_alloc" in stderr or (code < 0 and -code in (signal.SIGXCPU,)):
         what = ("memory" if code >= 0 or -code != signal.SIGXCPU else "CPU time")
         raise SandboxError(f"reading {name} with gmsh ran out of its {what} limit "
-                           f"({_memory_text(limits)}): use a coarser mesh or raise settings.limits.max_memory_gb",
+                           f"({_memory_text(limits, rlimits)}): use a coarser mesh or raise settings.limits.max_memory_gb",
                            resource=True)
     if code < 0 and -code == signal.SIGXFSZ:
-        raise SandboxError(f"reading {name} with gmsh wrote more than {file_bytes >> 20} MiB: stopped", resource=True)
+        written = rlimits[resource.RLIMIT_FSIZE].soft
+        raise SandboxError(f"reading {name} with gmsh wrote more than {written >> 20} MiB: stopped", resource=True)
     if code < 0:
         raise SandboxError(f"gmsh crashed reading {name} ({_signal_name(code)}): the file is corrupt or not a "
                            "mesh gmsh can read")
@@ -183,8 +192,15 @@ def _run(path: pathlib.Path, limits: SandboxLimits, tmp: pathlib.Path) -> tuple[
     raise SandboxError(f"gmsh failed reading {name} (exit status {code}{': ' + last if last else ''})")
 
 
-def _memory_text(limits: SandboxLimits) -> str:
-    return "no memory limit" if limits.memory_bytes is None else f"{limits.memory_bytes / 2**30:.3g} GiB"
+def _memory_text(limits: SandboxLimits, rlimits: dict[int, Limit]) -> str:
+    """The child's memory limit as the messages name it: the scene's, or the inherited address-space
+    limit where that is lower."""
+    soft = rlimits[resource.RLIMIT_AS].soft
+    if soft == INFINITY:
+        return "no memory limit"
+    if limits.memory_bytes is None or soft < limits.memory_bytes + BASE_ADDRESS_SPACE:
+        return f"the address-space limit (ulimit -v) of {soft / 2**30:.3g} GiB"
+    return f"{limits.memory_bytes / 2**30:.3g} GiB"
 
 
 def _kill(proc: subprocess.Popen) -> None:
