@@ -155,6 +155,26 @@ def test_read_only_home_falls_back_to_a_working_cache(tmp_path):
         assert list((tmp_path / "tmp").glob("contact-divergence-cache-*/matplotlib"))
 
 
+def test_home_a_file_and_fifo_settings_files_in_the_study_folder(tmp_path):
+    """DOLFINx and FFCx read ``*_parameters.json`` from the current folder and from ``~/.config``
+    (catching only FileNotFoundError): FIFOs of those names in a study folder received from
+    someone hung the run, and a HOME that is a file ended it with a traceback. The app gives
+    every parameter itself and reads neither."""
+    study = tmp_path / "study"
+    study.mkdir()
+    for name in ("ffcx_parameters.json", "dolfinx_jit_parameters.json"):
+        os.mkfifo(study / name)
+    (study / "s.yaml").write_text(BLOCK + PICTURES)
+    (tmp_path / "tmp").mkdir()
+    (tmp_path / "home").write_text("a file, not a folder")
+    env = _env(HOME=str(tmp_path / "home"), TMPDIR=str(tmp_path / "tmp"))
+    for variable in ("XDG_CACHE_HOME", "XDG_CONFIG_HOME", "MPLCONFIGDIR"):
+        env.pop(variable, None)
+    p = subprocess.run([PY, "-m", "app", "run", "s.yaml", "-o", str(tmp_path / "out"), "-q"], capture_output=True,
+                       text=True, cwd=study, env=env, timeout=600)
+    _one_warning_then_results(p, tmp_path / "out", "HOME")
+
+
 def test_no_writable_cache_anywhere_is_one_line(tmp_path, monkeypatch):
     """Neither the user's cache folder nor the temporary folder can be written: one line naming
     XDG_CACHE_HOME, exit status 2 (the JIT cache is asked for before any form is compiled)."""
