@@ -380,3 +380,21 @@ def test_disk_full_while_the_plots_are_drawn(tmp_path):
         assert proc.returncode == 4, (stdout, stderr)
         assert len(stderr.splitlines()) == 1 and "no space left" in stderr and "Traceback" not in stderr, stderr
         assert os.listdir(mnt) == []
+
+
+def test_a_petscrc_in_the_study_folder_injects_no_option(tmp_path):
+    """PETSc reads ``.petscrc`` and ``petscrc`` from the working folder: one in a study folder received
+    from someone wrote a file with ``-mat_view ascii:FILE``. ``python -m app`` starts PETSc with
+    ``-skip_petscrc``; ``PETSC_OPTIONS`` (the user's own) still reaches PETSc."""
+    study = tmp_path / "study"
+    study.mkdir()
+    for name in (".petscrc", "petscrc"):
+        (study / name).write_text(f"-mat_view ascii:{tmp_path / name}.txt\n-options_left\n")
+    (study / "s.yaml").write_text(BLOCK)
+    p = subprocess.run([PY, "-m", "app", "run", "s.yaml", "-o", str(tmp_path / "out"), "-q"], capture_output=True,
+                       text=True, cwd=study, env=_env(), timeout=600)
+    assert p.returncode == 0 and "Option left" not in p.stdout + p.stderr, p.stdout + p.stderr
+    assert not list(tmp_path.glob("*.txt"))
+    p = subprocess.run([PY, "-m", "app", "run", "s.yaml", "-o", str(tmp_path / "out2"), "-q"], capture_output=True,
+                       text=True, cwd=study, env=_env(PETSC_OPTIONS="-options_left"), timeout=600)
+    assert p.returncode == 0 and "PETSc Option Table" in p.stdout + p.stderr, p.stdout + p.stderr

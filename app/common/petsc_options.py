@@ -84,14 +84,18 @@ def split_petsc_options(argv: list[str]) -> tuple[list[str], list[str]]:
 def command_line_options(options: list[str]) -> Iterator[None]:
     """PETSc's options database holds ``options`` (from :func:`split_petsc_options`) inside the
     block. Before PETSc starts, petsc4py is initialised with them (so that start-up options such
-    as ``-log_view`` work too); if it is already running (the CLI called in-process), they are
-    inserted and removed again on leaving the block."""
-    if not options:
-        yield
-        return
+    as ``-log_view`` work too) and with ``-skip_petscrc``: no ``.petscrc`` or ``petscrc`` file is
+    read (one in the folder a study is run from is not the user's); ``PETSC_OPTIONS`` still is.
+    If PETSc is already running (the CLI called in-process), the options are inserted and removed
+    again on leaving the block."""
     if "petsc4py.PETSc" not in sys.modules:
         import petsc4py
-        petsc4py.init([sys.argv[0] or "python", *options])
+        # -skip_petscrc: PETSc would read .petscrc and petscrc in the current folder (a study
+        # folder received from someone) and inject their options (-mat_view ascii:FILE writes FILE)
+        petsc4py.init([sys.argv[0] or "python", "-skip_petscrc", *options])
+        yield
+        return
+    if not options:
         yield
         return
     from petsc4py import PETSc as _PETSc
