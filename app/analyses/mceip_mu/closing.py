@@ -24,7 +24,6 @@ pencil, every rounding error bounded by :mod:`.rounding`.
 """
 from __future__ import annotations
 
-
 import numpy as np
 
 from app.analyses.mceip_mu.rounding import (
