@@ -129,10 +129,19 @@ def test_no_solution_proven_by_the_sign_argument():
 
 
 def test_budget_turns_into_not_proven():
+    """A node budget too small for the proof: "not proven" (with what is proven), not a time limit."""
+    A0, A1 = _pd_plus_pencil(np.random.default_rng(4), 30)
+    r = mceip_mu(A0, A1, 1e4, onset_nodes=1)
+    assert not r.certified and not r.all.proven and not r.timed_out
+    assert r.all.status.startswith(("not proven", "ill-conditioned"))
+
+
+def test_safety_stop_says_stopped_by_the_time_limit():
+    """The wall-clock safety stop (``seconds``) is no budget: what it ends says so."""
     A0, A1 = _pd_plus_pencil(np.random.default_rng(4), 30)
     r = mceip_mu(A0, A1, 1e4, seconds=0.0)
-    assert not r.certified and not r.all.proven
-    assert "not proven" in r.all.status or "ill-conditioned" in r.all.status
+    assert not r.certified and not r.all.proven and r.timed_out
+    assert r.all.status.startswith("stopped by the time limit")
 
 
 def test_scale_invariance():
