@@ -41,17 +41,21 @@ __all__ = ["CriticalMu", "MceipResult", "MceipSolution", "MuProof", "NecessaryRe
            "StateResult", "StudyResult", "SufficientResult", "load_scene", "mceip_mu", "run_study"]
 
 
-def mceip_mu(A0, A1, cap: float, pairs=None, seconds: float = 60.0, want_all: bool = True) -> "MuProof":
+def mceip_mu(A0, A1, cap: float, pairs=None, seconds: float | None = None, want_all: bool = True,
+             onset_nodes: int = 20000, all_nodes: int = 4000) -> "MuProof":
     """Proven critical friction coefficients of a condensed pencil ``A0 + mu A1`` (eqs. (21)-(23)).
 
     For pencils from other codes: the same prover and independent checker the studies use
     (:mod:`app.analyses.mceip_mu`, docs/proofs.md). ``pairs``: index pairs that may not both slip
-    (zero-reaction nodes). Returns a :class:`MuProof`: ``onset`` and ``all`` claims (each
-    ``proven`` only when the checker accepted it), the solutions with proven enclosures, the
-    proof log (``log.to_json()``) and timings.
+    (zero-reaction nodes). The budgets are ``onset_nodes`` and ``all_nodes`` proof-tree nodes (the
+    same answer on any machine); ``seconds`` is only a wall-clock safety stop (``None``: none; a
+    claim it ends says "stopped by the time limit"). Returns a :class:`MuProof`: ``onset`` and
+    ``all`` claims (each ``proven`` only when the checker accepted it), the solutions with proven
+    enclosures, the proof log (``log.to_json()``) and timings.
     """
     from app.analyses.mceip_mu import mceip_mu as _mceip_mu
-    return _mceip_mu(A0, A1, cap, pairs=pairs, seconds=seconds, want_all=want_all)
+    return _mceip_mu(A0, A1, cap, pairs=pairs, seconds=seconds, want_all=want_all, onset_nodes=onset_nodes,
+                     all_nodes=all_nodes)
 
 
 def __getattr__(name: str):

@@ -78,7 +78,7 @@ def test_closed_form_two_by_two():
 @example(seed=394604, n_slip=4, n_stick=2, n_free=1, n_int=1, mu=1.0, cap=8.5)
 def test_proven_claims_equal_enumeration(seed, n_slip, n_stick, n_free, n_int, mu, cap):
     A0, A1 = _random_pencil(seed, n_slip, n_stick, n_free, n_int, mu)
-    r = mceip_mu(A0, A1, cap, seconds=60)
+    r = mceip_mu(A0, A1, cap)
     _agrees(r, A0, A1, cap)
     assert r.onset.proven, r.onset.status
     if A0.shape[0] <= 4:
@@ -105,7 +105,7 @@ def test_zero_node_pairs(seed):
     assert cls.counts()["zero"] == 1
     sp = split_pencils(system, cls)
     system.destroy()
-    r = mceip_mu(sp.A0, sp.A1, 50.0, pairs=sp.pairs, seconds=60)
+    r = mceip_mu(sp.A0, sp.A1, 50.0, pairs=sp.pairs)
     _agrees(r, sp.A0, sp.A1, 50.0, pairs=sp.pairs)
 
 
@@ -115,7 +115,7 @@ def test_dense_random_pencils():
         s = int(rng.integers(2, 7))
         A0, A1 = _pd_plus_pencil(rng, s)
         cap = float(rng.uniform(2, 30))
-        r = mceip_mu(A0, A1, cap, seconds=60)
+        r = mceip_mu(A0, A1, cap)
         _agrees(r, A0, A1, cap)
         assert r.onset.proven
 
@@ -129,10 +129,19 @@ def test_no_solution_proven_by_the_sign_argument():
 
 
 def test_budget_turns_into_not_proven():
+    """A node budget too small for the proof: "not proven" (with what is proven), not a time limit."""
+    A0, A1 = _pd_plus_pencil(np.random.default_rng(4), 30)
+    r = mceip_mu(A0, A1, 1e4, onset_nodes=1)
+    assert not r.certified and not r.all.proven and not r.timed_out
+    assert r.all.status.startswith(("not proven", "ill-conditioned"))
+
+
+def test_safety_stop_says_stopped_by_the_time_limit():
+    """The wall-clock safety stop (``seconds``) is no budget: what it ends says so."""
     A0, A1 = _pd_plus_pencil(np.random.default_rng(4), 30)
     r = mceip_mu(A0, A1, 1e4, seconds=0.0)
-    assert not r.certified and not r.all.proven
-    assert "not proven" in r.all.status or "ill-conditioned" in r.all.status
+    assert not r.certified and not r.all.proven and r.timed_out
+    assert r.all.status.startswith("stopped by the time limit")
 
 
 def test_scale_invariance():
@@ -238,7 +247,7 @@ def test_block_states_onset_proven(pattern):
     probs = block_problems(nx=12, pattern=pattern)
     cap = 10 * 1.1
     for p in probs.pencils:
-        r = mceip_mu(p.A0, p.A1, cap, seconds=60)
+        r = mceip_mu(p.A0, p.A1, cap)
         assert r.onset.proven and r.all.proven, (p.label, r.onset.status, r.all.status)
         _agrees(r, p.A0, p.A1, cap)
     assert probs.pencils

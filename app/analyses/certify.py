@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.analyses.mceip_mu import rounding as _rounding
-from app.analyses.outcomes import Certificate, CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
+from app.analyses.outcomes import STOPPED, Certificate, CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
 
@@ -65,6 +65,15 @@ def mu_cap(scene_mu: float, settings) -> float:
     return float(settings.mu_cap_factor) * (scene_mu if scene_mu > 0 else 1.0)
 
 
+def time_limits(settings) -> str:
+    """The wall-clock safety stops of the MCEIP-mu proofs in ``settings`` (an
+    :class:`app.scene.sections.McpSettings`), for a status that one of them ended."""
+    def one(key: str) -> str:
+        v = getattr(settings, key)
+        return f"{key} = {'off' if v is None else f'{v:g} s'}"
+    return ", ".join(one(k) for k in ("certify_seconds", "certify_seconds_large", "certify_all_seconds"))
+
+
 def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                         pairs: list[tuple[int, int]] | None = None,
                         warm: list[tuple[np.ndarray, float]] | None = None) -> MceipMuOutcome:
@@ -111,10 +120,12 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
         proof = None
         if settings.certify:
             guide = [(np.flatnonzero(p.support), p.value, p.x) for p in cands if p.value <= cap * (1 + 1e-9)]
+            # the budgets count tree nodes; the *_seconds keys are a wall-clock safety stop (None: off)
             proof = mceip_mu(A0, A1, cap, pairs=pairs, candidates=guide,
                              seconds=settings.certify_seconds_large if large else settings.certify_seconds,
                              want_all=s <= settings.certify_all_max, all_seconds=settings.certify_all_seconds,
-                             all_nodes=settings.certify_all_nodes, onset_nodes=settings.certify_onset_nodes)
+                             all_nodes=settings.certify_all_nodes,
+                             onset_nodes=settings.certify_onset_nodes_large if large else settings.certify_onset_nodes)
     return _outcome(A0, A1, cap, proof, cands, found_by, rep, comp, settings)
 
 
@@ -218,23 +229,29 @@ def _proven(proof, sols: list[Solution], cap: float, settings):
     if a.proven:
         result += f"; proven complete: {len(a.values)} critical value(s) in [0, {cap:.6g}]"
     elif proof.s <= settings.certify_all_max:
-        result += (f"; list {a.status} (budget certify_all_nodes = {settings.certify_all_nodes} tree nodes, "
-                   f"certify_all_seconds = {settings.certify_all_seconds:g} s)")
+        result += f"; list {a.status} (budget certify_all_nodes = {settings.certify_all_nodes} tree nodes"
+        result += f"; time limit {time_limits(settings)})" if proof.timed_out else ")"
     else:
         result += f"; list not attempted (s = {proof.s} > certify_all_max = {settings.certify_all_max})"
     if above:
         result += f"; {above} more found above the cap (not proven)"
+    if proof.timed_out and not o.proven:
+        result += f" (time limit {time_limits(settings)})"
     certified = bool(proof.certified)
     if certified:
         status = "proven"
     elif o.proven:
-        status = "onset proven; list " + ("ill-conditioned" if proof.ill_conditioned else "not proven")
+        status = "onset proven; list " + ("ill-conditioned" if proof.ill_conditioned else
+                                          STOPPED if proof.timed_out else "not proven")
+    elif proof.ill_conditioned:
+        status = "ill-conditioned"
     else:
-        status = "ill-conditioned" if proof.ill_conditioned else "not proven within budget"
+        status = f"not proven: {STOPPED}" if proof.timed_out else "not proven within budget"
     cert = certificate(proof.method, (0.0, cap) if certified else a.interval, status, proof.seconds,
                        {"s": proof.s, "cap": float(cap), "nodes": proof.nodes, "lower_bound": proof.lower_bound,
                         "check_seconds": round(proof.check_seconds, 4), "candidates": proof.candidates,
-                        "checker": "accepted" if certified else ("onset accepted" if o.proven else "rejected")},
+                        "checker": "accepted" if certified else ("onset accepted" if o.proven else "rejected"),
+                        **({"stopped_by_time_limit": True} if proof.timed_out else {})},
                        gap=0.0 if certified else (cap - a.interval[1]) / cap)
     cert.cap = float(cap)
     cert.onset = o.value if o.proven else None

@@ -32,6 +32,7 @@ prove the onset alone; otherwise everything stays *found, not proven*.
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -46,7 +47,7 @@ from app.analyses.enumerate import (
     supports_of_size,
 )
 from app.analyses.mceip_mu_quadratic_rows import drop_infinite, lower_rows, zero_node_rows
-from app.analyses.outcomes import CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
+from app.analyses.outcomes import STOPPED, CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
 
@@ -207,15 +208,22 @@ _METHOD_BB = ("branch and bound over families of supports and mu intervals, clos
 
 
 def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_slip: int,
-                        certify: bool = True, seconds: float = 60.0, pairs=None) -> MceipMuOutcome:
+                        certify: bool = True, seconds: float | None = None, pairs=None,
+                        nodes: int | None = None) -> MceipMuOutcome:
     """The MCEIP-mu outcome for a curved obstacle: the solutions found by the exhaustive
     floating-point enumeration and (``certify``) a proof on ``[0, cap]``, the exact per-support
     proof up to ``PROOF_MAX_S`` slip nodes, the checked branch and bound above (also above
     ``max_slip``, where nothing is enumerated): each solution it proves is ``certified`` with
     its ``enclosure``; candidates it proves not to be solutions are dropped. Without a proof
-    every solution is found, not proven; a branch and bound out of time may still prove the onset.
+    every solution is found, not proven; a branch and bound out of budget may still prove the onset.
     ``pairs``: the ``(a, b)`` halves of the zero-reaction nodes' split tangential rates (no
-    support holds both; the proofs verify them on the pencil)."""
+    support holds both; the proofs verify them on the pencil).
+
+    Budgets count work: the per-support proof decides at most the ``2^PROOF_MAX_S - 1`` supports,
+    the branch and bound builds at most ``nodes`` tree nodes (``None``:
+    :data:`app.analyses.mceip_mu_quadratic_bb.NODES`; ``settings.mcp.certify_quadratic_nodes`` in
+    a study). ``seconds`` is only a wall-clock safety stop (``None``: none); a proof it ends is
+    reported as "stopped by the time limit"."""
     pairs = [(int(a), int(b)) for a, b in (pairs or [])]
     t0 = time.perf_counter()
     s = A0.shape[0]
@@ -233,11 +241,12 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
     proof = None
     if certify and s <= PROOF_MAX_S:
         from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
-        proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, deadline=time.perf_counter() + seconds,
-                                pairs=pairs)
+        proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, pairs=pairs,
+                                deadline=None if seconds is None else time.perf_counter() + seconds)
     elif certify:
         from app.analyses.mceip_mu_quadratic_bb import prove_bb
-        proof = prove_bb(A0, A1, A2, cap, deadline=time.perf_counter() + seconds, pairs=pairs)
+        proof = prove_bb(A0, A1, A2, cap, max_nodes=nodes, pairs=pairs,
+                         deadline=math.inf if seconds is None else time.perf_counter() + seconds)
     if sols is None and (proof is None or not proof.proven):
         if proof is not None and proof.onset_proven:      # nothing enumerated, the onset proven all the same
             return _unproven(A0, A1, A2, [], search, proof, s, cap, t0)
@@ -286,15 +295,18 @@ def _not_searched(search: dict, proof, s: int, cap: float) -> MceipMuOutcome:
     """Above ``max_slip`` without the onset proven: nothing enumerated; what the branch and bound
     proved (no critical mu below the mu where it stopped, checked) is said."""
     from app.analyses.certify import certificate  # the certificate record's format only
-    note = search["note"] + ("" if proof is None else "; the branch and bound did not finish in its time budget")
+    note = search["note"] + ("" if proof is None else f"; the branch and bound was {STOPPED}" if proof.timed_out
+                             else "; the branch and bound did not finish within its node budget")
     rep = getattr(proof, "report", None)
     lb = float(min(rep.open_from, cap)) if rep is not None and not rep.errors and not rep.solutions else 0.0
     if lb > 0.0:
-        status = f"not proven: proven only that no critical mu lies in [0, {lb:.6g}]"
+        status = (f"{STOPPED}: " if proof.timed_out else "not proven: ") + \
+            f"proven only that no critical mu lies in [0, {lb:.6g}]"
         result = f"{status} ({note})"
         cert = certificate(_METHOD_BB, (0.0, lb), status, proof.seconds, {"s": s, "cap": float(cap), "lower_bound": lb})
     else:
-        status, result = "not searched", f"not searched: {note}"
+        status, result = ("not searched: " + STOPPED if proof is not None and proof.timed_out else "not searched",
+                          f"not searched: {note}")
         cert = certificate("none", (0.0, 0.0), "not attempted", 0.0)
     return MceipMuOutcome(solutions=[], result=result, certified=False,
                           onset=OnsetClaim(proven=False, status=status),
@@ -310,33 +322,37 @@ def _unproven(A0, A1, A2, sols: list[dict], search: dict, proof, s: int, cap: fl
         out, rejected = _proven_list(A0, A1, A2, sols, proof, proof.report.open_from)
         on = proof.onset
         open_from = proof.report.open_from
+        stopped = f" ({STOPPED})" if proof.timed_out else ""
         result = (f"proven onset: mu = {on.value:.10g} (enclosure [{on.enclosure[0]:.10g}, {on.enclosure[1]:.10g}]); "
                   f"not proven complete: every critical mu below {open_from:.6g} is listed, the branch and bound "
-                  f"left mu in [{open_from:.6g}, {cap:.6g}] open")
-        cert = _certificate(_METHOD_BB, cap, f"proven onset; complete only below mu = {open_from:.6g}", t0, proof, s,
-                            rejected)
+                  f"left mu in [{open_from:.6g}, {cap:.6g}] open{stopped}")
+        cert = _certificate(_METHOD_BB, cap, f"proven onset; complete only below mu = {open_from:.6g}{stopped}", t0,
+                            proof, s, rejected)
         cert.cap, cert.onset = float(cap), on.value
         return MceipMuOutcome(
             solutions=[Solution.from_fields(d) for d in out], result=result, certified=False,
             onset=OnsetClaim(proven=True, status="proven", value=on.value, enclosure=list(on.enclosure)),
-            complete=CompleteClaim(proven=False, status=f"not proven (complete below mu = {open_from:.6g})",
+            complete=CompleteClaim(proven=False, status=(STOPPED if proof.timed_out else "not proven")
+                                   + f" (complete below mu = {open_from:.6g})",
                                    interval=[0.0, 0.0]),
             certificate=cert, search=search, quadratic=True,
             proof={"A0": np.asarray(A0, dtype=float), "A1": np.asarray(A1, dtype=float),
                    "A2": np.asarray(A2, dtype=float), "log": dict(proof.log)})
     first = sols[0]["value"] if sols else None
+    unproven = "found, " + (STOPPED if proof is not None and getattr(proof, "timed_out", False) else "not proven")
     why = ("" if proof is None else
            f"; the proof left {len(proof.undecided)} support(s) or node(s) undecided, e.g. {proof.undecided[0][1]}")
     result = ((f"{len(sols)} solution(s) found, smallest mu = {first:.10g}" if sols else "no solution found")
               + " (found by exhaustive floating-point enumeration of the quadratic pattern problems, not proven"
               + why + ")")
     cert = certificate("none (floating-point enumeration)", (0.0, 0.0),
-                       "not proven: exhaustive floating-point enumeration of the 2^s supports",
+                       ("not proven" if unproven.endswith("not proven") else STOPPED)
+                       + ": exhaustive floating-point enumeration of the 2^s supports",
                        time.perf_counter() - t0, {"s": s, "cap": float(cap), "solutions": len(sols),
                                                   **({"undecided": len(proof.undecided)} if proof else {})})
     return MceipMuOutcome(solutions=[Solution.from_fields(d) for d in sols], result=result, certified=False,
-                          onset=OnsetClaim(proven=False, status="found, not proven", value=first),
-                          complete=CompleteClaim(proven=False, status="found, not proven", interval=[0.0, 0.0]),
+                          onset=OnsetClaim(proven=False, status=unproven, value=first),
+                          complete=CompleteClaim(proven=False, status=unproven, interval=[0.0, 0.0]),
                           certificate=cert, search=search, quadratic=True)
 
 

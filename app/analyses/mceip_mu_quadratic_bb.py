@@ -9,7 +9,8 @@ nonsingularity of ``A_UU`` when ``F = U``), or, when ``F = U = J``, is a *leaf* 
 the per-support proof. A node nothing closes is split: its interval halved while it is wide,
 else on an index ``i`` of ``U \ F`` (``i`` out of the support, or forced in) where the smallest
 eigenvector of ``sym(A_UU)`` at the midpoint is largest. Nodes are explored lowest ``a`` first, so
-a time budget leaves the nodes of high mu open and the onset is proven first.
+the budget (in tree nodes: the same answer on any machine) leaves the nodes of high mu open and the
+onset is proven first.
 
 Zero-reaction nodes (``pairs``: the halves ``(a, b)`` of a split tangential rate, whose columns
 are opposite, so no test can close a family holding both): a family with a pair inside
@@ -39,6 +40,7 @@ from app.analyses.mceip_mu_quadratic_check import (
     holds_pair,
     nonsingular_closes,
 )
+from app.analyses.outcomes import STOPPED
 from app.linalg import one_blas_thread
 
 #: an interval wider than this (relative to ``max(b, WIDE_FLOOR cap)``) is halved before an index split
@@ -47,7 +49,10 @@ WIDE_FLOOR = 0.05
 #: a single support (``F = U``) that no float test closes is halved down to this relative width
 #: before its exact decision (which costs more than a few float tests)
 LEAF_REL = 0.02
-#: at most this many nodes (a safety net; the time budget is the usual limit)
+#: the default budget in tree nodes (``settings.mcp.certify_quadratic_nodes`` in a study): work, not
+#: time, decides what is proven; the shipped curved scenes need at most about 600
+NODES = 20_000
+#: never more nodes than this, whatever the budget asked
 MAX_NODES = 400_000
 
 
@@ -62,6 +67,7 @@ class BBProof:
     prover_seconds: float = 0.0
     supports: int = 0
     undecided: list = field(default_factory=list)
+    timed_out: bool = False      # the wall-clock safety stop (not the node budget) left nodes open
 
     @property
     def proven(self) -> bool:
@@ -86,12 +92,15 @@ class BBProof:
 
 
 class _Tree:
-    def __init__(self, A0, A1, A2, cap: float, deadline: float, pairs=()):
+    def __init__(self, A0, A1, A2, cap: float, max_nodes: int, deadline: float, pairs=()):
         self.pairs = [tuple(sorted((int(a), int(b)))) for a, b in pairs]
         self.A = (np.asarray(A0, dtype=float), np.asarray(A1, dtype=float), np.asarray(A2, dtype=float))
         sc = float(np.max(np.abs(self.A[0]))) or 1.0
         self.S = tuple(M / sc for M in self.A)             # the LP's and eigensolver's copy only
-        self.s, self.cap, self.deadline = self.A[0].shape[0], float(cap), deadline
+        self.s, self.cap = self.A[0].shape[0], float(cap)
+        self.max_nodes = min(int(max_nodes), MAX_NODES)   # the budget
+        self.deadline = deadline                          # a wall-clock safety stop only (inf: none)
+        self.timed_out = False
         self.nodes: list[dict] = []
         self.heap: list[tuple[float, int]] = []
         self.relaxed = None
@@ -106,8 +115,9 @@ class _Tree:
 
     def run(self) -> None:
         self.add(range(self.s), (), 0.0, self.cap)
-        while self.heap and len(self.nodes) < MAX_NODES:
-            if time.perf_counter() > self.deadline:
+        while self.heap and len(self.nodes) < self.max_nodes:
+            if self.deadline < math.inf and time.perf_counter() > self.deadline:
+                self.timed_out = True
                 return
             _, k = heapq.heappop(self.heap)
             n = self.nodes[k]
@@ -255,11 +265,16 @@ def _float_copositive(Cs, d, theta: float) -> bool:
     return True
 
 
-def prove_bb(A0, A1, A2, cap: float, deadline: float = math.inf, pairs=()) -> BBProof:
+def prove_bb(A0, A1, A2, cap: float, max_nodes: int | None = None, deadline: float = math.inf,
+             pairs=()) -> BBProof:
     """The branch and bound on ``[0, cap]`` and the checker's verdict on its log (``pairs``: the
-    zero-reaction nodes' ``(a, b)``, recorded in the log and verified by the checker)."""
+    zero-reaction nodes' ``(a, b)``, recorded in the log and verified by the checker).
+
+    ``max_nodes``: the budget in tree nodes (``None``: :data:`NODES`; at most :data:`MAX_NODES`),
+    so that what is proven does not depend on the machine. ``deadline`` (a ``time.perf_counter()``
+    value) is only a safety stop; ``timed_out`` says when it left nodes open."""
     t0 = time.perf_counter()
-    tree = _Tree(A0, A1, A2, cap, deadline, pairs)
+    tree = _Tree(A0, A1, A2, cap, NODES if max_nodes is None else max_nodes, deadline, pairs)
     with one_blas_thread():
         tree.run()
     for _, k in tree.heap:
@@ -270,7 +285,8 @@ def prove_bb(A0, A1, A2, cap: float, deadline: float = math.inf, pairs=()) -> BB
     with one_blas_thread():
         rep = check_log(tree.A[0], tree.A[1], tree.A[2], log)
     out = BBProof(rep, float(cap), log, seconds=time.perf_counter() - t0, prover_seconds=t1 - t0,
-                  supports=rep.leaves)
-    out.undecided = [(tuple(n["U"]), "open node (time budget)") for n in tree.nodes if n["kind"] == "open"] + \
+                  supports=rep.leaves, timed_out=tree.timed_out)
+    why = f"open node ({STOPPED})" if tree.timed_out else f"open node (node budget {tree.max_nodes})"
+    out.undecided = [(tuple(n["U"]), why) for n in tree.nodes if n["kind"] == "open"] + \
         rep.undecided + [((), e) for e in rep.errors]
     return out

@@ -45,6 +45,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.analyses.outcomes import STOPPED
+
 PREC = 256          # bits of the ball arithmetic at the roots
 
 
@@ -70,6 +72,7 @@ class QuadraticProof:
     undecided: list[tuple[tuple[int, ...], str]] = field(default_factory=list)
     supports: int = 0
     seconds: float = 0.0
+    timed_out: bool = False           # the wall-clock safety stop left supports undecided
 
     @property
     def onset(self) -> ProvenSolution | None:
@@ -224,8 +227,10 @@ def _cofactor_vanishes(Q0, Q1, Q2, J, row: int, c: int) -> bool:
 
 def prove_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, max_s: int = 10,
                     deadline: float | None = None, pairs=()) -> QuadraticProof | None:
-    """The proof above on ``[0, cap]``; None when ``s > max_s`` (not attempted). ``deadline``
-    (``time.perf_counter()`` value): stop and report the remaining supports undecided.
+    """The proof above on ``[0, cap]``; None when ``s > max_s`` (not attempted). Its budget is
+    ``max_s``: at most ``2^max_s - 1`` supports, each decided exactly (work, not time, decides
+    what is proven). ``deadline`` (a ``time.perf_counter()`` value) is only a safety stop: the
+    supports left are reported undecided and ``timed_out`` is set.
     ``pairs``: the zero-reaction nodes' ``(a, b)``, verified by :func:`pairs_hold` (refused:
     nothing proven)."""
     import flint
@@ -247,8 +252,9 @@ def prove_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: float, 
                 if any(a in J and b in J for a, b in pairs):
                     continue                        # reduced to a smaller support (docstring)
                 out.supports += 1
-                if deadline is not None and time.perf_counter() > deadline:
-                    out.undecided.append((J, "time budget"))
+                if out.timed_out or (deadline is not None and time.perf_counter() > deadline):
+                    out.timed_out = True
+                    out.undecided.append((J, STOPPED))
                     continue
                 sols, und = decide_support(Q0, Q1, Q2, J, s, capq, pairs=pairs)
                 out.solutions += sols

@@ -18,6 +18,11 @@ from typing import Any, Mapping, Union
 
 import numpy as np
 
+#: the status of a claim that a wall-clock safety stop (``settings.mcp.certify_seconds`` and the
+#: other ``*_seconds`` keys, off by default) ended; the budgets themselves count work (tree nodes,
+#: supports), so "not proven" never depends on the machine's speed
+STOPPED = "stopped by the time limit"
+
 
 @dataclass(frozen=True)
 class Failed:

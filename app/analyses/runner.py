@@ -133,7 +133,7 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
         with system.stages("MCEIP-mu (21)-(23)"):
             mcp = scene.settings.mcp
             d = quadratic_mu_result(A0, A1, A2, mu_cap(scene.mu, mcp), scene.settings.enumerate_max_slip,
-                                    certify=mcp.certify, seconds=mcp.certify_seconds)
+                                    certify=mcp.certify, seconds=mcp.certify_seconds, nodes=mcp.certify_quadratic_nodes)
         d.method = "condensed (quadratic)"
         return d
     if method == "condensed":
@@ -142,8 +142,8 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
         with system.stages("MCEIP-mu (21)-(23)"):
             d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp, warm=warm)
             if replicated and system.comm.size > 1:
-                # replicated dense work; a time budget could end differently on different ranks,
-                # so every rank reports rank 0's answer
+                # replicated dense work: the budgets count nodes, so every rank reaches the same answer,
+                # but a wall-clock safety stop (if set) could end differently; rank 0's answer is reported
                 d = system.comm.bcast(d, root=0)                               # MPI collective
         d.method = method
         return d

@@ -95,7 +95,8 @@ def _mceip_mu(system: System, cls: Classification, cond, scene: Scene, curved: b
         # quadratic in mu: every support enumerated (no pair in one), proven exactly or by the
         # checked branch and bound (app/analyses/mceip_mu_quadratic.py)
         d = quadratic_mu_result(cond.A0, cond.A1, cond.A2, cap, settings.enumerate_max_slip,
-                                certify=settings.mcp.certify, seconds=settings.mcp.certify_seconds, pairs=cond.pairs)
+                                certify=settings.mcp.certify, seconds=settings.mcp.certify_seconds, pairs=cond.pairs,
+                                nodes=settings.mcp.certify_quadratic_nodes)
     else:
         # the split pencil has no x_f: dense search + certificate as for the plain condensed pencil
         d = condensed_mu_result(cond.A0, cond.A1, cap, settings.mcp, pairs=cond.pairs)

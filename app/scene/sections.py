@@ -36,7 +36,14 @@ class McpSettings(Strict):
     certify: bool = True
     mu_cap: Optional[PosFloat] = None
     mu_cap_factor: PosFloat = 10.0
-    certify_seconds: PosFloat = 60.0            # per-state budget: an unfinished proof says what it proved
+    # The budgets of the proofs count work (proof-tree nodes), never seconds, so that a scene gives
+    # the same statuses on any machine, under any load and on any number of ranks. The *_seconds keys
+    # are a wall-clock safety stop only, off by default (null); a proof one of them ends says
+    # "stopped by the time limit", never "not proven within budget".
+    certify_seconds: Optional[PosFloat] = Field(
+        None, description="safety stop per state for the MCEIP-mu proof (linear and quadratic), wall clock [s]; "
+                          "null: none. Not a budget (the budgets count nodes): a proof it ends is reported as "
+                          "'stopped by the time limit'")
     # floating-point enumeration of every support gives the proof's candidates up to here, the search above
     certify_enumerate_max: Annotated[int, Field(ge=0, le=20)] = 12
     certify_all_max: Annotated[int, Field(ge=0, le=1000)] = Field(
@@ -48,9 +55,13 @@ class McpSettings(Strict):
     certify_all_nodes: Annotated[int, Field(ge=0, le=10_000_000)] = Field(
         5000, description="budget per state for the complete list once the onset is proven, in proof-tree "
                           "nodes (deterministic: the same answer on any machine)")
-    certify_all_seconds: PosFloat = Field(
-        30.0, description="time limit per state for the complete list [s] (a safety limit; certify_all_nodes "
-                          "is the budget)")
+    certify_all_seconds: Optional[PosFloat] = Field(
+        None, description="safety stop per state for the complete list, wall clock [s]; null: none "
+                          "(certify_all_nodes is the budget)")
+    certify_quadratic_nodes: Annotated[int, Field(ge=1, le=400_000)] = Field(
+        20000, description="budget per state for the quadratic MCEIP-mu of a curved obstacle above 8 slip nodes "
+                           "(the branch and bound), in proof-tree nodes; up to 8 slip nodes every support is "
+                           "decided exactly (at most 255)")
     # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
     # prove "no solution" up to this many DOFs (app/analyses/mceip_lambda2/exact.py); SNES VI search otherwise
     lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500
@@ -60,10 +71,11 @@ class McpSettings(Strict):
     # large condensed problems (100k-DOF studies): above search_full_max slip nodes the search
     # runs a reduced start set (uniform x and x on search_one_node spread unknowns with every t0, the
     # all-slip eigenvectors, the previous classification's solutions within a chain of warm_chain
-    # classifications along the path) and the proof gets certify_seconds_large instead of
-    # certify_seconds; an unfinished proof says what it proved
+    # classifications along the path) and the onset proof gets certify_onset_nodes_large instead of
+    # certify_onset_nodes; an unfinished proof says what it proved
     search_full_max: Annotated[int, Field(ge=0, le=100_000)] = Field(
-        40, description="condensed MCEIP-mu: above this many slip nodes, the reduced search and certify_seconds_large")
+        40, description="condensed MCEIP-mu: above this many slip nodes, the reduced search and "
+                        "certify_onset_nodes_large")
     search_one_node: Annotated[int, Field(ge=2, le=100_000)] = Field(
         4, description="reduced search: number of evenly spaced one-node starts")
     warm_chain: Annotated[int, Field(ge=1, le=100_000)] = Field(
@@ -72,8 +84,13 @@ class McpSettings(Strict):
         True, description="above search_full_max slip nodes, first try the search-free proof that no critical mu "
                           "lies in [0, cap] (sign argument, intervals halved); when it succeeds the search is "
                           "skipped, so values above the cap are not listed")
-    certify_seconds_large: NonNegFloat = Field(
-        5.0, description="proof budget per state above search_full_max slip nodes [s]")
+    certify_onset_nodes_large: Annotated[int, Field(ge=0, le=10_000_000)] = Field(
+        500, description="budget per state for the onset proof above search_full_max slip nodes, in proof-tree "
+                         "nodes (0: no branch and bound, only the verified candidates and the sign argument on "
+                         "every support)")
+    certify_seconds_large: Optional[NonNegFloat] = Field(
+        None, description="safety stop per state for the proof above search_full_max slip nodes, wall clock [s] "
+                          "(instead of certify_seconds); null: none")
 
 
 class EigSettings(Strict):

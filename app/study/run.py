@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 from app.analyses.curvature import attach as attach_curvature
 from app.analyses.distributed import EarlyChains, analyse_condensed_distributed
-from app.analyses.outcomes import Deferred, Failed, analyses_document
+from app.analyses.outcomes import STOPPED, Deferred, Failed, analyses_document
 from app.analyses.runner import analyse_state
 from app.common.interrupt import checkpoint
 from app.common.library_warnings import describe, explained, merged
@@ -203,6 +203,12 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
         failures += [{"state": deferred[k][2], "analysis": "mceip_mu", "reason": r} for k, r in failed]
     inspection = inspect(system, states, per_state.cache) if inspect is not None else None
     outcomes = [entry["analyses"] for entry in out_states]
+    stopped = stopped_by_time(out_states)
+    if stopped:
+        stages.warnings.append(
+            f"MCEIP-mu proof {STOPPED} at {len(stopped)} state(s) (from state {stopped[0]}; settings.mcp "
+            "certify_seconds, certify_seconds_large, certify_all_seconds): those statuses depend on the machine's "
+            "speed; the budgets themselves count proof-tree nodes")
     _write_analyses(out_states)
     views = tuple(state_view(e, n, a, e["analyses"]) for e, n, a in zip(out_states, per_state.typed_nodes, outcomes))
     outputs_record = None
@@ -218,6 +224,19 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
             "scene_config": scene.model_dump(mode="json", exclude_none=True),
             **({"outputs": outputs_record} if outputs_record is not None else {}),
             "states": out_states}, views
+
+
+def stopped_by_time(out_states: list[dict]) -> list[int]:
+    """The indices of the states whose MCEIP-mu proof a wall-clock safety stop ended (its
+    certificate or a claim's status says :data:`app.analyses.outcomes.STOPPED`), read from the
+    typed outcomes before :func:`_write_analyses`."""
+    out = []
+    for entry in out_states:
+        m = entry["analyses"].get("mceip_mu") if isinstance(entry["analyses"], dict) else None
+        texts = [getattr(getattr(m, k, None), "status", None) for k in ("certificate", "onset", "complete")]
+        if any(isinstance(t, str) and STOPPED in t for t in texts):
+            out.append(int(entry["index"]))
+    return out
 
 
 def _write_analyses(out_states: list[dict]) -> None:

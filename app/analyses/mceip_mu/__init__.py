@@ -18,6 +18,7 @@ import numpy as np
 
 from app.analyses.mceip_mu import checker, prooflog, prover
 from app.analyses.mceip_mu.leaves import Found
+from app.analyses.outcomes import STOPPED
 from app.linalg import one_blas_thread
 
 #: below this many slip nodes the float candidates come from exhaustive enumeration
@@ -70,6 +71,7 @@ class MuProof:
     seconds: float                     # prover
     check_seconds: float               # checker
     candidates: int = 0
+    timed_out: bool = False            # the wall-clock safety stop, not the node budget, ended a claim
     method: str = ("branch and bound over support families F <= P <= U and mu intervals: sign argument with "
                    "diagonal scalings, Farkas vectors of the linear relaxation, Krawczyk windows, verified "
                    "nonsingularity; re-verified by an independent checker")
@@ -88,7 +90,7 @@ def _candidates(a0: np.ndarray, a1: np.ndarray, cap: float, pairs, search_kw: di
     return [(np.flatnonzero(p.support), p.value, p.x) for p in sols]
 
 
-def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: float = 60.0,
+def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: float | None = None,
              want_all: bool = True, candidates=None, search: dict | None = None,
              all_seconds: float | None = None, onset_nodes: int = 20000, all_nodes: int = 4000) -> MuProof:
     """Proven critical friction coefficients of the condensed pencil ``A0 + mu A1`` (s x s).
@@ -104,15 +106,16 @@ def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: fl
         Index pairs ``(a, b)`` that may not both slip (split tangential rates of zero-reaction
         nodes).
     seconds
-        Budget of the prover; an unfinished claim says what is proven (``lower_bound``).
+        Wall-clock safety stop of the search and proof (``None``: none). Not a budget: a claim it
+        ends is reported as "stopped by the time limit" (``timed_out``).
     want_all
         Also prove the complete list in ``[0, cap]`` (else the onset only).
     all_seconds
-        Time limit of the complete-list claim once the onset is proven (``None``: what is left of
-        ``seconds``).
+        Wall-clock safety stop of the complete-list claim once the onset is proven (``None``: none
+        of its own).
     onset_nodes, all_nodes
-        Budgets in tree nodes of the two claims (deterministic, unlike time: the same answer on
-        any machine).
+        The budgets of the two claims, in tree nodes (deterministic: the same answer on any
+        machine, under any load); an unfinished claim says what is proven (``lower_bound``).
     candidates
         Optional ``(support indices, mu, x)`` from another search (guidance only).
     search
@@ -136,7 +139,8 @@ def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: fl
         t0 = time.perf_counter()
         cands = list(candidates) if candidates is not None else _candidates(A0, A1, cap, pairs, search)
         out = prover.prove(A0, A1, cap, pairs=pairs, candidates=cands,
-                           seconds=max(seconds - (time.perf_counter() - t0), 0.0), want_all=want_all,
+                           seconds=None if seconds is None else max(seconds - (time.perf_counter() - t0), 0.0),
+                           want_all=want_all,
                            all_seconds=all_seconds, onset_nodes=onset_nodes, all_nodes=all_nodes)
         t1 = time.perf_counter()
         rep = checker.check_log(A0, A1, out.log)
@@ -189,18 +193,18 @@ def _result(A0, A1, cap, out: prover.ProofOutcome, rep: prooflog.CheckReport, n_
             onset = Claim("onset", True, f"proven: onset mu in [{rep.onset[0]:.12g}, {rep.onset[1]:.12g}]",
                           (0.0, rep.onset[1]), value=value, enclosure=rep.onset)
     else:
-        why = "ill-conditioned" if out.ill else "not proven"
+        why = "ill-conditioned" if out.ill else STOPPED if out.timed_out else "not proven"
         onset = Claim("onset", False, f"{why}: proven only that no critical mu lies in [0, {lb:.6g}]", (0.0, lb))
     if rep.all_ok:
         vals = [p.value for p in sols if p.proven]
         allc = Claim("all", True, f"proven: {len(vals)} critical value(s) in [0, {cap:.6g}]", (0.0, cap), values=vals)
     else:
         to = rep.lower_bound if not rep.onset_ok else max(rep.lower_bound, 0.0)
-        why = "ill-conditioned" if out.ill else "not proven"
+        why = "ill-conditioned" if out.ill else STOPPED if out.timed_out else "not proven"
         allc = Claim("all", False, f"{why}: the list is proven complete only on [0, {to:.6g}]", (0.0, to),
                      values=[p.value for p in sols if p.value <= to and not p.ill_conditioned])
     return MuProof(s, float(cap), onset, allc, sols, lb, bool(out.ill), bool(rep.onset_ok and rep.all_ok),
-                   out.log, out.nodes, out.seconds, t_check, n_cands)
+                   out.log, out.nodes, out.seconds, t_check, n_cands, timed_out=bool(out.timed_out))
 
 
-__all__ = ["Claim", "MuProof", "Solution", "checker", "mceip_mu", "mceip_mu_none_below_cap", "prover"]
+__all__ = ["STOPPED", "Claim", "MuProof", "Solution", "checker", "mceip_mu", "mceip_mu_none_below_cap", "prover"]

@@ -92,6 +92,9 @@ class Prover(LeafTests):
     """The proof of one pencil (scaled exactly by a power of two)."""
 
     def __init__(self, A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), deadline: float = math.inf):
+        """The prover of ``A0 + mu A1`` on ``[0, cap]``. The budget is ``max_nodes`` tree nodes (set
+        by the caller); ``deadline`` (a ``time.perf_counter()`` value, ``inf``: none) is only a
+        safety stop, recorded in ``timed_out`` when it ends the exploration."""
         A0 = np.asarray(A0, dtype=float)
         A1 = np.asarray(A1, dtype=float)
         self.s = A0.shape[0]
@@ -102,8 +105,9 @@ class Prover(LeafTests):
         self.cap = float(cap)
         self.pairs = [tuple(sorted((int(a), int(b)))) for a, b in pairs]
         self.tree = Tree()
-        self.deadline = deadline
-        self.max_nodes = math.inf        # a budget in nodes: answers independent of the machine's speed
+        self.deadline = deadline         # safety stop only (wall clock): never the budget
+        self.timed_out = False           # the safety stop ended an exploration
+        self.max_nodes = math.inf        # the budget, in nodes: answers independent of the machine's speed
         self.found: dict[tuple, Found] = {}
         self.ill: list[Found] = []
         self.leaf_cache: dict = {}
@@ -281,7 +285,10 @@ class Prover(LeafTests):
             _, _, i = heapq.heappop(heap)
             n = self.tree.nodes[i]
             LIVE.nodes, LIVE.mu = len(self.tree.nodes), n.a
-            if time.perf_counter() > self.deadline or len(self.tree.nodes) > self.max_nodes:
+            over = len(self.tree.nodes) > self.max_nodes
+            if not over and self.deadline < math.inf and time.perf_counter() > self.deadline:
+                over = self.timed_out = True
+            if over:
                 left.append(n)
                 left += [self.tree.nodes[j] for _, _, j in heap]
                 break

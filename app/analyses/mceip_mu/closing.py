@@ -24,8 +24,6 @@ pencil, every rounding error bounded by :mod:`.rounding`.
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from app.analyses.mceip_mu.rounding import (
@@ -171,9 +169,11 @@ def nonsingular_batch(a0: np.ndarray, a1: np.ndarray, P: np.ndarray, los: np.nda
 
 
 def cover_nonsingular(a0, a1, U: np.ndarray, a: float, b: float, windows: list[tuple[float, float]],
-                      rounds: int = 60, deadline: float | None = None) -> bool:
+                      rounds: int = 60, max_pieces: int = 4096) -> bool:
     """``[a, b]`` minus the ``windows`` is covered by intervals on which ``A_UU(mu)`` is proven
-    nonsingular (batched tests, failed pieces halved, at most ``rounds`` times)."""
+    nonsingular (batched tests, failed pieces halved, at most ``rounds`` times and at most
+    ``max_pieces`` pieces in one batch: a budget in work, so the answer does not depend on the
+    machine's speed)."""
     todo = []
     reach = a
     for lo, hi in sorted(windows):
@@ -187,7 +187,7 @@ def cover_nonsingular(a0, a1, U: np.ndarray, a: float, b: float, windows: list[t
     for _ in range(rounds):
         if not todo:
             return True
-        if deadline is not None and time.perf_counter() > deadline:
+        if len(todo) > max_pieces:
             return False
         lo = np.array([g[0] for g in todo])
         hi = np.array([g[1] for g in todo])

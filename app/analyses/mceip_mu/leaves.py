@@ -38,7 +38,7 @@ class Found:
 
 class LeafTests:
     """The leaf tests of :class:`app.analyses.mceip_mu.branch.Prover` (a mixin: it uses the
-    prover's scaled pencil ``a0, a1``, ``cap``, ``pairs``, ``deadline``, its LP ``_lp`` and records
+    prover's scaled pencil ``a0, a1``, ``cap``, ``pairs``, its LP ``_lp`` and records
     what it proves in ``found``, ``ill`` and ``leaf_cache``)."""
 
     def _eigen(self, U: np.ndarray) -> list[tuple[float, np.ndarray]]:
@@ -166,7 +166,7 @@ class LeafTests:
                     return False
                 covered.append((res.mu_lo, res.mu_hi))
         done = covered + [(p["a"], p["b"]) for p in n.pieces]
-        if closing.cover_nonsingular(self.a0, self.a1, U, a, b, done, deadline=self.deadline):
+        if closing.cover_nonsingular(self.a0, self.a1, U, a, b, done):
             return True
         n.kind = "open"
         return False

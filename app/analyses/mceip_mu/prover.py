@@ -8,6 +8,7 @@ floating-point candidates (search or enumeration) only guide it; every claim is 
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -32,6 +33,7 @@ class ProofOutcome:
     all_done: bool
     nodes: int
     seconds: float
+    timed_out: bool = False    # the wall-clock safety stop (not the node budget) left a claim unfinished
 
 
 def _seed_candidates(P: Prover, candidates) -> None:
@@ -112,15 +114,16 @@ def prove_none_below_cap(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), m
         return ProofOutcome(log, [], [], True, True, len(P.tree.nodes), time.perf_counter() - t0)
 
 
-def prove(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), candidates=(), seconds: float = 60.0,
+def prove(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), candidates=(), seconds: float | None = None,
           want_all: bool = True, all_seconds: float | None = None, onset_nodes: int = 20000,
           all_nodes: int = 4000) -> ProofOutcome:
     """Build the proof of the onset and (``want_all``) of every solution in ``[0, cap]``.
 
     ``candidates``: ``(support indices, mu, x)`` from a search (they only guide the proof).
     Budgets: ``onset_nodes`` and ``all_nodes`` tree nodes for the two claims (deterministic: the
-    same answer on any machine and any number of ranks), ``seconds`` and ``all_seconds`` as a
-    safety limit in time."""
+    same answer on any machine, under any load and on any number of ranks). ``seconds`` (the
+    whole proof) and ``all_seconds`` (the list, from its start) are a wall-clock safety stop,
+    ``None``: none; when one ends a claim, ``timed_out`` says so."""
     with one_blas_thread():
         return _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset_nodes, all_nodes)
 
@@ -128,7 +131,7 @@ def prove(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=(), candidates=(), s
 def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset_nodes, all_nodes) -> ProofOutcome:
     t0 = time.perf_counter()
     LIVE.reset("onset proof")
-    P = Prover(A0, A1, cap, pairs, deadline=t0 + seconds)
+    P = Prover(A0, A1, cap, pairs, deadline=math.inf if seconds is None else t0 + seconds)
     P.max_nodes = onset_nodes
     P.wide_rel = branch.WIDE_REL_ONSET
     all_idx = tuple(range(P.s))
@@ -179,4 +182,4 @@ def _prove(A0, A1, cap, pairs, candidates, seconds, want_all, all_seconds, onset
     log.bound_root, log.bound = bound_root, bound
     log.prune()
     return ProofOutcome(log, sorted(P.found.values(), key=lambda f: f.enc[0]), P.ill, onset_done, all_done,
-                        len(P.tree.nodes), time.perf_counter() - t0)
+                        len(P.tree.nodes), time.perf_counter() - t0, timed_out=P.timed_out)
