@@ -33,12 +33,22 @@ Factor = Literal["lu", "cholesky"]
 
 
 def with_prefix(obj, prefix: str):
-    """Give the PETSc/SLEPc solver ``obj`` the options prefix ``prefix`` (one of :data:`PREFIXES`);
-    returns ``obj``. Call right after ``create()``, so that its inner solvers (a SNES's KSP, an
-    EPS's ST) inherit it; :func:`from_options` after the app's settings."""
+    """Give the PETSc/SLEPc solver ``obj`` the options prefix ``prefix`` (one of :data:`PREFIXES`)
+    and the monitor :func:`_python_turn`; returns ``obj``. Call right after ``create()``, so that
+    its inner solvers (a SNES's KSP, an EPS's ST) inherit the prefix; :func:`from_options` after the
+    app's settings."""
     assert prefix in PREFIXES, prefix
     obj.setOptionsPrefix(prefix)
+    obj.setMonitor(_python_turn)
     return obj
+
+
+def _python_turn(*_) -> None:
+    """A monitor that does nothing: at every iteration of the solver the interpreter runs, and with
+    it the signal handlers. A Ctrl-C or SIGTERM during a long KSP, SNES or EPS solve (whose C code
+    holds the interpreter until it returns) is raised there as the KeyboardInterrupt of the command
+    line's handler (app/cli/main.py), which petsc4py passes out of ``solve()``. Monitors set by
+    options (``-cd_necessary_eps_monitor``) are kept beside it."""
 
 
 def from_options(obj):

@@ -149,3 +149,48 @@ def test_writing_the_results_is_shown(tmp_path):
     assert n > 0 and any(t.startswith(f"writing proofs: {n}/{n} files (100%)") and t.endswith(", done") for t in texts)
     assert any(t.startswith("writing results: 2/2 files (100%)") for t in texts), texts
     assert (tmp_path / "results.json").is_file()
+
+
+def test_a_long_slepc_solve_shows_progress_and_stops_at_a_ctrl_c(tmp_path):
+    """Inside one SLEPc solve that never converges (the necessary condition's eigensolver given an
+    unreachable tolerance through its options prefix) the run prints a progress line at least every
+    5 s naming the state and the analysis, and a Ctrl-C stops it at the solver's next iteration
+    (its C code used to hold the interpreter for the whole solve: the signal waited minutes) with
+    the one ``error:`` line and exit status 130."""
+    import os
+    import signal
+    import subprocess
+    import threading
+
+    from conftest import PY, ROOT
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: nec\nsystem: {type: block, nx: 40, ny: 20}\nmu: 1.1\nanalyses: [necessary]\n")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out"),
+                             "-cd_necessary_eps_tol", "1e-300", "-cd_necessary_eps_max_it", "1000000000"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
+                            start_new_session=True)
+    lines: list[tuple[float, str]] = []
+    reader = threading.Thread(target=lambda: lines.extend((time.monotonic(), ln.rstrip("\n")) for ln in proc.stderr))
+    reader.start()
+    try:
+        deadline = time.monotonic() + 300
+        while sum("now state 0" in ln and "necessary condition (19)" in ln for _, ln in lines) < 2:
+            assert proc.poll() is None and time.monotonic() < deadline, lines
+            time.sleep(0.05)
+        beats = [t for t, ln in lines if "now state 0" in ln]
+        assert beats[1] - beats[0] < 7.5          # one line about every 5 s while the solve runs
+        t0 = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        code = proc.wait(timeout=120)
+        stopped = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        reader.join()
+    text = "\n".join(ln for _, ln in lines)
+    assert code == 130 and "Traceback" not in text, text
+    assert lines[-1][1].startswith("error: interrupted by SIGINT") and sum(ln.startswith("error:") for _, ln in lines) == 1
+    print(f"stopped {stopped:.2f} s after the Ctrl-C")
+    assert stopped < 20, stopped                # seconds, not the minutes of the whole solve
+    assert not (tmp_path / "out").exists()

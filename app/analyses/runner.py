@@ -65,7 +65,7 @@ def _nothing_moves(system: System, cls: Classification) -> str | None:
 
 
 def analyse_state(system: System, cls: Classification, scene: Scene,
-                  defer_condensed: bool = False) -> dict[str, Outcome]:
+                  defer_condensed: bool = False, now=None) -> dict[str, Outcome]:
     """Run the scene's analyses on one classification; returns analysis name -> its outcome
     (:mod:`app.analyses.outcomes`), in the order of :data:`ANALYSES`.
 
@@ -73,7 +73,8 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
     a :class:`~app.analyses.outcomes.Failed` and the other analyses still run.
     ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data)
     :class:`~app.analyses.outcomes.Deferred` for :func:`app.analyses.distributed.analyse_condensed_distributed` (MPI: one
-    rank per classification).
+    rank per classification). ``now(name)``, when given, is called as each analysis begins (the
+    progress line says what runs).
     """
     na = frictionless_reason(cls, scene.mu) or _nothing_moves(system, cls)   # nothing to compute
     if na is not None:
@@ -92,6 +93,8 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
             if name == "mceip_mu" and defer_condensed and s > 0 and scene.settings.mceip_mu_method == "condensed":
                 out[name] = Deferred()    # dense work: distributed.analyse_condensed_distributed() replaces it
                 continue
+            if now is not None:
+                now(name)
             try:
                 if name == "mceip_lambda2":
                     nec = out.get("necessary") if scene.lambda2_mu == scene.mu else None

@@ -89,6 +89,11 @@ def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspe
         system.destroy()              # its PETSc objects, on every path (errors included)
 
 
+#: the analyses in the progress line
+ANALYSIS_WORDS = {"necessary": "necessary condition (19)", "sufficient": "sufficient condition (17)-(18)",
+                  "mceip_mu": "MCEIP-mu", "mceip_lambda2": "MCEIP-lambda^2", "enumerate": "enumeration"}
+
+
 class Classified:
     """The per-state part of a study, state by state: each state classified, its contact nodes
     typed, and the scene's analyses run once per distinct classification (the condensed MCEIP-mu
@@ -107,6 +112,7 @@ class Classified:
         self.failures: list = []
         self.postponed: list = []   # (entry, classification) whose analyses wait for every rank
         self.progress = progress
+        self._running = ""          # the analysis running now (for the progress line)
         self._ids = [int(n.id) for n in system.nodes]
         self._xs = [float(n.x) for n in system.nodes]
         self._xs_finite = bool(np.isfinite(self._xs).all())
@@ -150,23 +156,29 @@ class Classified:
         entry["analysis_seconds"] = time.perf_counter() - t_state
         return job
 
+    def _note(self, analysis: str) -> None:
+        """``analysis`` begins (shown in the progress line)."""
+        self._running = analysis
+
     def _analyse(self, cls, index: int) -> dict:
         # small dense work (condensed pencils, projected eigenproblems): one BLAS thread is
         # 3-6x faster than OpenBLAS's default on these sizes
         with one_blas_thread():
-            analyses = analyse_state(self.system, cls, self.scene, defer_condensed=True)
+            analyses = analyse_state(self.system, cls, self.scene, defer_condensed=True, now=self._note)
         for name, a in analyses.items():
             if isinstance(a, Failed):
                 self.failures.append({"state": index, "analysis": name, "reason": a.reason})
         return analyses
 
     def add_all(self, states) -> None:
-        """:meth:`add` every state, with a progress bar."""
-        bar = (self.progress or Progress(enabled=False)).bar(len(states), "analyses")
-        for state in states:
-            self.add(state)
-            bar.update(1)
-        bar.close()
+        """:meth:`add` every state, with a progress line at least every few seconds while one runs
+        (which state, which analysis, for how long)."""
+        with (self.progress or Progress(enabled=False)).tasks(len(states), "analyses", unit="state") as tasks:
+            for state in states:
+                self._running = ""
+                tasks.start(f"state {state.index}", detail=lambda: ANALYSIS_WORDS.get(self._running, self._running))
+                self.add(state)
+                tasks.finish(f"state {state.index}", 1.0)
 
     def finish_postponed(self) -> None:
         """The analyses of the postponed states, in path order (every rank takes part in the same
