@@ -77,7 +77,7 @@ def load_scene(scene: str | pathlib.Path | Mapping[str, Any]) -> Scene:
     return _load_scene_file(scene)
 
 
-def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
+def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = False) -> StudyResult:
     """Run the scene's loading study and analyses (collective on ``comm``); writes nothing.
 
     Scene -> system (two particles, or the FE block: Gmsh + DOLFINx) -> loading path ->
@@ -85,6 +85,8 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
     classification (app/study/run.py). Raises ``app.common.errors.UnreachableLoad`` when the
     prescribed path cannot reach the requested normal force. A scene with a ``sweep`` or
     ``refinement`` section is a batch of studies: run it with ``python -m app run``.
+    ``progress``: the command line's progress lines on standard error (rank 0), at least every
+    5 s while a stage runs; none by default.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"run_study needs a Scene (from app.load_scene), not {type(scene).__name__}")
@@ -92,5 +94,6 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> StudyResult:
         if getattr(scene, key, None) is not None:
             raise SceneError(f"scene '{scene.name}': has a '{key}' section: it is a batch of studies, "
                              f"run it with: python -m app run SCENE")
+    from app.common.progress import Progress
     from app.study.run import study  # PETSc, and DOLFINx for a block, only when running
-    return study(scene, comm, outdir=None)
+    return study(scene, comm, Progress(enabled=bool(progress), comm=comm), outdir=None)

@@ -240,3 +240,19 @@ def test_block_results_json_keys_unchanged_and_api_matches_cli(tmp_path):
     back = StudyResult.load(tmp_path / "out")
     assert back.final.min_mu() == r.final.min_mu() and len(back) == len(r) == 320
     assert back.first_instability().index == r.first_instability().index
+
+
+def test_run_study_shows_progress_only_when_asked(capfd):
+    """``app.run_study(scene)`` prints nothing; ``progress=True`` prints the command line's progress
+    lines (standard error) with the same numbers."""
+    import app
+    scene = app.load_scene({"name": "p", "system": {"type": "block", "nx": 6, "ny": 3}, "mu": 1.1,
+                            "analyses": ["necessary", "mceip_mu"]})
+    quiet = app.run_study(scene)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+    loud = app.run_study(scene, progress=True)
+    out, err = capfd.readouterr()
+    assert out == "" and "loading:" in err and f"analyses: {len(loud.states)}/{len(loud.states)} states" in err
+    assert "MCEIP-mu:" in err
+    assert [s.classification for s in loud.states] == [s.classification for s in quiet.states]
