@@ -398,3 +398,21 @@ def test_a_petscrc_in_the_study_folder_injects_no_option(tmp_path):
     p = subprocess.run([PY, "-m", "app", "run", "s.yaml", "-o", str(tmp_path / "out2"), "-q"], capture_output=True,
                        text=True, cwd=study, env=_env(PETSC_OPTIONS="-options_left"), timeout=600)
     assert p.returncode == 0 and "PETSc Option Table" in p.stdout + p.stderr, p.stdout + p.stderr
+
+
+def test_a_file_size_limit_reached_while_writing_is_one_line(tmp_path):
+    """A batch job's ``ulimit -f``: Python ignores SIGXFSZ, so the write that passes the limit fails
+    with EFBIG, which ended the run in a traceback from the ParaView writer. Now it is one line
+    naming the limit, exit status 4, and the staging folder is removed."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: fsz\nsystem: {type: block, nx: 40, ny: 20}\nmu: 1.1\nanalyses: [mceip_mu]\n"
+                     "outputs: {paraview: true}\n")
+    limit = 8 * 2**20                  # MPI's start-up needs a few MiB of files; the ParaView series more
+
+    def cap() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    p = subprocess.run([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out"), "-q"], capture_output=True,
+                       text=True, cwd=tmp_path, env=_env(), timeout=600, preexec_fn=cap)
+    line = one_error_line(p, 4)
+    assert "file-size limit" in line and "ulimit -f" in line and "8 MiB" in line, line
+    assert sorted(os.listdir(tmp_path)) == ["s.yaml"]

@@ -14,9 +14,10 @@ import pathlib
 import signal
 import sys
 import threading
+import time
 
 from app.common import interrupt
-from app.common.errors import EXIT_WRITE
+from app.common.errors import EXIT_WRITE, write_limit, write_limit_text
 from app.common.errors import fail as _fail
 
 DESCRIPTION = """\
@@ -49,6 +50,10 @@ exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see resu
   4 the results could not be written (disk full, out of memory, final rename failed: see the error line),
   130 interrupted (Ctrl-C), 143 terminated (SIGTERM): nothing is left in the output folder
 """
+
+
+#: seconds an interrupted sweep's rank 0 and its other ranks wait before they exit (:func:`_interrupted`)
+SWEEP_EXIT_WAIT = (1.0, 5.0)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -109,24 +114,14 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _no_space(err: BaseException) -> bool:
-    """A full disk or quota, however the library reports it (OSError errno, h5py/HDF5 or meshio text)."""
-    import errno
-    if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
-        return True
-    text = str(err).lower()
-    return isinstance(err, (OSError, RuntimeError)) and ("no space left" in text or "disk quota" in text)
-
-
 def _write_error(err: BaseException) -> str | None:
     """The one-line message for a resource failure while running/writing, or None if it is not one."""
     if isinstance(err, MemoryError):
         return ("out of memory (MemoryError): the study does not fit in this machine's memory; use a coarser "
                 "mesh (system.nx) or fewer states (loading.tangential_step), or lower settings.limits.max_memory_gb "
                 "so the pre-flight refuses such scenes")
-    if _no_space(err):
-        where = getattr(err, "filename", None)
-        return f"no space left on the device{f' (writing {where})' if where else ''}: the results were not written"
+    if write_limit(err) is not None:
+        return write_limit_text(err)
     if isinstance(err, TimeoutError) and "JIT compilation timed out" in str(err):
         claim = str(err).split("remove ", 1)[-1].split(")", 1)[0] if "remove " in str(err) else "its C file"
         return (f"the JIT compiler waited too long for another process compiling a form (FFCx: {claim}); if no "
@@ -218,6 +213,11 @@ def _interrupted(signum: int, left: str | None = None) -> int:
               f"{left or 'the run stopped and wrote no results'}", file=sys.stderr, flush=True)
     if MPI.COMM_WORLD.size > 1 and left is not None:
         sys.stderr.flush()
+        # mpirun ends the whole job (SIGKILL) as soon as one rank exits with a non-zero status.
+        # Each rank has removed its own unfinished case; rank 0, whose line is printed, waits
+        # for a signal another rank deferred (an import, a JIT compilation: a tenth of a second
+        # at a time, see _terminate) to reach that rank, and the other ranks wait for rank 0.
+        time.sleep(SWEEP_EXIT_WAIT[0 if MPI.COMM_WORLD.rank == 0 else 1])
         os._exit(code)
     if MPI.COMM_WORLD.size > 1:
         MPI.COMM_WORLD.Abort(code)

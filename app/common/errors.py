@@ -7,9 +7,41 @@ not be written.
 """
 from __future__ import annotations
 
+import errno
 import sys
 
 EXIT_OK, EXIT_USER, EXIT_INCOMPLETE, EXIT_WRITE = 0, 2, 3, 4
+
+#: what a write fails with when a limit of the file system or of the process is reached: a full
+#: disk, a quota, the file-size limit (``ulimit -f``: Python ignores SIGXFSZ, so the write fails)
+WRITE_LIMIT_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def write_limit(err: BaseException) -> int | None:
+    """The errno of a write that hit a limit (:data:`WRITE_LIMIT_ERRNOS`), however the library
+    reports it (an OSError's errno, or h5py/HDF5's or meshio's text); None for any other error."""
+    if isinstance(err, OSError) and err.errno in WRITE_LIMIT_ERRNOS:
+        return err.errno
+    if isinstance(err, (OSError, RuntimeError)):
+        text = str(err).lower()
+        for code, words in ((errno.ENOSPC, "no space left"), (errno.EDQUOT, "disk quota"),
+                            (errno.EFBIG, "file too large")):
+            if words in text:
+                return code
+    return None
+
+
+def write_limit_text(err: BaseException) -> str:
+    """The one-line message for a write that hit a limit (:func:`write_limit`)."""
+    where = getattr(err, "filename", None)
+    writing = f" (writing {where})" if where else ""
+    if write_limit(err) == errno.EFBIG:
+        import resource
+        soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        limit = "" if soft == resource.RLIM_INFINITY else f" ({soft / 2**20:.4g} MiB)"
+        return (f"a file reached the file-size limit of this process{limit}{writing} (ulimit -f): the results "
+                "were not written; raise the limit or ask for fewer outputs")
+    return f"no space left on the device{writing}: the results were not written"
 
 
 def point_text(xy, size: float) -> str:

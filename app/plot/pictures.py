@@ -7,7 +7,6 @@ need were saved by the study's field stage (app/io/fields.py) in ``fields/fields
 from __future__ import annotations
 
 import contextlib
-import errno
 import json
 import logging
 import os
@@ -16,6 +15,7 @@ import sys
 import tempfile
 import time
 
+from app.common.errors import write_limit
 from app.common.stages import Stages
 from app.io.select import select_states
 
@@ -41,8 +41,8 @@ def _survive(what: str, notes: list[str]):
     try:
         yield
     except Exception as err:          # noqa: BLE001 - any drawing failure
-        if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise                     # a full disk ends the run as anywhere else (exit status 4)
+        if write_limit(err) is not None:
+            raise                     # a full disk (or ulimit -f) ends the run as anywhere else (exit status 4)
         log.warning("%s failed", what, exc_info=True)
         notes.append(f"{what} failed ({type(err).__name__}: {err}); the results are complete: "
                      f"redraw with python -m app render")

@@ -23,7 +23,6 @@ run's own "no space left" error (exit status 4).
 """
 from __future__ import annotations
 
-import errno
 import json
 import logging
 import os
@@ -34,6 +33,7 @@ import sys
 import time
 
 from app.common.cache import cache_dir, usable_dir
+from app.common.errors import WRITE_LIMIT_ERRNOS, write_limit
 
 KINDS = ("plots", "screenshots")
 PARENT_VARIABLE = "APP_DRAWING_PARENT_PID"
@@ -83,7 +83,7 @@ class Worker:
         reply = _reply(stdout)
         if code == 0 and "files" in reply:
             return [pathlib.Path(f) for f in reply["files"]], list(reply["notes"]), reply["seconds"]
-        if reply.get("errno") in (errno.ENOSPC, errno.EDQUOT):
+        if reply.get("errno") in WRITE_LIMIT_ERRNOS:
             raise OSError(reply["errno"], os.strerror(reply["errno"]), reply.get("filename"))
         why = reply.get("error") or f"the drawing process {_status_text(code)}"
         note = f"{self.kind} failed: {why}; the results are complete, redraw with: python -m app render"
@@ -186,8 +186,8 @@ def _failure(err: BaseException) -> dict:
         reply["errno"] = err.errno
         if err.filename is not None:
             reply["filename"] = os.fsdecode(err.filename)
-    elif isinstance(err, RuntimeError) and "no space left" in text.lower():     # as h5py and VTK say it
-        reply["errno"] = errno.ENOSPC
+    elif write_limit(err) is not None:           # as h5py and VTK say it
+        reply["errno"] = write_limit(err)
     return reply
 
 
