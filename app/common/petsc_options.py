@@ -89,7 +89,10 @@ def command_line_options(options: list[str]) -> Iterator[None]:
     If PETSc is already running (the CLI called in-process), the options are inserted and removed
     again on leaving the block."""
     if "petsc4py.PETSc" not in sys.modules:
+        # MPI first, by mpi4py (MPI_Init_thread, MPI_THREAD_MULTIPLE: a sweep's rank 0 dispatches
+        # from a thread); PETSc started first would call plain MPI_Init
         import petsc4py
+        from mpi4py import MPI  # noqa: F401
         # -skip_petscrc: PETSc would read .petscrc and petscrc in the current folder (a study
         # folder received from someone) and inject their options (-mat_view ascii:FILE writes FILE)
         petsc4py.init([sys.argv[0] or "python", "-skip_petscrc", *options])

@@ -84,33 +84,35 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
     error = None
     folder = case_dir(outdir, case)
     staging = None
-    if gcomm.rank == 0:
-        folder.parent.mkdir(parents=True, exist_ok=True)
-        _remove_unfinished(folder)
-        staging = folder.parent / f".{folder.name}.partial-{os.getpid()}-{time.time_ns()}"
-        staging.mkdir()
-    staging = gcomm.bcast(staging, root=0)                                 # MPI collective (group)
-    identity = {"sweep_case": {"sweep": case.scene.name, "name": case.name, "index": case.index,
-                               "values": case.values, "scene_hash": case.scene_hash}}
     try:
+        if gcomm.rank == 0:
+            folder.parent.mkdir(parents=True, exist_ok=True)
+            _remove_unfinished(folder)
+            staging = folder.parent / f".{folder.name}.partial-{os.getpid()}-{time.time_ns()}"
+            staging.mkdir()
+        staging = gcomm.bcast(staging, root=0)                                 # MPI collective (group)
+        identity = {"sweep_case": {"sweep": case.scene.name, "name": case.name, "index": case.index,
+                                   "values": case.values, "scene_hash": case.scene_hash}}
         try:
             results = driver.run_and_write(case.scene, gcomm, staging, extra=identity).raw
         except UnreachableLoad as err:   # raised identically on every rank of the group
             error = f"loading: {err}"
-    except KeyboardInterrupt:            # a signal: the unfinished case leaves nothing
-        if gcomm.rank == 0:
-            shutil.rmtree(staging, ignore_errors=True)
-        raise
-    except Exception as err:             # noqa: BLE001
-        if gcomm.size > 1:               # may be on this rank only: the CLI aborts the job
+        except KeyboardInterrupt:
             raise
-        error = f"{type(err).__name__}: {err}"
-        traceback.print_exc()
-    if gcomm.rank != 0:
-        return None
-    if error is not None:
-        atomic_write(staging / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
-    refused = _commit_case(staging, folder)
+        except Exception as err:             # noqa: BLE001
+            if gcomm.size > 1:               # may be on this rank only: the CLI aborts the job
+                raise
+            error = f"{type(err).__name__}: {err}"
+            traceback.print_exc()
+        if gcomm.rank != 0:
+            return None
+        if error is not None:
+            atomic_write(staging / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
+        refused = _commit_case(staging, folder)
+    except KeyboardInterrupt:            # a signal, wherever it lands: the unfinished case leaves nothing
+        if gcomm.rank == 0 and staging is not None and staging.is_dir() and not staging.is_symlink():
+            shutil.rmtree(staging, ignore_errors=True)      # this run's own staging folder (not yet moved)
+        raise
     if refused is not None:
         return error_row(case, refused if error is None else f"{error}; {refused}")
     return error_row(case, error) if error is not None else case_row(results, case)
