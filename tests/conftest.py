@@ -186,3 +186,19 @@ def _no_interrupt_left_behind():
     left = list(interrupt.RECEIVED)
     interrupt.clear()
     assert not left, f"a test left the received signal(s) {left} behind"
+
+
+@pytest.fixture(autouse=True)
+def _logging_as_it_was():
+    """The root logger's handlers and level, and the ``app`` logger's level, as before the test: a
+    test that runs the CLI's ``main`` directly (its ``setup_logging`` adds a handler on the
+    ``sys.stderr`` of that moment) or that first imports FFCx (``logging.basicConfig()`` on import)
+    under ``capsys`` would leave a handler writing to a stream closed after it, and any later test
+    that logs would print "--- Logging error ---" (seen in a fresh clone's CI run)."""
+    import logging
+    root, app_log = logging.getLogger(), logging.getLogger("app")
+    handlers, level, app_level = root.handlers[:], root.level, app_log.level
+    yield
+    root.handlers[:] = handlers
+    root.setLevel(level)
+    app_log.setLevel(app_level)
