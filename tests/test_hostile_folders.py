@@ -123,6 +123,22 @@ def test_the_marker_records_every_file_and_folder_the_app_wrote(made):
     assert "plots/status_map.png" in files and "screenshots/state_0002_displacement.png" in files
 
 
+def test_removing_old_results_deletes_only_the_recorded_files(out):
+    """The previous results are deleted file by file from the marker's list (``--overwrite`` after the
+    new results are in place): a file that appeared in the folder meanwhile, a symbolic link in place
+    of a recorded file and what it points to all stay, and the folder is then kept."""
+    from app.io.folder import remove_recorded
+    outside = out.parent / "victim" / "mine.txt"
+    outside.write_text("mine")
+    (out / "plots" / "appeared.png").write_bytes(b"mine")
+    (out / "steps.csv").unlink()
+    (out / "steps.csv").symlink_to(outside)
+    assert remove_recorded(out) is False
+    left = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
+    assert left == ["plots", "plots/appeared.png", "steps.csv"], left
+    assert outside.read_text() == "mine"
+
+
 @pytest.mark.parametrize("name", ["plots", "screenshots", "fields"])
 def test_render_refuses_a_linked_app_folder(out, name):
     """A picture folder that is a symbolic link is refused: the pictures it points to stay."""
