@@ -169,7 +169,9 @@ def test_a_long_slepc_solve_shows_progress_and_stops_at_a_ctrl_c(tmp_path):
     proc = subprocess.Popen([PY, "-m", "app", "run", str(scene), "-o", str(tmp_path / "out"),
                              "-cd_necessary_eps_tol", "1e-300", "-cd_necessary_eps_max_it", "1000000000"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
-                            start_new_session=True)
+                            start_new_session=True,
+                            # as from a terminal: a pytest-xdist worker ignores SIGINT, and its children would
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     lines: list[tuple[float, str]] = []
     reader = threading.Thread(target=lambda: lines.extend((time.monotonic(), ln.rstrip("\n")) for ln in proc.stderr))
     reader.start()
