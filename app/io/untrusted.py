@@ -142,8 +142,8 @@ def memory_limit() -> float:
     return Limits().memory_cap()[0]
 
 
-def _npy_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, where: str) -> int:
-    """The data bytes the ``.npy`` member ``info`` declares, checked against its size in the archive."""
+def _npy_header(archive: zipfile.ZipFile, info: zipfile.ZipInfo, where: str) -> tuple[tuple, np.dtype, int]:
+    """(shape, dtype, bytes of magic and header) of the ``.npy`` member ``info``, read without its data."""
     fmt = np.lib.format
     with archive.open(info) as member:
         try:
@@ -154,7 +154,12 @@ def _npy_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, where: str) -> 
             shape, _, dtype = read_header(member)
         except (ValueError, TypeError, SyntaxError, EOFError, OSError) as err:
             raise UntrustedFile(f"{where}: {info.filename}: not a readable .npy header ({err})") from None
-        header_end = member.tell()
+        return shape, dtype, member.tell()
+
+
+def _npy_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, where: str) -> int:
+    """The data bytes the ``.npy`` member ``info`` declares, checked against its size in the archive."""
+    shape, dtype, header_end = _npy_header(archive, info, where)
     if dtype.hasobject:
         raise UntrustedFile(f"{where}: {info.filename}: holds Python objects ({dtype}): only numbers and text are read")
     count = math.prod(int(n) for n in shape)
@@ -207,10 +212,7 @@ def read_npz(path: pathlib.Path, members: dict[str, tuple[str, int]], optional: 
                     if name in optional:
                         continue
                     raise UntrustedFile(f"{path}: no array {name!r}")
-                with archive.open(f"{name}.npy") as member:
-                    version = np.lib.format.read_magic(member)
-                    shape, _, dtype = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                                       else np.lib.format.read_array_header_2_0)(member)
+                shape, dtype, _ = _npy_header(archive, archive.getinfo(f"{name}.npy"), str(path))
                 if dtype.kind != kind or (kind == "f" and dtype.itemsize != 8) or len(shape) != ndim \
                         or (max_side is not None and any(n > max_side for n in shape)) \
                         or (kind == "U" and dtype.itemsize > 4 * max_text):
