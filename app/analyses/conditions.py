@@ -18,7 +18,11 @@ from app.analyses.pencils import combine, diag_scale, gather_vec, serial_copy, s
 from app.linalg import configure_direct, from_options, owned, with_prefix
 from app.scene.schema import EigSettings
 
-MUMPS_MIN_DOFS = 20_000     # from this size on, shift-and-invert factorises with MUMPS even on one rank
+#: from this size on, shift-and-invert factorises with MUMPS even on one rank: its factorisation is
+#: 3-7x faster than PETSc's own at 25k-100k DOFs, its solves 2x slower (a Krylov-Schur solve does
+#: tens of them), so below it PETSc's own is faster (app/analyses/mceip_lambda2/bounds.py uses
+#: MUMPS from 5,000 rows for inertia counts, which factorise only)
+MUMPS_MIN_DOFS = 20_000
 
 
 def _shift_invert(eps: SLEPc.EPS, sigma: float) -> PETSc.KSP:
@@ -132,7 +136,8 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
         eps.setDimensions(nev=1, ncv=min(NEAREST_NCV, At.getSize()[0]))
         eps.setTolerances(tol=settings.tol, max_it=settings.max_it)
         ksp = configure_direct(_shift_invert(eps, sigma),
-                               factor="cholesky" if At.getComm().getSize() == 1 else "lu", ordering=_ordering(At))
+                               factor="cholesky" if At.getComm().getSize() == 1 else "lu", ordering=_ordering(At),
+                               mumps=True if At.getSize()[0] >= MUMPS_MIN_DOFS else None)
         from_options(eps)
         if shift_below:
             eps.setUp()

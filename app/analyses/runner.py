@@ -19,6 +19,7 @@ from app.analyses.outcomes import (
     Deferred,
     EnumerationOutcome,
     EnumerationProblem,
+    MceipLambda2Outcome,
     MceipMuOutcome,
     NecessaryOutcome,
     NotApplicable,
@@ -46,7 +47,16 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> Neces
         return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars)
 
 
-def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int) -> SufficientOutcome:
+def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int,
+                lambda2: Outcome | None = None) -> SufficientOutcome:
+    """(17)-(18); ``lambda2``: MCEIP-lambda^2 at the same mu, already run. An admissible eigenpair
+    with ``lambda^2 > 0`` solves (12)-(14) (``y = 0``), so where that outcome shows no solution with
+    ``lambda^2 >= 0`` the condition cannot hold and no eigensolver runs."""
+    if isinstance(lambda2, MceipLambda2Outcome) and lambda2.certified and not lambda2.solutions:
+        return SufficientOutcome(
+            satisfied=False, lambda2=[], modes=[], real_candidates=[], converged=0, mu=scene.mu,
+            eigensolver="none: an admissible eigenpair would solve MCEIP-lambda^2 (12)-(14) with y = 0, and "
+                        f"MCEIP-lambda^2 at this mu has none ({lambda2.result})")
     Ks, Ms = p.star(scene.mu)        # shared with the necessary condition, destroyed with p
     with system.stages("sufficient condition (17)-(18)"):
         out = conditions.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
@@ -86,10 +96,15 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
     s = len(cls.slip)
     runs = {"necessary": _necessary, "sufficient": _sufficient, "mceip_mu": state_mceip_mu,
             "mceip_lambda2": mceip_lambda2, "enumerate": _enumerate}
+    # MCEIP-lambda^2 at the scene's mu runs before (17)-(18), which it can decide
+    lambda2_first = ("sufficient" in scene.analyses and "mceip_lambda2" in scene.analyses
+                     and scene.lambda2_mu == scene.mu)
+    order = [n for n in ANALYSES if n in scene.analyses]
+    if lambda2_first:
+        order.remove("mceip_lambda2")
+        order.insert(order.index("sufficient"), "mceip_lambda2")
     try:
-        for name in ANALYSES:
-            if name not in scene.analyses:
-                continue
+        for name in order:
             if name == "mceip_mu" and defer_condensed and s > 0 and scene.settings.mceip_mu_method == "condensed":
                 out[name] = Deferred()    # dense work: distributed.analyse_condensed_distributed() replaces it
                 continue
@@ -99,13 +114,15 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
                 if name == "mceip_lambda2":
                     nec = out.get("necessary") if scene.lambda2_mu == scene.mu else None
                     out[name] = mceip_lambda2(system, p, scene, s, nec if isinstance(nec, NecessaryOutcome) else None)
+                elif name == "sufficient":
+                    out[name] = _sufficient(system, p, scene, s, out.get("mceip_lambda2") if lambda2_first else None)
                 else:
                     out[name] = runs[name](system, p, scene, s)
             except (UnsupportedState, PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
                 out[name] = one_line(err)
     finally:
         p.destroy()
-    return out
+    return {name: out[name] for name in ANALYSES if name in out}
 
 
 def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True,

@@ -34,13 +34,17 @@ from __future__ import annotations
 
 import time
 import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 import scipy.linalg
+from petsc4py import PETSc
 
 from app.analyses.certify import in_pd_plus_nn
-from app.analyses.pencils import dense
+from app.analyses.pencils import axpy_structure, dense
+from app.linalg import lu_solver
 from app.analyses.state_pencils import per_system
 from app.loading.classify import FREE, Classification
 
@@ -48,21 +52,30 @@ from app.loading.classify import FREE, Classification
 MARGIN = 1e-8
 
 
+#: bytes of the dynamic Schur complements ``Z(t)`` kept per system (least recently used dropped first)
+CACHE_BYTES = 512 * 2**20
+
+
 @dataclass
 class DynamicContact:
-    """The eigen-decomposition of ``(K, M)`` seen from the contact DOFs (paper axes, order
-    ``T_0, N_0, T_1, ...``), shared by every classification of one system."""
+    """``(K, M)`` seen from the contact DOFs (paper axes, order ``T_0, N_0, T_1, ...``), shared by
+    every classification of one system: ``flexibility(t)`` is the dynamic contact flexibility
+    ``W(t) = B (K + t M)^-1 B^T``; :meth:`at` inverts it to the dynamic contact Schur complement
+    ``Z(t)``, kept for the next classifications (the proofs evaluate ``t`` on one dyadic grid per
+    system, so neighbouring classifications mostly reuse them)."""
 
-    omega2: np.ndarray            # eigenvalues of K Phi = M Phi Omega
-    BP: np.ndarray                # contact rows of Phi, paper-axis signs
+    flexibility: Callable[[float], np.ndarray]
     Kcc: np.ndarray               # K and M on the contact DOFs, paper axes
     Mcc: np.ndarray
-    seconds: float
-    _cache: dict = field(default_factory=dict, repr=False)
+    seconds: float                # time of the set-up (eigen-decomposition or gathering)
+    method: str
+    evaluations: int = 0          # W(t) computed (cache misses)
+    _cache: OrderedDict = field(default_factory=OrderedDict, repr=False)
 
     @classmethod
     def from_dense(cls, K: np.ndarray, M: np.ndarray, dofs: np.ndarray, signs: np.ndarray) -> "DynamicContact":
-        """The decomposition from dense ``K`` and ``M`` (``scipy.linalg.eigh``: ``K`` symmetric, ``M`` SPD):
+        """From dense ``K`` and ``M`` through the eigen-decomposition ``K Phi = M Phi Omega``
+        (``scipy.linalg.eigh``: ``K`` symmetric, ``M`` SPD): ``W(t) = B Phi (Omega + t)^-1 Phi^T B^T``.
         ``dofs`` the contact DOFs in the order ``T_0, N_0, T_1, ...`` and ``signs`` their paper-axis
         signs; the time it took is kept in ``seconds``."""
         t0 = time.perf_counter()
@@ -70,40 +83,102 @@ class DynamicContact:
         BP = signs[:, None] * Phi[dofs, :]
         sK = signs[:, None] * K[np.ix_(dofs, dofs)] * signs[None, :]
         sM = signs[:, None] * M[np.ix_(dofs, dofs)] * signs[None, :]
-        return cls(w, BP, sK, sM, time.perf_counter() - t0)
+        return cls(lambda t: (BP / (w + t)) @ BP.T, sK, sM, time.perf_counter() - t0,
+                   "dense (K, M) eigen-decomposition")
+
+    @classmethod
+    def from_sparse(cls, K: PETSc.Mat, M: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray) -> "DynamicContact":
+        """From sequential sparse ``K`` and ``M`` (the caller keeps them alive while this is used):
+        each ``W(t)`` is the signed contact block of ``(K + t M)^-1``, from one sparse Cholesky
+        factorisation of ``K + t M`` (SPD for ``t >= 0``) and MUMPS's selected entries of the inverse
+        (:func:`app.loading.flexibility.flexibility_inverse`; block solves with the contact columns
+        when the factor cannot give them)."""
+        from app.loading.flexibility import flexibility_inverse, flexibility_matsolve
+        t0 = time.perf_counter()
+        structure = axpy_structure(K, M)
+
+        def flexibility(t: float) -> np.ndarray:
+            A = K.copy()
+            ksp = None
+            try:
+                A.axpy(t, M, structure=structure)
+                ksp = lu_solver(A, prefix="cd_dynamic_", factor="cholesky", mumps=True)
+                W = flexibility_inverse(ksp, dofs, signs)
+                if W is None:
+                    W = flexibility_matsolve(ksp, A, dofs, signs)
+                if W is None:
+                    raise RuntimeError("the factorisation of K + t M gave no contact flexibility")
+                return W
+            finally:
+                if ksp is not None:
+                    ksp.destroy()
+                A.destroy()
+
+        rows = PETSc.IS().createGeneral(dofs.astype(PETSc.IntType), comm=PETSc.COMM_SELF)
+        try:
+            Kcc, Mcc = (X.createSubMatrices(rows, rows)[0] for X in (K, M))
+            sK, sM = (signs[:, None] * Y.getValues(range(len(dofs)), range(len(dofs))) * signs[None, :]
+                      for Y in (Kcc, Mcc))
+            Kcc.destroy()
+            Mcc.destroy()
+        finally:
+            rows.destroy()
+        return cls(flexibility, sK, sM, time.perf_counter() - t0,
+                   "sparse Cholesky factorisation of K + t M per t, contact block of its inverse")
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``Z(t)`` (dynamic contact Schur complement of ``K + t M``) and ``H_cc(t)``."""
-        hit = self._cache.get(t)
-        if hit is None:
-            W = (self.BP / (self.omega2 + t)) @ self.BP.T
+        Z = self._cache.get(t)
+        if Z is None:
+            W = self.flexibility(t)
+            self.evaluations += 1
             Z = np.linalg.inv(0.5 * (W + W.T))
-            hit = (0.5 * (Z + Z.T), self.Kcc + t * self.Mcc)
-            if len(self._cache) > 4096:
-                self._cache.clear()
-            self._cache[t] = hit
-        return hit
+            Z = 0.5 * (Z + Z.T)
+            while self._cache and (len(self._cache) + 1) * Z.nbytes > CACHE_BYTES:
+                self._cache.popitem(last=False)
+            self._cache[t] = Z
+        else:
+            self._cache.move_to_end(t)
+        return Z, self.Kcc + t * self.Mcc
 
 
-_SYSTEMS: dict[int, tuple[weakref.ref, DynamicContact | None]] = {}
+_SYSTEMS: dict[int, tuple[weakref.ref, "DynamicContact | None"]] = {}
 
 
-def dynamic_contact(system, max_dofs: int) -> DynamicContact | None:
-    """The system's :class:`DynamicContact`, built on first use (MPI collective: dense copies of
-    K and M on every rank); None above ``max_dofs`` or when ``(K, M)`` is not SPD."""
-    return per_system(_SYSTEMS, system, lambda: _build(system, max_dofs))
+def dynamic_contact(system, max_dense_dofs: int) -> DynamicContact | None:
+    """The system's :class:`DynamicContact` on rank 0 (None on the other ranks), built on first use:
+    dense up to ``max_dense_dofs`` DOFs, sparse factorisations above (MPI collective: K and M
+    gathered on rank 0 when distributed). None on rank 0 too when ``(K, M)`` is not SPD."""
+    return per_system(_SYSTEMS, system, lambda: _build(system, max_dense_dofs))
 
 
-def _build(system, max_dofs: int) -> DynamicContact | None:
-    if system.n_dofs > max_dofs:
-        return None
-    K, M = dense(system.K), dense(system.mass())                  # MPI collective
+def _build(system, max_dense_dofs: int) -> DynamicContact | None:
+    comm = system.comm
     dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
     signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
-    try:
-        return DynamicContact.from_dense(K, M, dofs, signs)
-    except (np.linalg.LinAlgError, ValueError):
-        return None
+    K, M = system.K, system.mass()
+    if system.n_dofs <= max_dense_dofs:
+        Kd, Md = dense(K), dense(M)                                  # MPI collective
+        if comm.rank != 0:
+            return None
+        try:
+            return DynamicContact.from_dense(Kd, Md, dofs, signs)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+    if comm.size > 1:
+        # the whole of K and M on rank 0 (empty elsewhere): rank 0 factorises alone, as for W
+        N = system.n_dofs
+        rows = PETSc.IS().createStride(N if comm.rank == 0 else 0, 0, 1, comm=PETSc.COMM_SELF)
+        try:
+            K, M = (X.createSubMatrices(rows, rows)[0] for X in (K, M))  # MPI collective
+        finally:
+            rows.destroy()
+        if comm.rank != 0:
+            K.destroy()
+            M.destroy()
+            return None
+        system.extra.setdefault("owned", []).extend([K, M])
+    return DynamicContact.from_sparse(K, M, dofs, signs)
 
 
 class _Reduction:
@@ -157,19 +232,47 @@ def _pd(X: np.ndarray) -> bool:
         return False
 
 
+#: most values of t one proof may use (its work budget: counted, never timed); beyond it the proof
+#: gives up and the caller searches
+MAX_EVALUATIONS = 400
+
+
+def _dyadic_above(x: float) -> float:
+    """The smallest power of two at or above ``x > 0``."""
+    m, e = np.frexp(x)
+    return float(np.ldexp(1.0, int(e) - (1 if m == 0.5 else 0)))
+
+
 def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_start: float,
-                      intervals: int = 8, depth: int = 10) -> tuple[bool, float, dict]:
+                      pieces: int = 8, depth: int = 10,
+                      max_evaluations: int = MAX_EVALUATIONS) -> tuple[bool, float, dict]:
     """Try to prove that (12)-(14) has no solution with ``lambda^2 >= 0`` (caller: ``sym M*(mu)``
     PSD, ``t_start`` a bound with ``sym K* + t_start sym M*`` PD, e.g. the Rayleigh quotient bound).
 
     Returns ``(proven, T, detail)``: ``T`` the smallest of a bisection where ``Sh(T)`` is PD (no
-    solution above it), and whether ``[0, T]`` was covered by certified intervals."""
+    solution above it), and whether ``[0, T]`` was covered by certified intervals.
+
+    Every ``t`` it evaluates is a dyadic multiple of a power of two (the bisection starts at the
+    power of two above ``t_start``, which is a bound too as ``Sh`` increases with ``t``; ``[0, T]``
+    is covered by pieces of the power-of-two width about ``T / pieces``), so the classifications of
+    one system evaluate ``W(t)`` on one grid and mostly reuse each other's. At most
+    ``max_evaluations`` distinct ``t`` (the proof's budget); ``False`` when it runs out."""
     t0 = time.perf_counter()
     red = _Reduction(dc, cls, mu)
+
+    def used() -> int:
+        return len(red._cache)
+
+    def out_of_budget(a: float, b: float) -> tuple[bool, float, dict]:
+        return False, T, {"reason": f"budget of {max_evaluations} values of t spent at [{a:.6g}, {b:.6g}]",
+                          "evaluations": used(), "seconds": time.perf_counter() - t0}
+
+    if not np.isfinite(t_start) or t_start <= 0:
+        return False, float(t_start), {"reason": "no finite positive start bound", "seconds": time.perf_counter() - t0}
     # tail: smallest T (bisection, 8 steps) with Sh(T) PD
-    lo, hi = 0.0, float(t_start)
-    if not np.isfinite(hi) or not _pd(red.at(hi)[0]):
-        return False, float(t_start), {"reason": "Sh(T) not PD at the start bound", "seconds": time.perf_counter() - t0}
+    lo, hi = 0.0, _dyadic_above(float(t_start))
+    if not _pd(red.at(hi)[0]):
+        return False, hi, {"reason": "Sh(T) not PD at the start bound", "seconds": time.perf_counter() - t0}
     for _ in range(8):
         mid = 0.5 * (lo + hi)
         if _pd(red.at(mid)[0]):
@@ -177,11 +280,13 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
         else:
             lo = mid
     T = hi
-    grid = np.linspace(0.0, T, intervals + 1)
-    todo = [(float(grid[i]), float(grid[i + 1]), 0) for i in range(intervals)]
+    width = _dyadic_above(T / pieces)
+    todo = [(i * width, (i + 1) * width, 0) for i in range(int(np.ceil(T / width)))][::-1]
     proven_count = 0
     while todo:
         a, b, level = todo.pop()
+        if used() + 4 > max_evaluations:
+            return out_of_budget(a, b)
         Sa, Qa = red.at(a)
         Sb, Qb = red.at(b)
         h = b - a
@@ -197,9 +302,9 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
             proven_count += 1
         elif level < depth:
             m = 0.5 * (a + b)
-            todo += [(a, m, level + 1), (m, b, level + 1)]
+            todo += [(m, b, level + 1), (a, m, level + 1)]
         else:
             return False, T, {"reason": f"sym S(t) not certified copositive on [{a:.6g}, {b:.6g}]",
-                              "evaluations": len(red._cache), "seconds": time.perf_counter() - t0}
-    return True, T, {"intervals": proven_count, "evaluations": len(red._cache),
+                              "evaluations": used(), "seconds": time.perf_counter() - t0}
+    return True, T, {"intervals": proven_count, "evaluations": used(),
                      "seconds": time.perf_counter() - t0}

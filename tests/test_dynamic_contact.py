@@ -1,0 +1,129 @@
+"""MCEIP-lambda^2 on the contact DOFs at any size (app/analyses/mceip_lambda2/exact.py): the dynamic
+contact Schur complement Z(t) from sparse factorisations of K + t M equals the one from the dense
+(K, M) eigen-decomposition, the proofs on both agree, and the sufficient condition (17)-(18) decided
+by MCEIP-lambda^2 equals SLEPc's answer on the full pencil."""
+import copy
+
+import numpy as np
+import pytest
+from conftest import run_scene
+from mpi4py import MPI
+from test_two_particles import CASES, PHI, K, M, analytic_lambda2, scene
+
+from app.analyses.mceip_lambda2 import exact
+from app.analyses.pencils import dense as to_dense
+from app.common.stages import Stages
+from app.loading.classify import SLIP, STICK, Classification
+from app.scene.schema import parse_scene
+from app.systems.block.path import build
+
+BLOCK = {"name": "b", "system": {"type": "block", "length": 80.0, "height": 40.0, "thickness": 9.6, "nx": 10,
+                                 "ny": 5, "pattern": "crossed", "E": 5.0, "nu": 0.48, "density": 1.2e-9},
+         "mu": 1.1, "loading": {"normal_force": 55.0, "normal_steps": 4, "tangential_step": 0.05,
+                                "tangential_max": 10.0}}
+
+
+@pytest.fixture(scope="module")
+def block():
+    sc = parse_scene(BLOCK)
+    with build(sc.system, MPI.COMM_WORLD, Stages()) as system:
+        K, Mm = system.K, system.mass()
+        dense = exact.DynamicContact.from_dense(to_dense(K), to_dense(Mm), *_contact(system))
+        sparse = exact.DynamicContact.from_sparse(K, Mm, *_contact(system))
+        yield system, dense, sparse
+
+
+def _contact(system):
+    dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
+    signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
+    return dofs, signs
+
+
+@pytest.mark.parametrize("t", [0.0, 1.0e3, 1.0e6, 3.0e7, 1.0e9, 1.0e11])
+def test_sparse_dynamic_schur_complement_equals_the_modal_one(block, t):
+    """Z(t) = (B (K + t M)^-1 B^T)^-1 both ways, from t = 0 (the static contact Schur complement,
+    which also equals the system's own) to t far above the mesh's largest omega^2."""
+    system, dense, sparse = block
+    Zd, Hd = dense.at(t)
+    Zs, Hs = sparse.at(t)
+    assert np.linalg.norm(Zs - Zd) <= 1e-10 * np.linalg.norm(Zd)
+    assert np.array_equal(Hs, Hd)
+    if t == 0.0:
+        Sc = system.contact_schur()
+        assert np.linalg.norm(Zs - Sc) <= 1e-10 * np.linalg.norm(Sc)
+
+
+def test_z_increases_with_t_and_is_cached(block):
+    """dZ/dt is a generalised mass (positive definite, docs/method.md section 7); evaluations are
+    cached per t, so a second proof on the same grid factorises nothing new."""
+    _, _, sparse = block
+    Z1, _ = sparse.at(1.0e6)
+    Z2, _ = sparse.at(2.0e6)
+    assert np.linalg.eigvalsh(Z2 - Z1).min() > 0
+    n = sparse.evaluations
+    sparse.at(1.0e6)
+    assert sparse.evaluations == n
+
+
+def _classification(system, slip_from: int) -> Classification:
+    """The nodes from ``slip_from`` on in impending slip (sign +1), the others stuck: the block's
+    states under leftward shear (slip spreads from B towards A)."""
+    n = len(system.nodes)
+    status = [STICK] * slip_from + [SLIP] * (n - slip_from)
+    return Classification(status=tuple(status), signs=tuple(1 if st == SLIP else 0 for st in status))
+
+
+@pytest.mark.parametrize("slip_from", [8, 4, 0])
+def test_the_proof_is_the_same_on_both_reductions(block, slip_from):
+    """prove_no_solution reaches the same verdict and bound T on both reductions (the same grid
+    of t), for few and for all nodes slipping."""
+    system, dense, sparse = block
+    cls = _classification(system, slip_from)
+    got = [exact.prove_no_solution(dc, cls, 1.1, 1.0e9) for dc in (dense, sparse)]
+    assert got[0][0] == got[1][0] and got[0][1] == got[1][1], got
+
+
+@pytest.mark.parametrize("signs,mu,count", CASES)
+def test_two_particles_sparse_reduction(signs, mu, count):
+    """The paper's two particles with the sparse reduction forced (lambda2_exact_max_dofs: 0): the
+    same MCEIP-lambda^2 answer as the dense one, and never "proven" where a closed-form solution
+    exists."""
+    expected = analytic_lambda2(K, M, PHI, mu, *signs)
+    runs = []
+    for max_dofs in (1500, 0):
+        sc = scene(signs, mu, ["necessary", "mceip_lambda2"])
+        sc.setdefault("settings", {}).setdefault("mcp", {})["lambda2_exact_max_dofs"] = max_dofs
+        runs.append(run_scene(sc)["states"][0]["analyses"]["mceip_lambda2"])
+    dense_run, sparse_run = runs
+    assert sparse_run["certified"] == dense_run["certified"] and sparse_run["result"] == dense_run["result"]
+    assert [s["value"] for s in sparse_run["solutions"]] == pytest.approx([s["value"] for s in dense_run["solutions"]],
+                                                                          rel=1e-10)
+    if expected:
+        assert sparse_run["certified"] is False
+
+
+def test_study_answers_do_not_depend_on_the_reduction():
+    """The block's study: MCEIP-lambda^2 on the sparse reduction (lambda2_exact_max_dofs: 0) gives
+    the dense reduction's answers at every classification, and the sufficient condition decided by
+    MCEIP-lambda^2 is SLEPc's answer on the full pencil (a study without MCEIP-lambda^2)."""
+    runs = {}
+    for name, max_dofs, analyses in (("dense", 20_000, ["necessary", "sufficient", "mceip_lambda2"]),
+                                     ("sparse", 0, ["necessary", "sufficient", "mceip_lambda2"]),
+                                     ("slepc", 20_000, ["necessary", "sufficient"])):
+        sc = copy.deepcopy(BLOCK)
+        sc["analyses"] = analyses
+        sc["settings"] = {"mcp": {"lambda2_exact_max_dofs": max_dofs}}
+        runs[name] = run_scene(sc)
+    decided = 0
+    for d, s, e in zip(*(r["states"] for r in runs.values())):
+        if d.get("analyses_shared_with") is not None or not d.get("analyses"):
+            continue
+        a, b, c = d["analyses"], s["analyses"], e["analyses"]
+        for key in ("result", "certified"):
+            assert a["mceip_lambda2"][key] == b["mceip_lambda2"][key], (d["index"], key)
+        assert a["sufficient"]["satisfied"] == b["sufficient"]["satisfied"] == c["sufficient"]["satisfied"]
+        assert a["sufficient"]["lambda2"] == b["sufficient"]["lambda2"] == c["sufficient"]["lambda2"]
+        if a["sufficient"]["eigensolver"].startswith("none: "):
+            decided += 1
+            assert "eigensolver" in c["sufficient"] and not c["sufficient"]["eigensolver"].startswith("none")
+    assert decided >= 3        # the path has several classifications with slip nodes
