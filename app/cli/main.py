@@ -44,7 +44,7 @@ examples:
   mpirun -n 4 python -m app run sweep.yaml --ranks-per-case 2   # a scene with a 'sweep' section:
                                             # its cases farmed out to groups of 2 ranks
 PETSc options: any PETSc/SLEPc option, placed after the scene file, reaches the app's solvers by
-  their prefixes cd_loading_, cd_flex_, cd_necessary_, cd_sufficient_, cd_lambda2_, cd_inertia_,
+  their prefixes cd_loading_, cd_flex_, cd_necessary_, cd_sufficient_, cd_lambda2_, cd_dynamic_, cd_inertia_,
   cd_mcp_, cd_mcp_free_, cd_spd_check_ (e.g. -cd_necessary_eps_monitor, -cd_loading_snes_monitor)
 exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see results.json),
   4 the results could not be written (disk full, out of memory, final rename failed: see the error line),

@@ -197,19 +197,49 @@ def check_disk(scene: Scene, est: Estimate, folder, shown=None) -> str | None:
 
 
 #: analyses the time model covers (the others are named as not counted)
-TIMED_ANALYSES = ("mceip_mu",)
+TIMED_ANALYSES = ("mceip_mu", "necessary", "sufficient", "mceip_lambda2")
+
+
+def _classifications(c: float) -> float:
+    """Distinct classifications along the block's path with ``c`` = contact nodes / 225 (measured:
+    40 at 41 nodes, 68 at 81, 80 at 113, 104 with slip nodes at 225)."""
+    return 110.0 * c ** 0.6
+
+
+def analysis_seconds(scene: Scene, dofs: int, contact_nodes: int) -> dict[str, float]:
+    """Seconds of each requested analysis other than MCEIP-mu on the block's path, per
+    classification times :func:`_classifications`; fitted to serial runs of the block at 3.2k,
+    13k and 25k DOFs (2026-12-06, docs/performance.md), not measured above.
+
+    - necessary (19): SLEPc shift-and-invert and two LDL^T inertia counts per matrix on the
+      full-size pencils, 1.85 s per classification at 25k DOFs, growing as DOFs^1.8;
+    - MCEIP-lambda^2: about 1.7 sparse factorisations of K + t M per classification (the shared
+      dyadic grid), each like the W build (0.32 s at 100k DOFs);
+    - sufficient (17)-(18): nothing when MCEIP-lambda^2 at the same mu runs (it decides the
+      condition), else SLEPc on the full pencil, 1.04 s per classification at 25k, as DOFs^1.3."""
+    x, c = dofs / 1e5, contact_nodes / 225.0
+    n = _classifications(c)
+    out = {}
+    if "necessary" in scene.analyses:
+        out["necessary"] = n * 1.85 * (x / 0.2543) ** 1.8
+    if "mceip_lambda2" in scene.analyses:
+        out["mceip_lambda2"] = n * 1.7 * 0.32 * x ** 1.1
+    if "sufficient" in scene.analyses:
+        decided = "mceip_lambda2" in scene.analyses and scene.lambda2_mu == scene.mu
+        out["sufficient"] = 0.0 if decided else n * 1.04 * (x / 0.2543) ** 1.3
+    return out
 
 
 def time_estimate(scene: Scene, est: Estimate) -> float | None:
     """Seconds a serial run of ``scene`` takes on one idle core of the kind measured: start-up,
-    mesh + assembly + factorisation + W, the loading increments and MCEIP-mu at every
-    classification. None for a system without a mesh-size estimate.
+    mesh + assembly + factorisation + W, the loading increments, MCEIP-mu at every
+    classification and the other requested analyses (:func:`analysis_seconds`). None for a
+    system without a mesh-size estimate.
 
-    A model fitted to CPU times of the paper's block study (crossed P1, ``analyses: [mceip_mu]``)
-    at 6.4k, 25k, 101k, 403k and 1.0M DOFs (benchmarks/estimates.py, 2-core machine, the other
-    core idle; the stage times as the runs print them); the total is within a factor 1.3 of
-    those runs. The other analyses (necessary, sufficient, MCEIP-lambda^2, enumeration) are not
-    counted."""
+    The MCEIP-mu part is a model fitted to CPU times of the paper's block study (crossed P1,
+    ``analyses: [mceip_mu]``) at 6.4k, 25k, 101k, 403k and 1.0M DOFs (benchmarks/estimates.py,
+    2-core machine, the other core idle; the stage times as the runs print them); the total is
+    within a factor 1.3 of those runs. The enumeration is not counted."""
     if not hasattr(scene.system, "mesh_sizes"):
         return None
     x, c = est.dofs / 1e5, est.contact_nodes / 225.0
@@ -218,8 +248,9 @@ def time_estimate(scene: Scene, est: Estimate) -> float | None:
     increment = 1.12e-3 + 2.67e-3 * c ** 3             # one contact increment: dense 2c x 2c LUs
     # classifications ~ c; most below the onset are proven by the sign argument alone (a few
     # Cholesky factorisations, ~ s^3), the rest searched and proven
-    mceip = 0.8 + 1.0 * c + 0.8 * c ** 3
-    return start + build + est.states * increment + mceip
+    mceip = 0.8 + 1.0 * c + 0.8 * c ** 3 if "mceip_mu" in scene.analyses else 0.0
+    others = sum(analysis_seconds(scene, est.dofs, est.contact_nodes).values())
+    return start + build + est.states * increment + mceip + others
 
 
 def describe_time(scene: Scene, est: Estimate) -> str | None:

@@ -62,9 +62,10 @@ class McpSettings(Strict):
         20000, description="budget per state for the quadratic MCEIP-mu of a curved obstacle above 8 slip nodes "
                            "(the branch and bound), in proof-tree nodes; up to 8 slip nodes every support is "
                            "decided exactly (at most 255)")
-    # MCEIP-lambda^2: exact slip-node reduction through the dense (K, M) eigen-decomposition, used to
-    # prove "no solution" up to this many DOFs (app/analyses/mceip_lambda2/exact.py); SNES VI search otherwise
-    lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = 1500
+    lambda2_exact_max_dofs: Annotated[int, Field(ge=0, le=20_000)] = Field(
+        1500, description="MCEIP-lambda^2's exact reduction to the slip nodes (the proof of no solution) "
+                          "from the dense (K, M) eigen-decomposition up to this many DOFs, from a sparse "
+                          "factorisation of K + t M per t above; the SNES VI search runs where the proof fails")
     # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
     # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)
     search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40

@@ -105,8 +105,8 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: flo
               "starts": [], "identical_runs_skipped": 0, "complete": True,
               "note": "no search needed: " + how,
               "necessary_condition": nec.as_dict(), "lambda2_upper_bound": T, "upper_bound": bound}
-    # the reduction rests on a floating-point eigen-decomposition of (K, M) without a rigorous
-    # error bound: its PD + NN tests are verified, the reduction itself is not
+    # the reduction rests on a floating-point eigen-decomposition of (K, M) or factorisation of
+    # K + t M without a rigorous error bound: its PD + NN tests are verified, the reduction is not
     cert = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
                        {**detail, "T": T, "set_up_seconds": round(setup_seconds, 4)}, gap=0.0,
                        rigorous=False)

@@ -2,13 +2,17 @@
 (docs/method.md section 7).
 
 With ``H(t) = K + t M`` (``t = lambda^2 >= 0``, SPD) every DOF except the slip nodes' ``x_Ts`` is
-eliminated exactly: the interior through the eigen-decomposition ``K Phi = M Phi Omega``
-(``Phi^T M Phi = I``), which gives the dynamic contact flexibility
-``W(t) = B Phi (Omega + t)^-1 Phi^T B^T`` and its inverse, the dynamic contact Schur complement
-``Z(t)`` (``Z(0)`` is the static one of the condensed MCEIP-mu); the free contact nodes as in
-:func:`app.analyses.pencils.condensed_mu_pencil`. The result is the ``s x s`` matrix ``S(t)``
-with ``y_Ts = S(t) x_Ts`` at every ``x`` with ``y_f = 0``, so (12)-(14) is
-``x >= 0, S(t) x >= 0, x_i (S(t) x)_i = 0`` (``S(0)`` is the condensed MCEIP-mu pencil at mu).
+eliminated exactly. The interior goes through the dynamic contact flexibility
+``W(t) = B (K + t M)^-1 B^T`` and its inverse, the dynamic contact Schur complement ``Z(t)``
+(``Z(0)`` is the static one of the condensed MCEIP-mu), which do not depend on the
+classification: :class:`DynamicContact` computes them once per ``t`` for the whole path, from the
+dense eigen-decomposition ``K Phi = M Phi Omega`` on small systems
+(``W(t) = B Phi (Omega + t)^-1 Phi^T B^T``) and from a sparse Cholesky factorisation of ``K + t M``
+with MUMPS's selected entries of its inverse above ``McpSettings.lambda2_exact_max_dofs``. The
+free contact nodes are eliminated as in :func:`app.analyses.pencils.condensed_mu_pencil`. The
+result is the ``s x s`` matrix ``S(t)`` with ``y_Ts = S(t) x_Ts`` at every ``x`` with ``y_f = 0``,
+so (12)-(14) is ``x >= 0, S(t) x >= 0, x_i (S(t) x)_i = 0`` (``S(0)`` is the condensed MCEIP-mu
+pencil at mu).
 
 Sign argument: at a solution ``x^T S(t) x = 0``, so no solution has a ``t`` at which
 ``sym S(t)`` is strictly copositive. To prove it on an interval, split (exactly)
@@ -26,9 +30,10 @@ a matrix affine in ``t``; if that lies in ``PD + NN`` at both ends it does on al
 proves no solution above ``T`` (the same ``T`` as an LDL^T inertia count of ``sym K* + T sym M*``,
 by Haynsworth's inertia additivity).
 
-Everything is dense and ``O(n^3)`` once per system (the eigen-decomposition), then ``O(n s^2)``
-per ``t``; it is used up to ``McpSettings.lambda2_exact_max_dofs`` DOFs. A failed proof proves
-nothing: the caller then searches with SNES VI.
+Cost: the dense set-up is ``O(n^3)`` once per system, then ``O(n_c^3)`` per ``t`` (``n_c`` the
+contact DOFs); the sparse one is one factorisation per ``t``. The proof evaluates ``t`` on a dyadic
+grid, so the classifications along a path share most factorisations (the 100k-DOF block: about one
+new ``t`` per classification). A failed proof proves nothing: the caller then searches with SNES VI.
 """
 from __future__ import annotations
 
@@ -44,8 +49,8 @@ from petsc4py import PETSc
 
 from app.analyses.certify import in_pd_plus_nn
 from app.analyses.pencils import axpy_structure, dense
-from app.linalg import lu_solver
 from app.analyses.state_pencils import per_system
+from app.linalg import lu_solver
 from app.loading.classify import FREE, Classification
 
 #: relative margin of the PD + NN tests (rounding of the eliminations, pencil scaled to unit diagonal)
