@@ -38,7 +38,9 @@ VOLATILE = {"stages", "wall_seconds", "analysis_seconds", "seconds", "versions"}
 #: values are not compared, while every answer (values, modes, patterns, classifications,
 #: reactions, eigenvalues) must stay the same.
 EVIDENCE = {"search", "result", "found_by", "found_count", "iterations", "residual", "complementarity",
-            "min_x_Ts", "min_y_Ts"}
+            "min_x_Ts", "min_y_Ts",
+            # the sufficient condition's eigensolver record: none runs where MCEIP-lambda^2 decides it
+            "eigensolver", "converged", "real_candidates"}
 #: keys added to format 1 since v0 (a reader of format 1 ignores keys it does not know)
 ADDED_KEYS = {"format_version", "certified", "certificate", "ill_conditioned", "margin_y_stick",
               "pattern_verified", "pattern_residual", "newton_residual", "complementarity", "min_x_Ts",
