@@ -127,3 +127,26 @@ def test_study_answers_do_not_depend_on_the_reduction():
             decided += 1
             assert "eigensolver" in c["sufficient"] and not c["sufficient"]["eigensolver"].startswith("none")
     assert decided >= 3        # the path has several classifications with slip nodes
+
+
+def test_sparse_reduction_on_two_ranks(tmp_path):
+    """K and M gathered on rank 0, which factorises K + t M and proves alone: the same
+    MCEIP-lambda^2 and sufficient-condition answers as one rank."""
+    import yaml
+    from conftest import results_on_ranks
+    sc = copy.deepcopy(BLOCK)
+    sc["analyses"] = ["necessary", "sufficient", "mceip_lambda2"]
+    sc["settings"] = {"mcp": {"lambda2_exact_max_dofs": 0}}
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(sc))
+    runs = results_on_ranks(path, tmp_path)
+    shown = 0
+    for one, two in zip(runs[1]["states"], runs[2]["states"]):
+        if one.get("analyses_shared_with") is not None or not one.get("analyses"):
+            continue
+        a, b = one["analyses"], two["analyses"]
+        for key in ("result", "certified", "solutions"):
+            assert a["mceip_lambda2"][key] == b["mceip_lambda2"][key], (one["index"], key)
+        assert a["sufficient"]["satisfied"] == b["sufficient"]["satisfied"]
+        shown += a["mceip_lambda2"]["result"] == "proven: no solution with lambda^2 >= 0"
+    assert shown >= 3
