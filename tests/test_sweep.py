@@ -294,7 +294,9 @@ def test_killed_sweep_finishes_only_the_missing_cases(serial_sweep, tmp_path):
                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     t0 = time.monotonic()
     try:
-        while len(list(out.glob("cases/*/results.json"))) < 2:
+        # a case's results.json is written by its group before rank 0 hears of it and rewrites
+        # sweep.json: wait for both, so that the kill comes after sweep.json's first version
+        while len(list(out.glob("cases/*/results.json"))) < 2 or not (out / "sweep.json").exists():
             assert p.poll() is None, "the sweep ended before it could be killed"
             assert time.monotonic() - t0 < 300
             time.sleep(0.02)
