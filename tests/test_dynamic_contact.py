@@ -150,3 +150,55 @@ def test_sparse_reduction_on_two_ranks(tmp_path):
         assert a["sufficient"]["satisfied"] == b["sufficient"]["satisfied"]
         shown += a["mceip_lambda2"]["result"] == "proven: no solution with lambda^2 >= 0"
     assert shown >= 3
+
+
+def test_contact_signs_are_the_necessary_condition(block):
+    """The signs of (19) from the Schur complements onto the kept contact DOFs equal those of the
+    full-size eigenvalues (SLEPc, app/analyses/conditions.py) for stick, slip and free nodes."""
+    from app.analyses.conditions import necessary
+    from app.analyses.state_pencils import StatePencils
+    from app.loading.classify import FREE
+    system, dense, sparse = block
+    sc = parse_scene(BLOCK)
+    n = len(system.nodes)
+    cases = [_classification(system, k) for k in (n, 8, 4, 0)]
+    cases.append(Classification(status=tuple([FREE] * 2 + [SLIP] * (n - 4) + [FREE] * 2),
+                                signs=tuple([0] * 2 + [1] * (n - 4) + [0] * 2)))
+    seen = set()
+    for cls in cases:
+        for mu in (0.3, 1.1, 3.0):
+            p = StatePencils(system, cls)
+            try:
+                nec = necessary(*p.K(), *p.M(), mu, sc.settings.eig)
+            finally:
+                p.destroy()
+            for dc in (dense, sparse):
+                signs = exact.contact_signs(dc, cls, mu)
+                assert signs.k_pd == (nec.min_eig_K_sym_relative > 1e-8), (cls.counts(), mu)
+                assert signs.m_pd == (nec.min_eig_M_sym_relative > 1e-8)
+                assert signs.m_psd
+            seen.add(signs.k_pd)
+    assert seen == {True, False}
+
+
+def test_lambda2_without_the_necessary_condition():
+    """Without (19) in the scene MCEIP-lambda^2 decides its signs and start bound on the contact
+    DOFs: the same answers as with (19)'s full-size eigenvalues, on both reductions."""
+    runs = {}
+    for name, max_dofs, analyses in (("with", 1500, ["necessary", "sufficient", "mceip_lambda2"]),
+                                     ("dense", 1500, ["sufficient", "mceip_lambda2"]),
+                                     ("sparse", 0, ["sufficient", "mceip_lambda2"])):
+        sc = copy.deepcopy(BLOCK)
+        sc["analyses"] = analyses
+        sc["settings"] = {"mcp": {"lambda2_exact_max_dofs": max_dofs}}
+        runs[name] = run_scene(sc)
+    decided = 0
+    for w, d, s in zip(*(r["states"] for r in runs.values())):
+        if w.get("analyses_shared_with") is not None or not w.get("analyses"):
+            continue
+        for other in (d, s):
+            for key in ("result", "certified", "solutions"):
+                assert other["analyses"]["mceip_lambda2"][key] == w["analyses"]["mceip_lambda2"][key], (w["index"], key)
+            assert other["analyses"]["sufficient"]["satisfied"] == w["analyses"]["sufficient"]["satisfied"]
+        decided += "contact_signs" in s["analyses"]["mceip_lambda2"]["search"]
+    assert decided >= 3

@@ -38,7 +38,12 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
         d = MceipLambda2Outcome(solutions=[], result=result, search=search, certified=True,
                                 certificate=certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0))
     else:
-        K0, K1 = p.K()
+        with system.stages("MCEIP-lambda2 (12)-(14)"):
+            d = _on_contact_dofs(p, scene, mu, t_start) if nec is None else None
+            if d is not None:
+                d.mu = mu
+                return d
+        K0, K1 = p.K()            # the full-size pencils, only where the contact DOFs do not decide
         M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
             if nec is None:
@@ -74,44 +79,96 @@ def _rayleigh_bound(nec: NecessaryOutcome) -> float | None:
     return None
 
 
+def _on_rank_zero(p: StatePencils, scene: Scene, work):
+    """``work(dc)`` on rank 0, which alone holds the system's exact reduction (dense, or K and M
+    gathered there), broadcast to every rank; None where the reduction does not apply (a curved
+    obstacle: it has no curvature terms) or could not be built. MPI collective."""
+    if is_curved(p.cls):
+        return None
+    dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
+    comm = p.system.comm
+    got = None
+    if comm.rank == 0 and dc is not None:
+        evaluations = dc.evaluations
+        with p.system.stages("MCEIP-lambda2 exact reduction"):
+            got = work(dc)
+        got = (got, dc.evaluations - evaluations, dc.method, dc.seconds)
+    if comm.size > 1:
+        got = comm.bcast(got, root=0)                                                 # MPI collective
+    return got
+
+
+def _on_contact_dofs(p: StatePencils, scene: Scene, mu: float, t_start: float) -> MceipLambda2Outcome | None:
+    """MCEIP-lambda^2 decided on the contact DOFs alone, without the full-size eigenvalues of (19)
+    (the scene did not ask for the necessary condition): its signs from the Schur complements of
+    ``sym K*``, ``sym M*`` onto the kept contact DOFs (no solution when ``sym K*`` is PD and
+    ``sym M*`` PSD), else the proof on the exact reduction from a power-of-two start bound. None
+    when neither decides (the caller then computes (19) on the full pencils and searches)."""
+    def work(dc):
+        signs = l2x.contact_signs(dc, p.cls, mu)
+        if (signs.k_pd and signs.m_psd) or not signs.m_pd:
+            return signs, None
+        start = l2x.start_bound(dc, p.cls, mu)
+        return signs, (None if start is None else (start, *l2x.prove_no_solution(dc, p.cls, mu, start)))
+
+    got = _on_rank_zero(p, scene, work)
+    if got is None:
+        return None
+    (signs, proof), factorisations, method, setup_seconds = got
+    detail = {"sym_K_star_pd": signs.k_pd, "sym_M_star_psd": signs.m_psd, "sym_M_star_pd": signs.m_pd,
+              "new_factorisations": factorisations, "set_up_seconds": round(setup_seconds, 4)}
+    if signs.k_pd and signs.m_psd:
+        how = ("sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19), "
+               f"both decided on their Schur complements onto the kept contact DOFs (through the {method}; "
+               "floating point, not verified)")
+        search = {"complete": True, "note": "no solution: " + how}
+        cert = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start, detail, gap=0.0,
+                           rigorous=False)
+        return MceipLambda2Outcome(solutions=[], result="no solution (proved by the necessary condition (19))",
+                                   search=search, certified=True, certificate=cert)
+    if proof is None or not proof[1]:
+        return None
+    start, _, T, pdetail = proof
+    bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
+                       "power of two found by doubling from tr K_cc / tr M_cc)",
+             "start_bound": start, "proven_bound": T}
+    return _shown_outcome(method, T, bound, {**pdetail, **detail}, t_start, {"contact_signs": detail})
+
+
+def _shown_outcome(method: str, T: float, bound: dict, detail: dict, t_start: float,
+                   extra: dict) -> MceipLambda2Outcome:
+    """The outcome "no solution" shown on the exact slip-node reduction on [0, T] and above ``T``."""
+    how = (f"sign argument on the exact slip-node reduction S(t) (free DOFs eliminated through the {method}): "
+           "sym S(t) certified copositive on [0, T] by intervals (concave + convex "
+           "split, PD + NN at the ends), and the Schur complement of sym(K* + T M*) PD with sym M* PD for t >= T")
+    search = {"attempts": 0, "converged": 0, "accepted": 0, "by_method": {}, "intervals": [],
+              "starts": [], "identical_runs_skipped": 0, "complete": True,
+              "note": "no search needed: " + how, **extra, "lambda2_upper_bound": T, "upper_bound": bound}
+    # the reduction rests on a floating-point eigen-decomposition of (K, M) or factorisation of
+    # K + t M without a rigorous error bound: its PD + NN tests are verified, the reduction is not
+    cert = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start, {**detail, "T": T}, gap=0.0,
+                       rigorous=False)
+    return MceipLambda2Outcome(solutions=[], result="proven: no solution with lambda^2 >= 0", search=search,
+                               certified=True, certificate=cert)
+
+
 def _lambda2_proof(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: float,
                    t_start: float) -> MceipLambda2Outcome | None:
     """MCEIP-lambda^2 proven to have no solution on the exact slip-node reduction
     (app/analyses/mceip_lambda2/exact.py), or None when that proof does not apply or does not succeed."""
     rayleigh = _rayleigh_bound(nec)
-    if rayleigh is None or is_curved(p.cls):      # the exact reduction has no curvature terms
+    if rayleigh is None:
         return None
-    dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
-    comm = p.system.comm
-    # rank 0 alone holds the reduction (dense, or K and M gathered there) and proves
-    got = None
-    if comm.rank == 0 and dc is not None:
-        evaluations = dc.evaluations
-        with p.system.stages("MCEIP-lambda2 exact reduction"):
-            proven, T, detail = l2x.prove_no_solution(dc, p.cls, mu, rayleigh)
-        got = (proven, T, {**detail, "new_factorisations": dc.evaluations - evaluations}, dc.method, dc.seconds)
-    if comm.size > 1:
-        got = comm.bcast(got, root=0)                                                 # MPI collective
-    if got is None or not got[0]:
+    got = _on_rank_zero(p, scene, lambda dc: l2x.prove_no_solution(dc, p.cls, mu, rayleigh))
+    if got is None or not got[0][0]:
         return None
-    proven, T, detail, method, setup_seconds = got
-    how = (f"sign argument on the exact slip-node reduction S(t) (free DOFs eliminated through the {method}): "
-           "sym S(t) certified copositive on [0, T] by intervals (concave + convex "
-           "split, PD + NN at the ends), and the Schur complement of sym(K* + T M*) PD with sym M* PD for t >= T")
+    (_, T, detail), factorisations, method, setup_seconds = got
     bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
                        "Rayleigh-quotient bound -min eig sym K* / min eig sym M*)",
              "rayleigh_bound": rayleigh, "proven_bound": T}
-    search = {"attempts": 0, "converged": 0, "accepted": 0, "by_method": {}, "intervals": [],
-              "starts": [], "identical_runs_skipped": 0, "complete": True,
-              "note": "no search needed: " + how,
-              "necessary_condition": nec.as_dict(), "lambda2_upper_bound": T, "upper_bound": bound}
-    # the reduction rests on a floating-point eigen-decomposition of (K, M) or factorisation of
-    # K + t M without a rigorous error bound: its PD + NN tests are verified, the reduction is not
-    cert = certificate(how, (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
-                       {**detail, "T": T, "set_up_seconds": round(setup_seconds, 4)}, gap=0.0,
-                       rigorous=False)
-    return MceipLambda2Outcome(solutions=[], result="proven: no solution with lambda^2 >= 0", search=search,
-                               certified=True, certificate=cert)
+    return _shown_outcome(method, T, bound,
+                          {**detail, "new_factorisations": factorisations, "set_up_seconds": round(setup_seconds, 4)},
+                          t_start, {"necessary_condition": nec.as_dict()})
 
 
 def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: float,

@@ -45,6 +45,7 @@ from typing import Callable
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 from petsc4py import PETSc
 
 from app.analyses.certify import in_pd_plus_nn
@@ -70,12 +71,14 @@ class DynamicContact:
     system, so neighbouring classifications mostly reuse them)."""
 
     flexibility: Callable[[float], np.ndarray]
+    mass_flexibility: Callable[[], np.ndarray]    # B M^-1 B^T
     Kcc: np.ndarray               # K and M on the contact DOFs, paper axes
     Mcc: np.ndarray
     seconds: float                # time of the set-up (eigen-decomposition or gathering)
     method: str
     evaluations: int = 0          # W(t) computed (cache misses)
     _cache: OrderedDict = field(default_factory=OrderedDict, repr=False)
+    _mass_schur: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
     def from_dense(cls, K: np.ndarray, M: np.ndarray, dofs: np.ndarray, signs: np.ndarray) -> "DynamicContact":
@@ -88,7 +91,8 @@ class DynamicContact:
         BP = signs[:, None] * Phi[dofs, :]
         sK = signs[:, None] * K[np.ix_(dofs, dofs)] * signs[None, :]
         sM = signs[:, None] * M[np.ix_(dofs, dofs)] * signs[None, :]
-        return cls(lambda t: (BP / (w + t)) @ BP.T, sK, sM, time.perf_counter() - t0,
+        # Phi^T M Phi = I, so M^-1 = Phi Phi^T
+        return cls(lambda t: (BP / (w + t)) @ BP.T, lambda: BP @ BP.T, sK, sM, time.perf_counter() - t0,
                    "dense (K, M) eigen-decomposition")
 
     @classmethod
@@ -102,12 +106,9 @@ class DynamicContact:
         t0 = time.perf_counter()
         structure = axpy_structure(K, M)
 
-        def flexibility(t: float) -> np.ndarray:
-            A = K.copy()
-            ksp = None
+        def contact_block_of_inverse(A: PETSc.Mat) -> np.ndarray:
+            ksp = lu_solver(A, prefix="cd_dynamic_", factor="cholesky", mumps=True)
             try:
-                A.axpy(t, M, structure=structure)
-                ksp = lu_solver(A, prefix="cd_dynamic_", factor="cholesky", mumps=True)
                 W = flexibility_inverse(ksp, dofs, signs)
                 if W is None:
                     W = flexibility_matsolve(ksp, A, dofs, signs)
@@ -115,8 +116,14 @@ class DynamicContact:
                     raise RuntimeError("the factorisation of K + t M gave no contact flexibility")
                 return W
             finally:
-                if ksp is not None:
-                    ksp.destroy()
+                ksp.destroy()
+
+        def flexibility(t: float) -> np.ndarray:
+            A = K.copy()
+            try:
+                A.axpy(t, M, structure=structure)
+                return contact_block_of_inverse(A)
+            finally:
                 A.destroy()
 
         rows = PETSc.IS().createGeneral(dofs.astype(PETSc.IntType), comm=PETSc.COMM_SELF)
@@ -128,8 +135,16 @@ class DynamicContact:
             Mcc.destroy()
         finally:
             rows.destroy()
-        return cls(flexibility, sK, sM, time.perf_counter() - t0,
+        return cls(flexibility, lambda: contact_block_of_inverse(M), sK, sM, time.perf_counter() - t0,
                    "sparse Cholesky factorisation of K + t M per t, contact block of its inverse")
+
+    def mass_schur(self) -> np.ndarray:
+        """The Schur complement of ``M`` onto the contact DOFs (paper axes), computed once."""
+        if self._mass_schur is None:
+            W = self.mass_flexibility()
+            Z = np.linalg.inv(0.5 * (W + W.T))
+            self._mass_schur = 0.5 * (Z + Z.T)
+        return self._mass_schur
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``Z(t)`` (dynamic contact Schur complement of ``K + t M``) and ``H_cc(t)``."""
@@ -205,8 +220,14 @@ class _Reduction:
         Q[2 * slip, nF + np.arange(s)] = S
         R[nF + np.arange(s), 2 * slip] = S
         R[nF + np.arange(s), 2 * slip + 1] = mu
-        self.Q, self.R, self.D = Q, R, Q - R.T
+        # one or two entries per column: sparse products cost O(n_c k) where dense ones cost O(n_c^2 k)
+        self.Q, self.R, self.D = (scipy.sparse.csc_matrix(X) for X in (Q, R.T, Q - R.T))
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    @staticmethod
+    def _sandwich(L, X: np.ndarray, Rm) -> np.ndarray:
+        """``L^T X Rm`` for sparse ``L``, ``Rm`` and dense ``X``."""
+        return np.asarray((L.T @ (Rm.T @ X.T).T))
 
     def _schur(self, X: np.ndarray) -> np.ndarray:
         n = self.nF
@@ -214,13 +235,22 @@ class _Reduction:
             return X
         return X[n:, n:] - X[n:, :n] @ np.linalg.solve(X[:n, :n], X[:n, n:])
 
+    def kept(self, Z: np.ndarray, H: np.ndarray) -> np.ndarray:
+        """The Schur complement of ``sym A*(mu)`` onto the kept contact DOFs (free nodes', slip
+        nodes' ``T``), ``A`` the symmetric matrix whose contact block is ``H`` and whose Schur
+        complement onto the contact DOFs is ``Z`` (docs/method.md section 2): with ``A*`` coupling
+        the interior through ``P = (Q + R^T) / 2``, it is ``sym(R H Q) - P^T (H - Z) P``, which is
+        ``sym(R Z Q) - (Q - R^T)^T (H - Z) (Q - R^T) / 4``."""
+        A = self._sandwich(self.R, Z, self.Q)
+        return 0.5 * (A + A.T) - 0.25 * self._sandwich(self.D, H - Z, self.D)
+
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``(Sh(t), Q(t))`` with ``sym S(t) = Sh(t) + Q(t)``."""
         hit = self._cache.get(t)
         if hit is None:
             Z, H = self.dc.at(t)
-            A = self.R @ Z @ self.Q
-            G = 0.5 * (A + A.T) - 0.25 * self.D.T @ (H - Z) @ self.D
+            A = self._sandwich(self.R, Z, self.Q)
+            G = 0.5 * (A + A.T) - 0.25 * self._sandwich(self.D, H - Z, self.D)
             Sx, Sh = self._schur(A), self._schur(G)
             Sh = 0.5 * (Sh + Sh.T)
             hit = (Sh, 0.5 * (Sx + Sx.T) - Sh)
@@ -246,6 +276,45 @@ def _dyadic_above(x: float) -> float:
     """The smallest power of two at or above ``x > 0``."""
     m, e = np.frexp(x)
     return float(np.ldexp(1.0, int(e) - (1 if m == 0.5 else 0)))
+
+
+@dataclass(frozen=True)
+class Signs:
+    """The signs of the necessary condition (19) on the contact DOFs: ``sym K*(mu)`` positive
+    definite, ``sym M*(mu)`` positive semi-definite and definite, each decided on its Schur
+    complement onto the kept contact DOFs (the interior blocks ``K_ii``, ``M_ii`` are SPD, so by
+    Haynsworth's inertia additivity the whole matrix has the sign of that Schur complement),
+    with the relative margin :data:`MARGIN` (floating point)."""
+
+    k_pd: bool
+    m_psd: bool
+    m_pd: bool
+
+
+def contact_signs(dc: DynamicContact, cls: Classification, mu: float) -> Signs:
+    """:class:`Signs` of one classification: dense work on the kept contact DOFs only."""
+    red = _Reduction(dc, cls, mu)
+    GK = red.kept(*dc.at(0.0))
+    GM = red.kept(dc.mass_schur(), dc.Mcc)
+    m_pd = _pd(GM)
+    m_psd = m_pd or _pd(GM + 2 * MARGIN * np.diag(np.abs(np.diag(GM))))
+    return Signs(k_pd=_pd(GK), m_psd=m_psd, m_pd=m_pd)
+
+
+def start_bound(dc: DynamicContact, cls: Classification, mu: float, doublings: int = 80) -> float | None:
+    """A power of two ``T`` with ``Sh(T)`` positive definite (caller: ``sym M*(mu)`` PD, so every
+    larger ``t`` has it too): doublings from the power of two nearest ``tr K_cc / tr M_cc``, each a
+    value of ``t`` on the dyadic grid; None if none of ``doublings`` is."""
+    red = _Reduction(dc, cls, mu)
+    ratio = float(np.trace(dc.Kcc) / np.trace(dc.Mcc))
+    if not np.isfinite(ratio) or ratio <= 0:
+        return None
+    t = float(np.ldexp(1.0, int(np.round(np.log2(ratio)))))
+    for _ in range(doublings):
+        if _pd(red.at(t)[0]):
+            return t
+        t *= 2.0
+    return None
 
 
 def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_start: float,
