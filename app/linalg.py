@@ -98,6 +98,25 @@ def configure_direct(ksp: PETSc.KSP, *, factor: Factor = "lu", mumps: Optional[b
     return ksp
 
 
+@contextmanager
+def mumps_null_pivots(prefix: str) -> Iterator[None]:
+    """Context: MUMPS factorisations made inside it by a solver with options prefix ``prefix`` (e.g.
+    an EPS's ``"cd_necessary_st_"``) detect null pivots (ICNTL(24) = 1), without which PETSc 3.18
+    cannot report their inertia; for solvers whose KSP gets its operators only when set up (a
+    SLEPc ST), where :func:`configure_direct` cannot reach the factor. Through the options
+    database, unless the command line set the option, and removed again on exit."""
+    name = f"{prefix}mat_mumps_icntl_24"
+    opts = PETSc.Options()
+    if opts.hasName(name):
+        yield
+        return
+    opts.setValue(name, 1)
+    try:
+        yield
+    finally:
+        opts.delValue(name)
+
+
 def set_linesearch(snes: PETSc.SNES, kind: str) -> None:
     """Make ``kind`` (e.g. ``"basic"``: full Newton steps) the line search of ``snes`` unless the
     command line chose one (``-<prefix>snes_linesearch_type``). petsc4py 3.18 has no SNESLineSearch

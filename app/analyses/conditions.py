@@ -15,7 +15,7 @@ from slepc4py import SLEPc
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
 from app.analyses.outcomes import NecessaryOutcome, Solution, SufficientOutcome
 from app.analyses.pencils import combine, diag_scale, gather_vec, serial_copy, sym_part
-from app.linalg import configure_direct, from_options, owned, with_prefix
+from app.linalg import configure_direct, from_options, mumps_null_pivots, owned, with_prefix
 from app.scene.schema import EigSettings
 
 #: from this size on, shift-and-invert factorises with MUMPS even on one rank: its factorisation is
@@ -159,7 +159,8 @@ def _nearest_sym_eig_once(At: PETSc.Mat, sigma: float, settings: EigSettings, sh
                                mumps=True if At.getSize()[0] >= MUMPS_MIN_DOFS else None)
         from_options(eps)
         if shift_below:
-            eps.setUp()
+            with mumps_null_pivots("cd_necessary_st_"):      # the inertia of MUMPS's factor
+                eps.setUp()
             ksp.setUp()
             neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
             if neg + zero > 0:
