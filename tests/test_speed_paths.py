@@ -41,6 +41,25 @@ def test_min_sym_eig_with_any_hint(hint):
     assert lam == pytest.approx(exact, rel=1e-9, abs=1e-9)
 
 
+@pytest.mark.parametrize("factor", ["petsc", "mumps"])
+def test_warm_shift_is_used_with_either_factorisation(monkeypatch, factor):
+    """The warm-started shift below the spectrum is proven by the shift-and-invert solve's own
+    factorisation, also when MUMPS makes it (large pencils): PETSc reports a MUMPS factor's inertia
+    only with null-pivot detection on, so without it the hint was never used."""
+    monkeypatch.setattr(conditions, "MUMPS_MIN_DOFS", 1 if factor == "mumps" else 10**9)
+    n, shift = 700, 0.3
+    exact = 2.0 - 2.0 * np.cos(np.pi / (n + 1)) - shift
+    A = _laplacian(n, shift)
+    try:
+        lam = conditions._nearest_sym_eig(A, exact - 1e-4, EigSettings(), shift_below=True)
+        above = conditions._nearest_sym_eig(A, exact + 1e-2, EigSettings(), shift_below=True)
+    finally:
+        A.destroy()
+    assert lam == pytest.approx(exact, rel=1e-9, abs=1e-9)
+    assert above is None                      # a shift inside the spectrum is refused, not solved
+    assert not PETSc.Options().hasName("cd_necessary_st_mat_mumps_icntl_24")
+
+
 def test_newton_steps_isolate_singular_jacobians():
     rng = np.random.default_rng(3)
     J = rng.normal(size=(9, 5, 5))
