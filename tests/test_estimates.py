@@ -34,9 +34,8 @@ def test_estimates_within_a_factor_2_of_measured(nx, peak_gib, cpu_s):
         assert 0.5 <= time_estimate(scene, est) / cpu_s <= 2.0
 
 
-#: nx, measured wall seconds of the default four analyses (serial, 2026-12-06: 40 x 20 and
-#: 112 x 56 of docs/performance.md)
-MEASURED_ALL = [(40, 4.8), (112, 163.0)]
+#: nx, measured wall seconds of the default four analyses (serial, 2026-12-06: docs/performance.md)
+MEASURED_ALL = [(40, 4.8), (112, 85.3), (224, 392.8)]
 
 
 @pytest.mark.parametrize("nx, wall_s", MEASURED_ALL)

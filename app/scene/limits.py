@@ -209,21 +209,23 @@ def _classifications(c: float) -> float:
 def analysis_seconds(scene: Scene, dofs: int, contact_nodes: int) -> dict[str, float]:
     """Seconds of each requested analysis other than MCEIP-mu on the block's path, per
     classification times :func:`_classifications`; fitted to serial runs of the block at 3.2k,
-    13k and 25k DOFs (2026-12-06, docs/performance.md), not measured above.
+    25k and 101k DOFs (2026-12-06, docs/performance.md).
 
     - necessary (19): SLEPc shift-and-invert and two LDL^T inertia counts per matrix on the
-      full-size pencils, 1.85 s per classification at 25k DOFs, growing as DOFs^1.8;
-    - MCEIP-lambda^2: about 1.7 sparse factorisations of K + t M per classification (the shared
-      dyadic grid), each like the W build (0.32 s at 100k DOFs);
+      full-size pencils: 53 ms per classification at 3.2k DOFs, 0.93 s at 25k, 3.25 s at 101k
+      (PETSc's own factorisations below 20k DOFs, MUMPS's above);
+    - MCEIP-lambda^2: the exact reduction on the contact DOFs, a third of a factorisation of
+      K + t M per classification (the shared dyadic grid) and dense work on the contact DOFs:
+      0.35 s per classification at 101k DOFs, about proportional to the DOFs;
     - sufficient (17)-(18): nothing when MCEIP-lambda^2 at the same mu runs (it decides the
       condition), else SLEPc on the full pencil, 1.04 s per classification at 25k, as DOFs^1.3."""
     x, c = dofs / 1e5, contact_nodes / 225.0
     n = _classifications(c)
     out = {}
     if "necessary" in scene.analyses:
-        out["necessary"] = n * 1.85 * (x / 0.2543) ** 1.8
+        out["necessary"] = n * 0.93 * (x / 0.2543) ** (1.4 if x < 0.2543 else 0.91)
     if "mceip_lambda2" in scene.analyses:
-        out["mceip_lambda2"] = n * 1.7 * 0.32 * x ** 1.1
+        out["mceip_lambda2"] = n * 0.35 * x
     if "sufficient" in scene.analyses:
         decided = "mceip_lambda2" in scene.analyses and scene.lambda2_mu == scene.mu
         out["sufficient"] = 0.0 if decided else n * 1.04 * (x / 0.2543) ** 1.3
