@@ -202,3 +202,20 @@ def test_lambda2_without_the_necessary_condition():
             assert other["analyses"]["sufficient"]["satisfied"] == w["analyses"]["sufficient"]["satisfied"]
         decided += "contact_signs" in s["analyses"]["mceip_lambda2"]["search"]
     assert decided >= 3
+
+
+def test_never_shown_absent_above_the_onset():
+    """Soundness on the paper's kind of state: above the final state's proven MCEIP-mu onset
+    (all nodes slipping) MCEIP-lambda^2 has a divergence mode (the paper: "choosing mu > 1.71 the
+    MCEIP-lambda^2 has ... a positive eigenvalue"); the sparse reduction must not show it absent,
+    and the search finds it, with or without (19) in the scene."""
+    sc = copy.deepcopy(BLOCK)
+    sc["analyses"] = ["mceip_mu"]
+    onset = run_scene(sc)["states"][-1]["analyses"]["mceip_mu"]["onset"]["value"]
+    for analyses in (["mceip_lambda2"], ["necessary", "mceip_lambda2"]):
+        sc = copy.deepcopy(BLOCK)
+        sc.update(analyses=analyses, mceip_lambda2_mu=onset + 0.3,
+                  settings={"mcp": {"lambda2_exact_max_dofs": 0}})
+        final = run_scene(sc)["states"][-1]["analyses"]["mceip_lambda2"]
+        assert final["certified"] is False and final["solutions"], final["result"]
+        assert all(x["value"] > 0 for x in final["solutions"])
