@@ -102,22 +102,27 @@ def test_two_particles_sparse_reduction(signs, mu, count):
         assert sparse_run["certified"] is False
 
 
+def _distinct_states(*variants):
+    """The block's study run once per ``(lambda2_exact_max_dofs, analyses)`` of ``variants``: per
+    distinct classification with analyses, the tuple of its state in each run."""
+    runs = []
+    for max_dofs, analyses in variants:
+        sc = copy.deepcopy(BLOCK)
+        sc["analyses"] = analyses
+        sc["settings"] = {"mcp": {"lambda2_exact_max_dofs": max_dofs}}
+        runs.append(run_scene(sc)["states"])
+    return [group for group in zip(*runs)
+            if group[0].get("analyses_shared_with") is None and group[0].get("analyses")]
+
+
 def test_study_answers_do_not_depend_on_the_reduction():
     """The block's study: MCEIP-lambda^2 on the sparse reduction (lambda2_exact_max_dofs: 0) gives
     the dense reduction's answers at every classification, and the sufficient condition decided by
     MCEIP-lambda^2 is SLEPc's answer on the full pencil (a study without MCEIP-lambda^2)."""
-    runs = {}
-    for name, max_dofs, analyses in (("dense", 20_000, ["necessary", "sufficient", "mceip_lambda2"]),
-                                     ("sparse", 0, ["necessary", "sufficient", "mceip_lambda2"]),
-                                     ("slepc", 20_000, ["necessary", "sufficient"])):
-        sc = copy.deepcopy(BLOCK)
-        sc["analyses"] = analyses
-        sc["settings"] = {"mcp": {"lambda2_exact_max_dofs": max_dofs}}
-        runs[name] = run_scene(sc)
     decided = 0
-    for d, s, e in zip(*(r["states"] for r in runs.values())):
-        if d.get("analyses_shared_with") is not None or not d.get("analyses"):
-            continue
+    for d, s, e in _distinct_states((20_000, ["necessary", "sufficient", "mceip_lambda2"]),
+                                    (0, ["necessary", "sufficient", "mceip_lambda2"]),
+                                    (20_000, ["necessary", "sufficient"])):
         a, b, c = d["analyses"], s["analyses"], e["analyses"]
         for key in ("result", "certified"):
             assert a["mceip_lambda2"][key] == b["mceip_lambda2"][key], (d["index"], key)
@@ -184,18 +189,10 @@ def test_contact_signs_are_the_necessary_condition(block):
 def test_lambda2_without_the_necessary_condition():
     """Without (19) in the scene MCEIP-lambda^2 decides its signs and start bound on the contact
     DOFs: the same answers as with (19)'s full-size eigenvalues, on both reductions."""
-    runs = {}
-    for name, max_dofs, analyses in (("with", 1500, ["necessary", "sufficient", "mceip_lambda2"]),
-                                     ("dense", 1500, ["sufficient", "mceip_lambda2"]),
-                                     ("sparse", 0, ["sufficient", "mceip_lambda2"])):
-        sc = copy.deepcopy(BLOCK)
-        sc["analyses"] = analyses
-        sc["settings"] = {"mcp": {"lambda2_exact_max_dofs": max_dofs}}
-        runs[name] = run_scene(sc)
     decided = 0
-    for w, d, s in zip(*(r["states"] for r in runs.values())):
-        if w.get("analyses_shared_with") is not None or not w.get("analyses"):
-            continue
+    for w, d, s in _distinct_states((1500, ["necessary", "sufficient", "mceip_lambda2"]),
+                                    (1500, ["sufficient", "mceip_lambda2"]),
+                                    (0, ["sufficient", "mceip_lambda2"])):
         for other in (d, s):
             for key in ("result", "certified", "solutions"):
                 assert other["analyses"]["mceip_lambda2"][key] == w["analyses"]["mceip_lambda2"][key], (w["index"], key)

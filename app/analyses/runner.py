@@ -94,8 +94,7 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
     p = StatePencils(system, cls)
     out: dict[str, Outcome] = {}
     s = len(cls.slip)
-    runs = {"necessary": _necessary, "sufficient": _sufficient, "mceip_mu": state_mceip_mu,
-            "mceip_lambda2": mceip_lambda2, "enumerate": _enumerate}
+    runs = {"necessary": _necessary, "mceip_mu": state_mceip_mu, "enumerate": _enumerate}
     # MCEIP-lambda^2 at the scene's mu runs before (17)-(18), which it can decide
     lambda2_first = ("sufficient" in scene.analyses and "mceip_lambda2" in scene.analyses
                      and scene.lambda2_mu == scene.mu)
