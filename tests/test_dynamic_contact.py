@@ -216,3 +216,33 @@ def test_never_shown_absent_above_the_onset():
         final = run_scene(sc)["states"][-1]["analyses"]["mceip_lambda2"]
         assert final["certified"] is False and final["solutions"], final["result"]
         assert all(x["value"] > 0 for x in final["solutions"])
+
+
+def test_warm_eigenvectors_change_no_value():
+    """(19) along a sequence of classifications with the previous classification's eigenvalues
+    and eigenvectors as shifts and start vectors (the path's way) gives the values of cold solves;
+    the start vectors move between the classifications' kept DOFs through the system's numbering."""
+    from app.analyses.conditions import necessary
+    from app.analyses.pencils import reduced_space
+    from app.analyses.state_pencils import StatePencils
+    sc = parse_scene(dict(BLOCK, system=dict(BLOCK["system"], nx=20, ny=10)))   # above eig.dense_limit
+    with build(sc.system, MPI.COMM_WORLD, Stages()) as system:
+        rows = system.K.getOwnershipRange()
+        n = len(system.nodes)
+        hints: dict = {}
+        for slip_from in (n - 2, n - 4, n - 6, n - 10):
+            cls = _classification(system, slip_from)
+            space = reduced_space(system, cls)
+            y = np.arange(1.0, space.kept.getLocalSize() + 1)
+            assert np.array_equal(space.from_system(space.to_system(y, rows), rows), y)
+            p = StatePencils(system, cls)
+            try:
+                warm = necessary(*p.K(), *p.M(), 1.1, sc.settings.eig, hints, space=(space, rows))
+                cold = necessary(*p.K(), *p.M(), 1.1, sc.settings.eig)
+            finally:
+                p.destroy()
+                space.destroy()
+            for name in ("K", "M"):
+                a, b = getattr(warm, f"min_eig_{name}_sym"), getattr(cold, f"min_eig_{name}_sym")
+                assert a == pytest.approx(b, rel=1e-9), (slip_from, name)
+        assert hints["K_vector"].shape == (rows[1] - rows[0],)

@@ -119,12 +119,14 @@ def _ordering(A: PETSc.Mat) -> str | None:
 
 
 def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
-                     shift_below: bool = False) -> float | None:
+                     shift_below: bool = False, vectors: list | None = None) -> float | None:
     """:func:`_nearest_sym_eig_once` with the subspaces and restart budgets of
-    :data:`NEAREST_ATTEMPTS` in turn (``None``: ``settings.max_it``), until one converges."""
+    :data:`NEAREST_ATTEMPTS` in turn (``None``: ``settings.max_it``), until one converges.
+    ``vectors``: ``[start]`` (this rank's part of a start vector, or None), replaced by the
+    eigenvector's part when one converges."""
     for ncv, max_it in NEAREST_ATTEMPTS:
         lam = _nearest_sym_eig_once(At, sigma, settings, shift_below, ncv,
-                                    settings.max_it if max_it is None else min(max_it, settings.max_it))
+                                    settings.max_it if max_it is None else min(max_it, settings.max_it), vectors)
         if lam is not _NOT_BELOW and lam is not None:
             return lam
         if lam is _NOT_BELOW:           # a larger subspace would not help
@@ -137,7 +139,7 @@ _NOT_BELOW = object()
 
 
 def _nearest_sym_eig_once(At: PETSc.Mat, sigma: float, settings: EigSettings, shift_below: bool,
-                          ncv: int, max_it: int) -> float | None:
+                          ncv: int, max_it: int, vectors: list | None = None) -> float | None:
     """The eigenvalue of the symmetric ``At`` nearest ``sigma`` by shift-and-invert Krylov-Schur
     (LDL^T of ``At - sigma I``); None when the solve fails or converges nothing.
 
@@ -158,6 +160,14 @@ def _nearest_sym_eig_once(At: PETSc.Mat, sigma: float, settings: EigSettings, sh
                                factor="cholesky" if At.getComm().getSize() == 1 else "lu", ordering=_ordering(At),
                                mumps=True if At.getSize()[0] >= MUMPS_MIN_DOFS else None)
         from_options(eps)
+        start = None if vectors is None else vectors[0]
+        if start is not None and len(start) == At.getLocalSize()[0]:
+            # the previous classification's eigenvector: the Krylov-Schur solve then converges in
+            # about one restart (measured at 100k DOFs: 0.46 s -> 0.14 s); only the iterations change
+            v0 = At.createVecRight()
+            v0.setArray(start)
+            eps.setInitialSpace([v0])
+            v0.destroy()
         if shift_below:
             with mumps_null_pivots("cd_necessary_st_"):      # the inertia of MUMPS's factor
                 eps.setUp()
@@ -167,6 +177,11 @@ def _nearest_sym_eig_once(At: PETSc.Mat, sigma: float, settings: EigSettings, sh
                 return _NOT_BELOW
         eps.solve()
         vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
+        if vals and vectors is not None:
+            v = At.createVecRight()
+            eps.getEigenvector(int(np.argmin(vals)), v)
+            vectors[0] = v.getArray().copy()
+            v.destroy()
     except PETSc.Error:
         return None
     finally:
@@ -181,7 +196,8 @@ def _proven_smallest(At: PETSc.Mat, lam: float, scale: float) -> bool:
     return _below(At, lam - delta) == 0
 
 
-def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | None) -> float | None:
+def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | None,
+                         vectors: list | None = None) -> float | None:
     """Smallest eigenvalue of the symmetric ``At`` by shift-and-invert Krylov-Schur about a shift
     ``sigma`` proven (inertia count) to lie below the whole spectrum, so the eigenvalue nearest
     ``sigma`` is the smallest one; ``sigma`` starts just below ``hint`` (the previous
@@ -196,7 +212,7 @@ def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | Non
     step = 1e-3 * scale
     sigma = (hint if hint is not None else 0.0) - step
     if hint is not None:
-        lam = _nearest_sym_eig(At, sigma, settings, shift_below=True)
+        lam = _nearest_sym_eig(At, sigma, settings, shift_below=True, vectors=vectors)
         if lam is not None and _proven_smallest(At, lam, scale):
             return lam
     for _ in range(60):
@@ -206,23 +222,24 @@ def _min_sym_eig_sinvert(At: PETSc.Mat, settings: EigSettings, hint: float | Non
         sigma -= step
     else:
         return None
-    lam = _nearest_sym_eig(At, sigma, settings)
+    lam = _nearest_sym_eig(At, sigma, settings, vectors=vectors)
     if lam is None or not _proven_smallest(At, lam, scale):
         return None
     return lam
 
 
-def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) -> float:
+def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None,
+                vectors: list | None = None) -> float:
     """Smallest eigenvalue of the symmetric part (A + A^T)/2 (for the necessary condition (19)).
 
     Small problems: LAPACK (all eigenvalues). Larger ones: shift-and-invert about a shift proven
     below the spectrum by an LDL^T inertia count, warm-started from ``hint`` (2-3x
     fewer operations than Krylov-Schur on the smallest eigenvalue, same value); plain
-    Krylov-Schur if that fails."""
+    Krylov-Schur if that fails. ``vectors``: see :func:`_nearest_sym_eig` (shift-and-invert only)."""
     At = sym_part(A)
     try:
         if At.getSize()[0] > settings.dense_limit:
-            lam = _min_sym_eig_sinvert(At, settings, hint)
+            lam = _min_sym_eig_sinvert(At, settings, hint, vectors)
             if lam is not None:
                 return lam
         with owned(_eps(At, None, True, settings, "cd_necessary_")[0]) as eps:
@@ -238,25 +255,32 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None) 
 
 def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,
               settings: EigSettings, hints: dict | None = None,
-              stars: tuple[PETSc.Mat, PETSc.Mat] | None = None) -> NecessaryOutcome:
+              stars: tuple[PETSc.Mat, PETSc.Mat] | None = None,
+              space: tuple | None = None) -> NecessaryOutcome:
     """Necessary condition (19): M*(mu) not PSD or K*(mu) not PD, from the symmetric parts.
 
     ``stars``: ``(K*(mu), M*(mu))`` already combined (kept; otherwise built and destroyed here).
     ``hints`` (name -> value, updated): the previous classification's eigenvalues, used as
     shifts (neighbouring classifications differ by one node). Both eigenvalues are also reported relative to the largest diagonal entry of the matrix, the
-    scale used for the decision (so it does not depend on units).
+    scale used for the decision (so it does not depend on units). ``space``: ``(ReducedSpace,
+    (r0, r1))``, the kept DOFs and the system's owned rows: the eigenvectors then go into
+    ``hints`` too, in the system's numbering, as start vectors for the next classification.
     """
     out: dict = {"mu": mu}
     for k, (name, A0, A1) in enumerate((("K", K0, K1), ("M", M0, M1))):
         A = combine(A0, A1, mu) if stars is None else stars[k]
         try:
             scale = diag_scale(A)
-            lam = min_sym_eig(A, settings, None if hints is None else hints.get(name))
+            warm = hints is not None and space is not None and hints.get(f"{name}_vector") is not None
+            vectors = [space[0].from_system(hints[f"{name}_vector"], space[1]) if warm else None]
+            lam = min_sym_eig(A, settings, None if hints is None else hints.get(name), vectors)
         finally:
             if stars is None:
                 A.destroy()
         if hints is not None:
             hints[name] = lam     # warm start for the next classification along the path
+            if space is not None and vectors[0] is not None:
+                hints[f"{name}_vector"] = space[0].to_system(vectors[0], space[1])
         out[f"min_eig_{name}_sym"] = lam
         out[f"min_eig_{name}_sym_relative"] = lam / scale
     rtol = 1e3 * np.finfo(float).eps

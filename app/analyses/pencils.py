@@ -38,6 +38,18 @@ class ReducedSpace:
     slip_nodes: np.ndarray    # indices of the slip nodes (into system.nodes)
     d_local: np.ndarray       # diagonal of D on the owned kept DOFs
 
+    def to_system(self, y: np.ndarray, rows: tuple[int, int]) -> np.ndarray:
+        """The kept-space vector ``y`` (this rank's part) as a vector on the system's owned rows
+        ``rows = (r0, r1)`` (``x = D y`` on the kept DOFs, zero on the removed ones)."""
+        x = np.zeros(rows[1] - rows[0])
+        x[self.kept.getIndices() - rows[0]] = self.d_local * y
+        return x
+
+    def from_system(self, x: np.ndarray, rows: tuple[int, int]) -> np.ndarray:
+        """The kept-space part ``y = D x`` of this rank's system vector ``x`` (inverse of
+        :meth:`to_system` on the kept DOFs; ``D`` is its own inverse)."""
+        return self.d_local * x[self.kept.getIndices() - rows[0]]
+
     def destroy(self) -> None:
         """Destroy the PETSc index set of the kept DOFs."""
         self.kept.destroy()

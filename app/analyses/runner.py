@@ -44,7 +44,8 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> Neces
     M0, M1 = p.M()
     stars = p.star(scene.mu)
     with system.stages("necessary condition (19)"):
-        return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars)
+        return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars,
+                                    (p.space, system.K.getOwnershipRange()))
 
 
 def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int,
