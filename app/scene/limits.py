@@ -212,8 +212,8 @@ def analysis_seconds(scene: Scene, dofs: int, contact_nodes: int) -> dict[str, f
     25k and 101k DOFs (2026-12-06, docs/performance.md).
 
     - necessary (19): SLEPc shift-and-invert and two LDL^T inertia counts per matrix on the
-      full-size pencils: 53 ms per classification at 3.2k DOFs, 0.93 s at 25k, 3.25 s at 101k
-      (PETSc's own factorisations below 20k DOFs, MUMPS's above);
+      full-size pencils: 44 ms per classification at 3.2k DOFs, 0.55 s at 25k, 2.9 s at 101k
+      (PETSc's own factorisations below 20k DOFs, MUMPS's above), as DOFs^1.22;
     - MCEIP-lambda^2: the exact reduction on the contact DOFs, a third of a factorisation of
       K + t M per classification (the shared dyadic grid) and dense work on the contact DOFs:
       0.35 s per classification at 101k DOFs, about proportional to the DOFs;
@@ -223,7 +223,7 @@ def analysis_seconds(scene: Scene, dofs: int, contact_nodes: int) -> dict[str, f
     n = _classifications(c)
     out = {}
     if "necessary" in scene.analyses:
-        out["necessary"] = n * 0.93 * (x / 0.2543) ** (1.4 if x < 0.2543 else 0.91)
+        out["necessary"] = n * 0.545 * (x / 0.2543) ** 1.22
     if "mceip_lambda2" in scene.analyses:
         out["mceip_lambda2"] = n * 0.35 * x
     if "sufficient" in scene.analyses:
