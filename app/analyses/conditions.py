@@ -134,6 +134,13 @@ def _nearest_sym_eig(At: PETSc.Mat, sigma: float, settings: EigSettings,
     return None
 
 
+def smallest_above(A: PETSc.Mat, sigma: float, settings: EigSettings) -> float | None:
+    """The smallest eigenvalue of the symmetric sequential ``A`` when ``sigma`` lies below its
+    spectrum, proven by the inertia of the shift-and-invert factorisation itself (the eigenvalue
+    nearest ``sigma`` is then the smallest); None when it does not or the solve fails."""
+    return _nearest_sym_eig(A, sigma, settings, shift_below=True)
+
+
 #: what :func:`_nearest_sym_eig_once` returns when ``shift_below`` finds the shift not below the spectrum
 _NOT_BELOW = object()
 
@@ -256,7 +263,7 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None,
 def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: float,
               settings: EigSettings, hints: dict | None = None,
               stars: tuple[PETSc.Mat, PETSc.Mat] | None = None,
-              space: tuple | None = None) -> NecessaryOutcome:
+              space: tuple | None = None, known: dict | None = None) -> NecessaryOutcome:
     """Necessary condition (19): M*(mu) not PSD or K*(mu) not PD, from the symmetric parts.
 
     ``stars``: ``(K*(mu), M*(mu))`` already combined (kept; otherwise built and destroyed here).
@@ -265,17 +272,25 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
     scale used for the decision (so it does not depend on units). ``space``: ``(ReducedSpace,
     (r0, r1))``, the kept DOFs and the system's owned rows: the eigenvectors then go into
     ``hints`` too, in the system's numbering, as start vectors for the next classification.
+    ``known``: name -> ``(value, scale)`` already computed on the contact DOFs
+    (:func:`app.analyses.contact_spectrum.values`); only the others are solved here (their
+    pencils may then be None).
     """
     out: dict = {"mu": mu}
     for k, (name, A0, A1) in enumerate((("K", K0, K1), ("M", M0, M1))):
-        A = combine(A0, A1, mu) if stars is None else stars[k]
+        if known is not None and known.get(name) is not None:
+            lam, scale = known[name]
+            out[f"min_eig_{name}_sym"] = lam
+            out[f"min_eig_{name}_sym_relative"] = lam / scale
+            continue
+        A = combine(A0, A1, mu) if (stars is None or stars[k] is None) else stars[k]
         try:
             scale = diag_scale(A)
             warm = hints is not None and space is not None and hints.get(f"{name}_vector") is not None
             vectors = [space[0].from_system(hints[f"{name}_vector"], space[1]) if warm else None]
             lam = min_sym_eig(A, settings, None if hints is None else hints.get(name), vectors)
         finally:
-            if stars is None:
+            if stars is None or stars[k] is None:
                 A.destroy()
         if hints is not None:
             hints[name] = lam     # warm start for the next classification along the path

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses import conditions, curvature
+from app.analyses import conditions, contact_spectrum, curvature
 from app.analyses.certify import certificate, condensed_mu_result, enumeration_certificate, mu_cap
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mceip_lambda2.analysis import mceip_lambda2
@@ -40,12 +40,21 @@ ANALYSES = ("necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate")
 
 
 def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> NecessaryOutcome:
+    """(19): on the contact DOFs from ``eig.necessary_contact_min_dofs`` DOFs on (what they leave,
+    and anything smaller, on the full pencils)."""
+    hints = warm_hints(system, scene.mu)
+    known = None
+    if system.n_dofs >= scene.settings.eig.necessary_contact_min_dofs:
+        with system.stages("necessary condition (19) on the contact DOFs"):
+            known = contact_spectrum.values(system, p.cls, scene.mu, hints)       # MPI collective
+        if all(v is not None for v in known.values()):
+            return conditions.necessary(None, None, None, None, scene.mu, scene.settings.eig, known=known)
     K0, K1 = p.K()
     M0, M1 = p.M()
     stars = p.star(scene.mu)
     with system.stages("necessary condition (19)"):
-        return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, warm_hints(system, scene.mu), stars,
-                                    (p.space, system.K.getOwnershipRange()))
+        return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, hints, stars,
+                                    (p.space, system.K.getOwnershipRange()), known)
 
 
 def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int,

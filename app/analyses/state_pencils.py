@@ -159,3 +159,32 @@ def no_slip() -> tuple[str, dict]:
     return "no solution (no slip nodes)", {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
                                                    "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
                                            "complete": True}
+
+
+_GATHERED: dict = {}
+
+
+def sequential_km(system) -> tuple[PETSc.Mat, PETSc.Mat] | None:
+    """The system's whole ``K`` and ``M`` as sequential matrices on rank 0 (None on the other
+    ranks): the system's own on one rank; gathered on rank 0 when distributed, once per system,
+    and destroyed with it. MPI collective on the first call."""
+    return per_system(_GATHERED, system, lambda: _gather(system))
+
+
+def _gather(system) -> tuple[PETSc.Mat, PETSc.Mat] | None:
+    comm = system.comm
+    K, M = system.K, system.mass()
+    if comm.size == 1:
+        return K, M
+    N = system.n_dofs
+    rows = PETSc.IS().createStride(N if comm.rank == 0 else 0, 0, 1, comm=PETSc.COMM_SELF)
+    try:
+        K, M = (X.createSubMatrices(rows, rows)[0] for X in (K, M))     # MPI collective
+    finally:
+        rows.destroy()
+    if comm.rank != 0:
+        K.destroy()
+        M.destroy()
+        return None
+    system.own(K, M)
+    return K, M

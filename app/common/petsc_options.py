@@ -25,8 +25,10 @@ PREFIXES = {
                      "(shift-and-invert: cd_necessary_st_ksp_)",
     "cd_sufficient_": "EPS: real eigenpairs of K* x = theta M* x, conditions (17)-(18)",
     "cd_lambda2_": "EPS: largest omega^2 of the free block K_ff x = omega^2 M_ff x (MCEIP-lambda^2)",
-    "cd_dynamic_": "KSP: Cholesky factorisation of K + t M for the dynamic contact flexibility W(t) "
+    "cd_dynamic_": "KSP: factorisation of K + t M for the dynamic contact Schur complement Z(t) "
                    "(MCEIP-lambda^2 on the contact DOFs)",
+    "cd_shifted_": "KSP: MUMPS partial LDL^T factorisation of K - sigma I and M - sigma I, Schur complement "
+                   "onto the contact DOFs (the values of condition (19))",
     "cd_inertia_": "KSP: LDL^T inertia counts (proven bounds of MCEIP-lambda^2, shifts of condition (19))",
     "cd_mcp_": "SNES VI of the bordered MCP search of MCEIP-lambda^2 (12)-(14) (its KSP: cd_mcp_ksp_)",
     "cd_mcp_free_": "KSP: LU of the free block in the bordered MCP's Schur complement",

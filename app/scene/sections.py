@@ -101,6 +101,11 @@ class EigSettings(Strict):
     nev: Annotated[int, Field(ge=1, le=1000)] = 30
     tol: Annotated[float, Field(gt=0, lt=1)] = 1e-10
     max_it: Annotated[int, Field(ge=1, le=1_000_000)] = 1000
+    necessary_contact_min_dofs: Annotated[int, Field(ge=0, le=10**9)] = Field(
+        5000, description="from this many DOFs on, the values of the necessary condition (19) come from the "
+                          "contact DOFs (the secular equation of the Schur complement, a few dozen factorisations "
+                          "shared by the whole path; docs/method.md section 2) instead of two full-size "
+                          "factorisations per classification")
 
 
 class Settings(Strict):

@@ -116,6 +116,11 @@ class System:
     def __exit__(self, *exc) -> None:
         self.destroy()
 
+    def own(self, *objs) -> None:
+        """Hand PETSc objects made for this system (by an analysis) over to it: :meth:`destroy`
+        destroys them with the system's own."""
+        self.extra["owned"] = (*self.extra.get("owned", ()), *objs)
+
     def destroy(self) -> None:
         """Destroy the system's PETSc objects: a builder's factorisation and operators, the objects it
         handed over (``extra["owned"]``), ``K`` and the mass matrix if it was built."""

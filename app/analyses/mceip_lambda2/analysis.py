@@ -43,11 +43,15 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
             if d is not None:
                 d.mu = mu
                 return d
-        K0, K1 = p.K()            # the full-size pencils, only where the contact DOFs do not decide
-        M0, M1 = p.M()
-        with system.stages("MCEIP-lambda2 (12)-(14)"):
-            if nec is None:
+        if nec is None:           # the full-size pencils, only where the contact DOFs do not decide
+            K0, K1 = p.K()
+            M0, M1 = p.M()
+            with system.stages("MCEIP-lambda2 (12)-(14)"):
                 nec = conditions.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
+        if not nec.satisfied:     # the verified sign argument factorises them
+            K0, K1 = p.K()
+            M0, M1 = p.M()
+        with system.stages("MCEIP-lambda2 (12)-(14)"):
             if not nec.satisfied:
                 # x^T y = 0 at a solution, so lambda^2 x^T M* x + x^T K* x = 0: impossible when
                 # K*(mu) is PD and M*(mu) PSD. No search is needed: there is no solution.

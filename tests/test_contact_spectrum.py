@@ -1,0 +1,175 @@
+"""The values of the necessary condition (19) from the contact DOFs (app/analyses/contact_spectrum.py,
+docs/method.md section 2) against the full-size eigenvalues: LAPACK on the app's own reduced
+pencils, SLEPc along whole paths, random SPD matrices, one and two ranks."""
+from __future__ import annotations
+
+import copy
+import re
+
+import numpy as np
+import pytest
+import scipy.sparse
+from conftest import ROOT, run_scene
+from mpi4py import MPI
+from petsc4py import PETSc
+from test_dynamic_contact import BLOCK
+
+from app.analyses import contact_spectrum as cs
+from app.analyses.kept_contact import KeptContact
+from app.analyses.pencils import combine, dense
+from app.analyses.state_pencils import StatePencils
+from app.common.stages import Stages
+from app.loading.classify import FREE, SLIP, STICK, Classification
+from app.scene.schema import parse_scene
+from app.systems.block.path import build
+
+
+def _cls(status, signs=None):
+    return Classification(status=tuple(status),
+                          signs=tuple(signs if signs is not None else (1 if s == SLIP else 0 for s in status)))
+
+
+def _cases(n):
+    out = [_cls([STICK] * n), _cls([SLIP] * n), _cls([STICK] * (n - 1) + [SLIP]),
+           _cls([STICK] * (n // 2) + [SLIP] * (n - n // 2)),
+           _cls([FREE] * 2 + [SLIP] * (n - 4) + [FREE] * 2), _cls([FREE] + [STICK] * (n - 2) + [FREE]),
+           _cls([SLIP] * (n // 2) + [STICK] * (n - n // 2), [-1] * (n // 2) + [0] * (n - n // 2))]
+    return out
+
+
+@pytest.mark.parametrize("nx", [10, 20])
+def test_values_equal_the_full_size_eigenvalues(nx):
+    """Stick, slip (both directions), free and mixed classifications at three mu: the value and the
+    scale it is reported against equal LAPACK's smallest eigenvalue and the largest diagonal entry
+    of the app's reduced ``sym K*(mu)``, ``sym M*(mu)`` (1e-10 of the scale)."""
+    sc = copy.deepcopy(BLOCK)
+    sc["system"].update(nx=nx, ny=nx // 2)
+    with build(parse_scene(sc).system, MPI.COMM_WORLD, Stages()) as system:
+        dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
+        signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
+        spectra = {"K": cs.build(system.K, dofs, signs), "M": cs.build(system.mass(), dofs, signs)}
+        assert len(spectra["K"].poles) == 1 and len(spectra["M"].poles) == 0   # K has a gap, M a cluster
+        below = 0
+        for cls in _cases(len(system.nodes)):
+            for mu in (0.3, 1.1, 3.0):
+                p = StatePencils(system, cls)
+                try:
+                    for name, (A0, A1) in (("K", p.K()), ("M", p.M())):
+                        A = dense(combine(A0, A1, mu))
+                        A = 0.5 * (A + A.T)
+                        lam = np.linalg.eigvalsh(A)[0]
+                        scale = np.abs(np.diag(A)).max()
+                        v = cs.value(spectra[name], cls, mu)
+                        assert v is not None, (name, cls.counts(), mu)
+                        assert abs(v.value - lam) <= 1e-10 * scale, (name, cls.counts(), mu, v.value, lam)
+                        assert v.scale == pytest.approx(scale, rel=1e-14)
+                        below += v.value < spectra[name].k1 * (1 - 1e-9)
+                finally:
+                    p.destroy()
+        assert below > 10              # roots strictly below the first pole, not only k_1
+        # the pieces are shared: far fewer factorisations than classifications x 2
+        assert spectra["K"].evaluations + spectra["M"].evaluations < 120
+
+
+def _random_system(rng, n_inner: int, n_nodes: int):
+    """A random sparse SPD matrix (a shifted graph Laplacian with random weights) whose last
+    ``2 n_nodes`` DOFs are the contact DOFs."""
+    N = n_inner + 2 * n_nodes
+    A = scipy.sparse.random(N, N, density=6.0 / N, random_state=rng)
+    A = A + A.T + scipy.sparse.diags(rng.uniform(0.0, 1.0, N))
+    L = scipy.sparse.diags(np.asarray(abs(A).sum(axis=1)).ravel()) - A
+    X = (L + scipy.sparse.identity(N) * rng.uniform(0.05, 0.5)).tocsr()
+    X.sort_indices()
+    P = PETSc.Mat().createAIJ(X.shape, csr=(X.indptr.astype(PETSc.IntType), X.indices.astype(PETSc.IntType), X.data),
+                              comm=PETSc.COMM_SELF)
+    P.assemble()
+    dofs = np.arange(n_inner, N)
+    signs = rng.choice([-1.0, 1.0], size=2 * n_nodes)
+    return X.toarray(), P, dofs, signs
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_spd_matrices(seed):
+    """Random SPD matrices and random classifications: the value is the smallest eigenvalue of the
+    symmetric matrix of the definition, ``[[X_ii, X_ic P], [P^T X_ci, sym(R X_cc Q)]]`` (dense)."""
+    rng = np.random.default_rng(seed)
+    n_nodes = int(rng.integers(3, 9))
+    Xd, X, dofs, signs = _random_system(rng, int(rng.integers(40, 160)), n_nodes)
+    try:
+        sc = cs.build(X, dofs, signs)
+        inner = np.setdiff1d(np.arange(len(Xd)), dofs)
+        Xii = Xd[np.ix_(inner, inner)]
+        Xic = Xd[np.ix_(inner, dofs)] * signs[None, :]
+        Xcc = signs[:, None] * Xd[np.ix_(dofs, dofs)] * signs[None, :]
+        for _ in range(6):
+            status = rng.choice([STICK, SLIP, FREE], size=n_nodes)
+            sg = [int(rng.choice([-1, 1])) if s == SLIP else 0 for s in status]
+            cls = _cls(status, sg)
+            mu = float(rng.uniform(0.0, 2.0))
+            kc = KeptContact(len(dofs), cls, mu)
+            P = (0.5 * (kc.Q + kc.R)).toarray()
+            A0 = kc.sandwich(kc.R, Xcc, kc.Q)
+            A = np.block([[Xii, Xic @ P], [P.T @ Xic.T, 0.5 * (A0 + A0.T)]])
+            lam = np.linalg.eigvalsh(A)[0]
+            scale = np.abs(np.diag(A)).max()
+            v = cs.value(sc, cls, mu)
+            if v is None:           # left to the full-size solve: allowed, never a wrong value
+                continue
+            assert abs(v.value - lam) <= 1e-10 * scale, (seed, cls.counts(), mu, v.value, lam)
+    finally:
+        X.destroy()
+
+
+def _necessary_values(results):
+    return [(s["index"], s["analyses"]["necessary"]) for s in results["states"]
+            if s.get("analyses_shared_with") is None and isinstance((s.get("analyses") or {}).get("necessary"), dict)
+            and "min_eig_K_sym" in s["analyses"]["necessary"]]
+
+
+def _same_values(full, contact, rtol=1e-10):
+    a, b = _necessary_values(full), _necessary_values(contact)
+    assert [i for i, _ in a] == [i for i, _ in b] and len(a) >= 3
+    for (i, x), (_, y) in zip(a, b):
+        for name in ("K", "M"):
+            assert abs(x[f"min_eig_{name}_sym_relative"] - y[f"min_eig_{name}_sym_relative"]) <= rtol, (i, name)
+        assert x["satisfied"] == y["satisfied"], i
+
+
+def _with(scene: dict, min_dofs: int) -> dict:
+    sc = copy.deepcopy(scene)
+    sc.setdefault("settings", {}).setdefault("eig", {})["necessary_contact_min_dofs"] = min_dofs
+    return sc
+
+
+def test_whole_path_of_the_block():
+    """Every classification of the block's study: the contact-DOF values equal SLEPc's full-size
+    ones (values relative to the scale, 1e-10) and decide (19) alike."""
+    sc = copy.deepcopy(BLOCK)
+    sc["analyses"] = ["necessary"]
+    _same_values(run_scene(_with(sc, 10**9)), run_scene(_with(sc, 0)))
+
+
+def test_whole_path_of_a_gmsh_body(tmp_path):
+    """The same on the shipped Gmsh block (its own mesh, the press-and-drag program, shortened)."""
+    import yaml
+    src = ROOT / "app" / "scenes" / "gmsh"
+    text = re.sub(r"^outputs:.*$", "", (src / "block.yaml").read_text(), flags=re.M)
+    data = yaml.safe_load(text)
+    data["system"]["file"] = str(src / "block.geo")
+    data["system"]["program"][1]["steps"] = 150
+    data["analyses"] = ["necessary"]
+    _same_values(run_scene(_with(data, 10**9)), run_scene(_with(data, 0)))
+
+
+def test_two_ranks(tmp_path):
+    """K and M gathered on rank 0, which alone computes the values: the same as one rank and as the
+    full-size solve."""
+    import yaml
+    from conftest import results_on_ranks
+    sc = copy.deepcopy(BLOCK)
+    sc["analyses"] = ["necessary"]
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(_with(sc, 0)))
+    runs = results_on_ranks(path, tmp_path)
+    _same_values(runs[1], runs[2], rtol=1e-12)
+    _same_values(run_scene(_with(sc, 10**9)), runs[2])
