@@ -35,7 +35,7 @@ def test_estimates_within_a_factor_2_of_measured(nx, peak_gib, cpu_s):
 
 
 #: nx, measured wall seconds of the default four analyses (serial, 2026-12-06: docs/performance.md)
-MEASURED_ALL = [(40, 3.5), (112, 9.8), (224, 49.4)]
+MEASURED_ALL = [(40, 3.5), (112, 9.1), (224, 44.4)]
 
 
 @pytest.mark.parametrize("nx, wall_s", MEASURED_ALL)

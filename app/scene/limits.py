@@ -215,10 +215,10 @@ def analysis_seconds(scene: Scene, dofs: int, contact_nodes: int) -> dict[str, f
       inertia counts per matrix on the full-size pencils: 44 ms per classification at 3.2k DOFs,
       0.55 s at 25k, 2.9 s at 101k, as DOFs^1.22; from it on, on the contact DOFs: a few dozen
       partial factorisations shared by the whole path and a root solve per classification:
-      5.3 s at 25k (80 classifications), 27.7 s at 101k (104), as 25 s (DOFs / 10^5)^1.2 + 0.02 s per classification;
+      4.9 s at 25k (80 classifications), 24.9 s at 101k (104), as 23 s (DOFs / 10^5)^1.2 + 0.02 s per classification;
     - MCEIP-lambda^2: the exact reduction on the contact DOFs, a third of a partial factorisation
       of K + t M per classification (the shared dyadic grid) and dense work on the contact DOFs:
-      0.16 s per classification at 101k DOFs (0.034 s at 25k), about proportional to the DOFs;
+      0.14 s per classification at 101k DOFs (0.031 s at 25k), about proportional to the DOFs;
     - sufficient (17)-(18): nothing when MCEIP-lambda^2 at the same mu runs (it decides the
       condition), else SLEPc on the full pencil, 1.04 s per classification at 25k, as DOFs^1.3."""
     x, c = dofs / 1e5, contact_nodes / 225.0
@@ -226,11 +226,11 @@ def analysis_seconds(scene: Scene, dofs: int, contact_nodes: int) -> dict[str, f
     out = {}
     if "necessary" in scene.analyses:
         if dofs >= scene.settings.eig.necessary_contact_min_dofs:
-            out["necessary"] = 25.0 * x ** 1.2 + 0.02 * n
+            out["necessary"] = 23.0 * x ** 1.2 + 0.02 * n
         else:
             out["necessary"] = n * 0.545 * (x / 0.2543) ** 1.22
     if "mceip_lambda2" in scene.analyses:
-        out["mceip_lambda2"] = n * 0.16 * x
+        out["mceip_lambda2"] = n * 0.14 * x
     if "sufficient" in scene.analyses:
         decided = "mceip_lambda2" in scene.analyses and scene.lambda2_mu == scene.mu
         out["sufficient"] = 0.0 if decided else n * 1.04 * (x / 0.2543) ** 1.3
