@@ -30,7 +30,10 @@ output/bench/latest.json and output/bench/latest.md:
               answers of the original code path, what pictures add; the 100k-DOF study (crossed P1
               224 x 112, MCEIP-mu at every distinct classification, sufficient condition at the final
               state) serial and on 2 ranks, with each stage's share
-  targets     the paper study under 5 s serial (forms compiled); a 100k-DOF block study under 60 s
+  targets     the paper study under 5 s serial (forms compiled); a 100k-DOF block study under 60 s;
+              the four default analyses at 100k DOFs under 60 s on 1 rank and at 10^6 (708 x 354)
+              under 5 minutes on 2 ranks, every MCEIP-mu onset proven (issue 33; --no-million skips
+              the 10^6 run)
 
     .venv/bin/python benchmarks/run_all.py [--quick] [--only scaling,siconos,...]
 
@@ -607,7 +610,41 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
             "pictures_s": pics, "big": big, "big_dofs": dofs}
 
 # -- targets ---------------------------------------------------------------------------------------
-def section_targets(big: dict | None, big_nx: int) -> dict:
+def default_at_scale(nx: int, ranks: int, timeout: float) -> dict:
+    """The paper's scene with its four default analyses (outputs off) on a crossed P1 ``nx x nx/2``
+    mesh through the CLI, on ``ranks`` processes: the wall time and whether every distinct
+    classification's MCEIP-mu onset is proven; ``wall_s`` None when stopped at ``timeout``."""
+    import tempfile
+
+    import yaml
+
+    from app.scene.schema import default_scene_path
+    data = yaml.safe_load(default_scene_path().read_text())
+    data.pop("outputs", None)
+    data["system"].update(nx=nx, ny=nx // 2)
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = pathlib.Path(tmp) / "scene.yaml"
+        scene.write_text(yaml.safe_dump(data))
+        cmd = [PY, "-m", "app", "run", str(scene), "-o", str(pathlib.Path(tmp) / "out"), "-q"]
+        if ranks > 1:
+            cmd = ["mpirun", "-n", str(ranks), *cmd]
+        t0 = time.perf_counter()
+        try:
+            proc = subprocess.run(cmd, env=ENV, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return {"nx": nx, "ranks": ranks, "wall_s": None, "onsets_proven": None}
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0:
+            return {"nx": nx, "ranks": ranks, "wall_s": None, "error": proc.stderr.strip()[-300:]}
+        res = json.loads((pathlib.Path(tmp) / "out" / "results.json").read_text())
+    mu = [s["analyses"]["mceip_mu"] for s in res["states"]
+          if s.get("analyses_shared_with") is None and isinstance((s.get("analyses") or {}).get("mceip_mu"), dict)]
+    proven = sum(bool(a.get("certified") or (a.get("onset") or {}).get("proven")) for a in mu)
+    return {"nx": nx, "ranks": ranks, "wall_s": wall, "dofs": None, "classifications": len(mu),
+            "onsets_proven": proven, "stages": {r["name"]: r["seconds"] for r in res["stages"]}}
+
+
+def section_targets(big: dict | None, big_nx: int, million_nx: int | None = None) -> dict:
     from app.scene.schema import default_scene_path, load_scene
     from app.study.run import run_study
     say("\n== targets ==")
@@ -633,8 +670,21 @@ def section_targets(big: dict | None, big_nx: int) -> dict:
         f"{big['row']['contact_nodes']} contact nodes, {big['row']['states']} states; loading path, classification, "
         f"MCEIP-mu and sufficient condition at the final state): {t_big:.1f} s (target 60 s: "
         f"{'met' if t_big < 60 else 'NOT met'})")
-    return {"paper_s": paper, "paper_stages": stages, "paper_mceip_mu_only_s": t_mu, "big_dofs": big["row"]["dofs"],
-            "big_s": t_big}
+    out = {"paper_s": paper, "paper_stages": stages, "paper_mceip_mu_only_s": t_mu, "big_dofs": big["row"]["dofs"],
+           "big_s": t_big, "default_at_scale": []}
+    # issue 33: the four default analyses at 100k DOFs within 60 s on 1 rank, at 10^6 within 5 min on 2
+    for nx, ranks, target in ((big_nx, 1, 60.0), (million_nx, 2, 300.0)):
+        if nx is None:
+            continue
+        r = default_at_scale(nx, ranks, timeout=max(4 * target, 600.0))
+        r["target_s"] = target
+        out["default_at_scale"].append(r)
+        wall = "stopped at the time limit" if r["wall_s"] is None else f"{r['wall_s']:.1f} s"
+        met = r["wall_s"] is not None and r["wall_s"] < target and r["onsets_proven"] == r["classifications"]
+        say(f"default study (four analyses) at {nx} x {nx // 2} on {ranks} rank(s): {wall}, "
+            f"{r.get('onsets_proven')}/{r.get('classifications')} MCEIP-mu onsets proven "
+            f"(target {target:.0f} s, every onset proven: {'met' if met else 'NOT met'})")
+    return out
 
 
 # -- main ------------------------------------------------------------------------------------------
@@ -643,6 +693,8 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="small sizes only (smoke test)")
     ap.add_argument("--only", default=",".join(SECTIONS), help=f"comma-separated subset of {','.join(SECTIONS)}")
     ap.add_argument("--out", default=str(ROOT / "output" / "bench"))
+    ap.add_argument("--no-million", action="store_true",
+                    help="skip the 10^6-DOF default study on 2 ranks of the targets section (up to 20 min)")
     ap.add_argument("--big-timeout", type=float, default=900.0,
                     help="time limit of each 100k-DOF run of the speed section (s)")
     args = ap.parse_args()
@@ -687,7 +739,8 @@ def main() -> None:
     if "mpi" in only:
         results["mpi"] = section_mpi(big_nx, runs.get(big_nx))
     if "targets" in only:
-        results["targets"] = section_targets(runs.get(big_nx), big_nx)
+        results["targets"] = section_targets(runs.get(big_nx), big_nx,
+                                             None if (args.quick or args.no_million) else 708)
     results["wall_s"] = time.perf_counter() - t_start
     say(f"\nbenchmark suite: {results['wall_s']:.0f} s")
     say(summary(results))
@@ -783,6 +836,10 @@ def summary(res: dict) -> str:
                      f"MCEIP-mu only {t['paper_mceip_mu_only_s']:.2f} s")
         lines.append(f"{t['big_dofs']}-DOF block study (final-state analyses): {t['big_s']:.1f} s "
                      f"(target 60 s: {'met' if t['big_s'] < 60 else 'NOT met'})")
+        for r in t.get("default_at_scale", []):
+            wall = "stopped at the time limit" if r["wall_s"] is None else f"{r['wall_s']:.1f} s"
+            lines.append(f"default study (four analyses) {r['nx']} x {r['nx'] // 2} on {r['ranks']} rank(s): {wall}, "
+                         f"onsets proven {r.get('onsets_proven')}/{r.get('classifications')} (target {r['target_s']:.0f} s)")
     return "\n".join(lines)
 
 
