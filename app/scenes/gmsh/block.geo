@@ -1,4 +1,4 @@
-// The block of Villechaise and Zeghloul (DESIGN.md section 5): 80 mm x 40 mm, A at the origin.
+// The block of Villechaise and Zeghloul (docs/method.md section 5): 80 mm x 40 mm, A at the origin.
 // Structured 20 x 10 cells of 4 mm, each cut by one diagonal (the built-in pattern "right"/"left").
 L = 80; H = 40; nx = 20; ny = 10;
 Point(1) = {0, 0, 0}; Point(2) = {L, 0, 0}; Point(3) = {L, H, 0}; Point(4) = {0, H, 0};
