@@ -1,18 +1,20 @@
 """The public Python API: load a scene, run its study, read typed results.
 
-Example (the paper's block; about 10 s on one core)::
+Example (the paper's block; about 10 s on one core):
 
-    import app
-    scene = app.load_scene("app/scenes/villechaise_block.yaml")
-    r = app.run_study(scene)
-    print(r.final.min_mu())           # 1.7048: MCEIP-mu (21)-(23) at the final state
-    r.first_instability().counts()    # '7 stick / 11 slip / 3 free'
+```python
+import app
+scene = app.load_scene("app/scenes/villechaise_block.yaml")
+r = app.run_study(scene)
+print(r.final.min_mu())           # 1.7048: MCEIP-mu (21)-(23) at the final state
+r.first_instability().counts()    # '7 stick / 11 slip / 3 free'
+```
 
-:func:`run_study` computes and returns; it writes nothing (no results folder, no pictures, no
-ParaView files: the scene's ``outputs`` section is for the command line, ``python -m app run``).
-Save a result with ``json.dump(r.to_json(), f)``: that is the CLI's ``results.json``.
-Under ``mpirun`` every rank calls :func:`run_study` (it is collective on ``comm``) and gets the
-same result.
+[`run_study`][app.api.run_study] computes and returns; it writes nothing (no results folder, no
+pictures, no ParaView files: the scene's `outputs` section is for the command line,
+`python -m app run`). Save a result with `json.dump(r.to_json(), f)`: that is the CLI's
+`results.json`. Under `mpirun` every rank calls [`run_study`][app.api.run_study] (it is
+collective on `comm`) and gets the same result.
 """
 from __future__ import annotations
 
@@ -46,10 +48,10 @@ def mceip_mu(A0, A1, cap: float, pairs=None, seconds: float | None = None, want_
     """Proven critical friction coefficients of a condensed pencil ``A0 + mu A1`` (eqs. (21)-(23)).
 
     For pencils from other codes: the same prover and independent checker the studies use
-    (:mod:`app.analyses.mceip_mu`, docs/proofs.md). ``pairs``: index pairs that may not both slip
+    (`app.analyses.mceip_mu`, docs/proofs.md). ``pairs``: index pairs that may not both slip
     (zero-reaction nodes). The budgets are ``onset_nodes`` and ``all_nodes`` proof-tree nodes (the
     same answer on any machine); ``seconds`` is only a wall-clock safety stop (``None``: none; a
-    claim it ends says "stopped by the time limit"). Returns a :class:`MuProof`: ``onset`` and
+    claim it ends says "stopped by the time limit"). Returns a `MuProof`: ``onset`` and
     ``all`` claims (each ``proven`` only when the checker accepted it), the solutions with proven
     enclosures, the proof log (``log.to_json()``) and timings.
     """
@@ -69,7 +71,7 @@ def __getattr__(name: str):
 def load_scene(scene: str | pathlib.Path | Mapping[str, Any]) -> Scene:
     """A validated scene from a YAML file path or from a dictionary with the same keys.
 
-    Raises :class:`SceneError` whose message is one line naming the key, the value and what is
+    Raises `SceneError` whose message is one line naming the key, the value and what is
     allowed (the keys are listed in ``docs/scene-keys.md``).
     """
     if isinstance(scene, Mapping):

@@ -1,14 +1,14 @@
 """Typed, read-only views of a study's results (what ``results.json`` holds).
 
-A finished study (:func:`app.study.run.study`) returns a :class:`StudyResult` whose states are
-built from the analyses' typed outcomes (:mod:`app.analyses.outcomes`, via
+A finished study (`app.study.run.study`) returns a [`StudyResult`][app.io.result.StudyResult] whose states are
+built from the analyses' typed outcomes (`app.analyses.outcomes`, via
 app/io/from_outcomes.py); its ``raw`` is the results dictionary written from those same outcomes,
-so :meth:`StudyResult.to_json` is exactly the ``results.json`` content. :meth:`StudyResult.load`
-and :meth:`StudyResult.from_dict` build the same views from a saved file (any format version);
+so [`StudyResult.to_json`][app.io.result.StudyResult.to_json] is exactly the ``results.json`` content. [`StudyResult.load`][app.io.result.StudyResult.load]
+and [`StudyResult.from_dict`][app.io.result.StudyResult.from_dict] build the same views from a saved file (any format version);
 ``tests/test_typed_result.py`` checks that the two constructions agree field by field.
 
-The queries the outputs need (:meth:`StudyResult.first_instability`, :meth:`StateResult.min_mu`,
-:attr:`StudyResult.final`, :meth:`StudyResult.state`, ...) are written here once.
+The queries the outputs need ([`StudyResult.first_instability`][app.io.result.StudyResult.first_instability], [`StateResult.min_mu`][app.io.result.StateResult.min_mu],
+[`StudyResult.final`][app.io.result.StudyResult.final], [`StudyResult.state`][app.io.result.StudyResult.state], ...) are written here once.
 
 This module imports neither PETSc nor DOLFINx: it also reads results saved by earlier runs.
 
@@ -142,7 +142,7 @@ class MceipResult:
         return float_array([s.value for s in self.solutions])
 
     def min(self) -> float | None:
-        """The smallest eigenvalue found (a :class:`CriticalMu` for MCEIP-mu), or None if none."""
+        """The smallest eigenvalue found (a [`CriticalMu`][app.io.result.CriticalMu] for MCEIP-mu), or None if none."""
         return min((s.value for s in self.solutions), default=None)
 
     def max(self) -> float | None:
@@ -233,7 +233,7 @@ class StateResult:
     def min_mu(self) -> CriticalMu | None:
         """Smallest critical friction coefficient found by MCEIP-mu at this state, None if none.
 
-        ``print`` shows 4 decimals; the value itself is the full float (see :class:`CriticalMu`).
+        ``print`` shows 4 decimals; the value itself is the full float (see [`CriticalMu`][app.io.result.CriticalMu]).
         """
         return None if self.mceip_mu is None else self.mceip_mu.min()
 
@@ -258,7 +258,7 @@ class StateResult:
 class StudyResult:
     """A whole study: the loading path's states and their analyses, with the run's evidence.
 
-    Build it with :func:`app.run_study`, or from a saved ``results.json`` with :meth:`load`.
+    Build it with [`app.run_study`][app.api.run_study], or from a saved ``results.json`` with [`load`][app.io.result.StudyResult.load].
     """
 
     scene: str
@@ -328,7 +328,7 @@ class StudyResult:
         return not self.failures
 
     def to_json(self) -> dict:
-        """The results.json document, exactly as the CLI writes it (:func:`to_document`).
+        """The results.json document, exactly as the CLI writes it (`to_document`).
 
         JSON-ready (finite numbers, strings, lists, dicts); in-memory vectors (``_x``) are left out
         and non-finite numbers written as ``null`` and listed in the ``non_finite`` block.
