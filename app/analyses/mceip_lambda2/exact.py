@@ -142,7 +142,7 @@ class DynamicContact:
         def schur(t: float) -> np.ndarray | None:
             if "A" not in held:
                 held["A"] = K.copy()
-                held["A"].axpy(0.0, M, structure=structure)
+                held["A"].axpy(1.0, M, structure=structure)     # the union pattern (values reset below)
                 held["schur"] = SchurComplements(held["A"], dofs, "cd_dynamic_")
                 if own is not None:
                     own(held["schur"], held["A"])
