@@ -33,14 +33,12 @@ matrix's scale, is left to the full-size computation (:func:`value` returns None
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 import scipy.linalg
 import scipy.optimize
-import scipy.sparse.linalg
 from petsc4py import PETSc
 
 from app.analyses.curvature import is_curved
@@ -78,7 +76,6 @@ class ShiftedContact:
     kappa: float                             # first pole of the interpolated remainder
     scale: float                             # largest diagonal entry of X
     interior_scale: float                    # largest diagonal entry of X_ii
-    seconds: float = 0.0
     evaluations: int = 0                     # exact values of Y computed
     pieces: dict = field(default_factory=dict)   # index -> (coefficients, error estimate)
     ends: dict = field(default_factory=dict)     # index -> Y at the piece's upper end in sigma
@@ -101,7 +98,6 @@ class ShiftedContact:
         first use) and their error estimate (the largest entry of the last two coefficients)."""
         hit = self.pieces.get(j)
         if hit is None:
-            t0 = time.perf_counter()
             theta = (2 * np.arange(NODES) + 1) * np.pi / (2 * NODES)
             u = self.anchor + PIECE * (j + 0.5 * (1.0 + np.cos(theta)))
             values = np.array([self._remainder_exact(self.kappa - np.exp(x)) for x in u])
@@ -110,7 +106,6 @@ class ShiftedContact:
             coef = np.tensordot(T, values, axes=(1, 0))
             err = float(np.abs(coef[-2:]).max())
             hit = self.pieces[j] = (coef, err)
-            self.seconds += time.perf_counter() - t0
         return hit
 
     def end(self, j: int) -> float:
@@ -122,16 +117,16 @@ class ShiftedContact:
         roots with these, so only the pieces holding roots are interpolated)."""
         hit = self.ends.get(j)
         if hit is None:
-            t0 = time.perf_counter()
             hit = self.ends[j] = self.exact(self.end(j))
             self.evaluations += 1
-            self.seconds += time.perf_counter() - t0
         return hit
 
-    def index(self, sigma: float) -> tuple[int, float]:
-        """The piece of ``sigma`` and its local coordinate ``x`` in [-1, 1]."""
+    def coordinate(self, sigma: float, j: int | None = None) -> tuple[int, float]:
+        """The piece of ``sigma`` (or the given piece ``j``, ``sigma`` at its ends) and the local
+        coordinate ``x`` in [-1, 1] there."""
         u = np.log(self.kappa - sigma)
-        j = int(np.floor((u - self.anchor) / PIECE))
+        if j is None:
+            j = int(np.floor((u - self.anchor) / PIECE))
         x = 2.0 * (u - self.anchor - PIECE * j) / PIECE - 1.0
         return j, float(np.clip(x, -1.0, 1.0))
 
@@ -151,8 +146,6 @@ class _Root:
         A0 = kc.sandwich(kc.R, sc.Xcc, kc.Q)
         self.A0 = 0.5 * (A0 + A0.T)
         self.Pw = np.asarray(self.P.T @ sc.residues) if len(sc.poles) else np.zeros((kc.n, 0))
-        self.norm_P2 = (float(scipy.sparse.linalg.norm(self.P, 1) * scipy.sparse.linalg.norm(self.P, np.inf))
-                        if kc.n else 0.0)
         self._projected: dict[int, np.ndarray] = {}
 
     def projected(self, j: int) -> np.ndarray:
@@ -170,8 +163,7 @@ class _Root:
 
     def S(self, sigma: float, j: int) -> np.ndarray:
         """``S(sigma)`` with the remainder interpolated on piece ``j`` (``sigma`` in it or at its ends)."""
-        u = np.log(self.sc.kappa - sigma)
-        x = float(np.clip(2.0 * (u - self.sc.anchor - PIECE * j) / PIECE - 1.0, -1.0, 1.0))
+        _, x = self.sc.coordinate(sigma, j)
         C = self.projected(j)
         S = self.A0 - np.tensordot(_chebyshev(x, C.shape[0]), C, axes=(0, 0))
         S[np.diag_indices_from(S)] -= sigma
@@ -205,8 +197,6 @@ class Value:
 
     value: float
     scale: float          # the largest diagonal entry of sym X*(mu), which the value is reported against
-    error: float          # estimated bound: interpolation estimate times ||P||^2, plus the root tolerance
-    pieces: tuple[int, ...]
 
 
 def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None = None) -> Value | None:
@@ -215,7 +205,7 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
     classification's value (where to look first)."""
     root = _Root(sc, cls, mu)
     if root.n == 0:                           # every contact DOF removed: sym X* is X_ii
-        return Value(sc.k1, sc.interior_scale, 0.0, ())
+        return Value(sc.k1, sc.interior_scale)
     scale = max(sc.interior_scale, float(np.abs(np.diag(root.A0)).max()))
     tol = TOL * sc.scale
 
@@ -228,7 +218,7 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
         return hi, sc.end(j + 1)
 
     lowest_j = 0 if len(sc.poles) else -MAX_PIECES
-    j = sc.index(hint)[0] if hint is not None and hint < sc.k1 else 0
+    j = sc.coordinate(hint)[0] if hint is not None and hint < sc.k1 else 0
     j = int(np.clip(j, lowest_j, MAX_PIECES))
     visited = []
     # f decreases with sigma: the root lies in piece j when f < 0 at its upper end and f > 0 at its
@@ -238,7 +228,7 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
         if root.f_end(j) >= 0:                # the root is closer to k_1
             if j == lowest_j:
                 if len(sc.poles):             # f >= 0 up to just below k_1: the value is k_1
-                    return Value(sc.k1, scale, tol, tuple(visited))
+                    return Value(sc.k1, scale)
                 return None
             j -= 1
         elif root.f_end(j + 1) <= 0:          # further below
@@ -250,7 +240,7 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
         if j in visited:                      # not monotone (rounding): leave it to the full-size solve
             return None
     hi, lo = ends(j)
-    coef, err = sc.piece(j)
+    _, err = sc.piece(j)
     if err > tol:
         return None
     try:
@@ -258,7 +248,7 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
                                       maxiter=200)
     except (ValueError, RuntimeError):         # the interpolant's signs at the ends differ from the exact ones
         return None
-    return Value(float(sigma), scale, root.norm_P2 * err + tol, tuple(visited))
+    return Value(float(sigma), scale)
 
 
 def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
@@ -268,7 +258,6 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
     a factorisation of ``X - sigma I`` that keeps its symbolic analysis between shifts. The PETSc
     objects it creates are handed to ``own`` (:meth:`app.systems.base.System.own`: destroyed with
     the system), else left to the garbage collector."""
-    t0 = time.perf_counter()
     N = X.getSize()[0]
     interior = np.setdiff1d(np.arange(N), dofs).astype(PETSc.IntType)
     diag = X.getDiagonal()
@@ -318,9 +307,7 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
 
     if own is not None:
         own(schur, A)
-    sc = ShiftedContact(exact, cc, float(k[0]), k[:p].copy(), W[:, :p].copy(), kappa, scale, interior_scale)
-    sc.seconds = time.perf_counter() - t0
-    return sc
+    return ShiftedContact(exact, cc, float(k[0]), k[:p].copy(), W[:, :p].copy(), kappa, scale, interior_scale)
 
 
 _SPECTRA: dict = {}

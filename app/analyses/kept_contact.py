@@ -21,8 +21,7 @@ class KeptContact:
         s = len(slip)
         F = np.sort(np.concatenate([2 * free, 2 * free + 1])).astype(int)
         self.nF = nF = len(F)
-        self.n = nF + s
-        k = nF + s
+        self.n = k = nF + s
         # Q: x_F = u_F, x_T = S u_Ts; R^T: y_F -> F rows, y_T -> S at T and mu at N of each slip node
         cols = np.arange(k)
         q_rows = np.concatenate([F, 2 * slip]).astype(int)

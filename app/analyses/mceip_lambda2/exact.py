@@ -78,7 +78,7 @@ class DynamicContact:
     Mcc: np.ndarray
     seconds: float                # time of the set-up (eigen-decomposition or gathering)
     method: str
-    evaluations: int = 0          # W(t) computed (cache misses)
+    evaluations: int = 0          # Z(t) computed (cache misses)
     schur: Callable[[float], np.ndarray | None] | None = None   # Z(t) directly, where available
     _cache: OrderedDict = field(default_factory=OrderedDict, repr=False)
     _mass_schur: np.ndarray | None = field(default=None, repr=False)
