@@ -351,6 +351,52 @@ def test_a_signal_during_an_import_is_sent_again_after_it(tmp_path, monkeypatch)
     assert interrupt.RECEIVED == [signal.SIGTERM] and not interrupt.raised()     # deferred: not raised yet
 
 
+def test_a_signal_in_a_finaliser_is_sent_again_and_never_printed(monkeypatch, capsys):
+    """A signal landing in a finaliser (a ``weakref.finalize`` callback or a ``__del__``, run
+    whenever the garbage collector frees an object) would be dropped by Python with an
+    "Exception ignored in" report beside the interrupt's one line: it is sent again a tenth of a
+    second later; one that is dropped all the same goes to the debug log, not to stderr."""
+    import gc
+    import weakref
+
+    import app.cli.main as cli
+    from app.common import interrupt
+    sent = []
+    monkeypatch.setattr(cli.os, "kill", lambda pid, sig: sent.append((pid, sig)))
+    monkeypatch.setattr(interrupt, "RECEIVED", [])
+    monkeypatch.setattr(interrupt, "RAISED", [])
+    monkeypatch.setattr(sys, "unraisablehook", cli._during_run)
+
+    class Held:
+        def __del__(self):
+            cli._terminate(signal.SIGINT, sys._getframe())
+
+    class Plain:
+        pass
+
+    plain = Plain()
+    weakref.finalize(plain, lambda: cli._terminate(signal.SIGINT, sys._getframe()))
+    del plain
+    held = Held()
+    del held
+    gc.collect()
+    deadline = time.monotonic() + 10
+    while len(sent) < 2 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert sent == [(os.getpid(), signal.SIGINT)] * 2 and not interrupt.raised()
+    # one the deferral does not recognise (raised straight from a finaliser): logged, not printed
+    class Raising:
+        def __del__(self):
+            raise interrupt.keyboard_interrupt()
+
+    raising = Raising()
+    del raising
+    gc.collect()
+    assert capsys.readouterr().err == ""
+    with pytest.raises(KeyboardInterrupt, match="signal 2"):
+        interrupt.checkpoint()
+
+
 def test_a_jit_claim_left_by_a_killed_process_is_named(tmp_path, caplog):
     """A process killed while FFCx compiled a form leaves its claim (the C file) in the shared JIT
     cache, and every later process compiling that form waits for it: the wait is one warning

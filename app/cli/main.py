@@ -331,6 +331,7 @@ def _main(args) -> int:
 def _catch_signals() -> None:
     """From here on SIGTERM and SIGINT stop the run with one line (:func:`_terminate`)."""
     interrupt.clear()
+    sys.unraisablehook = _during_run
     signal.signal(signal.SIGTERM, _terminate)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
         signal.signal(signal.SIGINT, _terminate)
@@ -339,17 +340,34 @@ def _catch_signals() -> None:
 def _deferring(frame) -> bool:
     """Whether a signal arriving in ``frame`` must wait: inside an import (the system types
     import DOLFINx when they build; the exception would surface from a C extension's
-    initialisation as an ImportError with a traceback), or inside FFCx's JIT compilation, which
+    initialisation as an ImportError with a traceback), inside FFCx's JIT compilation, which
     claims a C file in the user's shared JIT cache before compiling and releases it only when the
-    compile ends or fails with an ``Exception``: a KeyboardInterrupt there would leave the claim,
-    and every later program compiling that form would wait for it until its timeout."""
+    compile ends or fails with an ``Exception`` (a KeyboardInterrupt there would leave the claim,
+    and every later program compiling that form would wait for it until its timeout), or inside a
+    finaliser (a ``__del__`` or a :class:`weakref.finalize` callback, run whenever the garbage
+    collector frees an object), where Python reports an exception as "ignored" and drops it."""
     f = frame
     while f is not None:
-        name = f.f_code.co_filename
+        code = f.f_code
+        name = code.co_filename
         if name.startswith("<frozen importlib") or name.endswith(os.path.join("ffcx", "codegeneration", "jit.py")):
+            return True
+        if code.co_name == "__del__" or (name.endswith("weakref.py") and code.co_name == "__call__"):
             return True
         f = f.f_back
     return False
+
+
+def _during_run(unraisable) -> None:
+    """``sys.unraisablehook`` during a run: the KeyboardInterrupt of a received signal that Python
+    could not raise (it landed in a finaliser :func:`_deferring` did not recognise) goes to the
+    debug log, not beside the one line of the interrupt; :func:`app.common.interrupt.checkpoint`
+    raises it again in the run's normal flow. Anything else is reported as Python does."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and interrupt.RECEIVED:
+        import logging
+        logging.getLogger(__name__).debug("interrupt landed in %r; raised again at the next checkpoint", unraisable.object)
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _terminate(signum, frame):
