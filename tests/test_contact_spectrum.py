@@ -173,3 +173,41 @@ def test_two_ranks(tmp_path):
     runs = results_on_ranks(path, tmp_path)
     _same_values(runs[1], runs[2], rtol=1e-12)
     _same_values(run_scene(_with(sc, 10**9)), runs[2])
+
+
+def test_flushing_subnormals_leaves_the_schur_complement_unchanged():
+    """MUMPS's factor of a well-conditioned matrix (a mass matrix, K + t M at large t) decays
+    exponentially through nested dissection's fill and underflows into subnormals at 10^6 DOFs,
+    which x86 computes some 100x slower: the Schur complements flush them to zero
+    (app/linalg.py flush_subnormals). Here a 5-point matrix whose off-diagonal ratio 2.5e-4 makes
+    fill entries 90 nodes apart underflow: the Schur complement onto a row of the grid equals the
+    one computed with gradual underflow, and the floating-point environment is restored."""
+    import numpy as np
+    import scipy.sparse as sp
+    from petsc4py import PETSc
+
+    from app.linalg import flush_subnormals
+    from app.loading.mumps_schur import SchurComplements
+
+    tiny = np.array([1e-300])
+    with flush_subnormals():
+        assert (tiny * 1e-10)[0] == 0.0
+        with flush_subnormals():
+            assert (tiny * 1e-10)[0] == 0.0
+        assert (tiny * 1e-10)[0] == 0.0
+    assert (tiny * 1e-10)[0] == 1e-310
+    n = 100
+    one = sp.diags([-1e-3, 4.0, -1e-3], [-1, 0, 1], shape=(n, n))
+    A = (sp.kron(sp.eye(n), one) + sp.kron(sp.diags([-1e-3, -1e-3], [-1, 1], shape=(n, n)), sp.eye(n))).tocsr()
+    rows = np.arange(n // 2 * n, n // 2 * n + n)
+    P = PETSc.Mat().createAIJ(A.shape, csr=(A.indptr, A.indices, A.data), comm=PETSc.COMM_SELF)
+    try:
+        with SchurComplements(P, rows, "cd_shifted_") as schur:
+            flushed = schur()
+        # the same elimination with gradual underflow: MUMPS through a plain LU solve of the interior
+        inner = np.setdiff1d(np.arange(n * n), rows)
+        dense = A[rows][:, rows].toarray() - A[rows][:, inner] @ sp.linalg.splu(A[inner][:, inner].tocsc()).solve(
+            A[inner][:, rows].toarray())
+    finally:
+        P.destroy()
+    assert np.allclose(flushed, dense, rtol=0, atol=1e-15 * np.abs(dense).max())

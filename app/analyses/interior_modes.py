@@ -8,7 +8,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses import conditions
-from app.linalg import configure_direct, owned, with_prefix
+from app.linalg import configure_direct, flush_subnormals, owned, with_prefix
 from app.scene.schema import EigSettings
 
 
@@ -22,7 +22,13 @@ def interior_modes(Xii: PETSc.Mat, gap: float, tol: float) -> tuple[np.ndarray, 
     eigenvalues differ by 1e-4 at 100k DOFs and took 6-7 s to converge from 0): the smallest
     alone, by shift-and-invert about a shift just below the rough value that the factorisation's
     own inertia proves below the spectrum (:func:`app.analyses.conditions.smallest_above`), where
-    it converges in a few iterations."""
+    it converges in a few iterations. Subnormals are flushed in the factorisations
+    (:func:`app.linalg.flush_subnormals`: the mass matrix's factor underflows at 10^6 DOFs)."""
+    with flush_subnormals():
+        return _interior_modes(Xii, gap, tol)
+
+
+def _interior_modes(Xii: PETSc.Mat, gap: float, tol: float) -> tuple[np.ndarray, np.ndarray | None]:
     k, vecs = smallest_pairs(Xii, 2, 1e-2)
     if len(k) > 1 and (k[1] - k[0]) / k[1] >= gap:
         return smallest_pairs(Xii, 2, tol)

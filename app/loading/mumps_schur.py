@@ -17,7 +17,7 @@ import functools
 import numpy as np
 from petsc4py import PETSc
 
-from app.linalg import from_options, with_prefix
+from app.linalg import flush_subnormals, from_options, with_prefix
 
 
 @functools.lru_cache(maxsize=1)
@@ -82,7 +82,8 @@ class SchurComplements:
                 if F.getType() != "mumps" or set_is(F.handle, self.rows.handle) != 0:
                     return None
                 self._set = True
-            ksp.setUp()
+            with flush_subnormals():             # a mass-like A's far fill underflows (see there)
+                ksp.setUp()
             F = ksp.getPC().getFactorMatrix()
         except PETSc.Error:
             return None
