@@ -37,7 +37,7 @@ from app.scene.schema import Scene, SceneError, parse_scene
 from app.scene.schema import load_scene as _load_scene_file
 
 if TYPE_CHECKING:
-    from app.analyses.mceip_mu import MuProof
+    from app.analyses.mceip_mu.proven import MuProof
 
 __all__ = ["CriticalMu", "MceipResult", "MceipSolution", "MuProof", "NecessaryResult", "Node", "Scene", "SceneError",
            "StateResult", "StudyResult", "SufficientResult", "load_scene", "mceip_mu", "run_study"]
@@ -55,7 +55,7 @@ def mceip_mu(A0, A1, cap: float, pairs=None, seconds: float | None = None, want_
     ``all`` claims (each ``proven`` only when the checker accepted it), the solutions with proven
     enclosures, the proof log (``log.to_json()``) and timings.
     """
-    from app.analyses.mceip_mu import mceip_mu as _mceip_mu
+    from app.analyses.mceip_mu.proven import mceip_mu as _mceip_mu
     return _mceip_mu(A0, A1, cap, pairs=pairs, seconds=seconds, want_all=want_all, onset_nodes=onset_nodes,
                      all_nodes=all_nodes)
 
@@ -63,7 +63,7 @@ def mceip_mu(A0, A1, cap: float, pairs=None, seconds: float | None = None, want_
 def __getattr__(name: str):
     """``MuProof``, imported on first use."""
     if name == "MuProof":
-        from app.analyses.mceip_mu import MuProof
+        from app.analyses.mceip_mu.proven import MuProof
         return MuProof
     raise AttributeError(f"module 'app.api' has no attribute {name!r}")
 

@@ -31,9 +31,9 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     import yaml
 
-    import app.analyses.distributed as distributed
     import app.analyses.runner as runner
     import app.study.run as study
+    import app.study.scheduler as distributed
     from app.scene.schema import default_scene_path, parse_scene
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)

@@ -1,4 +1,4 @@
-"""Benchmark: proving MCEIP-mu (app/analyses/certify.py) against exhaustive enumeration.
+"""Benchmark: proving MCEIP-mu (app/analyses/mceip_mu/state.py) against exhaustive enumeration.
 
 For random systems and block states with s slip nodes: the time to certify the onset and every
 critical mu up to the cap (dense search + certificate, as the app runs it), the time of
@@ -27,7 +27,7 @@ def say(*a) -> None:
 
 
 def _random_pencil(s: int, seed: int):
-    from app.analyses.pencils import condensed_mu_pencil
+    from app.analyses.pencils.reduced import condensed_mu_pencil
     from app.common.stages import Stages
     from app.loading.classify import classify
     from app.systems.discrete import random_contact_problem
@@ -59,8 +59,8 @@ def _block_pencils(s_values: list[int]) -> dict:
 
 
 def _one(kind: str, A0: np.ndarray, A1: np.ndarray, mu: float, enum_max: int, budget: float) -> dict:
-    from app.analyses.certify import condensed_mu_result, mu_cap
     from app.analyses.enumerate import enumerate_patterns
+    from app.analyses.mceip_mu.state import condensed_mu_result, mu_cap
     from app.linalg import one_blas_thread
     from app.scene.schema import McpSettings
     settings = McpSettings(certify_seconds=budget)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from mpi4py import MPI
 
-from app.analyses.pencils import UnsupportedState, condensed_mu_pencil
+from app.analyses.pencils.reduced import UnsupportedState, condensed_mu_pencil
 from app.common.progress import Progress
 from app.common.stages import Stages
 from app.loading.classify import classify

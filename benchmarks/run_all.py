@@ -228,9 +228,9 @@ def _match(sol: dict, ref: dict) -> bool:
 
 def section_enumeration(s_values: list[int], seed: int = 3) -> dict:
     from app.analyses.enumerate import enumerate_mceip
-    from app.analyses.mcp import search_mceip
-    from app.analyses.pencils import condensed_mu_pencil
-    from app.analyses.state_pencils import seq_aij
+    from app.analyses.pencils.reduced import condensed_mu_pencil
+    from app.analyses.pencils.state import seq_aij
+    from app.analyses.snes_vi.search import search_mceip
     from app.common.stages import Stages
     from app.loading.classify import classify
     from app.scene.schema import McpSettings
@@ -323,8 +323,8 @@ def section_siconos(sizes: list[int]) -> dict:
         say("\n== Siconos ==\n" + msg)
         return {"skipped": msg}
     from app.analyses.enumerate import enumerate_mceip
-    from app.analyses.mcp import RSLS, SSLS, BorderedMcp, search_mceip
-    from app.analyses.state_pencils import seq_aij
+    from app.analyses.pencils.state import seq_aij
+    from app.analyses.snes_vi.search import RSLS, SSLS, BorderedMcp, search_mceip
     from app.loading.contact import FrictionalContact
     from app.scene.schema import McpSettings
     from benchmarks.problems import block_problems
@@ -520,7 +520,7 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
     import scipy.linalg
     from threadpoolctl import threadpool_limits
 
-    from app.analyses.pencils import condensed_mu_pencil
+    from app.analyses.pencils.reduced import condensed_mu_pencil
     from app.loading.classify import classify
     from app.scene.schema import default_scene_path, load_scene
     from app.study.run import run_study

@@ -54,7 +54,7 @@ Pencils (:func:`make_pencil`, seeded by ``(base seed, index)``, reproducible), s
 slip-node condensation ``(D S_TT D, S_NT D)`` of a random SPD Schur complement S), ``sparse``
 (condensed with zero rows/columns and zero entries in A1), ``contact`` (the app's random
 contact system condensed, as tests/test_certify.py), ``zero`` (split tangential rates of
-zero-reaction nodes with their pairs, as app/analyses/pencils.py builds them) and planted ones:
+zero-reaction nodes with their pairs, as app/analyses/pencils/reduced.py builds them) and planted ones:
 a solution (mu*, v*, y*) is put in by rewriting one column of A1 (or of A0 at mu* = 0) so that
 ``A(mu*) v* = y*`` holds in exact rational arithmetic - ``interior``; ``close`` (two values
 within 1e-9, disjoint or nested supports); ``double`` (one support whose pencil has two real
@@ -616,7 +616,7 @@ def _contact(rng, s):
     """The app's random contact system condensed onto its slip nodes (tests/test_certify.py)."""
     from mpi4py import MPI
 
-    from app.analyses.pencils import condensed_mu_pencil
+    from app.analyses.pencils.reduced import condensed_mu_pencil
     from app.common.stages import Stages
     from app.loading.classify import classify
     from app.systems.discrete import random_contact_problem
@@ -803,7 +803,7 @@ def _prove_mceip_mu(A0, A1, cap, pairs, seconds=None, want_all=True):
 def _prove_app_result(A0, A1, cap, pairs, seconds=None):
     """The state-level MCEIP-mu result as the app reports it today (search + certificate,
     ``condensed_mu_result``: the values it lists below the cap, its ``certified`` flag)."""
-    from app.analyses.certify import condensed_mu_result
+    from app.analyses.mceip_mu.state import condensed_mu_result
     from app.scene.schema import McpSettings
     st = McpSettings() if seconds is None else McpSettings(certify_seconds=seconds, certify_seconds_large=seconds)
     d = condensed_mu_result(A0, A1, cap, st, pairs=pairs or None)

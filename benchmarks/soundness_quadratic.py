@@ -8,7 +8,7 @@ sign or zero, as kappa P), s = 1-10, caps 10 and 30, some near-degenerate (two i
 reference contradicts: another set of supports, or enclosures that do not meet. Pencils where the
 reference leaves a support undecided have no known truth and are counted apart.
 
-``--pairs``: split pencils of zero-reaction nodes instead (app/analyses/curved_split.py's
+``--pairs``: split pencils of zero-reaction nodes instead (app/analyses/pencils/curved_split.py's
 construction on a random SPD contact Schur complement: 1-3 slip nodes with ``G``, 1-2 zero nodes
 with their pairs ``(a, b)``), proven by both with the pairs.
 
@@ -25,8 +25,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.analyses.mceip_mu_quadratic_bb import prove_bb  # noqa: E402
-from app.analyses.mceip_mu_quadratic_proof import prove_quadratic  # noqa: E402
+from app.analyses.mceip_mu.quadratic.bb import prove_bb  # noqa: E402
+from app.analyses.mceip_mu.quadratic.proof import prove_quadratic  # noqa: E402
 
 KINDS = ("plain", "twin nodes", "tiny A2")
 
@@ -52,7 +52,7 @@ def pencil(k: int):
 
 def pencil_with_pairs(k: int):
     """Split pencil number ``k`` with zero-reaction nodes: (A0, A1, A2, cap, s, kind, pairs)."""
-    from app.analyses.pencils import split_pencil
+    from app.analyses.pencils.reduced import split_pencil
     from app.loading.classify import Classification
     rng = np.random.default_rng(70_000 + k)
     ns, nz = int(rng.integers(1, 4)), int(rng.integers(1, 3))

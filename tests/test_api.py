@@ -127,7 +127,7 @@ def test_two_particles_api_typed_fields():
         assert sol.value == d["value"] and sol.x_Ts.dtype == float and list(sol.x_Ts) == d["x_Ts"]
         assert abs(sol.x_Ts.sum() - 1) < 1e-9 and not sol.x_Ts.flags.writeable
         assert sol.pattern == tuple(d["pattern"]) and sol.evidence["residual"] == d["residual"]
-        assert sol.certified is d["certified"] is True     # below the cap: proven (app/analyses/certify.py)
+        assert sol.certified is d["certified"] is True     # below the cap: proven (app/analyses/mceip_mu/state.py)
     assert st.mceip_mu.raw["certified"] is True and st.mceip_mu.raw["certificate"]["status"] == "proven"
     assert st.mceip_lambda2.mu == 2.5 and st.mceip_lambda2.min() is None
     assert st.sufficient.satisfied is False and st.max_lambda2() is None and st.necessary.satisfied

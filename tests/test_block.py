@@ -100,7 +100,7 @@ def _direct_reactions(clamp_tangential: bool, gx: float, gy: float):
     clamped), solved directly (dense) from the DOLFINx stiffness; reactions in paper axes."""
     from mpi4py import MPI
 
-    from app.analyses.pencils import dense, gather_vec
+    from app.analyses.pencils.reduced import dense, gather_vec
     from app.common.stages import Stages
     from app.scene.schema import parse_scene
     from app.systems.block.path import build_block_system

@@ -29,11 +29,11 @@ from app.scene.schema import default_scene_path, parse_scene
 SPEED = 100.0
 #: the modules of the provers and of the study around them (each reads ``time.*`` through its
 #: module global ``time``, which the fast clock replaces)
-PROVERS = ("app.analyses.mceip_mu", "app.analyses.mceip_mu.branch", "app.analyses.mceip_mu.prover",
-           "app.analyses.mceip_mu.closing", "app.analyses.mceip_mu.leaves", "app.analyses.certify",
-           "app.analyses.mceip_mu_quadratic", "app.analyses.mceip_mu_quadratic_bb",
-           "app.analyses.mceip_mu_quadratic_proof", "app.analyses.dense_mcp", "app.analyses.runner",
-           "app.analyses.zero_nodes", "app.analyses.distributed", "app.analyses.mceip_lambda2.analysis",
+PROVERS = ("app.analyses.mceip_mu", "app.analyses.mceip_mu.prover.branch", "app.analyses.mceip_mu.prover.claims",
+           "app.analyses.mceip_mu.kernel.closing", "app.analyses.mceip_mu.prover.leaves", "app.analyses.mceip_mu.state",
+           "app.analyses.mceip_mu.quadratic.problem", "app.analyses.mceip_mu.quadratic.bb",
+           "app.analyses.mceip_mu.quadratic.proof", "app.analyses.mceip_mu.candidates", "app.analyses.runner",
+           "app.analyses.zero_nodes", "app.study.scheduler", "app.analyses.mceip_lambda2.analysis",
            "app.analyses.mceip_lambda2.exact", "app.analyses.mceip_lambda2.bounds", "app.study.run")
 
 
@@ -63,7 +63,7 @@ def fast_clock(monkeypatch):
             patched.append(name)
     missing = [m for m in PROVERS if m not in patched and "time" in vars(sys.modules[m])]
     assert not missing, missing
-    assert {"app.analyses.mceip_mu.branch", "app.analyses.mceip_mu_quadratic_bb"} <= set(patched)
+    assert {"app.analyses.mceip_mu.prover.branch", "app.analyses.mceip_mu.quadratic.bb"} <= set(patched)
     real0, fast0 = time.perf_counter(), fake.perf_counter()
     time.sleep(0.02)
     assert (fake.perf_counter() - fast0) > 0.5 * SPEED * (time.perf_counter() - real0)

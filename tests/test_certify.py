@@ -16,8 +16,8 @@ from mpi4py import MPI
 
 from app import mceip_mu
 from app.analyses.enumerate import enumerate_patterns
-from app.analyses.mceip_mu import checker, closing, prooflog, rounding
-from app.analyses.pencils import condensed_mu_pencil, split_pencils
+from app.analyses.mceip_mu.kernel import checker, closing, prooflog, rounding
+from app.analyses.pencils.reduced import condensed_mu_pencil, split_pencils
 from app.common.stages import Stages
 from app.loading.classify import classify
 from app.systems.discrete import random_contact_problem
@@ -271,11 +271,11 @@ def test_proof_files_never_replace_an_existing_file(tmp_path):
 
 
 def test_lp_fast_path_agrees_with_linprog():
-    """The prover's LP (app/analyses/mceip_mu/lp.py, SciPy's HiGHS wrapper called directly)
+    """The prover's LP (app/analyses/mceip_mu/prover/lp.py, SciPy's HiGHS wrapper called directly)
     gives linprog's optimum on random Farkas LPs, feasible and infeasible ones alike."""
     import scipy.optimize
 
-    from app.analyses.mceip_mu import lp
+    from app.analyses.mceip_mu.prover import lp
     rng = np.random.default_rng(5)
     for k in range(30):
         s = int(rng.integers(2, 12))
@@ -299,7 +299,7 @@ def test_product_argument_witness_is_checked(monkeypatch):
     here: the checker accepts it in any log); the checker re-verifies its witness ``M`` from
     the pencil and rejects it once an entry that must be nonpositive is made positive, or once
     the interval is stretched."""
-    from app.analyses.mceip_mu import branch
+    from app.analyses.mceip_mu.prover import branch
     monkeypatch.setattr(branch, "USE_RLT", True)
     A0, A1 = _pd_plus_pencil(np.random.default_rng([11, 30]), 30)
     P = branch.Prover(A0, A1, 10.0)
@@ -347,7 +347,7 @@ def test_none_below_cap_without_a_search():
     """The search-free proof of "no critical mu in [0, cap]" (the sign argument on every support,
     intervals halved): when it answers, enumeration finds nothing in [0, cap] and the checker
     accepted its log; on pencils with a solution below the cap it declines (None)."""
-    from app.analyses.mceip_mu import mceip_mu_none_below_cap
+    from app.analyses.mceip_mu.proven import mceip_mu_none_below_cap
     rng = np.random.default_rng(17)
     answered = declined = 0
     for _ in range(40):
@@ -370,7 +370,7 @@ def test_none_below_cap_without_a_search():
 def test_large_family_scaling_by_inverse_iteration():
     """The diagonal scaling of large families (inverse iteration) is the full eigendecomposition's
     ``z / x`` where both exist, on a nonsymmetric matrix with a positive Perron-like pair."""
-    from app.analyses.mceip_mu.heuristics import perron_scaling, perron_scaling_large
+    from app.analyses.mceip_mu.prover.heuristics import perron_scaling, perron_scaling_large
     rng = np.random.default_rng(3)
     n = 80
     B = rng.uniform(0.0, 1.0, size=(n, n))

@@ -1,4 +1,4 @@
-"""The values of the necessary condition (19) from the contact DOFs (app/analyses/contact_spectrum.py,
+"""The values of the necessary condition (19) from the contact DOFs (app/analyses/conditions/contact_spectrum.py,
 docs/method.md section 2) against the full-size eigenvalues: LAPACK on the app's own reduced
 pencils, SLEPc along whole paths, random SPD matrices, one and two ranks."""
 from __future__ import annotations
@@ -14,10 +14,10 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from test_dynamic_contact import BLOCK
 
-from app.analyses import contact_spectrum as cs
-from app.analyses.kept_contact import KeptContact
-from app.analyses.pencils import combine, dense
-from app.analyses.state_pencils import StatePencils
+from app.analyses.conditions import contact_spectrum as cs
+from app.analyses.pencils.kept_contact import KeptContact
+from app.analyses.pencils.reduced import combine, dense
+from app.analyses.pencils.state import StatePencils
 from app.common.stages import Stages
 from app.loading.classify import FREE, SLIP, STICK, Classification
 from app.scene.schema import parse_scene

@@ -271,7 +271,7 @@ def test_curved_examples_proven_beyond_ten_slip_nodes(shipped_curved):
 
     from conftest import run_cli
 
-    from app.analyses.mceip_mu_quadratic import enumerate_quadratic
+    from app.analyses.mceip_mu.quadratic.problem import enumerate_quadratic
     for name, (folder, res) in shipped_curved.items():
         big = [s for s in res["states"] if s["classification"]["slip"] > 10]
         assert big

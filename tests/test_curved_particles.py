@@ -95,7 +95,7 @@ def test_two_particles_mu_on_a_circle(signs, R, side):
     a = run_scene(scene(signs, 1.0, R, side, ["mceip_mu", "enumerate"]))["states"][0]["analyses"]
     assert_same_set(a["mceip_mu"]["solutions"], expected)
     assert_same_set(a["enumerate"]["problems"]["mu"]["solutions"], expected)
-    # the exact proof (app/analyses/mceip_mu_quadratic_proof.py): complete on [0, cap], every
+    # the exact proof (app/analyses/mceip_mu/quadratic/proof.py): complete on [0, cap], every
     # closed-form value inside its rigorous enclosure (widened by the closed form's own rounding)
     d = a["mceip_mu"]
     assert d["certified"] is True and d["complete"]["proven"]
@@ -208,8 +208,8 @@ def _critical_mu_by_finite_differences(Kg, R, side, theta0, P0, S, mus):
 @pytest.mark.parametrize("side", ["outside", "inside"])
 @pytest.mark.parametrize("S", [1, -1])
 def test_single_particle_on_a_circle(side, S):
-    from app.analyses.curvature import CurvedClassification, condensed_quadratic
-    from app.analyses.mceip_mu_quadratic import enumerate_quadratic
+    from app.analyses.mceip_mu.quadratic.problem import enumerate_quadratic
+    from app.analyses.pencils.curvature import CurvedClassification, condensed_quadratic
     rng = np.random.default_rng(3 if side == "outside" else 4)
     A = rng.normal(size=(2, 2))
     Kg = A @ A.T + 0.5 * np.eye(2)                     # springs in global x/y

@@ -149,8 +149,8 @@ def test_method_trace_names_what_the_default_run_calls(tmp_path, capsys):
     steps = re.findall(r"^\d+\. `(app/[\w/]+\.py)` — `(\w+)`", trace, re.M)
     named = set(re.findall(r"`(app/[\w/]+\.py)`", trace))
     assert len(steps) >= 6
-    for module in ("app/analyses/certify.py", "app/analyses/dense_mcp.py", "app/analyses/mceip_mu/prover.py",
-                   "app/analyses/mceip_mu/checker.py", "app/analyses/runner.py", "app/loading/contact.py"):
+    for module in ("app/analyses/mceip_mu/state.py", "app/analyses/mceip_mu/candidates.py", "app/analyses/mceip_mu/prover/claims.py",
+                   "app/analyses/mceip_mu/kernel/checker.py", "app/analyses/runner.py", "app/loading/contact.py"):
         assert module in named, module
     scene = yaml.safe_load((ROOT / "app" / "scenes" / "villechaise_block.yaml").read_text())
     scene.pop("outputs", None)

@@ -11,7 +11,7 @@ from mpi4py import MPI
 from test_two_particles import CASES, PHI, K, M, analytic_lambda2, scene
 
 from app.analyses.mceip_lambda2 import exact
-from app.analyses.pencils import dense as to_dense
+from app.analyses.pencils.reduced import dense as to_dense
 from app.common.stages import Stages
 from app.loading.classify import SLIP, STICK, Classification
 from app.scene.schema import parse_scene
@@ -159,9 +159,9 @@ def test_sparse_reduction_on_two_ranks(tmp_path):
 
 def test_contact_signs_are_the_necessary_condition(block):
     """The signs of (19) from the Schur complements onto the kept contact DOFs equal those of the
-    full-size eigenvalues (SLEPc, app/analyses/conditions.py) for stick, slip and free nodes."""
-    from app.analyses.conditions import necessary
-    from app.analyses.state_pencils import StatePencils
+    full-size eigenvalues (SLEPc, app/analyses/conditions/full_size.py) for stick, slip and free nodes."""
+    from app.analyses.conditions.full_size import necessary
+    from app.analyses.pencils.state import StatePencils
     from app.loading.classify import FREE
     system, dense, sparse = block
     sc = parse_scene(BLOCK)
@@ -222,9 +222,9 @@ def test_warm_eigenvectors_change_no_value():
     """(19) along a sequence of classifications with the previous classification's eigenvalues
     and eigenvectors as shifts and start vectors (the path's way) gives the values of cold solves;
     the start vectors move between the classifications' kept DOFs through the system's numbering."""
-    from app.analyses.conditions import necessary
-    from app.analyses.pencils import reduced_space
-    from app.analyses.state_pencils import StatePencils
+    from app.analyses.conditions.full_size import necessary
+    from app.analyses.pencils.reduced import reduced_space
+    from app.analyses.pencils.state import StatePencils
     sc = parse_scene(dict(BLOCK, system=dict(BLOCK["system"], nx=20, ny=10)))   # above eig.dense_limit
     with build(sc.system, MPI.COMM_WORLD, Stages()) as system:
         rows = system.K.getOwnershipRange()

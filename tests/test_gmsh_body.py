@@ -331,7 +331,7 @@ def test_lumped_mass_is_positive_and_keeps_the_mass(tmp_path, degree):
     P2 the row sums vanish at the vertices (a singular M before), so the HRZ lumping is used."""
     from mpi4py import MPI
 
-    from app.analyses.pencils import dense
+    from app.analyses.pencils.reduced import dense
     from app.common.stages import Stages
     from app.scene.schema import parse_scene
     from app.systems.gmsh import path as gmsh_body

@@ -6,7 +6,7 @@ from conftest import run_scene
 from test_two_particles import CASES, PHI, K, M, analytic_lambda2, scene
 
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero, proven_upper_bound
-from app.analyses.state_pencils import seq_aij
+from app.analyses.pencils.state import seq_aij
 
 
 @pytest.mark.parametrize("signs,mu,count", CASES)

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from conftest import run_cli, run_cli_here
 
-from app.analyses import dense_mcp
-from app.analyses.certify import condensed_mu_result
-from app.analyses.distributed import _chain_order, _chains
 from app.analyses.enumerate import enumerate_patterns
+from app.analyses.mceip_mu import candidates
+from app.analyses.mceip_mu.state import condensed_mu_result
 from app.scene.schema import McpSettings
+from app.study.scheduler import _chain_order, _chains
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +36,7 @@ def test_reduced_search_finds_only_exact_solutions_and_the_onset(pencils):
         s = p.A0.shape[0]
         if s > 12:                                           # enumeration of 2^s supports: small s only
             continue
-        rep = dense_mcp.search(p.A0, p.A1, full_max=0, one_node=4)
+        rep = candidates.search(p.A0, p.A1, full_max=0, one_node=4)
         assert rep.starts < (s + 1) * 5                      # fewer runs than the full start set
         assert "reduced start set" in rep.note
         ref = enumerate_patterns(p.A0, p.A1, np.arange(s))
@@ -44,8 +44,8 @@ def test_reduced_search_finds_only_exact_solutions_and_the_onset(pencils):
         checked += len(rep.candidates)
     assert checked
     last = pencils[-1]
-    full = dense_mcp.search(last.A0, last.A1)
-    rep = dense_mcp.search(last.A0, last.A1, full_max=0, one_node=4)
+    full = candidates.search(last.A0, last.A1)
+    rep = candidates.search(last.A0, last.A1, full_max=0, one_node=4)
     assert full.candidates and rep.candidates
     assert rep.candidates[0].exact.value == pytest.approx(full.candidates[0].exact.value, rel=1e-10)
 
@@ -55,10 +55,10 @@ def test_warm_start_from_a_solution_converges_at_once(pencils):
     found by that start, in at most two Newton iterations."""
     p = pencils[-1]
     s = p.A0.shape[0]
-    ref = [c.exact for c in dense_mcp.search(p.A0, p.A1).candidates]       # the full search's solutions
+    ref = [c.exact for c in candidates.search(p.A0, p.A1).candidates]       # the full search's solutions
     assert ref
     warm = [(r.x[np.arange(s)], r.value) for r in ref]
-    rep = dense_mcp.search(p.A0, p.A1, full_max=0, one_node=2, mu0s=(1000.0,), warm=warm)
+    rep = candidates.search(p.A0, p.A1, full_max=0, one_node=2, mu0s=(1000.0,), warm=warm)
     for r in ref:
         hit = [c for c in rep.candidates if abs(c.exact.value - r.value) <= 1e-8 * max(1, r.value)]
         assert hit, r.value

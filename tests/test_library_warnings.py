@@ -41,13 +41,13 @@ def test_singular_newton_steps_raise_no_warning():
     """A stack of Jacobians whose determinants overflow the double range (1e3^150), one of them
     singular: the singular one gets the least-squares step, the others the solve, and no library
     warning is raised (the test uses slogdet's sign, not det)."""
-    from app.analyses import dense_mcp
+    from app.analyses.mceip_mu import candidates
     J = np.stack([1e3 * np.eye(150), np.eye(150)])
     J[1, 5, :] = 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         with explained() as rec:
-            d = dense_mcp._newton_steps(J, np.ones((2, 150)))
+            d = candidates._newton_steps(J, np.ones((2, 150)))
     assert rec.as_list() == []
     assert np.allclose(d[0], 1e-3)                       # the ordinary solve
     assert np.all(np.isfinite(d[1])) and d[1][5] == 0.0   # minimum-norm step: the zero row's unknown untouched

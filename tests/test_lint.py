@@ -4,7 +4,6 @@ stage of the data flow, imports only down the stages) and the size limits of mod
 from __future__ import annotations
 
 import ast
-import fnmatch
 import pathlib
 import shutil
 import subprocess
@@ -197,10 +196,13 @@ STAGES: list[tuple[str, ...]] = [("cli",), ("study",), ("analyses", "io", "plot"
 TOP_LEVEL = {"app": "api", "app.__main__": "api", "app.api": "api", "app.linalg": "shared", "app.version": "shared"}
 #: Folders of app/ that hold data, not modules.
 DATA_FOLDERS = {"scenes"}
-MODULE_MAX_LINES = 400
-FUNCTION_MAX_LINES = 80
-#: Exemptions from the size limits (glob patterns of paths): none.
-SIZE_EXEMPT: tuple[str, ...] = ()
+#: Modules are split by topic, not by length: a module over MODULE_REVIEW_LINES lines or a function
+#: (methods and nested functions included) over FUNCTION_REVIEW_LINES lines is allowed only with a
+#: reason a reviewer accepted, listed in LONG_WITH_REASON under its path ("app/x/y.py") or its
+#: function ("app/x/y.py:name").
+MODULE_REVIEW_LINES = 500
+FUNCTION_REVIEW_LINES = 80
+LONG_WITH_REASON: dict[str, str] = {}
 
 
 def _rank(module: str) -> int | None:
@@ -254,25 +256,30 @@ def layout_problems(root: pathlib.Path | None = None) -> list[str]:
     return found
 
 
-def size_problems(root: pathlib.Path | None = None) -> list[str]:
-    """Modules over :data:`MODULE_MAX_LINES` lines and functions (methods and nested functions
-    included, decorators not) over :data:`FUNCTION_MAX_LINES`, outside :data:`SIZE_EXEMPT`."""
+def size_problems(root: pathlib.Path | None = None, reasons: dict[str, str] | None = None) -> list[str]:
+    """Modules over :data:`MODULE_REVIEW_LINES` lines and functions over
+    :data:`FUNCTION_REVIEW_LINES` without a reason in ``reasons`` (default
+    :data:`LONG_WITH_REASON`), and reasons for code that is no longer long."""
     root = root or ROOT
-    found = []
+    reasons = LONG_WITH_REASON if reasons is None else reasons
+    found, long = [], set()
     for path in sorted((root / "app").rglob("*.py")):
         rel = str(path.relative_to(root))
-        if any(fnmatch.fnmatch(rel, pattern) for pattern in SIZE_EXEMPT):
-            continue
         text = path.read_text(encoding="utf-8")
         n = len(text.splitlines())
-        if n > MODULE_MAX_LINES:
-            found.append(f"{rel}: {n} lines (at most {MODULE_MAX_LINES})")
+        if n > MODULE_REVIEW_LINES:
+            long.add(rel)
+            if rel not in reasons:
+                found.append(f"{rel}: {n} lines (over {MODULE_REVIEW_LINES}: split it by topic, or give the reason)")
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 length = node.end_lineno - node.lineno + 1
-                if length > FUNCTION_MAX_LINES:
-                    found.append(f"{rel}:{node.lineno}: function {node.name} has {length} lines "
-                                 f"(at most {FUNCTION_MAX_LINES})")
+                if length > FUNCTION_REVIEW_LINES:
+                    long.add(f"{rel}:{node.name}")
+                    if f"{rel}:{node.name}" not in reasons:
+                        found.append(f"{rel}:{node.lineno}: function {node.name} has {length} lines "
+                                     f"(over {FUNCTION_REVIEW_LINES}: split it, or give the reason)")
+    found += [f"{key}: listed as long, but no longer is" for key in sorted(set(reasons) - long)]
     return found
 
 
@@ -285,7 +292,7 @@ def test_layout_checks_see_what_they_forbid(tmp_path):
         (app / d / "__init__.py").write_text("")
     (app / "__init__.py").write_text("")
     (app / "common" / "errors.py").write_text("def f():\n    from app.study.run import g\n    return g\n")
-    (app / "loading" / "state.py").write_text("from app.common.errors import f\n" + "\n" * 400)
+    (app / "loading" / "state.py").write_text("from app.common.errors import f\n" + "\n" * 500)
     (app / "study" / "run.py").write_text("from app.cli.main import x\n\n\ndef g():\n" + "    pass\n" * 80)
     (app / "cli" / "main.py").write_text("from app.study.run import g\nx = 1\n")
     (app / "helpers.py").write_text("")
@@ -295,8 +302,12 @@ def test_layout_checks_see_what_they_forbid(tmp_path):
         "app/study/run.py:1: app.study.run imports app.cli.main: cli is above study in the stages "
         "cli -> study -> (analyses, io, plot) -> scene -> systems -> loading -> common"]
     assert [p.split(":")[0] for p in layout_problems(tmp_path)] == ["app/helpers.py", "app/misc/"]
-    assert size_problems(tmp_path) == ["app/loading/state.py: 401 lines (at most 400)",
-                                       "app/study/run.py:4: function g has 81 lines (at most 80)"]
+    assert size_problems(tmp_path, {}) == [
+        "app/loading/state.py: 501 lines (over 500: split it by topic, or give the reason)",
+        "app/study/run.py:4: function g has 81 lines (over 80: split it, or give the reason)"]
+    assert size_problems(tmp_path, {"app/loading/state.py": "one topic", "app/study/run.py:g": "a table",
+                                    "app/cli/main.py": "was long"}) == [
+        "app/cli/main.py: listed as long, but no longer is"]
 
 
 def test_imports_run_down_the_stages():
@@ -311,6 +322,23 @@ def test_every_folder_of_app_is_a_stage():
     assert not found, "layout of app/:\n" + "\n".join(found)
 
 
-def test_modules_and_functions_are_small():
+def test_long_modules_and_functions_have_a_reason():
     found = size_problems()
-    assert not found, "too long:\n" + "\n".join(found)
+    assert not found, "long code without a reason:\n" + "\n".join(found)
+
+
+#: The trusted kernels of the proofs and what they may import of app/: a proof is what these
+#: modules re-verify, so they never import the prover that produced it.
+KERNELS = {"app.analyses.mceip_mu.kernel": ("app.analyses.mceip_mu.kernel", "app.linalg", "app.common"),
+           "app.analyses.mceip_mu.quadratic.check": ("app.analyses.mceip_mu.kernel",
+                                                     "app.analyses.mceip_mu.quadratic.proof", "app.linalg")}
+
+
+def test_the_trusted_kernels_import_nothing_of_the_provers():
+    found = []
+    for mod, rel, line, target in app_imports():
+        for kernel, allowed in KERNELS.items():
+            if (mod == kernel or mod.startswith(kernel + ".")) and not any(
+                    target == a or target.startswith(a + ".") for a in allowed):
+                found.append(f"{rel}:{line}: {mod} imports {target}")
+    assert not found, "the trusted kernels import beyond themselves:\n" + "\n".join(found)

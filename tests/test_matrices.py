@@ -81,7 +81,7 @@ def test_table1_mu_through_files(tmp_path, signs, count, fmt):
 def test_random_system_through_files_equals_in_memory(tmp_path):
     """K, M, contact DOFs (random order, random signs) and a classified state, written to files
     and read back, give the same analyses as the system built in memory."""
-    from app.analyses.pencils import dense
+    from app.analyses.pencils.reduced import dense
     from app.analyses.runner import analyse_state
     from app.common.stages import Stages
     from app.loading.classify import classify
@@ -145,7 +145,7 @@ BLOCK = {"type": "block", "nx": 10, "ny": 5}
 def block_as_matrices(tmp_path_factory):
     """The 10 x 5 block (built-in path) and the same block exported as a matrices scene whose force
     phases are the reduced loads of CD's prescribed motion (K u = gx f_x + gy f_y + B^T r)."""
-    from app.analyses.pencils import dense, gather_vec
+    from app.analyses.pencils.reduced import dense, gather_vec
     from app.common.stages import Stages
     from app.scene.schema import parse_scene
     from app.systems.block.path import build_block_system

@@ -1,4 +1,4 @@
-"""The quadratic MCEIP-mu enumeration (app/analyses/mceip_mu_quadratic.py) against independent
+"""The quadratic MCEIP-mu enumeration (app/analyses/mceip_mu/quadratic/problem.py) against independent
 computations: the flat enumeration (24)-(26) when A2 = 0, and a per-support QZ reference written
 here (scipy.linalg.eig on the first companion linearisation, numpy sign checks)."""
 import itertools
@@ -9,8 +9,8 @@ import pytest
 import scipy.linalg
 
 from app.analyses.enumerate import enumerate_mceip
-from app.analyses.mceip_mu_quadratic import enumerate_quadratic, quadratic_mu_result
-from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+from app.analyses.mceip_mu.quadratic.problem import enumerate_quadratic, quadratic_mu_result
+from app.analyses.mceip_mu.quadratic.proof import prove_quadratic
 
 
 def random_pencil(s, seed, curvature):

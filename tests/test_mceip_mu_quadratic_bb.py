@@ -1,5 +1,5 @@
-"""The branch and bound of the quadratic MCEIP-mu (app/analyses/mceip_mu_quadratic_bb.py) and its
-checker (app/analyses/mceip_mu_quadratic_check.py) against independent computations: the
+"""The branch and bound of the quadratic MCEIP-mu (app/analyses/mceip_mu/quadratic/bb.py) and its
+checker (app/analyses/mceip_mu/quadratic/check.py) against independent computations: the
 floating-point enumeration of every support (enumerate_quadratic), the linear engine when A2 = 0,
 and a checker that must reject every edited witness."""
 import copy
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from test_mceip_mu_quadratic import random_pencil
 
-from app.analyses.mceip_mu import mceip_mu
-from app.analyses.mceip_mu_quadratic import enumerate_quadratic, quadratic_mu_result
-from app.analyses.mceip_mu_quadratic_bb import prove_bb
-from app.analyses.mceip_mu_quadratic_check import check_log
-from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+from app.analyses.mceip_mu.proven import mceip_mu
+from app.analyses.mceip_mu.quadratic.bb import prove_bb
+from app.analyses.mceip_mu.quadratic.check import check_log
+from app.analyses.mceip_mu.quadratic.problem import enumerate_quadratic, quadratic_mu_result
+from app.analyses.mceip_mu.quadratic.proof import prove_quadratic
 
 CAP = 30.0
 
@@ -180,7 +180,7 @@ def test_outcome_at_12_and_above_max_slip():
 def test_outcome_with_the_onset_alone(monkeypatch):
     """A branch and bound stopped early (here by its node budget): the outcome
     claims the proven onset, not the list (certified false), and keeps the log for `app check`."""
-    import app.analyses.mceip_mu_quadratic_bb as bb
+    import app.analyses.mceip_mu.quadratic.bb as bb
     A0, A1, A2 = random_pencil(12, 40 * 12 + 2, -1.0)
     first = min(d["value"] for d in enumerate_quadratic(A0, A1, A2, 14))
     monkeypatch.setattr(bb, "MAX_NODES", 300)
@@ -198,7 +198,7 @@ def test_above_max_slip_a_partial_proof_keeps_what_it_proved(monkeypatch):
     """Above ``max_slip`` nothing is enumerated: a branch and bound stopped by its node limit still
     gives its proven onset (the value of the complete proof's onset, inside its enclosure) or, with
     less, its proven lower bound (below the onset), not "not searched"."""
-    import app.analyses.mceip_mu_quadratic_bb as bb
+    import app.analyses.mceip_mu.quadratic.bb as bb
     A0, A1, A2 = random_pencil(10, 3, -0.5)
     full = prove_bb(A0, A1, A2, CAP)
     assert full.proven and full.onset is not None

@@ -67,7 +67,7 @@ ONE_RANK_FAILS = """
 import sys
 sys.path.insert(0, {root!r})
 from mpi4py import MPI
-import app.analyses.distributed as distributed
+import app.study.scheduler as distributed
 from app.scene.schema import parse_scene
 from app.study.run import run_study
 comm = MPI.COMM_WORLD

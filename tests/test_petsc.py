@@ -81,8 +81,8 @@ def _failing_from_options(monkeypatch, module, prefix: str) -> None:
 
 
 @pytest.mark.parametrize("analysis, module, prefix", [
-    ("sufficient", "app.analyses.conditions", "cd_sufficient_"),
-    ("necessary", "app.analyses.conditions", "cd_necessary_"),
+    ("sufficient", "app.analyses.conditions.full_size", "cd_sufficient_"),
+    ("necessary", "app.analyses.conditions.full_size", "cd_necessary_"),
 ], ids=["sufficient", "necessary"])
 def test_a_failing_analysis_leaks_nothing(monkeypatch, analysis, module, prefix):
     import importlib

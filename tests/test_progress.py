@@ -1,4 +1,4 @@
-"""Progress of the MCEIP-mu stage (app/common/progress.py ``Progress.tasks``, hooked in app/analyses/distributed.py).
+"""Progress of the MCEIP-mu stage (app/common/progress.py ``Progress.tasks``, hooked in app/study/scheduler.py).
 
 A study whose per-classification MCEIP-mu is made slow (it sleeps) must still print a progress
 line at least every 5 s, naming the classifications done, the s running now, the last result and
@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import pytest
 import yaml
 
-import app.analyses.distributed as distributed
+import app.study.scheduler as distributed
 from app.common.progress import Progress, time_left
 from app.scene.schema import default_scene_path, parse_scene
 from app.study.run import run_study
@@ -119,7 +119,8 @@ def test_the_prover_reports_its_tree_while_it_works(monkeypatch):
     """Inside one certificate the live status follows the proof: its phase, node count, mu."""
     import numpy as np
 
-    from app.analyses.mceip_mu import branch, live, mceip_mu
+    from app.analyses.mceip_mu.proven import mceip_mu
+    from app.analyses.mceip_mu.prover import branch, live
     seen = []
     real = branch.Prover._try_cop
 

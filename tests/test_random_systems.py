@@ -58,8 +58,8 @@ def test_mcp_solutions_are_true_and_enumerated(p):
 @pytest.mark.parametrize("seed", range(8))
 def test_sufficient_matches_dense_reference(seed):
     """(17)-(18) from SLEPc against scipy.linalg.eig on the same dense pencil."""
-    from app.analyses.conditions import sufficient
-    from app.analyses.pencils import dense, reduced_pencil, reduced_space
+    from app.analyses.conditions.full_size import sufficient
+    from app.analyses.pencils.reduced import dense, reduced_pencil, reduced_space
     rng = np.random.default_rng(seed)
     mu = 3.0
     system, state = random_contact_problem(rng, 5, 4, 3, 1, mu, MPI.COMM_WORLD, Stages())

@@ -9,7 +9,7 @@ import pytest
 from mpi4py import MPI
 
 from app.analyses.enumerate import enumerate_patterns
-from app.analyses.pencils import condensed_mu_pencil
+from app.analyses.pencils.reduced import condensed_mu_pencil
 from app.common.stages import Stages
 from app.loading.classify import classify
 from app.systems.discrete import random_contact_problem

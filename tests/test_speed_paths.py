@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from petsc4py import PETSc
 
-from app.analyses import conditions, dense_mcp
+from app.analyses.conditions import full_size
+from app.analyses.mceip_mu import candidates
 from app.scene.sections import EigSettings
 
 
@@ -35,7 +36,7 @@ def test_min_sym_eig_with_any_hint(hint):
     h = {None: None, "exact": exact, "inside": 1.7, "far below": -50.0}[hint]
     A = _laplacian(n, shift)
     try:
-        lam = conditions.min_sym_eig(A, EigSettings(), h)
+        lam = full_size.min_sym_eig(A, EigSettings(), h)
     finally:
         A.destroy()
     assert lam == pytest.approx(exact, rel=1e-9, abs=1e-9)
@@ -46,13 +47,13 @@ def test_warm_shift_is_used_with_either_factorisation(monkeypatch, factor):
     """The warm-started shift below the spectrum is proven by the shift-and-invert solve's own
     factorisation, also when MUMPS makes it (large pencils): PETSc reports a MUMPS factor's inertia
     only with null-pivot detection on, so without it the hint was never used."""
-    monkeypatch.setattr(conditions, "MUMPS_MIN_DOFS", 1 if factor == "mumps" else 10**9)
+    monkeypatch.setattr(full_size, "MUMPS_MIN_DOFS", 1 if factor == "mumps" else 10**9)
     n, shift = 700, 0.3
     exact = 2.0 - 2.0 * np.cos(np.pi / (n + 1)) - shift
     A = _laplacian(n, shift)
     try:
-        lam = conditions._nearest_sym_eig(A, exact - 1e-4, EigSettings(), shift_below=True)
-        above = conditions._nearest_sym_eig(A, exact + 1e-2, EigSettings(), shift_below=True)
+        lam = full_size._nearest_sym_eig(A, exact - 1e-4, EigSettings(), shift_below=True)
+        above = full_size._nearest_sym_eig(A, exact + 1e-2, EigSettings(), shift_below=True)
     finally:
         A.destroy()
     assert lam == pytest.approx(exact, rel=1e-9, abs=1e-9)
@@ -65,7 +66,7 @@ def test_newton_steps_isolate_singular_jacobians():
     J = rng.normal(size=(9, 5, 5))
     J[[2, 7], 4, :] = 0.0                     # two exactly singular Jacobians
     b = rng.normal(size=(9, 5))
-    d = dense_mcp._newton_steps(J, b)
+    d = candidates._newton_steps(J, b)
     for k in range(9):
         if k in (2, 7):
             ref = np.linalg.lstsq(J[k], b[k], rcond=None)[0]
@@ -75,7 +76,7 @@ def test_newton_steps_isolate_singular_jacobians():
 
 
 def _reference_newton(a0, a1, z, max_it=60, tol=1e-13):
-    """The method of ``dense_mcp.semismooth_newton`` for one start, written plainly."""
+    """The method of ``candidates.semismooth_newton`` for one start, written plainly."""
     s = len(z) - 1
 
     def phi(z):
@@ -116,8 +117,8 @@ def test_batched_newton_matches_plain_reference(seed):
     G = rng.normal(size=(s, s))
     a0 = G @ G.T / s + np.eye(s)
     a1 = rng.normal(size=(s, s)) / np.sqrt(s)
-    Z0, _ = dense_mcp._starts(s, [0.5, 2.0, 10.0], [])
-    Z, nrm, its = dense_mcp.semismooth_newton(a0, a1, Z0)
+    Z0, _ = candidates._starts(s, [0.5, 2.0, 10.0], [])
+    Z, nrm, its = candidates.semismooth_newton(a0, a1, Z0)
     for b in range(len(Z0)):
         z, n, k = _reference_newton(a0, a1, Z0[b].copy())
         assert its[b] == k

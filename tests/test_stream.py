@@ -7,7 +7,7 @@ import subprocess
 import pytest
 from conftest import PY, ROOT
 
-from app.analyses.distributed import Chains, _chains
+from app.study.scheduler import Chains, _chains
 
 SCRIPT = """
 import json, sys

@@ -5,7 +5,7 @@ from mpi4py import MPI
 
 from app.analyses.enumerate import enumerate_mceip
 from app.analyses.outcomes import Failed
-from app.analyses.pencils import condensed_mu_pencil, dense, reduced_pencil, reduced_space, split_pencils
+from app.analyses.pencils.reduced import condensed_mu_pencil, dense, reduced_pencil, reduced_space, split_pencils
 from app.analyses.runner import analyse_state
 from app.common.stages import Stages
 from app.loading.classify import classify

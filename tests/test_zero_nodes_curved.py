@@ -12,10 +12,10 @@ import scipy.linalg
 from conftest import run_scene
 from mpi4py import MPI
 
-from app.analyses.mceip_mu_quadratic import enumerate_quadratic, quadratic_mu_result
-from app.analyses.mceip_mu_quadratic_bb import prove_bb
-from app.analyses.mceip_mu_quadratic_check import check_log
-from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+from app.analyses.mceip_mu.quadratic.bb import prove_bb
+from app.analyses.mceip_mu.quadratic.check import check_log
+from app.analyses.mceip_mu.quadratic.problem import enumerate_quadratic, quadratic_mu_result
+from app.analyses.mceip_mu.quadratic.proof import prove_quadratic
 from app.analyses.outcomes import Failed
 
 K, M, PHI, P = 1000.0, 2.0, 35.0, 3000.0
@@ -27,7 +27,7 @@ CS = C * S_
 
 def _particles(S1, obstacle, mu=1.0, analyses=("mceip_mu", "enumerate", "mceip_lambda2", "necessary")):
     """The analyses of the two-particle state with r_1 = 0, u_1 = 0 (set Z) and particle 0 slipping."""
-    from app.analyses.curvature import attach
+    from app.analyses.pencils.curvature import attach
     from app.analyses.runner import analyse_state
     from app.common.stages import Stages
     from app.loading.classify import classify
@@ -125,8 +125,8 @@ def test_two_particles_zero_node_flat_limit():
 
 def random_split(seed: int, n_slip: int, n_zero: int, curvature: float = -1.0):
     """A random split pencil of ``n_slip`` slip nodes and ``n_zero`` zero-reaction nodes with the
-    slip nodes' G (app/analyses/curved_split.py's construction on a random SPD Schur complement)."""
-    from app.analyses.pencils import split_pencil
+    slip nodes' G (app/analyses/pencils/curved_split.py's construction on a random SPD Schur complement)."""
+    from app.analyses.pencils.reduced import split_pencil
     from app.loading.classify import Classification
     rng = np.random.default_rng(seed)
     n = n_slip + n_zero
@@ -330,7 +330,7 @@ def test_quadratic_enumeration_with_free_unknowns_and_no_mu2_is_the_linear_one()
     """With ``comp`` (free unknowns x_f, y_f = 0) and ``A2 = 0`` the quadratic enumeration is the
     linear enumeration (24)-(26) of app/analyses/enumerate.py, pairs included."""
     from app.analyses.enumerate import enumerate_mceip
-    from app.analyses.pencils import split_pencil
+    from app.analyses.pencils.reduced import split_pencil
     from app.loading.classify import Classification
     rng = np.random.default_rng(5)
     n, nf = 3, 2

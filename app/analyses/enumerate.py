@@ -7,7 +7,7 @@ complementarity unknowns gives a linear eigenproblem on the free DOFs plus ``x_P
 
 and its real eigenpairs with ``t >= 0``, ``x_P > 0`` and ``y_stick >= 0`` (26) are the solutions
 with that pattern. Exact and complete, exponential in ``s``: the cross-check for small
-problems, and the fastest certificate below a crossover size (see app/analyses/certify.py).
+problems, and the fastest certificate below a crossover size (see app/analyses/mceip_mu/state.py).
 
 The work is batched: all supports of one size ``k`` are stacked into ``(m, n_R, n_R)`` arrays
 and go through LAPACK together (``numpy.linalg.solve`` and ``eigvals`` on the stack). With

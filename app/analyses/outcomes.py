@@ -49,7 +49,7 @@ class NotApplicable:
 
 @dataclass(frozen=True)
 class Deferred:
-    """The condensed MCEIP-mu (21)-(23) left for :mod:`app.analyses.distributed`, which replaces
+    """The condensed MCEIP-mu (21)-(23) left for :mod:`app.study.scheduler`, which replaces
     it by its outcome (never in a finished study)."""
 
     def as_dict(self) -> dict:

@@ -9,11 +9,10 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses import conditions, contact_spectrum, curvature
-from app.analyses.certify import certificate, condensed_mu_result, enumeration_certificate, mu_cap
+from app.analyses.conditions import contact_spectrum, full_size
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mceip_lambda2.analysis import mceip_lambda2
-from app.analyses.mcp import search_mceip
+from app.analyses.mceip_mu.state import certificate, condensed_mu_result, enumeration_certificate, mu_cap
 from app.analyses.outcomes import (
     CompleteClaim,
     Deferred,
@@ -29,8 +28,10 @@ from app.analyses.outcomes import (
     SufficientOutcome,
     one_line,
 )
-from app.analyses.pencils import UnsupportedState, dense
-from app.analyses.state_pencils import FULL_DENSE_LIMIT, StatePencils, keep_modes, no_slip, warm_hints
+from app.analyses.pencils import curvature
+from app.analyses.pencils.reduced import UnsupportedState, dense
+from app.analyses.pencils.state import FULL_DENSE_LIMIT, StatePencils, keep_modes, no_slip, warm_hints
+from app.analyses.snes_vi.search import search_mceip
 from app.analyses.zero_nodes import analyse_with_zero_nodes
 from app.loading.classify import STICK, ZERO, Classification, frictionless_reason
 from app.scene.schema import Scene
@@ -48,12 +49,12 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> Neces
         with system.stages("necessary condition (19) on the contact DOFs"):
             known = contact_spectrum.values(system, p.cls, scene.mu, hints)       # MPI collective
         if all(v is not None for v in known.values()):
-            return conditions.necessary(None, None, None, None, scene.mu, scene.settings.eig, known=known)
+            return full_size.necessary(None, None, None, None, scene.mu, scene.settings.eig, known=known)
     K0, K1 = p.K()
     M0, M1 = p.M()
     stars = p.star(scene.mu)
     with system.stages("necessary condition (19)"):
-        return conditions.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, hints, stars,
+        return full_size.necessary(K0, K1, M0, M1, scene.mu, scene.settings.eig, hints, stars,
                                     (p.space, system.K.getOwnershipRange()), known)
 
 
@@ -69,7 +70,7 @@ def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int,
                         f"MCEIP-lambda^2 at this mu has none ({lambda2.result})")
     Ks, Ms = p.star(scene.mu)        # shared with the necessary condition, destroyed with p
     with system.stages("sufficient condition (17)-(18)"):
-        out = conditions.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
+        out = full_size.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
     out.mu = scene.mu
     return out
 
@@ -92,14 +93,14 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
     An analysis whose solver fails (PETSc/SLEPc error, no convergence, unsupported state) is
     a :class:`~app.analyses.outcomes.Failed` and the other analyses still run.
     ``defer_condensed``: leave the condensed MCEIP-mu (dense, replicated data)
-    :class:`~app.analyses.outcomes.Deferred` for :func:`app.analyses.distributed.analyse_condensed_distributed` (MPI: one
+    :class:`~app.analyses.outcomes.Deferred` for :func:`app.study.scheduler.analyse_condensed_distributed` (MPI: one
     rank per classification). ``now(name)``, when given, is called as each analysis begins (the
     progress line says what runs).
     """
     na = frictionless_reason(cls, scene.mu) or _nothing_moves(system, cls)   # nothing to compute
     if na is not None:
         return {name: NotApplicable(na) for name in ANALYSES if name in scene.analyses}
-    if ZERO in cls.status:          # flat or curved obstacle (app/analyses/curved_split.py)
+    if ZERO in cls.status:          # flat or curved obstacle (app/analyses/pencils/curved_split.py)
         return analyse_with_zero_nodes(system, cls, scene)
     p = StatePencils(system, cls)
     out: dict[str, Outcome] = {}
@@ -137,11 +138,11 @@ def analyse_state(system: System, cls: Classification, scene: Scene,
 def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replicated: bool = True,
               warm: list[tuple[np.ndarray, float]] | None = None) -> MceipMuOutcome:
     """MCEIP-mu (21)-(23) of one classification: the condensed s x s pencil with its certificate
-    (:mod:`app.analyses.certify`), or the full-size SNES VI search (found, not proven).
+    (:mod:`app.analyses.mceip_mu.state`), or the full-size SNES VI search (found, not proven).
 
     ``replicated``: every rank computes the same dense problem and rank 0's answer is broadcast
     (a time budget could end differently on different ranks). ``False`` when only this rank runs
-    it (:func:`app.analyses.distributed.analyse_condensed_distributed` gathers the answers itself). ``warm``: starts for the
+    it (:func:`app.study.scheduler.analyse_condensed_distributed` gathers the answers itself). ``warm``: starts for the
     dense search from the previous classification along the path (large ``s`` only).
     """
     if s == 0:
@@ -157,7 +158,7 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
         if method != "condensed":
             raise UnsupportedState(f"settings.mceip_mu_method = {method}: on a curved obstacle MCEIP-mu is quadratic "
                                    "in mu and only the condensed enumeration solves it (use 'condensed')")
-        from app.analyses.mceip_mu_quadratic import quadratic_mu_result
+        from app.analyses.mceip_mu.quadratic.problem import quadratic_mu_result
         A0, A1, A2 = p.condensed_mu_quadratic()
         with system.stages("MCEIP-mu (21)-(23)"):
             mcp = scene.settings.mcp
@@ -166,7 +167,7 @@ def state_mceip_mu(system: System, p: StatePencils, scene: Scene, s: int, replic
         d.method = "condensed (quadratic)"
         return d
     if method == "condensed":
-        # dense search + certificate on the s x s pencil (app/analyses/certify.py): no PETSc, no MPI
+        # dense search + certificate on the s x s pencil (app/analyses/mceip_mu/state.py): no PETSc, no MPI
         A0, A1 = p.condensed_mu()
         with system.stages("MCEIP-mu (21)-(23)"):
             d = condensed_mu_result(A0, A1, mu_cap(scene.mu, scene.settings.mcp), scene.settings.mcp, warm=warm)
@@ -196,7 +197,7 @@ def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> Enumera
                 if s == 0:
                     sols = []
                 elif problem == "mu" and curvature.is_curved(p.cls):
-                    from app.analyses.mceip_mu_quadratic import enumerate_quadratic
+                    from app.analyses.mceip_mu.quadratic.problem import enumerate_quadratic
                     sols = enumerate_quadratic(*p.condensed_mu_quadratic(), settings.enumerate_max_slip)
                 elif problem == "mu":
                     A0, A1 = p.condensed_mu()
@@ -221,7 +222,7 @@ def _enumerate(system: System, p: StatePencils, scene: Scene, s: int) -> Enumera
                                           mu=scene.lambda2_mu if problem == "lambda2" else None)
                 if problem == "mu" and curvature.is_curved(p.cls):
                     # the quadratic pattern problems are decided in floating point: found, not proven
-                    # (the proofs are mceip_mu's: app/analyses/mceip_mu_quadratic_proof.py, mceip_mu_quadratic_bb.py)
+                    # (the proofs are mceip_mu's: app/analyses/mceip_mu/quadratic/proof.py, mceip_mu_quadratic_bb.py)
                     for x in found:
                         x.mark(certified=False)
                     done.certified = False

@@ -1,21 +1,18 @@
 """The analyses of a state with zero-reaction contact nodes (the paper's set Z): the rate
 conditions (9) of those nodes are complementarity conditions, so the pencils are split
-(:func:`app.analyses.pencils.split_pencils`) and searched or enumerated with them.
+(:func:`app.analyses.pencils.reduced.split_pencils`) and searched or enumerated with them.
 
 On a curved obstacle the split pencils are built in the contact frames with the slip nodes'
-curvature terms (:mod:`app.analyses.curved_split`): MCEIP-mu is the quadratic complementarity
-eigenproblem with pairs (:func:`app.analyses.mceip_mu_quadratic.quadratic_mu_result`), and
+curvature terms (:mod:`app.analyses.pencils.curved_split`): MCEIP-mu is the quadratic complementarity
+eigenproblem with pairs (:func:`app.analyses.mceip_mu.quadratic.problem.quadratic_mu_result`), and
 MCEIP-lambda^2 uses ``K*(mu) = A0 + mu A1 + mu^2 A2`` at the scene's ``lambda2_mu``."""
 from __future__ import annotations
 
 import numpy as np
 
-from app.analyses import curvature
-from app.analyses.certify import certificate, condensed_mu_result, enumeration_certificate, mu_cap
-from app.analyses.curved_split import curved_split_condensed, curved_split_full
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
-from app.analyses.mceip_mu_quadratic import enumerate_quadratic, quadratic_mu_result
-from app.analyses.mcp import search_mceip
+from app.analyses.mceip_mu.quadratic.problem import enumerate_quadratic, quadratic_mu_result
+from app.analyses.mceip_mu.state import certificate, condensed_mu_result, enumeration_certificate, mu_cap
 from app.analyses.outcomes import (
     EnumerationOutcome,
     EnumerationProblem,
@@ -24,8 +21,11 @@ from app.analyses.outcomes import (
     Outcome,
     Solution,
 )
-from app.analyses.pencils import UnsupportedState, dense, split_pencils
-from app.analyses.state_pencils import FULL_DENSE_LIMIT, seq_aij
+from app.analyses.pencils import curvature
+from app.analyses.pencils.curved_split import curved_split_condensed, curved_split_full
+from app.analyses.pencils.reduced import UnsupportedState, dense, split_pencils
+from app.analyses.pencils.state import FULL_DENSE_LIMIT, seq_aij
+from app.analyses.snes_vi.search import search_mceip
 from app.loading.classify import ZERO, Classification
 from app.scene.schema import Scene
 from app.systems.base import System
@@ -93,7 +93,7 @@ def _mceip_mu(system: System, cls: Classification, cond, scene: Scene, curved: b
     cap = mu_cap(scene.mu, settings.mcp)
     if curved:
         # quadratic in mu: every support enumerated (no pair in one), proven exactly or by the
-        # checked branch and bound (app/analyses/mceip_mu_quadratic.py)
+        # checked branch and bound (app/analyses/mceip_mu/quadratic/problem.py)
         d = quadratic_mu_result(cond.A0, cond.A1, cond.A2, cap, settings.enumerate_max_slip,
                                 certify=settings.mcp.certify, seconds=settings.mcp.certify_seconds, pairs=cond.pairs,
                                 nodes=settings.mcp.certify_quadratic_nodes)

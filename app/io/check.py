@@ -65,8 +65,8 @@ class Proven:
 
 def _linear(A0: np.ndarray, A1: np.ndarray, raw: object, pairs, s: int) -> Proven:
     """Re-verify a ``mceip-mu-proof`` log with the checker, the derived ``pairs`` replacing the log's."""
-    from app.analyses.mceip_mu.checker import check_log
-    from app.analyses.mceip_mu.prooflog import ProofLog
+    from app.analyses.mceip_mu.kernel.checker import check_log
+    from app.analyses.mceip_mu.kernel.prooflog import ProofLog
     log = ProofLog.from_json(json_object(raw, "proof log"))
     if log.s != s:
         return Proven(errors=[f"the log is for s = {log.s}, the pencil has s = {s}"])
@@ -96,9 +96,9 @@ def _quadratic(A0, A1, A2, raw: object, pairs, cap: float) -> Proven:
     """Re-prove a quadratic pencil (per support, exactly) or
     re-verify its branch-and-bound log, with the derived ``pairs``. The log's own ``cap`` and
     ``max_s`` are never used by the per-support proof: it runs on the claimed cap, and only up to the
-    run's own :data:`~app.analyses.mceip_mu_quadratic.PROOF_MAX_S` slip nodes."""
-    from app.analyses.mceip_mu_quadratic import PROOF_MAX_S, QUADRATIC_BB_FORMAT, QUADRATIC_FORMAT
-    from app.analyses.mceip_mu_quadratic_proof import pairs_hold
+    run's own :data:`~app.analyses.mceip_mu.quadratic.problem.PROOF_MAX_S` slip nodes."""
+    from app.analyses.mceip_mu.quadratic.problem import PROOF_MAX_S, QUADRATIC_BB_FORMAT, QUADRATIC_FORMAT
+    from app.analyses.mceip_mu.quadratic.proof import pairs_hold
     s = A0.shape[0]
     logged = raw.get("pairs", []) if isinstance(raw, dict) else None
     if not isinstance(logged, list) or not all(isinstance(p, list) and len(p) == 2 for p in logged) \
@@ -110,7 +110,7 @@ def _quadratic(A0, A1, A2, raw: object, pairs, cap: float) -> Proven:
     if fmt == QUADRATIC_FORMAT:
         if s > PROOF_MAX_S:
             return Proven(errors=[f"s = {s}: the exact per-support proof is re-run up to {PROOF_MAX_S} slip nodes"])
-        from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+        from app.analyses.mceip_mu.quadratic.proof import prove_quadratic
         proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, pairs=pairs)
         out = Proven(cap=cap)
         if proof is None or not proof.proven:
@@ -123,7 +123,7 @@ def _quadratic(A0, A1, A2, raw: object, pairs, cap: float) -> Proven:
         out.free_below = cap if on is None else float(on.enclosure[0])
         return out
     if fmt == QUADRATIC_BB_FORMAT:
-        from app.analyses.mceip_mu_quadratic_check import check_log
+        from app.analyses.mceip_mu.quadratic.check import check_log
         log = dict(raw)
         log["pairs"] = [list(p) for p in pairs]
         log_cap = json_number(log.get("cap"), "proof log cap")

@@ -52,7 +52,7 @@ class StateClaims:
     @property
     def pairs(self) -> list[tuple[int, int]]:
         """The halves ``(a, b)`` of each zero-reaction node's split tangential rate, at their fixed
-        places after the slip columns (app/analyses/pencils.py ``split_pencil``)."""
+        places after the slip columns (app/analyses/pencils/reduced.py ``split_pencil``)."""
         return [(self.slip + 3 * k, self.slip + 3 * k + 1) for k in range(self.zero)]
 
     @property

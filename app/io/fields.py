@@ -93,7 +93,7 @@ class _FieldMaker:
         r = np.ravel([[n["r_T"], n["r_N"]] for n in nodes])
         cc = entry.get("curved_contact")
         if cc is not None:               # a curved obstacle: reactions in the contact frames -> node frames
-            from app.analyses.curvature import frame_matrix
+            from app.analyses.pencils.curvature import frame_matrix
             r = frame_matrix(cc["frame"], len(nodes)) @ r
         vec = self.src.response(load, r)
         try:
@@ -117,7 +117,7 @@ class _FieldMaker:
 
     def _to_node_frames(self, arr: np.ndarray, r0: int, entry: dict, cls) -> None:
         """On a curved obstacle the pencils' slip-node DOFs are in the contact frames
-        (app/analyses/curvature.py): rotate them back to the node frames, in place (owned DOFs)."""
+        (app/analyses/pencils/curvature.py): rotate them back to the node frames, in place (owned DOFs)."""
         if entry.get("curved_contact") is None:
             return
         for node, f in zip(self.system.nodes, _slip_frames(entry, cls)):
@@ -133,7 +133,7 @@ class _FieldMaker:
         cls = _classification(entry)
         x = sol.get("_x")
         if x is not None:
-            from app.analyses.pencils import reduced_space
+            from app.analyses.pencils.reduced import reduced_space
             space = reduced_space(self.system, cls)
             kept = space.kept.getIndices()
             offset = self.comm.exscan(len(kept)) or 0                            # MPI collective
@@ -153,7 +153,7 @@ class _FieldMaker:
             xts = np.asarray(sol["x_Ts"], dtype=float)
             v_c[2 * slip] = -cls.slip_signs * xts
             if entry.get("curved_contact") is not None:     # contact frames -> node frames (slip nodes)
-                from app.analyses.curvature import frame_matrix
+                from app.analyses.pencils.curvature import frame_matrix
                 v_c = frame_matrix(_slip_frames(entry, cls), self.n) @ v_c
             con = np.asarray(con, dtype=np.int64)
             r = np.zeros(2 * self.n)
@@ -328,7 +328,7 @@ def _write_screenshot_data(fdir: pathlib.Path, maker: "_FieldMaker", contact, ke
 
 def _slip_frames(entry: dict, cls) -> list:
     """The contact frames the pencils of a curved-obstacle state use: the state's at its slip
-    nodes, the node's own elsewhere (app/analyses/curvature.py)."""
+    nodes, the node's own elsewhere (app/analyses/pencils/curvature.py)."""
     frames = entry["curved_contact"]["frame"]
     return [tuple(frames[i]) if st == "slip" else (1.0, 0.0, 0.0, 1.0) for i, st in enumerate(cls.status)]
 

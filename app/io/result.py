@@ -28,7 +28,7 @@ import numpy as np
 
 from app.io.document import from_document, to_document
 
-#: keys of an MCEIP solution dictionary that are the evidence that it is one (mcp.py, enumerate.py)
+#: keys of an MCEIP solution dictionary that are the evidence that it is one (app/analyses/snes_vi/search.py, app/analyses/enumerate.py)
 EVIDENCE_KEYS = ("residual", "complementarity", "min_x_Ts", "min_y_Ts", "iterations", "found_by",
                  "found_count", "relative_error")
 

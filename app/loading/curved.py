@@ -31,7 +31,7 @@ displacement in its contact frame, and ``r_T``, ``r_N`` the components in that f
 ``curved_contact`` records the frames (``(a, b, c, d)``: ``t = a t0 + b n0``, ``n = c t0 + d n0``),
 the exact gaps, the displacements in the system frames (``u_system``, interleaved T, N), the arc
 coordinates, the number of linearisations and the signed curvature at each contact point
-(``curvature``, what the pencils of the state use: app/analyses/curvature.py).
+(``curvature``, what the pencils of the state use: app/analyses/pencils/curvature.py).
 """
 from __future__ import annotations
 

@@ -67,7 +67,7 @@ class McpSettings(Strict):
                           "from the dense (K, M) eigen-decomposition up to this many DOFs, from a sparse "
                           "factorisation of K + t M per t above; the SNES VI search runs where the proof fails")
     # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
-    # uniform there) are left out, half the Newton runs (app/analyses/dense_mcp.py)
+    # uniform there) are left out, half the Newton runs (app/analyses/mceip_mu/candidates.py)
     search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40
     # large condensed problems (100k-DOF studies): above search_full_max slip nodes the search
     # runs a reduced start set (uniform x and x on search_one_node spread unknowns with every t0, the

@@ -12,9 +12,8 @@ from itertools import starmap
 import numpy as np
 from mpi4py import MPI
 
-from app.analyses.curvature import attach as attach_curvature
-from app.analyses.distributed import EarlyChains, analyse_condensed_distributed
 from app.analyses.outcomes import STOPPED, Deferred, Failed, analyses_document
+from app.analyses.pencils.curvature import attach as attach_curvature
 from app.analyses.runner import analyse_state
 from app.common.interrupt import checkpoint
 from app.common.library_warnings import describe, explained, merged
@@ -27,6 +26,7 @@ from app.linalg import one_blas_thread
 from app.loading.classify import ZERO, classify
 from app.scene.schema import Scene
 from app.study import stream
+from app.study.scheduler import EarlyChains, analyse_condensed_distributed
 from app.systems import get as system_type
 
 
@@ -97,7 +97,7 @@ ANALYSIS_WORDS = {"necessary": "necessary condition (19)", "sufficient": "suffic
 class Classified:
     """The per-state part of a study, state by state: each state classified, its contact nodes
     typed, and the scene's analyses run once per distinct classification (the condensed MCEIP-mu
-    left :class:`Deferred` in :attr:`deferred` for app/analyses/distributed.py).
+    left :class:`Deferred` in :attr:`deferred` for app/study/scheduler.py).
 
     ``postpone``: a state whose analyses would need every rank (a new classification with
     zero-reaction nodes: its dense answer is broadcast from rank 0) is kept for
@@ -123,7 +123,7 @@ class Classified:
         checkpoint()                  # a Ctrl-C whose KeyboardInterrupt was swallowed (app/common/interrupt.py)
         t_state = time.perf_counter()
         system, scene = self.system, self.scene
-        # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/curvature.py)
+        # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/pencils/curvature.py)
         cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
         # one row per contact node, from Python numbers (a 100k-DOF study has 10^5 of them)
         values = [np.asarray(v, dtype=float) for v in (state.u_N, state.u_T, state.r_N, state.r_T)]
@@ -200,7 +200,7 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
     done; their ``analyses`` blocks are then written once per distinct classification and the
     views built from the outcomes. ``per_state``: the states already classified (on ranks > 0
     while rank 0 walked the path; rank 0 classifies them here); ``early``: the MCEIP-mu chains
-    those ranks began (app/analyses/distributed.py)."""
+    those ranks began (app/study/scheduler.py)."""
     if per_state is None:
         per_state = Classified(system, scene, progress)
         per_state.add_all(states)

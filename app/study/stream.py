@@ -7,7 +7,7 @@ classifications (paper (21)-(23)) is independent per chain of classifications. S
 walking the same path and then sharing out the MCEIP-mu jobs, rank 0 walks it alone and sends each
 state as soon as it is made (non-blocking, pickled); the other ranks classify the states as they
 arrive and run the MCEIP-mu jobs rank 0's path has passed, chain by chain and one job at a time
-(:class:`app.analyses.distributed.EarlyChains`). Rank 0 joins the jobs left after its path. The
+(:class:`app.study.scheduler.EarlyChains`). Rank 0 joins the jobs left after its path. The
 chains, and so every answer, are those of one rank.
 
 Used when the system type's loading needs no MPI (``walker``, app/systems/) and the scene asks

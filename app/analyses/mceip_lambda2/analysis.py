@@ -2,7 +2,7 @@
 
 Order: (19) at the scene's mu (no divergence when it fails), the exact slip-node reduction
 (:mod:`app.analyses.mceip_lambda2.exact`, small systems), then the SNES VI search of
-:func:`app.analyses.mcp.search_mceip` boxed by the inertia-proven bound of
+:func:`app.analyses.snes_vi.search.search_mceip` boxed by the inertia-proven bound of
 :mod:`app.analyses.mceip_lambda2.bounds`. Every result carries ``certified`` and a ``certificate``.
 """
 from __future__ import annotations
@@ -11,15 +11,15 @@ import time
 
 import numpy as np
 
-from app.analyses import conditions
-from app.analyses.certify import certificate
-from app.analyses.curvature import is_curved
+from app.analyses.conditions import full_size
 from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
-from app.analyses.mcp import search_mceip
+from app.analyses.mceip_mu.state import certificate
 from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome
-from app.analyses.pencils import diag_scale
-from app.analyses.state_pencils import StatePencils, keep_modes, no_slip, warm_hints
+from app.analyses.pencils.curvature import is_curved
+from app.analyses.pencils.reduced import diag_scale
+from app.analyses.pencils.state import StatePencils, keep_modes, no_slip, warm_hints
+from app.analyses.snes_vi.search import search_mceip
 from app.scene.schema import Scene
 from app.systems.base import System
 
@@ -47,7 +47,7 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
             K0, K1 = p.K()
             M0, M1 = p.M()
             with system.stages("MCEIP-lambda2 (12)-(14)"):
-                nec = conditions.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
+                nec = full_size.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
         if not nec.satisfied:     # the verified sign argument factorises them
             K0, K1 = p.K()
             M0, M1 = p.M()

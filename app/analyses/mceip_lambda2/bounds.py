@@ -1,5 +1,5 @@
 """What can be proven cheaply about MCEIP-lambda^2 (12)-(14) on the full-size pencil (its
-``certificate`` block is built by :func:`app.analyses.certify.certificate`, as MCEIP-mu's).
+``certificate`` block is built by :func:`app.analyses.mceip_mu.state.certificate`, as MCEIP-mu's).
 
 Sign argument (the paper's (19), generalised): at a solution ``x^T y = x_Ts^T y_Ts = 0``, so
 ``x^T (K* + t M*) x = 0`` with ``t = lambda^2``. Hence no solution has a ``t`` at which the
@@ -29,7 +29,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils import REPLICATE_MAX, axpy_structure, diag_scale, serial_copy, sym_part
+from app.analyses.pencils.reduced import REPLICATE_MAX, axpy_structure, diag_scale, serial_copy, sym_part
 from app.linalg import from_options, lu, owned, with_prefix
 
 PROVEN = "proven"
@@ -37,7 +37,7 @@ PROVEN = "proven"
 
 def _verified_pd_pencil(a0: np.ndarray, a1: np.ndarray, mu: float) -> bool:
     """``sym(a0 + mu a1)`` proven positive definite (the dense verified Cholesky of
-    :func:`app.analyses.mceip_mu.rounding.verified_pd`, after an exact power-of-two diagonal
+    :func:`app.analyses.mceip_mu.kernel.rounding.verified_pd`, after an exact power-of-two diagonal
     scaling ``S``; the rounding of ``a0 + mu a1`` and of the symmetric part is in the radius).
 
     The rounding of ``H = sym fl(a0 + mu a1)`` is at most ``gamma_4 sym(|a0| + |mu| |a1|) +
@@ -45,7 +45,7 @@ def _verified_pd_pencil(a0: np.ndarray, a1: np.ndarray, mu: float) -> bool:
     ``gamma_4 (||S a0 S||_F + |mu| ||S a1 S||_F) + gamma_1 ||S H S||_F`` (the absolute value and
     the symmetric part do not increase a Frobenius norm), each ``sqrt(s2^T (X o X) s2)`` with
     ``s2`` the squared scaling, rounded up."""
-    from app.analyses.mceip_mu.rounding import gamma, rounded_up, verified_pd
+    from app.analyses.mceip_mu.kernel.rounding import gamma, rounded_up, verified_pd
     n = a0.shape[0]
     H = a0 + mu * a1
     H += H.T.copy()
@@ -71,7 +71,7 @@ def verified_sign_argument(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETS
     ``sym M*(mu)`` proven positive definite by dense verified Cholesky factorisations, for
     pencils of at most ``max_dofs`` rows (``False`` above: not attempted). MPI collective (the
     dense copies); rank 0 decides."""
-    from app.analyses.pencils import dense
+    from app.analyses.pencils.reduced import dense
     if K0.getSize()[0] > max_dofs:
         return False
     k0, k1, m0, m1 = (dense(X) for X in (K0, K1, M0, M1))          # MPI collective

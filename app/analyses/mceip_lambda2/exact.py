@@ -9,7 +9,7 @@ classification: :class:`DynamicContact` computes them once per ``t`` for the who
 dense eigen-decomposition ``K Phi = M Phi Omega`` on small systems
 (``W(t) = B Phi (Omega + t)^-1 Phi^T B^T``) and from a sparse Cholesky factorisation of ``K + t M``
 with MUMPS's selected entries of its inverse above ``McpSettings.lambda2_exact_max_dofs``. The
-free contact nodes are eliminated as in :func:`app.analyses.pencils.condensed_mu_pencil`. The
+free contact nodes are eliminated as in :func:`app.analyses.pencils.reduced.condensed_mu_pencil`. The
 result is the ``s x s`` matrix ``S(t)`` with ``y_Ts = S(t) x_Ts`` at every ``x`` with ``y_f = 0``,
 so (12)-(14) is ``x >= 0, S(t) x >= 0, x_i (S(t) x)_i = 0`` (``S(0)`` is the condensed MCEIP-mu
 pencil at mu).
@@ -48,10 +48,10 @@ import scipy.linalg
 import scipy.sparse
 from petsc4py import PETSc
 
-from app.analyses.certify import in_pd_plus_nn
-from app.analyses.kept_contact import KeptContact
-from app.analyses.pencils import axpy_structure, dense
-from app.analyses.state_pencils import per_system, sequential_km
+from app.analyses.mceip_mu.state import in_pd_plus_nn
+from app.analyses.pencils.kept_contact import KeptContact
+from app.analyses.pencils.reduced import axpy_structure, dense
+from app.analyses.pencils.state import per_system, sequential_km
 from app.linalg import lu_solver
 from app.loading.classify import Classification
 from app.loading.mumps_schur import SchurComplements

@@ -130,7 +130,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
                     "params": ops.params, "contact_xy": ops.contact_xy,
                     "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
-    if cfg.obstacle.type != "line":      # the curvature terms of the pencils (app/analyses/curvature.py)
+    if cfg.obstacle.type != "line":      # the curvature terms of the pencils (app/analyses/pencils/curvature.py)
         geometry = cfg.obstacle.geometry(np.mean(ops.contact_xy, axis=0))
         # at the initial contact points; each state records its own (curved_contact.curvature)
         system.extra["curvature"] = geometry.curvatures(ops.contact_xy)

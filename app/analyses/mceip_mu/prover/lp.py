@@ -7,7 +7,7 @@ module calls SciPy's HiGHS wrapper directly (the same solver, options and result
 ``linprog(method="highs")`` uses in the SciPy 1.10 that Debian bookworm ships), and falls back to
 ``linprog`` if that private entry point is missing or changes. Nothing here is trusted: every
 vector the LP returns is re-checked with rigorous bounds by
-:func:`app.analyses.mceip_mu.closing.farkas_closes`.
+:func:`app.analyses.mceip_mu.kernel.closing.farkas_closes`.
 """
 from __future__ import annotations
 

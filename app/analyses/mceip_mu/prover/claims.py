@@ -2,9 +2,9 @@
 
 Two claims, in this order: the **onset** (no solution in ``[0, L]``, and a verified solution just
 above ``L``; or none below the cap), then **every solution in [0, cap]** (roots tiling
-``[0, cap]``). The tree is built by :class:`app.analyses.mceip_mu.branch.Prover`; the
+``[0, cap]``). The tree is built by :class:`app.analyses.mceip_mu.prover.branch.Prover`; the
 floating-point candidates (search or enumeration) only guide it; every claim is what
-:func:`app.analyses.mceip_mu.checker.check_log` accepts.
+:func:`app.analyses.mceip_mu.kernel.checker.check_log` accepts.
 """
 from __future__ import annotations
 
@@ -14,11 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.analyses.mceip_mu import branch, closing, prooflog, windows
-from app.analyses.mceip_mu.branch import Prover
-from app.analyses.mceip_mu.heuristics import polish
-from app.analyses.mceip_mu.leaves import WINDOW_REL, Found
-from app.analyses.mceip_mu.live import LIVE
+from app.analyses.mceip_mu.kernel import closing, prooflog, windows
+from app.analyses.mceip_mu.prover import branch
+from app.analyses.mceip_mu.prover.branch import Prover
+from app.analyses.mceip_mu.prover.heuristics import polish
+from app.analyses.mceip_mu.prover.leaves import WINDOW_REL, Found
+from app.analyses.mceip_mu.prover.live import LIVE
 from app.linalg import one_blas_thread
 
 

@@ -1,10 +1,10 @@
 """The leaves of the MCEIP-mu proof tree: one exact support ``U`` (paper eqs. (25)-(26)).
 
 Every real eigenvalue of ``A_UU(mu)`` in the leaf's interval that looks like a solution gets a
-Krawczyk window (:func:`app.analyses.mceip_mu.windows.verify_window`: one verified eigenpair,
+Krawczyk window (:func:`app.analyses.mceip_mu.kernel.windows.verify_window`: one verified eigenpair,
 decided as solution or not); the gaps between are closed by Farkas vectors where one exists
-(:func:`app.analyses.mceip_mu.closing.farkas_closes`), and what is left by the checker's
-nonsingularity cover (:func:`app.analyses.mceip_mu.closing.cover_nonsingular`).
+(:func:`app.analyses.mceip_mu.kernel.closing.farkas_closes`), and what is left by the checker's
+nonsingularity cover (:func:`app.analyses.mceip_mu.kernel.closing.cover_nonsingular`).
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from app.analyses.mceip_mu import closing, prooflog, windows
-from app.analyses.mceip_mu.heuristics import polish
+from app.analyses.mceip_mu.kernel import closing, prooflog, windows
+from app.analyses.mceip_mu.prover.heuristics import polish
 
 #: relative half-width of the window around a verified eigenvalue (the accuracy of a proven value)
 WINDOW_REL = 1e-9
@@ -37,7 +37,7 @@ class Found:
 
 
 class LeafTests:
-    """The leaf tests of :class:`app.analyses.mceip_mu.branch.Prover` (a mixin: it uses the
+    """The leaf tests of :class:`app.analyses.mceip_mu.prover.branch.Prover` (a mixin: it uses the
     prover's scaled pencil ``a0, a1``, ``cap``, ``pairs``, its LP ``_lp`` and records
     what it proves in ``found``, ``ill`` and ``leaf_cache``)."""
 

@@ -1,7 +1,7 @@
 """Solutions of the MCEIPs (paper (12)-(14), (21)-(23)) with their evidence, and the record of a search.
 
-Shared by the full-size SNES VI search (:mod:`app.analyses.mcp`) and its bordered MCP
-(:mod:`app.analyses.bordered_mcp`).
+Shared by the full-size SNES VI search (:mod:`app.analyses.snes_vi.search`) and its bordered MCP
+(:mod:`app.analyses.snes_vi.bordered`).
 """
 from __future__ import annotations
 

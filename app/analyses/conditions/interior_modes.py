@@ -1,13 +1,13 @@
 """The smallest eigenvalues of a system's interior block ``X_ii`` (``X`` = ``K`` or ``M``, every DOF
 but the contact DOFs), where the values of the necessary condition (19) on the contact DOFs have
-their first pole (app/analyses/contact_spectrum.py). SLEPc on the sequential matrix."""
+their first pole (app/analyses/conditions/contact_spectrum.py). SLEPc on the sequential matrix."""
 from __future__ import annotations
 
 import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses import conditions
+from app.analyses.conditions import full_size
 from app.linalg import configure_direct, flush_subnormals, owned, with_prefix
 from app.scene.schema import EigSettings
 
@@ -21,7 +21,7 @@ def interior_modes(Xii: PETSc.Mat, gap: float, tol: float) -> tuple[np.ndarray, 
     both pairs to ``tol``. Clustered (the consistent mass matrix, whose smallest
     eigenvalues differ by 1e-4 at 100k DOFs and took 6-7 s to converge from 0): the smallest
     alone, by shift-and-invert about a shift just below the rough value that the factorisation's
-    own inertia proves below the spectrum (:func:`app.analyses.conditions.smallest_above`), where
+    own inertia proves below the spectrum (:func:`app.analyses.conditions.full_size.smallest_above`), where
     it converges in a few iterations. Subnormals are flushed in the factorisations
     (:func:`app.linalg.flush_subnormals`: the mass matrix's factor underflows at 10^6 DOFs)."""
     with flush_subnormals():
@@ -34,7 +34,7 @@ def _interior_modes(Xii: PETSc.Mat, gap: float, tol: float) -> tuple[np.ndarray,
         return smallest_pairs(Xii, 2, tol)
     step = 1e-4 * k[0]
     for _ in range(12):
-        lam = conditions.smallest_above(Xii, float(k[0] - step), EigSettings(tol=tol))
+        lam = full_size.smallest_above(Xii, float(k[0] - step), EigSettings(tol=tol))
         if lam is not None:
             return np.array([lam, *k[1:]]), None
         step *= 4.0

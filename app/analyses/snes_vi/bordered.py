@@ -2,16 +2,16 @@
 
 ``F(z)`` and ``J(z)`` of the MCP in ``z = (x_f, x_c, t)`` for the pencil ``A0 + t A1``, the lifts
 of a start through the free rows (one factorisation of ``A_ff(t)`` per ``t``, kept), one SNES VI
-run from a start, and the check of a converged point (:class:`app.analyses.mcp_results.McpSolution`).
-The search over starts and intervals is :func:`app.analyses.mcp.search_mceip`.
+run from a start, and the check of a converged point (:class:`app.analyses.snes_vi.results.McpSolution`).
+The search over starts and intervals is :func:`app.analyses.snes_vi.search.search_mceip`.
 """
 from __future__ import annotations
 
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses.mcp_results import McpSolution
-from app.analyses.pencils import axpy_structure
+from app.analyses.pencils.reduced import axpy_structure
+from app.analyses.snes_vi.results import McpSolution
 from app.linalg import configure_direct, from_options, lu_solver, set_linesearch, with_prefix
 from app.scene.schema import McpSettings
 

@@ -7,12 +7,12 @@ tangential rates of zero-reaction nodes). The pencil's floating-point entries ar
 proof is about them exactly.
 
 The trusted kernel is five modules, none of which imports the prover
-(:mod:`app.analyses.mceip_mu.prover`, which uses their tests): :mod:`.rounding` (the rigorous
+(:mod:`app.analyses.mceip_mu.prover.claims`, which uses their tests): :mod:`.rounding` (the rigorous
 rounding-error bounds), :mod:`.closing` (sign argument, nonsingularity, products of constraints,
 Farkas vectors), :mod:`.windows` (Krawczyk windows of isolated eigenpairs), :mod:`.prooflog` (the
 log) and this module, which re-verifies a log from the pencil alone.
 
-The log (:class:`~app.analyses.mceip_mu.prooflog.ProofLog`) is a tree of nodes ``(U, [a, b])`` ("no solution with support in ``U``
+The log (:class:`~app.analyses.mceip_mu.kernel.prooflog.ProofLog`) is a tree of nodes ``(U, [a, b])`` ("no solution with support in ``U``
 and mu in ``[a, b]`` other than the listed ones"); :func:`check_log` re-runs every node's test from
 the pencil and checks that the children of each node cover it. The format is documented in
 docs/proofs.md.
@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.analyses.mceip_mu.closing import closes_subsets, cover_nonsingular, covers, farkas_closes, rlt_closes
-from app.analyses.mceip_mu.prooflog import CheckReport, Node, ProofLog
-from app.analyses.mceip_mu.windows import verify_window
+from app.analyses.mceip_mu.kernel.closing import closes_subsets, cover_nonsingular, covers, farkas_closes, rlt_closes
+from app.analyses.mceip_mu.kernel.prooflog import CheckReport, Node, ProofLog
+from app.analyses.mceip_mu.kernel.windows import verify_window
 
 
 def scaled(A0: np.ndarray, A1: np.ndarray, scale_exp: int) -> tuple[np.ndarray, np.ndarray]:

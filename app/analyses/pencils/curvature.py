@@ -24,8 +24,8 @@ classification used to share analyses carries them (:class:`CurvedClassification
 Zero-reaction nodes (the paper's set Z, r = 0): the curvature terms above are proportional to
 the reaction and vanish, so their rate conditions (9) are the flat ones, written in the frame of
 the obstacle at *their* contact point. Their frames are recorded like the slip nodes' and the
-split pencil of :func:`app.analyses.pencils.split_pencil` is built in them
-(:mod:`app.analyses.curved_split`); the slip nodes keep their ``G`` terms.
+split pencil of :func:`app.analyses.pencils.reduced.split_pencil` is built in them
+(:mod:`app.analyses.pencils.curved_split`); the slip nodes keep their ``G`` terms.
 """
 from __future__ import annotations
 
@@ -106,7 +106,7 @@ def condensed_quadratic(Sc: np.ndarray, cls: CurvedClassification) -> tuple[np.n
     """``(A0, A1, A2)`` of the condensed MCEIP-mu on a curved obstacle:
     ``A(mu) = S Ŝ_TT S + G + mu Ŝ_NT S + mu^2 G`` (docs/method.md section 8), the contact Schur
     complement first rotated into the contact frames of the slip nodes."""
-    from app.analyses.pencils import condensed_mu_pencil
+    from app.analyses.pencils.reduced import condensed_mu_pencil
     Sc = rotate_schur(Sc, cls)
     A0, A1 = condensed_mu_pencil(Sc, cls)
     G = np.diag(cls.slip_geometric())

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.analyses.mceip_mu.rounding import (
+from app.analyses.mceip_mu.kernel.rounding import (
     U_ROUND,
     gamma,
     mr_mul,

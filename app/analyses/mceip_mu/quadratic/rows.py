@@ -1,5 +1,5 @@
 """Exact row structure of the quadratic split pencil of zero-reaction nodes, for the enumeration of
-app/analyses/mceip_mu_quadratic.py (docs/method.md section 8).
+app/analyses/mceip_mu/quadratic/problem.py (docs/method.md section 8).
 
 A zero-reaction node's split rows satisfy ``row_a(mu) = A0[a] + mu A0[N]`` and
 ``row_N(mu) = A0[N]`` exactly (``a`` or ``b``, ``N`` its normal rate), so on a support holding

@@ -14,7 +14,7 @@ from slepc4py import SLEPc
 
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
 from app.analyses.outcomes import NecessaryOutcome, Solution, SufficientOutcome
-from app.analyses.pencils import combine, diag_scale, gather_vec, serial_copy, sym_part
+from app.analyses.pencils.reduced import combine, diag_scale, gather_vec, serial_copy, sym_part
 from app.linalg import configure_direct, from_options, mumps_null_pivots, owned, with_prefix
 from app.scene.schema import EigSettings
 
@@ -273,7 +273,7 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
     (r0, r1))``, the kept DOFs and the system's owned rows: the eigenvectors then go into
     ``hints`` too, in the system's numbering, as start vectors for the next classification.
     ``known``: name -> ``(value, scale)`` already computed on the contact DOFs
-    (:func:`app.analyses.contact_spectrum.values`); only the others are solved here (their
+    (:func:`app.analyses.conditions.contact_spectrum.values`); only the others are solved here (their
     pencils may then be None).
     """
     out: dict = {"mu": mu}

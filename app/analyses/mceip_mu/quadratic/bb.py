@@ -3,7 +3,7 @@ the per-support proof (docs/method.md section 8, paper eqs. (21)-(23) condensed 
 
 A node is a family ``F <= P <= U`` of supports with mu in ``[a, b]``, the root every support on
 ``[0, cap]``. A node is closed by a witness of the trusted kernel
-(:mod:`app.analyses.mceip_mu_quadratic_check`: the sign argument at the four corners of the
+(:mod:`app.analyses.mceip_mu.quadratic.check`: the sign argument at the four corners of the
 lifting of ``mu^2``, with ``D = I`` or a Perron-like scaling; a Farkas vector found by an LP;
 nonsingularity of ``A_UU`` when ``F = U``), or, when ``F = U = J``, is a *leaf* decided exactly by
 the per-support proof. A node nothing closes is split: its interval halved while it is wide,
@@ -15,7 +15,7 @@ onset is proven first.
 Zero-reaction nodes (``pairs``: the halves ``(a, b)`` of a split tangential rate, whose columns
 are opposite, so no test can close a family holding both): a family with a pair inside
 ``U \ F`` is split on it first, ``(U \ {a}, F)`` and ``(U \ {b}, F + {a})``, and every forced
-index drops its partner from ``U``, as in the linear engine (:mod:`app.analyses.mceip_mu.branch`);
+index drops its partner from ``U``, as in the linear engine (:mod:`app.analyses.mceip_mu.prover.branch`);
 a family whose ``F`` holds a pair is closed as ``pair``.
 
 The prover decides nothing itself: the log goes to :func:`check_log`, which verifies every
@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.mceip_mu import lp
-from app.analyses.mceip_mu_quadratic_check import (
+from app.analyses.mceip_mu.prover import lp
+from app.analyses.mceip_mu.quadratic.check import (
     Report,
     check_log,
     cop_closes,

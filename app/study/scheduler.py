@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses.mceip_mu.live import LIVE
+from app.analyses.mceip_mu.prover.live import LIVE
 from app.analyses.outcomes import Failed, MceipMuOutcome, Outcome, one_line
-from app.analyses.pencils import UnsupportedState
+from app.analyses.pencils.reduced import UnsupportedState
+from app.analyses.pencils.state import StatePencils
 from app.analyses.runner import ANALYSES, state_mceip_mu
-from app.analyses.state_pencils import StatePencils
 from app.common.interrupt import checkpoint
 from app.common.progress import Progress
 from app.loading.classify import ZERO, Classification

@@ -1,7 +1,7 @@
 """The proof log of MCEIP-mu: a tree of closed families with their witnesses (docs/proofs.md).
 
 A node ``(F <= P <= U, [a, b])`` says "no solution with a support between ``F`` and ``U`` and mu
-in ``[a, b]`` other than the listed ones"; :func:`app.analyses.mceip_mu.checker.check_log`
+in ``[a, b]`` other than the listed ones"; :func:`app.analyses.mceip_mu.kernel.checker.check_log`
 re-runs every node's test from the pencil and checks that the children of each node cover it.
 """
 from __future__ import annotations

@@ -2,14 +2,14 @@
 
 A zero-reaction node (the paper's set Z) has ``r = 0``, so the curvature terms of its rates,
 ``-kappa r_N v_T`` and ``kappa r_T v_T``, vanish: its rate conditions (9) are the flat ones of
-:func:`app.analyses.pencils.split_pencil` (variables ``(a, b, x_N)``, ``v_T = a - b``), written
+:func:`app.analyses.pencils.reduced.split_pencil` (variables ``(a, b, x_N)``, ``v_T = a - b``), written
 in the frame of the obstacle at its own contact point. The slip nodes keep theirs, so the
 pencil of MCEIP-mu (21)-(23) is quadratic,
 
     A(mu) = A0 + mu A1 + mu^2 A2,   A0 = R0 Â Q + G,   A1 = R1 Â Q,   A2 = G,
 
 with ``Â`` the contact Schur complement (or ``K``) rotated into the contact frames of the slip
-and zero-reaction nodes (:mod:`app.analyses.curvature`) and ``G = diag(kappa_i P_i)`` on the
+and zero-reaction nodes (:mod:`app.analyses.pencils.curvature`) and ``G = diag(kappa_i P_i)`` on the
 slip nodes' columns ``T<i>`` of ``x_c``; the mass pencil has no ``G``.
 """
 from __future__ import annotations
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.analyses import curvature
-from app.analyses.pencils import split_pencils
+from app.analyses.pencils import curvature
+from app.analyses.pencils.reduced import split_pencils
 from app.loading.classify import Classification
 from app.systems.base import System
 
@@ -27,7 +27,7 @@ from app.systems.base import System
 @dataclass
 class QuadraticSplitPencil:
     """Dense split pencil ``A0 + mu A1 + mu^2 A2`` with zero-reaction nodes; fields as
-    :class:`app.analyses.pencils.SplitPencil` (``pairs``: the ``(a, b)`` halves of each zero node)."""
+    :class:`app.analyses.pencils.reduced.SplitPencil` (``pairs``: the ``(a, b)`` halves of each zero node)."""
 
     A0: np.ndarray
     A1: np.ndarray

@@ -24,9 +24,9 @@ import numpy as np
 import scipy.linalg
 from petsc4py import PETSc
 
-from app.analyses.bordered_mcp import RSLS, SSLS, BorderedMcp
-from app.analyses.mcp_results import McpSolution, SearchReport
-from app.analyses.pencils import REPLICATE_MAX, dense, diag_scale, serial_copy
+from app.analyses.pencils.reduced import REPLICATE_MAX, dense, diag_scale, serial_copy
+from app.analyses.snes_vi.bordered import RSLS, SSLS, BorderedMcp
+from app.analyses.snes_vi.results import McpSolution, SearchReport
 from app.linalg import owned
 from app.scene.schema import McpSettings
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.analyses.mceip_mu import rounding as _rounding
+from app.analyses.mceip_mu.kernel import rounding as _rounding
 from app.analyses.outcomes import STOPPED, Certificate, CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
@@ -41,7 +41,7 @@ def enumeration_certificate(sols: list[Solution]) -> Certificate:
 def in_pd_plus_nn(S: np.ndarray) -> bool:
     """Proven: the symmetric ``S`` is in ``PD + NN`` (so strictly copositive). Exact power-of-two
     diagonal scaling, splits ``N = theta * (positive off-diagonal part)``, ``theta`` in
-    {0, 1, 1/2}, and the verified Cholesky of :func:`app.analyses.mceip_mu.rounding.verified_pd`."""
+    {0, 1, 1/2}, and the verified Cholesky of :func:`app.analyses.mceip_mu.kernel.rounding.verified_pd`."""
     S = np.asarray(S, dtype=float)
     if S.size == 0:
         return True
@@ -79,17 +79,17 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                         warm: list[tuple[np.ndarray, float]] | None = None) -> MceipMuOutcome:
     """MCEIP-mu (21)-(23) on the condensed pencil: floating-point candidates (exhaustive
     enumeration up to ``settings.certify_enumerate_max`` slip nodes, the dense semismooth Newton
-    search of :mod:`app.analyses.dense_mcp` above), then the proof of :mod:`app.analyses.mceip_mu`.
+    search of :mod:`app.analyses.mceip_mu.candidates` above), then the proof of :mod:`app.analyses.mceip_mu`.
 
     Two claims: the onset (smallest critical mu, or none in ``[0, cap]``) and the complete list
     in ``[0, cap]`` (attempted up to ``settings.certify_all_max`` slip nodes). ``certified`` is
     true when the independent checker accepted both; ``onset.proven`` when it accepted the first.
     Candidates above the cap are listed as found (``certified: false``). The pencil and the proof
     log travel in the private ``_proof`` key (written to ``proofs/`` beside results.json)."""
-    from app.analyses import dense_mcp
     from app.analyses.enumerate import enumerate_patterns
-    from app.analyses.mceip_mu import mceip_mu, mceip_mu_none_below_cap
-    from app.analyses.mceip_mu.live import LIVE
+    from app.analyses.mceip_mu import candidates
+    from app.analyses.mceip_mu.proven import mceip_mu, mceip_mu_none_below_cap
+    from app.analyses.mceip_mu.prover.live import LIVE
 
     s = A0.shape[0]
     comp = np.arange(s)
@@ -98,7 +98,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     with one_blas_thread():
         if s <= settings.certify_enumerate_max:
             cands = enumerate_patterns(A0, A1, comp, pairs=pairs)
-            rep = dense_mcp.DenseSearchReport([], 0, 0, 0, 0.0, note=(
+            rep = candidates.DenseSearchReport([], 0, 0, 0, 0.0, note=(
                 f"no search: s = {s} <= certify_enumerate_max, every support enumerated in floating point "
                 "(candidates for the proof)"))
             found_by = {}
@@ -106,13 +106,13 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                 (quick := mceip_mu_none_below_cap(A0, A1, cap, pairs=pairs)) is not None:
             # proven without a search: no critical mu in [0, cap] (values above the cap, which a
             # search might meet, are outside every claim and not searched for)
-            rep = dense_mcp.DenseSearchReport([], 0, 0, 0, 0.0, note=(
+            rep = candidates.DenseSearchReport([], 0, 0, 0, 0.0, note=(
                 f"no search: s = {s} > search_full_max and the sign argument alone proved that no critical mu "
                 f"lies in [0, {cap:.6g}] (values above the cap are not searched for)"))
             return _outcome(A0, A1, cap, quick, [], {}, rep, comp, settings)
         else:
             LIVE.reset("search")
-            rep = dense_mcp.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
+            rep = candidates.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
                                    zero_one_max=settings.search_zero_one_max, full_max=settings.search_full_max,
                                    one_node=settings.search_one_node, warm=warm)
             cands = [c.exact for c in rep.candidates]

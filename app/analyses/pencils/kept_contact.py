@@ -1,7 +1,7 @@
 """The kept contact unknowns of a classified state and the maps of the paper's change of
 variables (10)-(16) onto them, on the contact DOFs alone (docs/method.md section 2): shared by
 the exact slip-node reduction of MCEIP-lambda^2 (app/analyses/mceip_lambda2/exact.py) and the
-values of the necessary condition (19) (app/analyses/contact_spectrum.py)."""
+values of the necessary condition (19) (app/analyses/conditions/contact_spectrum.py)."""
 from __future__ import annotations
 
 import numpy as np

@@ -21,16 +21,16 @@ on the whole interval:
 * ``nonsing`` (``F = U``): ``||I - R C||_inf < 1`` at every corner with one ``R``, so every matrix of
   the hull is nonsingular (the norm is convex): ``A_UU(mu)`` has no null vector on ``[a, b]``;
 * ``leaf`` (``F = U = J``): the exact per-support proof of
-  :mod:`app.analyses.mceip_mu_quadratic_proof` on ``[0, cap]`` (rational determinants, isolated
+  :mod:`app.analyses.mceip_mu.quadratic.proof` on ``[0, cap]`` (rational determinants, isolated
   roots, ball arithmetic); its solutions are proven, its undecided roots leave the node open.
 
 **Pairs** (zero-reaction nodes, ``log["pairs"]``): the two halves ``(a, b)`` of a split
 tangential rate, whose columns must be exact negatives in the pencil (verified:
-:func:`app.analyses.mceip_mu_quadratic_proof.pairs_hold`); no support needs both, so a node whose
+:func:`app.analyses.mceip_mu.quadratic.proof.pairs_hold`); no support needs both, so a node whose
 ``F`` holds a pair is closed (``pair``), a ``leaf`` whose support holds one has nothing to decide,
 and a ``branch`` on ``i`` may drop ``i``'s partner from the child that forces ``i``
 (``(U \ partners(i), F + {i})``), as the linear engine's checker accepts
-(:mod:`app.analyses.mceip_mu.checker`).
+(:mod:`app.analyses.mceip_mu.kernel.checker`).
 
 :func:`check_log` re-verifies a whole proof log from the pencil (this module does not import
 the prover): the root covers every support and ``[0, cap]``, every split covers its node, every
@@ -42,8 +42,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.mceip_mu.closing import pd_plus_nn
-from app.analyses.mceip_mu.rounding import U_ROUND, gamma, mr_mul, rounded_up, safe_inv
+from app.analyses.mceip_mu.kernel.closing import pd_plus_nn
+from app.analyses.mceip_mu.kernel.rounding import U_ROUND, gamma, mr_mul, rounded_up, safe_inv
 
 THETAS = (0.0, 0.5, 1.0)
 
@@ -160,7 +160,7 @@ def check_log(A0, A1, A2, log: dict) -> Report:
     """Re-verify the proof log ``log`` (format in docs/proofs.md) of the pencil from scratch."""
     import flint
 
-    from app.analyses.mceip_mu_quadratic_proof import PREC, exact, exact_data, pairs_hold
+    from app.analyses.mceip_mu.quadratic.proof import PREC, exact, exact_data, pairs_hold
     rep = Report()
     s, cap, nodes = A0.shape[0], float(log["cap"]), log["nodes"]
     try:
@@ -180,7 +180,7 @@ def check_log(A0, A1, A2, log: dict) -> Report:
         Q, capq, cache, found = exact_data(A0, A1, A2), exact(cap), {}, {}
 
         def leaf(J, a, b):
-            from app.analyses.mceip_mu_quadratic_proof import decide_support
+            from app.analyses.mceip_mu.quadratic.proof import decide_support
             sols, und = decide_support(*Q, J, s, capq, window=(a, b), cache=cache, pairs=pairs)
             found.update(((p.support, p.enclosure), p) for p in sols)
             return und

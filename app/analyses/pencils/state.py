@@ -13,8 +13,8 @@ from typing import Any, Callable
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses import curvature
-from app.analyses.pencils import (
+from app.analyses.pencils import curvature
+from app.analyses.pencils.reduced import (
     combine,
     condensed_mu_pencil,
     reduced_pencil,
@@ -52,7 +52,7 @@ class StatePencils:
 
     @property
     def space(self):
-        """The kept DOFs of the state (:func:`app.analyses.pencils.reduced_space`), built on first use."""
+        """The kept DOFs of the state (:func:`app.analyses.pencils.reduced.reduced_space`), built on first use."""
         if self._space is None:
             with self.system.stages("reduced pencils"):
                 self._space = reduced_space(self.system, self.cls)

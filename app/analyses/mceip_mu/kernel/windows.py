@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.analyses.mceip_mu.rounding import TINY, U_ROUND, mr_mul, norm_inf_up, pencil_at, rounded_up
+from app.analyses.mceip_mu.kernel.rounding import TINY, U_ROUND, mr_mul, norm_inf_up, pencil_at, rounded_up
 
 
 @dataclass

@@ -15,7 +15,7 @@ A converged run gives a candidate. It is never reported as is: its support (``x 
 re-solved exactly (eq. (25), :func:`app.analyses.enumerate.enumerate_patterns`) and the
 eigenpair of that support nearest the Newton value that passes the sign checks (26) is reported,
 with the Newton evidence (iterations, residual, start) attached. This is a heuristic search:
-completeness is the job of app/analyses/certify.py.
+completeness is the job of app/analyses/mceip_mu/state.py.
 """
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ DOFs").
 Let ``X`` be ``K`` or ``M`` and ``A = sym X*(mu)`` one classification's matrix. Every DOF that is
 not a contact DOF (the interior ``i``) is kept by every classification, and ``A`` couples it
 through ``X_ic P`` (``P = (Q + R^T) / 2``, the maps of the paper's change of variables on the
-kept contact DOFs, :class:`app.analyses.kept_contact.KeptContact`). For a shift
+kept contact DOFs, :class:`app.analyses.pencils.kept_contact.KeptContact`). For a shift
 ``sigma`` below ``k_1``, the smallest eigenvalue of ``X_ii``, the block ``X_ii - sigma I`` is
 positive definite and by Haynsworth's inertia additivity ``A - sigma I`` has as many negative
 eigenvalues as the Schur complement onto the kept contact DOFs
@@ -41,10 +41,10 @@ import scipy.linalg
 import scipy.optimize
 from petsc4py import PETSc
 
-from app.analyses.curvature import is_curved
-from app.analyses.interior_modes import interior_modes
-from app.analyses.kept_contact import KeptContact
-from app.analyses.state_pencils import per_system, sequential_km
+from app.analyses.conditions.interior_modes import interior_modes
+from app.analyses.pencils.curvature import is_curved
+from app.analyses.pencils.kept_contact import KeptContact
+from app.analyses.pencils.state import per_system, sequential_km
 from app.loading.classify import Classification
 from app.loading.mumps_schur import SchurComplements
 

@@ -22,11 +22,11 @@ eigenproblem and each sign check is decided in floating point, so its results ar
 exhaustive enumeration, not proven*; margins below ``RESOLVE_TOL`` are flagged
 ``ill_conditioned``. Refused above ``max_slip`` slip nodes (``settings.enumerate_max_slip``).
 :func:`quadratic_mu_result` adds a proof: up to ``PROOF_MAX_S`` slip nodes the exact proof of
-:mod:`app.analyses.mceip_mu_quadratic_proof` (rational determinants, isolated real roots, ball
+:mod:`app.analyses.mceip_mu.quadratic.proof` (rational determinants, isolated real roots, ball
 arithmetic, every support), above it the branch and bound of
-:mod:`app.analyses.mceip_mu_quadratic_bb` (families of supports closed with rigorous bounds, single
+:mod:`app.analyses.mceip_mu.quadratic.bb` (families of supports closed with rigorous bounds, single
 supports decided by the same exact proof, the log re-verified by
-:mod:`app.analyses.mceip_mu_quadratic_check`). When it is complete the list in ``[0, cap]`` is
+:mod:`app.analyses.mceip_mu.quadratic.check`). When it is complete the list in ``[0, cap]`` is
 proven and each solution carries a rigorous ``enclosure``; a branch and bound out of time may
 prove the onset alone; otherwise everything stays *found, not proven*.
 """
@@ -46,7 +46,7 @@ from app.analyses.enumerate import (
     pencil_scale,
     supports_of_size,
 )
-from app.analyses.mceip_mu_quadratic_rows import drop_infinite, lower_rows, zero_node_rows
+from app.analyses.mceip_mu.quadratic.rows import drop_infinite, lower_rows, zero_node_rows
 from app.analyses.outcomes import STOPPED, CompleteClaim, MceipMuOutcome, OnsetClaim, Solution
 from app.linalg import one_blas_thread
 
@@ -106,7 +106,7 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
     positions (full numbering) of the split tangential rates of zero-reaction nodes, which no
     support holds both of (:func:`app.analyses.enumerate.supports_of_size`), and whose stick margin
     vanishing by the exact identity ``y_b = -y_a + 2 mu y_N`` counts as ``y = 0``
-    (:func:`app.analyses.mceip_mu_quadratic_proof.structural_zeros`).
+    (:func:`app.analyses.mceip_mu.quadratic.proof.structural_zeros`).
 
     Returns dicts with ``value``, ``x_Ts`` (``x_c``, sum 1), ``pattern``, ``residual`` (smallest
     singular value of ``A(mu)[R, R]`` relative to ``||a0|| + mu ||a1|| + mu^2 ||a2||``),
@@ -173,7 +173,7 @@ def enumerate_quadratic(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, max_slip
 def _record(a, x: np.ndarray, mu: float, J, comp, pairs, res: float, mx: float) -> dict | None:
     """The solution record of the null vector ``x`` of support ``J`` at ``mu``, or None when a
     stick margin is negative (the rows of ``structural_zeros`` are ``y = 0`` exactly)."""
-    from app.analyses.mceip_mu_quadratic_proof import structural_zeros
+    from app.analyses.mceip_mu.quadratic.proof import structural_zeros
     a0, a1, a2 = a
     y = (a0 + mu * a1 + mu * mu * a2) @ x
     sup = np.zeros(len(comp), dtype=bool)
@@ -190,15 +190,15 @@ def _record(a, x: np.ndarray, mu: float, J, comp, pairs, res: float, mx: float) 
             "ill_conditioned": bool(mx < RESOLVE_TOL or my < RESOLVE_TOL)}
 
 
-#: up to this many slip nodes the exact per-support proof of app/analyses/mceip_mu_quadratic_proof.py
+#: up to this many slip nodes the exact per-support proof of app/analyses/mceip_mu/quadratic/proof.py
 #: (every support, 0.3 s at s = 8); above it the branch and bound of
-#: app/analyses/mceip_mu_quadratic_bb.py, whose leaves are the same exact per-support decisions
+#: app/analyses/mceip_mu/quadratic/bb.py, whose leaves are the same exact per-support decisions
 PROOF_MAX_S = 8
 #: the proofs/ record of a per-support proof: the pencil and the claim's cap; the exact proof is
 #: deterministic, so re-checking it is proving it again from the stored pencil
 QUADRATIC_FORMAT = "mceip-mu-quadratic/1"
 #: the proofs/ record of a branch and bound: the pencil and its log, re-verified by the checker
-#: of app/analyses/mceip_mu_quadratic_check.py
+#: of app/analyses/mceip_mu/quadratic/check.py
 QUADRATIC_BB_FORMAT = "mceip-mu-quadratic-bb/1"
 _METHOD_EXACT = ("exact determinant polynomial of every support (rational arithmetic), its real roots isolated, "
                  "the signs of the null vector and of y by ball arithmetic (FLINT)")
@@ -221,7 +221,7 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
 
     Budgets count work: the per-support proof decides at most the ``2^PROOF_MAX_S - 1`` supports,
     the branch and bound builds at most ``nodes`` tree nodes (``None``:
-    :data:`app.analyses.mceip_mu_quadratic_bb.NODES`; ``settings.mcp.certify_quadratic_nodes`` in
+    :data:`app.analyses.mceip_mu.quadratic.bb.NODES`; ``settings.mcp.certify_quadratic_nodes`` in
     a study). ``seconds`` is only a wall-clock safety stop (``None``: none); a proof it ends is
     reported as "stopped by the time limit"."""
     pairs = [(int(a), int(b)) for a, b in (pairs or [])]
@@ -240,11 +240,11 @@ def quadratic_mu_result(A0: np.ndarray, A1: np.ndarray, A2: np.ndarray, cap: flo
     search["seconds"] = round(time.perf_counter() - t0, 4)
     proof = None
     if certify and s <= PROOF_MAX_S:
-        from app.analyses.mceip_mu_quadratic_proof import prove_quadratic
+        from app.analyses.mceip_mu.quadratic.proof import prove_quadratic
         proof = prove_quadratic(A0, A1, A2, cap, max_s=PROOF_MAX_S, pairs=pairs,
                                 deadline=None if seconds is None else time.perf_counter() + seconds)
     elif certify:
-        from app.analyses.mceip_mu_quadratic_bb import prove_bb
+        from app.analyses.mceip_mu.quadratic.bb import prove_bb
         proof = prove_bb(A0, A1, A2, cap, max_nodes=nodes, pairs=pairs,
                          deadline=math.inf if seconds is None else time.perf_counter() + seconds)
     if sols is None and (proof is None or not proof.proven):
@@ -283,7 +283,7 @@ def _supports(s: int, pairs) -> int:
 
 
 def _certificate(method: str, cap: float, status: str, t0: float, proof, s: int, rejected: int):
-    from app.analyses.certify import certificate  # the certificate record's format only
+    from app.analyses.mceip_mu.state import certificate  # the certificate record's format only
     extra = {"s": s, "cap": float(cap), "supports": proof.supports, "proof_seconds": round(proof.seconds, 4),
              "rejected_floating_point_candidates": rejected}
     if hasattr(proof, "log"):
@@ -294,7 +294,7 @@ def _certificate(method: str, cap: float, status: str, t0: float, proof, s: int,
 def _not_searched(search: dict, proof, s: int, cap: float) -> MceipMuOutcome:
     """Above ``max_slip`` without the onset proven: nothing enumerated; what the branch and bound
     proved (no critical mu below the mu where it stopped, checked) is said."""
-    from app.analyses.certify import certificate  # the certificate record's format only
+    from app.analyses.mceip_mu.state import certificate  # the certificate record's format only
     note = search["note"] + ("" if proof is None else f"; the branch and bound was {STOPPED}" if proof.timed_out
                              else "; the branch and bound did not finish within its node budget")
     rep = getattr(proof, "report", None)
@@ -317,7 +317,7 @@ def _not_searched(search: dict, proof, s: int, cap: float) -> MceipMuOutcome:
 def _unproven(A0, A1, A2, sols: list[dict], search: dict, proof, s: int, cap: float, t0: float) -> MceipMuOutcome:
     """The record when no proof was attempted or it is incomplete: the enumerated solutions,
     found, not proven, except a branch and bound's proven onset (and the proven solutions)."""
-    from app.analyses.certify import certificate  # the certificate record's format only
+    from app.analyses.mceip_mu.state import certificate  # the certificate record's format only
     if proof is not None and getattr(proof, "onset_proven", False):
         out, rejected = _proven_list(A0, A1, A2, sols, proof, proof.report.open_from)
         on = proof.onset

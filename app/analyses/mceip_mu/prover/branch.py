@@ -2,7 +2,7 @@ r"""The branch and bound of the MCEIP-mu prover: the proof tree and how its node
 
 A node is a family ``F <= P <= U`` of supports (``F`` forced, ``U`` allowed) with mu in ``[a, b]``:
 "no solution with such a support and such a mu other than the listed ones". It is closed by a
-test of the trusted kernel (:mod:`app.analyses.mceip_mu.closing`, :mod:`app.analyses.mceip_mu.windows`),
+test of the trusted kernel (:mod:`app.analyses.mceip_mu.kernel.closing`, :mod:`app.analyses.mceip_mu.kernel.windows`),
 tried from the cheapest:
 
 * ``cop``: the sign argument, ``sym(D A_UU)`` strictly copositive at ``a`` and ``b``, with ``D = I``
@@ -27,10 +27,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.mceip_mu import checker, closing, lp, prooflog
-from app.analyses.mceip_mu.heuristics import perron_scaling, perron_scaling_large
-from app.analyses.mceip_mu.leaves import Found, LeafTests
-from app.analyses.mceip_mu.live import LIVE
+from app.analyses.mceip_mu.kernel import checker, closing, prooflog
+from app.analyses.mceip_mu.prover import lp
+from app.analyses.mceip_mu.prover.heuristics import perron_scaling, perron_scaling_large
+from app.analyses.mceip_mu.prover.leaves import Found, LeafTests
+from app.analyses.mceip_mu.prover.live import LIVE
 
 #: a family whose LP relaxation is complementary is halved down to this relative width, then
 #: split on an index
@@ -42,7 +43,7 @@ WIDE_REL = 0.03
 #: splits (dense s = 30: 15,000 nodes against 47,000 at 0.03)
 WIDE_REL_ONSET = 0.1
 #: the width rule of a family of more than ``LARGE_U`` slip nodes, and of the cheap proof of "none
-#: below the cap" (:func:`app.analyses.mceip_mu.prover.prove_none_below_cap`)
+#: below the cap" (:func:`app.analyses.mceip_mu.prover.claims.prove_none_below_cap`)
 WIDE_REL_LARGE = 0.03
 #: near mu = 0 the width rule is relative to this fraction of the cap (else it would halve forever)
 WIDE_FLOOR = 0.1
@@ -154,7 +155,7 @@ class Prover(LeafTests):
         return False
 
     def _try_rlt(self, n: prooflog.Node) -> bool:
-        """Close ``n`` by :func:`app.analyses.mceip_mu.closing.rlt_closes`: a multiplier matrix
+        """Close ``n`` by :func:`app.analyses.mceip_mu.kernel.closing.rlt_closes`: a multiplier matrix
         ``M`` found by projected subgradient ascent on ``min(lambda_min sym(M A_UU))`` over the
         two ends (from ``M = I``, the sign argument's start), then proven by the checker."""
         U = np.asarray(n.U, dtype=np.int64)

@@ -1,0 +1,7 @@
+"""The necessary condition (19) and the sufficient condition (17)-(18) of divergence.
+
+- :mod:`.full_size`: both conditions on the full-size pencils (SLEPc, inertia counts).
+- :mod:`.contact_spectrum`: the values of (19) from the contact DOFs (docs/method.md section 2),
+  the path above ``EigSettings.necessary_contact_min_dofs``; :mod:`.interior_modes` the interior
+  eigenpairs it needs.
+"""
