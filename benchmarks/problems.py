@@ -69,7 +69,7 @@ def block_problems(nx: int = 20, pattern: str = "crossed", degree: int = 1, comm
     scene = block_scene(nx, pattern=pattern, degree=degree, mesh_size=mesh_size, **loading)
     stages = Stages()
     system, states, _ = block_path(scene, comm, stages, Progress(enabled=False))
-    flex = system.extra["flexibility"]
+    flex = system.flexibility
     Sc = system.contact_schur()
     pencils, seen = [], set()
     for st in states:

@@ -59,7 +59,7 @@ def _petsc_dense(A) -> np.ndarray:
 
 def _inspect(system, states, cache) -> dict:
     """What the independent computation needs from the live system (serial run)."""
-    ops = system.extra["operators"]
+    ops = system.operators
     return {"K": _petsc_dense(system.K), "M": _petsc_dense(system.mass()),
             "f_x": ops.load_x.getArray().copy(), "f_y": ops.load_y.getArray().copy(),
             "dof_T": np.array([n.dof_T for n in system.nodes]), "dof_N": np.array([n.dof_N for n in system.nodes]),

@@ -15,7 +15,7 @@ knowledge of the body's shape; systems without one (matrices, two particles) hav
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Optional, Protocol
+from typing import Any, Callable, Optional, Protocol
 
 import numpy as np
 from mpi4py import MPI
@@ -83,8 +83,18 @@ class System:
     build_mass: Callable[[], PETSc.Mat]
     build_contact_schur: Callable[[], np.ndarray]
     description: str = ""
-    extra: dict = field(default_factory=dict)
     fields: Optional[FieldSource] = None     # displacement fields (None: no mesh)
+    #: the factorised contact flexibility W = B K^-1 B^T (app/loading/flexibility.py), and a
+    #: builder's assembled operators: destroyed with the system (their K is ``K``)
+    flexibility: Optional[Any] = None
+    operators: Optional[Any] = None
+    #: other PETSc objects made for this system (by its builder or an analysis, :meth:`own`)
+    owned: list = field(default_factory=list)
+    #: the signed curvature of a curved obstacle at each contact node (None: a straight obstacle)
+    curvature: Optional[np.ndarray] = None
+    #: what the system type's own loading path needs besides the above (a dataclass of its
+    #: ``path.py``; None when it needs nothing more)
+    loading_input: Optional[Any] = None
     _M: Optional[PETSc.Mat] = field(default=None, repr=False)
     _Sc: Optional[np.ndarray] = field(default=None, repr=False)
 
@@ -119,17 +129,17 @@ class System:
     def own(self, *objs) -> None:
         """Hand PETSc objects made for this system (by an analysis) over to it: :meth:`destroy`
         destroys them with the system's own."""
-        self.extra["owned"] = (*self.extra.get("owned", ()), *objs)
+        self.owned.extend(objs)
 
     def destroy(self) -> None:
         """Destroy the system's PETSc objects: a builder's factorisation and operators, the objects it
-        handed over (``extra["owned"]``), ``K`` and the mass matrix if it was built."""
-        for name in ("flexibility", "operators"):   # a builder's factorisation and operators (its K is self.K)
-            obj = self.extra.get(name)
+        handed over (:attr:`owned`), ``K`` and the mass matrix if it was built."""
+        for obj in (self.flexibility, self.operators):
             if obj is not None and hasattr(obj, "destroy"):
                 obj.destroy()
-        for obj in self.extra.get("owned", ()):     # PETSc objects a builder handed over
+        for obj in self.owned:
             obj.destroy()
+        self.owned.clear()
         self.K.destroy()
         if self._M is not None:
             self._M.destroy()

@@ -74,7 +74,7 @@ def node_curvature(system, state=None) -> Optional[np.ndarray]:
     node's contact point of ``state`` when the loading path recorded it
     (``curved_contact.curvature``, app/loading/curved.py), else the system's (the constant of a
     circle, a curve's at the initial positions)."""
-    k = system.extra.get("curvature") if isinstance(system.extra, dict) else None
+    k = getattr(system, "curvature", None)
     if k is None:
         return None
     cc = (getattr(state, "extra", None) or {}).get("curved_contact") if state is not None else None

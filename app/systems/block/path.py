@@ -60,14 +60,14 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
                     description=(f"block {cfg.length}x{cfg.height}x{cfg.thickness} {UNITS[units]['length']}, {cfg.nx}x{cfg.ny} "
                                  f"{cfg.pattern} P{cfg.degree}, plane {cfg.plane}, E={cfg.E} {UNITS[units]['stress']}, nu={cfg.nu}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
-    system.extra = {"operators": ops, "flexibility": flex}
+    system.operators, system.flexibility = ops, flex
     from app.systems.block.fields import BlockFields
     system.fields = BlockFields(cfg, ops, flex, nodes)
     return system, ops, flex
 
 
 def build(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s") -> System:
-    """The block's :class:`System` (MPI collective); its operators and flexibility are in ``system.extra``."""
+    """The block's :class:`System` (MPI collective); its operators and flexibility are ``system.operators`` and ``system.flexibility``."""
     return build_block_system(cfg, comm, stages, units)[0]
 
 

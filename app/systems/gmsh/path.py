@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import logging
 import pathlib
+from dataclasses import dataclass
+from typing import Any, Optional
 
 import numpy as np
 from mpi4py import MPI
@@ -35,6 +37,17 @@ SINGULAR = ("system.prescribed: the stiffness is singular: the prescribed curves
             "a curve or give system.foundation (a weak elastic foundation)")
 
 
+@dataclass(frozen=True)
+class LoadingInput:
+    """What the loading path of a Gmsh body needs besides K and the contact flexibility
+    (``System.loading_input``)."""
+
+    U0: np.ndarray                 # paper-axis contact displacements of each unit load parameter (columns)
+    gaps: np.ndarray               # initial normal gap of each contact node
+    params: dict                   # (kind, curve, component) -> load parameter index
+    contact_xy: np.ndarray         # the contact nodes' coordinates
+    recovery: ContactRecovery      # nodal reactions -> contact tractions
+    obstacle: Optional[Any] = None  # a curved obstacle's geometry (None: the straight line)
 
 
 def _contact_columns(flex, loads: list[PETSc.Vec]) -> np.ndarray:
@@ -127,14 +140,16 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
              f"with initial gap {g:.3g}")
         log.warning("%s", w)
         stages.warnings.append(w)
-    system.extra = {"flexibility": flex, "owned": (ops.R, ops.kept, *ops.loads, zero), "U0": U0, "gaps": gaps,
-                    "params": ops.params, "contact_xy": ops.contact_xy,
-                    "recovery": contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree)}
+    system.flexibility = flex
+    system.own(ops.R, ops.kept, *ops.loads, zero)
+    geometry = None
     if cfg.obstacle.type != "line":      # the curvature terms of the pencils (app/analyses/pencils/curvature.py)
         geometry = cfg.obstacle.geometry(np.mean(ops.contact_xy, axis=0))
         # at the initial contact points; each state records its own (curved_contact.curvature)
-        system.extra["curvature"] = geometry.curvatures(ops.contact_xy)
-        system.extra["obstacle"] = geometry
+        system.curvature = geometry.curvatures(ops.contact_xy)
+    system.loading_input = LoadingInput(U0=U0, gaps=gaps, params=ops.params, contact_xy=ops.contact_xy,
+                                        recovery=contact_recovery(ops.contact_edges, ops.contact_xy, cfg.degree),
+                                        obstacle=geometry)
     system.fields = BodyFields(cfg, ops, flex, gaps)
     return system
 
@@ -200,27 +215,27 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
         system.destroy()
         raise UnreachableLoad(f"system.file: the mesh has {n} DOFs, above settings.limits.max_dofs = {limit}; "
                               "use a coarser mesh or raise the limit", key=None)
-    flex = system.extra["flexibility"]
+    flex, given = system.flexibility, system.loading_input
     with stages("quasi-static loading"):
         try:
-            solver, gaps = None, system.extra["gaps"]
+            solver, gaps = None, given.gaps
             if cfg.obstacle.type != "line":      # exact gaps and frames (app/loading/curved.py)
                 from app.loading.curved import CurvedContact
                 tvec, nvec = cfg.obstacle.frame()
-                solver = CurvedContact(flex.schur, scene.mu, system.extra["obstacle"], system.extra["contact_xy"], tvec, nvec)
+                solver = CurvedContact(flex.schur, scene.mu, given.obstacle, given.contact_xy, tvec, nvec)
                 gaps = np.zeros_like(gaps)
-            states, info = run_program(_phases(cfg, system.extra["params"]), system.extra["U0"], gaps,
+            states, info = run_program(_phases(cfg, given.params), given.U0, gaps,
                                        flex.schur, scene.mu, scene.settings.classify_rtol, progress, solver=solver)
         except ProgramError as err:
             system.destroy()
             raise UnreachableLoad(str(err)) from None
-    info["initial_gaps"] = [float(g) for g in system.extra["gaps"]]
-    _add_tractions(cfg, system.extra["recovery"], states)
+    info["initial_gaps"] = [float(g) for g in given.gaps]
+    _add_tractions(cfg, given.recovery, states)
     from app.loading.sanity import check_body_path  # small-strain validity (warnings, never an error)
     tvec, nvec = cfg.obstacle.frame()
     # on a circle a state's u_N is minus its exact gap (app/loading/curved.py): no initial gap to add
     for w in check_body_path(states, system.fields.ops.size, tvec, nvec,
-                             system.extra["gaps"] if cfg.obstacle.type == "line" else None,
+                             given.gaps if cfg.obstacle.type == "line" else None,
                              UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)

@@ -78,7 +78,8 @@ def build(cfg: Matrices, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
                     build_contact_schur=lambda: flex.schur,
                     description=(cfg.description or "system from matrices")
                     + f" (K: {Kcsr.shape[0]} DOFs, {len(nodes)} contact nodes)")
-    system.extra = {"flexibility": flex, "owned": (lx, ly)}
+    system.flexibility = flex
+    system.own(lx, ly)
     return system
 
 
@@ -108,7 +109,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     system = build(cfg, comm, stages, scene.units)
     if cfg.state is not None:
         return system, [_static_state(cfg)], {"end": "single equilibrium state (given reactions)"}
-    flex = system.extra["flexibility"]
+    flex = system.flexibility
     n = len(system.nodes)
     gaps = np.zeros(n) if cfg.gaps is None else np.array(cfg.gaps, dtype=float)
     G = np.zeros(2 * n)

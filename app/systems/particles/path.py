@@ -38,7 +38,7 @@ def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages, units: str = "mm-N-
                              f"two particles, k={cfg.k} {u['stiffness']}, m={cfg.m} {u['mass']}, "
                              f"phi={cfg.phi_deg} deg{where}")
     if ob.type != "line":      # the curvature terms of the pencils (app/analyses/pencils/curvature.py)
-        system.extra["curvature"] = np.full(2, ob.curvature())
+        system.curvature = np.full(2, ob.curvature())
     return system
 
 
