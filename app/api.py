@@ -89,6 +89,12 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = Fa
     ``refinement`` section is a batch of studies: run it with ``python -m app run``.
     ``progress``: the command line's progress lines on standard error (rank 0), at least every
     5 s while a stage runs; none by default.
+
+    No signal handler, ``sys`` hook or environment variable is installed: the calling program's
+    own stay as they are (`app.common.runtime.install` with ``command_line=False``). The study
+    catches the warnings raised inside it and, where it first uses a library, puts a filter on
+    FFCx's logger, stops DOLFINx and FFCx from reading their settings files and keeps SIGINT as it
+    was through Gmsh's import; these three stay after it returns (`app.common.runtime`).
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"run_study needs a Scene (from app.load_scene), not {type(scene).__name__}")
@@ -96,6 +102,8 @@ def run_study(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = Fa
         if getattr(scene, key, None) is not None:
             raise SceneError(f"scene '{scene.name}': has a '{key}' section: it is a batch of studies, "
                              f"run it with: python -m app run SCENE")
+    from app.common import runtime
     from app.common.progress import Progress
     from app.study.run import study  # PETSc, and DOLFINx for a block, only when running
+    runtime.install(command_line=False)
     return study(scene, comm, Progress(enabled=bool(progress), comm=comm), outdir=None)

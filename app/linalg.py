@@ -52,7 +52,7 @@ def _python_turn(*_) -> None:
     """A monitor that does nothing: at every iteration of the solver the interpreter runs, and with
     it the signal handlers. A Ctrl-C or SIGTERM during a long KSP, SNES or EPS solve (whose C code
     holds the interpreter until it returns) is raised there as the KeyboardInterrupt of the command
-    line's handler (app/cli/main.py), which petsc4py passes out of ``solve()``. Monitors set by
+    line's handler (app/common/runtime.py), which petsc4py passes out of ``solve()``. Monitors set by
     options (``-cd_necessary_eps_monitor``) are kept beside it."""
 
 

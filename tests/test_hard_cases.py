@@ -328,20 +328,20 @@ def test_a_signal_during_an_import_is_sent_again_after_it(tmp_path, monkeypatch)
     """SIGTERM/SIGINT raise KeyboardInterrupt (one line, exit 143/130), except inside an import,
     where it would come out of a C extension's initialisation as an ImportError and a traceback:
     there the signal is sent again a tenth of a second later."""
-    import app.cli.main as cli
+    import app.common.runtime as runtime
     from app.common import interrupt
     sent = []
-    monkeypatch.setattr(cli.os, "kill", lambda pid, sig: sent.append((pid, sig)))
+    monkeypatch.setattr(runtime.os, "kill", lambda pid, sig: sent.append((pid, sig)))
     monkeypatch.setattr(interrupt, "RECEIVED", [])     # this process's own record stays untouched
     monkeypatch.setattr(interrupt, "RAISED", [])
     with pytest.raises(KeyboardInterrupt, match="signal 15"):
-        cli._terminate(signal.SIGTERM, sys._getframe())
+        runtime._terminate(signal.SIGTERM, sys._getframe())
     assert interrupt.RECEIVED == [signal.SIGTERM] and interrupt.raised()
     with pytest.raises(KeyboardInterrupt, match="signal 15"):
         interrupt.checkpoint()          # raised again where the run goes on, if it was swallowed
     interrupt.clear()
     (tmp_path / "importing_now.py").write_text(
-        "import sys, signal\nimport app.cli.main as cli\ncli._terminate(signal.SIGTERM, sys._getframe())\n")
+        "import sys, signal\nimport app.common.runtime as runtime\nruntime._terminate(signal.SIGTERM, sys._getframe())\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     import importing_now  # noqa: F401  (its top level is inside the import machinery)
     deadline = time.monotonic() + 10
@@ -359,23 +359,23 @@ def test_a_signal_in_a_finaliser_is_sent_again_and_never_printed(monkeypatch, ca
     import gc
     import weakref
 
-    import app.cli.main as cli
+    import app.common.runtime as runtime
     from app.common import interrupt
     sent = []
-    monkeypatch.setattr(cli.os, "kill", lambda pid, sig: sent.append((pid, sig)))
+    monkeypatch.setattr(runtime.os, "kill", lambda pid, sig: sent.append((pid, sig)))
     monkeypatch.setattr(interrupt, "RECEIVED", [])
     monkeypatch.setattr(interrupt, "RAISED", [])
-    monkeypatch.setattr(sys, "unraisablehook", cli._during_run)
+    monkeypatch.setattr(sys, "unraisablehook", runtime._during_run)
 
     class Held:
         def __del__(self):
-            cli._terminate(signal.SIGINT, sys._getframe())
+            runtime._terminate(signal.SIGINT, sys._getframe())
 
     class Plain:
         pass
 
     plain = Plain()
-    weakref.finalize(plain, lambda: cli._terminate(signal.SIGINT, sys._getframe()))
+    weakref.finalize(plain, lambda: runtime._terminate(signal.SIGINT, sys._getframe()))
     del plain
     held = Held()
     del held

@@ -11,12 +11,10 @@ from __future__ import annotations
 import argparse
 import os
 import pathlib
-import signal
 import sys
-import threading
 import time
 
-from app.common import interrupt
+from app.common import interrupt, runtime
 from app.common.errors import EXIT_WRITE, write_limit, write_limit_text
 from app.common.errors import fail as _fail
 
@@ -133,15 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default ``sys.argv[1:]``; PETSc options such as
     ``-ksp_view`` are split off and applied around the run) and return the exit status: 0 success,
     2 a user mistake, 3 some states failed, 4 the results could not be written."""
-    if int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) > 1:
-        # one BLAS thread per MPI rank (set before numpy loads OpenBLAS)
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        # A rank waiting in a collective (while another proves a classification, say) yields its
-        # core instead of spinning: on a machine with as many cores as ranks, a spinning rank
-        # takes the CPU from the Gmsh child, the drawing processes or any other program, and a
-        # run that takes seconds can take minutes. Read by Open MPI at MPI_Init; a user's own
-        # setting wins.
-        os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")
+    runtime.install(command_line=True)                # before numpy and MPI load (app/common/runtime.py)
     from app.common.petsc_options import command_line_options, split_petsc_options
     try:
         argv, petsc_options = split_petsc_options(sys.argv[1:] if argv is None else list(argv))
@@ -179,8 +169,9 @@ def _guarded(fn, args) -> int:
             MPI.COMM_WORLD.Abort(EXIT_WRITE)
         return EXIT_WRITE
     except KeyboardInterrupt as err:
-        # Ctrl-C (SIGINT) or SIGTERM (raised as KeyboardInterrupt("signal 15") by _terminate): one
-        # line, not a traceback; the staging folder has already been removed by the run's finally
+        # Ctrl-C (SIGINT) or SIGTERM (raised as KeyboardInterrupt("signal 15") by the handler of
+        # app/common/runtime.py): one line, not a traceback; the staging folder has already been
+        # removed by the run's finally
         return _interrupted(15 if str(err) == "signal 15" else 2, getattr(err, "left", None))
     except Exception:
         if interrupt.RECEIVED:   # a child (the C compiler) died of the same Ctrl-C first
@@ -199,13 +190,7 @@ def _interrupted(signum: int, left: str | None = None) -> int:
     line; a signal that reaches one rank only still ends the job, as mpirun ends a job when a
     rank exits with a non-zero status."""
     from mpi4py import MPI
-    for s in (signal.SIGINT, signal.SIGTERM):         # a deferred signal sent again is not raised here
-        if signal.getsignal(s) is _terminate:
-            signal.signal(s, signal.SIG_IGN)
-    # An object the interrupt left half-built (an .npz file being opened, say) may fail in its
-    # destructor when the process ends ("Exception ignored in ... __del__"): expected after an
-    # interrupt, so such reports go to the debug log instead of beside the one line below.
-    sys.unraisablehook = _after_interrupt
+    runtime.quiet_after_interrupt()                   # a signal sent again, a destructor failing: no output
     interrupt.clear()
     code = 128 + signum
     if MPI.COMM_WORLD.rank == 0:
@@ -216,18 +201,12 @@ def _interrupted(signum: int, left: str | None = None) -> int:
         # mpirun ends the whole job (SIGKILL) as soon as one rank exits with a non-zero status.
         # Each rank has removed its own unfinished case; rank 0, whose line is printed, waits
         # for a signal another rank deferred (an import, a JIT compilation: a tenth of a second
-        # at a time, see _terminate) to reach that rank, and the other ranks wait for rank 0.
+        # at a time, app/common/runtime.py) to reach that rank, and the other ranks wait for rank 0.
         time.sleep(SWEEP_EXIT_WAIT[0 if MPI.COMM_WORLD.rank == 0 else 1])
         os._exit(code)
     if MPI.COMM_WORLD.size > 1:
         MPI.COMM_WORLD.Abort(code)
     return code
-
-
-def _after_interrupt(unraisable) -> None:
-    """``sys.unraisablehook`` once a run is interrupted (see :func:`_interrupted`)."""
-    import logging
-    logging.getLogger(__name__).debug("after the interrupt: %r in %r", unraisable.exc_value, unraisable.object)
 
 
 def _check(args) -> int:
@@ -285,7 +264,7 @@ def _main(args) -> int:
     comm = MPI.COMM_WORLD
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
         from app.study.sweep import main as sweep_main  # a batch of cases (app/study/sweep.py)
-        _catch_signals()
+        runtime.catch_signals()
         return sweep_main(scene, args, comm)
     from app.scene import limits as preflight
     try:
@@ -320,74 +299,12 @@ def _main(args) -> int:
     # Everything is written into the staging folder (created and probed by check()) and moved into
     # place at the very end; the lock on the folder is held until then.
     outdir = folder.staging
-    _catch_signals()
+    runtime.catch_signals()
     try:
         return _run(args, scene, comm, folder, outdir)
     finally:
         if comm.rank == 0:
             folder.abort()              # interrupted or failed: drop the partial files (kept if the commit failed)
-
-
-def _catch_signals() -> None:
-    """From here on SIGTERM and SIGINT stop the run with one line (:func:`_terminate`)."""
-    interrupt.clear()
-    sys.unraisablehook = _during_run
-    signal.signal(signal.SIGTERM, _terminate)
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
-        signal.signal(signal.SIGINT, _terminate)
-
-
-def _deferring(frame) -> bool:
-    """Whether a signal arriving in ``frame`` must wait: inside an import (the system types
-    import DOLFINx when they build; the exception would surface from a C extension's
-    initialisation as an ImportError with a traceback), inside FFCx's JIT compilation, which
-    claims a C file in the user's shared JIT cache before compiling and releases it only when the
-    compile ends or fails with an ``Exception`` (a KeyboardInterrupt there would leave the claim,
-    and every later program compiling that form would wait for it until its timeout), or inside a
-    finaliser (a ``__del__`` or a :class:`weakref.finalize` callback, run whenever the garbage
-    collector frees an object), where Python reports an exception as "ignored" and drops it."""
-    f = frame
-    while f is not None:
-        code = f.f_code
-        name = code.co_filename
-        if name.startswith("<frozen importlib") or name.endswith(os.path.join("ffcx", "codegeneration", "jit.py")):
-            return True
-        if code.co_name == "__del__" or (name.endswith("weakref.py") and code.co_name == "__call__"):
-            return True
-        f = f.f_back
-    return False
-
-
-def _during_run(unraisable) -> None:
-    """``sys.unraisablehook`` during a run: the KeyboardInterrupt of a received signal that Python
-    could not raise (it landed in a finaliser :func:`_deferring` did not recognise) goes to the
-    debug log, not beside the one line of the interrupt; :func:`app.common.interrupt.checkpoint`
-    raises it again in the run's normal flow. Anything else is reported as Python does."""
-    if isinstance(unraisable.exc_value, KeyboardInterrupt) and interrupt.RECEIVED:
-        import logging
-        logging.getLogger(__name__).debug("interrupt landed in %r; raised again at the next checkpoint", unraisable.object)
-        return
-    sys.__unraisablehook__(unraisable)
-
-
-def _terminate(signum, frame):
-    """SIGTERM and SIGINT during a run: a KeyboardInterrupt, turned into one line by :func:`main`.
-
-    Where it must wait (:func:`_deferring`) the signal is sent again a tenth of a second later
-    instead, until the import or the compilation is done. A Ctrl-C also reaches the C compiler
-    FFCx runs (the terminal signals the whole process group): the compilation then fails with an
-    ordinary exception before the signal is raised, and :func:`_guarded` reports the interrupt.
-    The signal is recorded in :mod:`app.common.interrupt`, whose checkpoints raise it again if
-    the KeyboardInterrupt is swallowed on its way."""
-    interrupt.record(signum)
-    if interrupt.raised():           # on its way up, or swallowed: app.common.interrupt.checkpoint raises it again
-        return
-    if _deferring(frame):
-        again = threading.Timer(0.1, os.kill, (os.getpid(), signum))
-        again.daemon = True
-        again.start()
-        return
-    raise interrupt.keyboard_interrupt()
 
 
 def _run(args, scene, comm, folder, outdir: pathlib.Path) -> int:

@@ -1,7 +1,7 @@
 """A Ctrl-C (SIGINT) or SIGTERM received by a command-line run, kept so that it stops the run
 even when the KeyboardInterrupt raised for it is swallowed.
 
-The command line's handler (app/cli/main.py) raises a KeyboardInterrupt wherever the signal
+The command line's handler (app/common/runtime.py) raises a KeyboardInterrupt wherever the signal
 lands. Code that runs Python on behalf of a C extension may swallow it: pybind11 builds the
 message of a call that matches no overload from the arguments' ``repr``, and an exception raised
 there is lost; DOLFINx 0.5's ``create_mesh`` first tries an overload that fails by design. Such a

@@ -27,6 +27,8 @@ import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
+from app.common import runtime
+
 log = logging.getLogger(__name__)
 
 #: (message, app function) -> why the warning there does not affect the answers (none known today:
@@ -121,12 +123,6 @@ def explained() -> Iterator[Recorder]:
     """Catch every warning raised in the block into the yielded :class:`Recorder`, each logged
     when first seen (see the module docstring)."""
     rec = Recorder()
-    try:
-        # ffcx (DOLFINx's form compiler, imported with DOLFINx) calls logging.captureWarnings(True)
-        # when first imported, which replaces warnings.showwarning: import it before installing ours
-        import ffcx  # noqa: F401
-    except ImportError:          # pragma: no cover - a dependency of DOLFINx
-        pass
 
     def show(message, category, filename, lineno, file=None, line=None):
         why = _ignored(category, filename)
@@ -140,9 +136,7 @@ def explained() -> Iterator[Recorder]:
             else:
                 log.warning("%s", describe(first, count=False))
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("always")
-        warnings.showwarning = show
+    with runtime.showing_warnings(show):
         yield rec
 
 

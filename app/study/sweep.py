@@ -320,7 +320,7 @@ def main(scene: Scene, args, comm) -> int:
     try:
         return run_sweep(scene, cases, comm, outdir, rpc, quiet=args.quiet,
                          rerun=bool(getattr(args, "overwrite", False)))
-    except KeyboardInterrupt as err:     # a signal (app/cli/main.py): the complete cases stay
+    except KeyboardInterrupt as err:     # a signal (app/common/runtime.py): the complete cases stay
         raise Stopped(err, f"the sweep stopped; the cases it completed are in {outdir} (run it again to "
                            "run the others)") from None
     finally:

@@ -6,7 +6,8 @@ name in the folder a study is run from (a downloaded study folder, say) could ot
 compiler flags, the folder compiled code is written to, or the scalar type of every form. Every
 function space, form and expression of the app is therefore built with ``FORM_PARAMS`` and
 ``JIT_PARAMS`` below, which give every parameter a value, and the files are not read at all
-(:func:`_ignore_settings_files`: a FIFO or a malformed file of that name cannot hang or stop a run).
+(:func:`app.common.runtime.ignore_jit_settings_files`: a FIFO or a malformed file of that name
+cannot hang or stop a run).
 
 The JIT cache stays where DOLFINx puts it (``$XDG_CACHE_HOME/fenics``, default
 ``~/.cache/fenics``) when that folder can be written; else it is this user's folder in the
@@ -16,8 +17,8 @@ compiling the same form (two runs of a sweep, or two test workers, on a fresh ca
 C file before it compiles it; a process killed while compiling leaves the claim, and every later
 process compiling that form waits for it. FFCx says so only in INFO records (``verbosity`` 20
 below lets them through), so :func:`params` attaches the filter :class:`WaitNotice` to FFCx's
-logger, which turns the first of them into one warning naming the claim and its age and drops
-FFCx's other INFO records.
+logger (:func:`app.common.runtime.filter_ffcx_log`), which turns the first of them into one
+warning naming the claim and its age and drops FFCx's other INFO records.
 """
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ import logging
 import os
 import time
 
+from app.common import runtime
 from app.common.cache import cache_dir
 
 #: FFCx's parameters (ffcx.parameters.FFCX_DEFAULT_PARAMETERS, FFCx 0.5), all given
@@ -77,36 +79,10 @@ class WaitNotice(logging.Filter):
                     "that file (this run waits up to %d s)", claim, age, JIT_PARAMS["timeout"])
 
 
-def _attach_wait_notice() -> None:
-    ffcx_log = logging.getLogger("ffcx")
-    if not any(isinstance(f, WaitNotice) for f in ffcx_log.filters):
-        ffcx_log.addFilter(WaitNotice())
-
-
-def _no_settings_files() -> tuple[dict, dict]:
-    """The (user, current folder) parameters of the settings files: none (see :func:`_ignore_settings_files`)."""
-    return {}, {}
-
-
-def _ignore_settings_files() -> None:
-    """DOLFINx 0.5 and FFCx 0.5 read ``~/.config/{dolfinx,ffcx}/*_parameters.json`` and
-    ``./{dolfinx_jit,ffcx}_parameters.json`` on the first compilation (their ``_load_parameters``),
-    catching only FileNotFoundError: a FIFO of that name in a study folder received from someone
-    waits for ever, and a malformed file, a folder, or a HOME that is a file is a traceback. The
-    app gives every parameter itself (:data:`FORM_PARAMS`, :data:`JIT_PARAMS`), so the files are
-    not read at all: both functions are replaced by :func:`_no_settings_files`."""
-    import dolfinx.jit
-    import ffcx.parameters
-    for module in (dolfinx.jit, ffcx.parameters):
-        if getattr(module, "_load_parameters", None) is None:
-            raise RuntimeError(f"{module.__name__}._load_parameters is gone: this app is pinned to DOLFINx/FFCx 0.5")
-        module._load_parameters = _no_settings_files
-
-
 def params() -> dict:
     """Keyword arguments for ``dolfinx.fem.form``, ``FunctionSpace``, ``VectorFunctionSpace`` and
     ``Expression``: fresh copies (DOLFINx writes ``scalar_type`` into the dict it is given).
     Raises :class:`app.common.cache.CacheUnusable` when no cache folder can be written."""
-    _attach_wait_notice()
-    _ignore_settings_files()
+    runtime.filter_ffcx_log(WaitNotice)
+    runtime.ignore_jit_settings_files()
     return {"form_compiler_params": dict(FORM_PARAMS), "jit_params": dict(JIT_PARAMS, cache_dir=cache_dir("fenics"))}

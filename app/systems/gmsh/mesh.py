@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.common.runtime import import_gmsh
 from app.systems.schema import SystemPathError, file_version
 
 GMSH_LINE, GMSH_TRIANGLE = 1, 2
@@ -58,34 +59,6 @@ def gmsh_is_initialized(gmsh) -> bool:
         return bool(gmsh.option.getString("General.BuildInfo"))
     except Exception:
         return False
-
-
-def import_gmsh():
-    """The gmsh module, imported without touching the process's SIGINT handler.
-
-    Gmsh 4.8's module sets SIGINT to its default action when it is imported (``oldsig =
-    signal.signal(SIGINT, SIG_DFL)``) and puts ``oldsig`` back in :func:`gmsh.finalize`. In a run
-    that would let a Ctrl-C during meshing kill the process outright (no message, the staging
-    folder left behind) and lose a Ctrl-C that arrived just before the import. Restoring the
-    handler after the import would leave that window open while libgmsh loads (a tenth of a
-    second), so during the import the module sees a ``signal.signal`` that changes nothing for
-    SIGINT; ``oldsig`` is then cleared so that ``finalize`` leaves the handler alone too."""
-    import signal
-    import sys
-    if "gmsh" in sys.modules:
-        return sys.modules["gmsh"]
-    real = signal.signal
-
-    def keep_sigint(signum, handler):
-        return signal.getsignal(signum) if signum == signal.SIGINT else real(signum, handler)
-
-    signal.signal = keep_sigint
-    try:
-        import gmsh
-    finally:
-        signal.signal = real
-    gmsh.oldsig = None
-    return gmsh
 
 
 def gmsh_initialize():
