@@ -12,6 +12,8 @@ import signal
 import subprocess
 import sys
 
+import pytest
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DOOR = "app/common/runtime.py"
 
@@ -211,24 +213,26 @@ def test_the_ffcx_log_filter_on_another_ffcx_is_attached_with_one_debug_line(mon
     assert len(lines) == 1 and "fenics-ffcx 9.9.x" in lines[0] and "attached all the same" in lines[0], lines
 
 
-def test_the_settings_files_patch_never_fails_on_another_version(monkeypatch, caplog):
-    """A ``_load_parameters`` that is gone is left alone, one of another version replaced all the
-    same: a DEBUG line each, no exception (the pinned DOLFINx/FFCx 0.5 have both)."""
+def test_the_settings_files_patch_on_another_version(monkeypatch, caplog):
+    """A ``_load_parameters`` of another version is replaced all the same (a DEBUG line); one
+    that is gone is an error, since the files might then be read where the app cannot see (the
+    pinned DOLFINx/FFCx 0.5 have both)."""
     import dolfinx.jit
     import ffcx.parameters
 
     from app.common import runtime
-    monkeypatch.delattr(ffcx.parameters, "_load_parameters")
     monkeypatch.setattr(dolfinx.jit, "_load_parameters", lambda: ({"cffi_verbose": True}, {}))
+    monkeypatch.setattr(ffcx.parameters, "_load_parameters", lambda: ({"verbosity": 99}, {}))
     monkeypatch.setattr(runtime, "FENICS_SERIES", "9.9.")
     with caplog.at_level(logging.DEBUG, logger="app.common.runtime"):
         runtime.ignore_jit_settings_files()
-    assert dolfinx.jit._load_parameters() == ({}, {})
-    assert not hasattr(ffcx.parameters, "_load_parameters")
+    assert dolfinx.jit._load_parameters() == ({}, {}) and ffcx.parameters._load_parameters() == ({}, {})
     lines = [r.getMessage() for r in caplog.records]
     assert len(lines) == 2, lines
     assert "dolfinx.jit" in lines[0] and "replaced all the same" in lines[0], lines
-    assert "ffcx.parameters" in lines[1] and "not applied" in lines[1], lines
+    monkeypatch.delattr(ffcx.parameters, "_load_parameters")
+    with pytest.raises(RuntimeError, match="ffcx.parameters._load_parameters is gone"):
+        runtime.ignore_jit_settings_files()
 
 
 def test_gmsh_is_imported_without_touching_sigint_on_any_version():

@@ -35,8 +35,8 @@ their reasons). The patches, who gets each, and what each relies on:
 6. The compilers' settings files not read (:func:`ignore_jit_settings_files`; both, on first
    use, from :func:`app.systems.jit.params`): DOLFINx 0.5.x's and FFCx 0.5.x's
    ``_load_parameters`` replaced. With another version a function of that name is replaced all
-   the same (the app gives every parameter itself) and a missing one is left alone; a DEBUG line
-   either way.
+   the same (the app gives every parameter itself), with a DEBUG line; a missing one is an error
+   (the files might then be read elsewhere: the app fails closed).
 7. Gmsh's import keeps SIGINT (:func:`import_gmsh`; both, on first use): relies on Gmsh 4.8.x
    setting SIGINT to its default action when imported and again in ``gmsh.finalize``. With
    another Gmsh it is applied all the same (it only keeps SIGINT as it was), with a DEBUG line.
@@ -250,10 +250,10 @@ def ignore_jit_settings_files() -> None:
         if current is _no_settings_files:
             continue
         patch = f"not reading the settings files of {module.__name__}"
-        if current is None:
-            log.debug("%s relies on its _load_parameters (%s %sx), which %s %s lacks: not applied", patch,
-                      distribution, FENICS_SERIES, distribution, installed_version(distribution, module.__name__))
-            continue
+        if current is None:        # fail closed: the files could then be read where this cannot see
+            raise RuntimeError(f"{module.__name__}._load_parameters is gone ({distribution} "
+                               f"{installed_version(distribution, module.__name__)}): this app is pinned to "
+                               f"{distribution} {FENICS_SERIES}x and cannot keep it from reading settings files")
         pinned(distribution, module.__name__, FENICS_SERIES, patch=patch,
                otherwise="its _load_parameters replaced all the same")
         module._load_parameters = _no_settings_files
