@@ -95,6 +95,9 @@ class System:
     #: what the system type's own loading path needs besides the above (a dataclass of its
     #: ``path.py``; None when it needs nothing more)
     loading_input: Optional[Any] = None
+    #: what the analyses keep between this system's classifications, made on first use and
+    #: dropped with the system (:class:`app.analyses.pencils.state.SystemCache`)
+    analysis_cache: Optional[Any] = None
     _M: Optional[PETSc.Mat] = field(default=None, repr=False)
     _Sc: Optional[np.ndarray] = field(default=None, repr=False)
 

@@ -44,7 +44,7 @@ from petsc4py import PETSc
 from app.analyses.conditions.interior_modes import interior_modes
 from app.analyses.pencils.curvature import is_curved
 from app.analyses.pencils.kept_contact import KeptContact
-from app.analyses.pencils.state import per_system, sequential_km
+from app.analyses.pencils.state import sequential_km, system_cache
 from app.loading.classify import Classification
 from app.loading.mumps_schur import SchurComplements
 
@@ -310,14 +310,11 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
     return ShiftedContact(exact, cc, float(k[0]), k[:p].copy(), W[:, :p].copy(), kappa, scale, interior_scale)
 
 
-_SPECTRA: dict = {}
-
-
 def contact_spectra(system) -> tuple[ShiftedContact, ShiftedContact] | None:
     """``K`` and ``M`` of ``system`` seen from its contact DOFs, built on first use on rank 0
     (None on the other ranks, and on rank 0 when they cannot be built). MPI collective on the
     first call (``K`` and ``M`` gathered on rank 0 when distributed)."""
-    return per_system(_SPECTRA, system, lambda: _build_both(system))
+    return system_cache(system).once("spectra", lambda: _build_both(system))
 
 
 def _build_both(system) -> tuple[ShiftedContact, ShiftedContact] | None:

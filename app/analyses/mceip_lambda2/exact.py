@@ -38,7 +38,6 @@ grid, so the classifications along a path share most factorisations (the 100k-DO
 from __future__ import annotations
 
 import time
-import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Callable
@@ -51,7 +50,7 @@ from petsc4py import PETSc
 from app.analyses.mceip_mu.state import in_pd_plus_nn
 from app.analyses.pencils.kept_contact import KeptContact
 from app.analyses.pencils.reduced import axpy_structure, dense
-from app.analyses.pencils.state import per_system, sequential_km
+from app.analyses.pencils.state import sequential_km, system_cache
 from app.linalg import lu_solver
 from app.loading.classify import Classification
 from app.loading.mumps_schur import SchurComplements
@@ -190,14 +189,11 @@ class DynamicContact:
         return Z, self.Kcc + t * self.Mcc
 
 
-_SYSTEMS: dict[int, tuple[weakref.ref, "DynamicContact | None"]] = {}
-
-
 def dynamic_contact(system, max_dense_dofs: int) -> DynamicContact | None:
     """The system's :class:`DynamicContact` on rank 0 (None on the other ranks), built on first use:
     dense up to ``max_dense_dofs`` DOFs, sparse factorisations above (MPI collective: K and M
     gathered on rank 0 when distributed). None on rank 0 too when ``(K, M)`` is not SPD."""
-    return per_system(_SYSTEMS, system, lambda: _build(system, max_dense_dofs))
+    return system_cache(system).once("dynamic", lambda: _build(system, max_dense_dofs))
 
 
 def _build(system, max_dense_dofs: int) -> DynamicContact | None:

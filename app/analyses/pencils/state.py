@@ -7,7 +7,7 @@ classification to the next along the path (shifts only: every answer is verified
 """
 from __future__ import annotations
 
-import weakref
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
@@ -125,26 +125,40 @@ class StatePencils:
             self._space.destroy()
 
 
-def per_system(cache: dict, system: System, make: Callable[[], Any]) -> Any:
-    """``cache``'s value for ``system``, made by ``make()`` on first use. Keyed by the system's
-    identity (a ``System`` is an unhashable dataclass) with a weak reference, so entries of
-    systems that no longer exist are dropped (and a recycled ``id`` is not mistaken for them)."""
-    for key in [k for k, (ref, _) in cache.items() if ref() is None]:
-        del cache[key]
-    ref, value = cache.get(id(system), (None, None))
-    if ref is None or ref() is not system:
-        value = make()
-        cache[id(system)] = (weakref.ref(system), value)
-    return value
+#: a field of :class:`SystemCache` not made yet (None is a value: "cannot be made")
+_UNSET = object()
 
 
-_WARM: dict[int, tuple[weakref.ref, dict]] = {}
+@dataclass
+class SystemCache:
+    """What the analyses keep between the classifications of one system: held by the system
+    (``System.analysis_cache``, :func:`system_cache`), so it lives and dies with it."""
+
+    warm: dict[float, dict] = field(default_factory=dict)   # mu -> the previous classification's eigenvalues
+    gathered: Any = _UNSET       # sequential K and M on rank 0 (:func:`sequential_km`)
+    spectra: Any = _UNSET        # K and M seen from the contact DOFs (app/analyses/conditions/contact_spectrum.py)
+    dynamic: Any = _UNSET        # the dynamic contact flexibility (app/analyses/mceip_lambda2/exact.py)
+
+    def once(self, name: str, make: Callable[[], Any]) -> Any:
+        """Field ``name``, made by ``make()`` on first use."""
+        value = getattr(self, name)
+        if value is _UNSET:
+            value = make()
+            setattr(self, name, value)
+        return value
+
+
+def system_cache(system: System) -> SystemCache:
+    """The system's :class:`SystemCache`, made on first use."""
+    if system.analysis_cache is None:
+        system.analysis_cache = SystemCache()
+    return system.analysis_cache
 
 
 def warm_hints(system: System, mu: float) -> dict:
     """Eigenvalues of the previous classification along the path (per system and mu): shifts
     for the next one's eigen solves (they only speed them up; every answer is verified)."""
-    return per_system(_WARM, system, dict).setdefault(float(mu), {})
+    return system_cache(system).warm.setdefault(float(mu), {})
 
 
 def keep_modes(scene: Scene) -> bool:
@@ -161,14 +175,11 @@ def no_slip() -> tuple[str, dict]:
                                            "complete": True}
 
 
-_GATHERED: dict = {}
-
-
 def sequential_km(system) -> tuple[PETSc.Mat, PETSc.Mat] | None:
     """The system's whole ``K`` and ``M`` as sequential matrices on rank 0 (None on the other
     ranks): the system's own on one rank; gathered on rank 0 when distributed, once per system,
     and destroyed with it. MPI collective on the first call."""
-    return per_system(_GATHERED, system, lambda: _gather(system))
+    return system_cache(system).once("gathered", lambda: _gather(system))
 
 
 def _gather(system) -> tuple[PETSc.Mat, PETSc.Mat] | None:
