@@ -523,16 +523,16 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
     from app.analyses.pencils.reduced import condensed_mu_pencil
     from app.loading.classify import classify
     from app.scene.schema import default_scene_path, load_scene
-    from app.study.run import run_study
+    from app.study.run import study
     sys.path.insert(0, str(ROOT / "tests"))
     from test_default_answers import REFERENCE, differences
     say("\n== speed (issue 14): machine shared with other jobs, load "
         f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; times are noisy, ratios are within one run ==")
     scene = load_scene(default_scene_path())
     scene = scene.model_copy(update={"outputs": None})
-    run_study(scene, MPI.COMM_WORLD)                          # forms compiled, mesh cached
+    study(scene, MPI.COMM_WORLD)                          # forms compiled, mesh cached
     t0 = time.perf_counter()
-    res = run_study(scene, MPI.COMM_WORLD)
+    res = study(scene, MPI.COMM_WORLD).to_dict()
     wall = time.perf_counter() - t0
     stages = {r["name"]: r["seconds"] for r in res["stages"]}
     bad: list[str] = differences(json.loads(REFERENCE.read_text()), res) if REFERENCE.exists() else []
@@ -552,7 +552,7 @@ def section_speed(quick: bool, big_timeout: float) -> dict:
         floor_captured["dense"] = time.perf_counter() - t
         return None
 
-    res2 = run_study(scene.model_copy(update={"analyses": []}), MPI.COMM_WORLD, inspect=capture)
+    res2 = study(scene.model_copy(update={"analyses": []}), MPI.COMM_WORLD, inspect=capture).to_dict()
     st2 = {r["name"]: r["seconds"] for r in res2["stages"]}
     floor = (st2.get("factorise K, contact flexibility", 0.0) + st2.get("quasi-static loading", 0.0)
              + floor_captured.get("dense", 0.0))
@@ -646,12 +646,12 @@ def default_at_scale(nx: int, ranks: int, timeout: float) -> dict:
 
 def section_targets(big: dict | None, big_nx: int, million_nx: int | None = None) -> dict:
     from app.scene.schema import default_scene_path, load_scene
-    from app.study.run import run_study
+    from app.study.run import study
     say("\n== targets ==")
     scene = load_scene(default_scene_path())
-    run_study(scene, MPI.COMM_WORLD)                     # compiles the forms
+    study(scene, MPI.COMM_WORLD)                     # compiles the forms
     t0 = time.perf_counter()
-    res = run_study(scene, MPI.COMM_WORLD)
+    res = study(scene, MPI.COMM_WORLD).to_dict()
     paper = time.perf_counter() - t0
     stages = {r["name"]: r["seconds"] for r in res["stages"]}
     say(f"paper study (20x10 mesh, analyses {', '.join(scene.analyses)}; {len(res['states'])} states, "
@@ -660,7 +660,7 @@ def section_targets(big: dict | None, big_nx: int, million_nx: int | None = None
         + ", ".join(f"{k} {v:.2f} s" for k, v in sorted(stages.items(), key=lambda kv: -kv[1])[:3]))
     mu_only = scene.model_copy(update={"analyses": ["mceip_mu"]})
     t0 = time.perf_counter()
-    run_study(mu_only, MPI.COMM_WORLD)
+    study(mu_only, MPI.COMM_WORLD)
     t_mu = time.perf_counter() - t0
     say(f"paper study with MCEIP-mu only: {t_mu:.2f} s")
     if big is None:

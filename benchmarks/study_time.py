@@ -15,7 +15,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from app.scene.schema import default_scene_path, load_scene
-from app.study.run import run_study
+from app.study.run import study
 
 
 def main() -> None:
@@ -25,10 +25,10 @@ def main() -> None:
           f"DOLFINx {dolfinx.__version__}, PETSc {'.'.join(map(str, PETSc.Sys.getVersion()))}, "
           f"{MPI.COMM_WORLD.size} rank(s)")
     t0 = time.perf_counter()
-    run_study(scene, MPI.COMM_WORLD)
+    study(scene, MPI.COMM_WORLD)
     first = time.perf_counter() - t0
     t0 = time.perf_counter()
-    res = run_study(scene, MPI.COMM_WORLD)
+    res = study(scene, MPI.COMM_WORLD).to_dict()
     second = time.perf_counter() - t0
     print(f"scene '{scene.name}': {len(res['states'])} states, {res['distinct_classifications']} distinct classifications")
     print(f"first run (compiles forms): {first:.2f} s; second run: {second:.2f} s (issue 14 target: at most 1.5 s, outputs off, forms compiled)")

@@ -3,7 +3,7 @@
     .venv/bin/python scripts/results_schema.py           # rewrite docs/results-schema.json
     .venv/bin/python scripts/results_schema.py --check   # exit 1 if docs/results-schema.json is stale
 
-The schema is ``app.io.schema.ResultsDocument.model_json_schema()``: the models the test suite
+The schema is ``app.io.result.StudyResult.model_json_schema()``: the models the test suite
 validates real results.json files with (tests/test_results_schema.py), so the two cannot drift.
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ OUT = ROOT / "docs" / "results-schema.json"
 
 def generate() -> str:
     """The text of docs/results-schema.json."""
-    from app.io.schema import json_schema
+    from app.io.result import json_schema
     return json.dumps(json_schema(), indent=1, allow_nan=False) + "\n"
 
 

@@ -70,10 +70,11 @@ def pytest_report_header(config):
 
 
 def run_scene(data: dict) -> dict:
-    """Run a scene given as a dict in this process; returns the results dictionary."""
+    """Run a scene given as a dict in this process; returns its results as a user reads them in
+    results.json (``StudyResult.to_dict``: non-finite numbers as floats)."""
     from app.scene.schema import parse_scene
-    from app.study.run import run_study
-    return run_study(parse_scene(data), MPI.COMM_WORLD)
+    from app.study.run import study
+    return study(parse_scene(data), MPI.COMM_WORLD).to_dict()
 
 
 def run_cli(*args: str, ranks: int = 1, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:

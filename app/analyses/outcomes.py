@@ -90,11 +90,8 @@ class Solution:
         self.evidence.update(evidence)
 
     def as_dict(self) -> dict:
-        """The results.json entry (with ``_x`` when the vector is kept; results.json drops it)."""
-        out = {"value": self.value, "x_Ts": self.x_Ts, "pattern": self.pattern, **self.evidence}
-        if self.x is not None:
-            out["_x"] = self.x
-        return out
+        """The results.json entry (``x`` stays in memory: app/io/from_outcomes.py)."""
+        return {"value": self.value, "x_Ts": self.x_Ts, "pattern": self.pattern, **self.evidence}
 
 
 @dataclass
@@ -231,7 +228,7 @@ class MceipMuOutcome(_Solved):
     proof: dict[str, Any] | None = field(default=None, repr=False)
 
     def as_dict(self) -> dict:
-        """The results.json ``mceip_mu`` block (with ``_proof`` for app/io/proofs.py)."""
+        """The results.json ``mceip_mu`` block (``proof`` stays in memory: app/io/from_outcomes.py)."""
         out: dict = {"solutions": [s.as_dict() for s in self.solutions], "result": self.result,
                      "certified": self.certified}
         if self.onset is not None:
@@ -242,8 +239,6 @@ class MceipMuOutcome(_Solved):
         out["search"] = self.search
         if self.quadratic:
             out["quadratic"] = True
-        if self.proof is not None:
-            out["_proof"] = self.proof
         out.update(self.extra)
         if self.method is not None:
             out["method"] = self.method

@@ -38,11 +38,13 @@ from __future__ import annotations
 import json
 import logging
 import pathlib
+from typing import Sequence
 
 import numpy as np
 from mpi4py import MPI
 
 from app.io.gather import MeshGather
+from app.io.result import MceipSolution, StateResult
 from app.io.select import analyses_of, mode_name, modes_of, select_states
 from app.io.xdmf import XdmfSeries
 from app.loading.classify import Classification
@@ -60,8 +62,13 @@ def wants_fields(scene) -> bool:
     return outputs is not None and outputs.fields
 
 
-def _classification(entry: dict) -> Classification:
-    return Classification(tuple(n["status"] for n in entry["nodes"]), tuple(int(n["sign"]) for n in entry["nodes"]))
+def _classification(entry: StateResult) -> Classification:
+    return Classification(tuple(n.status for n in entry.nodes), tuple(int(n.sign) for n in entry.nodes))
+
+
+def _curved(entry: StateResult) -> dict | None:
+    """What the loading path recorded of a curved obstacle's contact at this state (app/loading/curved.py)."""
+    return (entry.model_extra or {}).get("curved_contact")
 
 
 class _FieldMaker:
@@ -85,13 +92,13 @@ class _FieldMaker:
         self.dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes], dtype=np.int64).ravel()
         self.signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
 
-    def state(self, entry: dict) -> tuple[np.ndarray | None, np.ndarray | None, float]:
+    def state(self, entry: StateResult) -> tuple[np.ndarray | None, np.ndarray | None, float]:
         """Displacement (N, 2) and von Mises (C,) of a state on rank 0, and the largest mismatch
         of the field's contact displacements with the state's (relative to the field's scale)."""
-        nodes = entry["nodes"]
-        load = entry.get("load") or {}
-        r = np.ravel([[n["r_T"], n["r_N"]] for n in nodes])
-        cc = entry.get("curved_contact")
+        nodes = entry.nodes
+        load = entry.load.to_dict()          # the system type's loading record (FieldSource.response)
+        r = np.ravel([[n.r_T, n.r_N] for n in nodes])
+        cc = _curved(entry)
         if cc is not None:               # a curved obstacle: reactions in the contact frames -> node frames
             from app.analyses.pencils.curvature import frame_matrix
             r = frame_matrix(cc["frame"], len(nodes)) @ r
@@ -105,7 +112,7 @@ class _FieldMaker:
         self.q.interpolate(self.vm)
         # a state's u_N is the normal displacement minus the initial gap (app/loading/program.py)
         want = (np.asarray(cc["u_system"], dtype=float) if cc is not None else          # app/loading/curved.py
-                np.ravel([[n["u_T"], n["u_N"] + g] for n, g in zip(nodes, self.src.gaps)]))
+                np.ravel([[n.u_T, n.u_N + g] for n, g in zip(nodes, self.src.gaps)]))
         big = self.comm.allreduce(float(np.max(np.abs(f.x.array), initial=0.0)), op=MPI.MAX)   # MPI collective
         mismatch = float(np.max(np.abs(uc - want), initial=0.0) / max(np.max(np.abs(want), initial=0.0), big, 1e-300))
         return self.gather.nodal(self.u.x.array), self.gather.cellwise(self.q.x.array[self.q_dofs]), mismatch
@@ -115,10 +122,10 @@ class _FieldMaker:
         from app.loading.flexibility import contact_entries
         return contact_entries(vec, self.dofs, self.signs)                 # MPI collective
 
-    def _to_node_frames(self, arr: np.ndarray, r0: int, entry: dict, cls) -> None:
+    def _to_node_frames(self, arr: np.ndarray, r0: int, entry: StateResult, cls) -> None:
         """On a curved obstacle the pencils' slip-node DOFs are in the contact frames
         (app/analyses/pencils/curvature.py): rotate them back to the node frames, in place (owned DOFs)."""
-        if entry.get("curved_contact") is None:
+        if _curved(entry) is None:
             return
         for node, f in zip(self.system.nodes, _slip_frames(entry, cls)):
             a, b, c, d = f
@@ -128,10 +135,10 @@ class _FieldMaker:
             vT, vN = arr[iT] * node.sign_T, arr[iN] * node.sign_N
             arr[iT], arr[iN] = node.sign_T * (a * vT + c * vN), node.sign_N * (b * vT + d * vN)
 
-    def mode(self, entry: dict, problem: str, sol: dict) -> tuple[np.ndarray | None, str]:
+    def mode(self, entry: StateResult, problem: str, sol: MceipSolution) -> tuple[np.ndarray | None, str]:
         """Mode displacement (N, 2) on rank 0, normalised to max |v| = 1, and how it was built."""
         cls = _classification(entry)
-        x = sol.get("_x")
+        x = sol.x
         if x is not None:
             from app.analyses.pencils.reduced import reduced_space
             space = reduced_space(self.system, cls)
@@ -150,9 +157,9 @@ class _FieldMaker:
             # constrained: both DOFs of stick and slip nodes (v_N = 0 at slip nodes); free nodes are not
             con = [d for i, st in enumerate(cls.status) if st in ("stick", "slip") for d in (2 * i, 2 * i + 1)]
             slip = cls.slip
-            xts = np.asarray(sol["x_Ts"], dtype=float)
+            xts = np.asarray(sol.x_Ts, dtype=float)
             v_c[2 * slip] = -cls.slip_signs * xts
-            if entry.get("curved_contact") is not None:     # contact frames -> node frames (slip nodes)
+            if _curved(entry) is not None:     # contact frames -> node frames (slip nodes)
                 from app.analyses.pencils.curvature import frame_matrix
                 v_c = frame_matrix(_slip_frames(entry, cls), self.n) @ v_c
             con = np.asarray(con, dtype=np.int64)
@@ -175,25 +182,20 @@ def _pad3(v: np.ndarray) -> np.ndarray:
     return np.column_stack([v, np.zeros(len(v))])
 
 
-def compute_fields(scene, system, out_states: list[dict], stages, progress, outdir: pathlib.Path | None) -> dict:
+def compute_fields(scene, system, out_states: Sequence[StateResult], stages, progress,
+                   outdir: pathlib.Path | None) -> dict:
     """The field stage of a study (MPI collective); writes the files on rank 0; returns the record
     of what it did (identical on every rank) for results.json ``outputs``."""
-    try:
-        if system.fields is None:
-            why = f"ParaView files and screenshots not applicable: a {scene.system.type} system has no mesh"
-            log.info("fields: %s", why)
-            return {"notes": [why], "files": [], "fields_not_applicable": why}
-        if outdir is None:
-            return {"notes": ["fields not computed: the study was run without an output folder"], "files": []}
-        return _compute_fields(scene, system, out_states, stages, progress, outdir)
-    finally:
-        # the in-memory mode vectors are not results
-        for entry in out_states:
-            for _, _, sol in modes_of(entry.get("analyses") or {}):
-                sol.pop("_x", None)
+    if system.fields is None:
+        why = f"ParaView files and screenshots not applicable: a {scene.system.type} system has no mesh"
+        log.info("fields: %s", why)
+        return {"notes": [why], "files": [], "fields_not_applicable": why}
+    if outdir is None:
+        return {"notes": ["fields not computed: the study was run without an output folder"], "files": []}
+    return _compute_fields(scene, system, out_states, stages, progress, outdir)
 
 
-def _compute_fields(scene, system, out_states: list[dict], stages, progress, outdir: pathlib.Path) -> dict:
+def _compute_fields(scene, system, out_states: Sequence[StateResult], stages, progress, outdir: pathlib.Path) -> dict:
     """The body of :func:`compute_fields` for a meshed system and an output folder."""
     outputs = scene.outputs
     comm = system.comm
@@ -206,12 +208,12 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
         maker = _FieldMaker(system)
         src = system.fields
         g = maker.gather
-        by_index = {s["index"]: s for s in out_states}
-        state_ids = [s["index"] for s in out_states] if outputs.paraview else list(pictured)
+        by_index = {s.index: s for s in out_states}
+        state_ids = [s.index for s in out_states] if outputs.paraview else list(pictured)
         # modes: of every distinct classification for ParaView, of the pictured states for screenshots
         mode_firsts = set()
         if outputs.paraview:
-            mode_firsts |= {s["index"] for s in out_states if s.get("analyses_shared_with") is None}
+            mode_firsts |= {s.index for s in out_states if s.analyses_shared_with is None}
         if shots is not None and shots.modes:
             mode_firsts |= {analyses_of(out_states, i)[1] for i in pictured}
         rank0 = comm.rank == 0
@@ -249,7 +251,7 @@ def _compute_fields(scene, system, out_states: list[dict], stages, progress, out
     return record
 
 
-def _state_fields(maker: "_FieldMaker", entries: list[dict], pictured, contact, series: XdmfSeries | None,
+def _state_fields(maker: "_FieldMaker", entries: list[StateResult], pictured, contact, series: XdmfSeries | None,
                   progress) -> tuple[dict, dict, float]:
     """The fields of the states ``entries`` (MPI collective): on rank 0 written to the ParaView
     ``series`` (if any) and kept for the ``pictured`` states. Returns the kept displacements and
@@ -263,7 +265,7 @@ def _state_fields(maker: "_FieldMaker", entries: list[dict], pictured, contact, 
     bar = progress.bar(len(entries), "fields")
     try:
         for entry in entries:
-            idx = entry["index"]
+            idx = entry.index
             u, vm, mismatch = maker.state(entry)
             worst = max(worst, mismatch)
             if rank0:
@@ -284,20 +286,20 @@ def _state_fields(maker: "_FieldMaker", entries: list[dict], pictured, contact, 
     return kept_u, kept_vm, worst
 
 
-def _mode_fields(maker: "_FieldMaker", entries: list[dict]) -> tuple[dict, list[dict]]:
+def _mode_fields(maker: "_FieldMaker", entries: list[StateResult]) -> tuple[dict, list[dict]]:
     """The modes of the states ``entries`` (MPI collective): their displacements by name and
     their descriptions (both on rank 0 only)."""
     modes, meta = {}, []
     for entry in entries:
-        first = entry["index"]
-        for problem, k, sol in modes_of(entry.get("analyses") or {}):
-            name = mode_name(first, problem, k, sol["value"])
+        first = entry.index
+        for problem, k, sol in modes_of(entry.analyses):
+            name = mode_name(first, problem, k, sol.value)
             v, how = maker.mode(entry, problem, sol)
             if maker.comm.rank == 0:
                 modes[name] = v
                 meta.append({"name": name, "state": first, "problem": problem, "k": k,
-                             "value": float(sol["value"]), "pattern": sol.get("pattern", []),
-                             "x_Ts": sol.get("x_Ts", []), "built": how})
+                             "value": float(sol.value), "pattern": list(sol.pattern),
+                             "x_Ts": [float(v) for v in sol.x_Ts], "built": how})
     return modes, meta
 
 
@@ -326,25 +328,25 @@ def _write_screenshot_data(fdir: pathlib.Path, maker: "_FieldMaker", contact, ke
            if src.obstacle and "polyline" in src.obstacle else {}))
 
 
-def _slip_frames(entry: dict, cls) -> list:
+def _slip_frames(entry: StateResult, cls) -> list:
     """The contact frames the pencils of a curved-obstacle state use: the state's at its slip
     nodes, the node's own elsewhere (app/analyses/pencils/curvature.py)."""
-    frames = entry["curved_contact"]["frame"]
+    frames = _curved(entry)["frame"]
     return [tuple(frames[i]) if st == "slip" else (1.0, 0.0, 0.0, 1.0) for i, st in enumerate(cls.status)]
 
 
-def _contact_fields(entry: dict, u: np.ndarray, contact: np.ndarray, src) -> dict:
+def _contact_fields(entry: StateResult, u: np.ndarray, contact: np.ndarray, src) -> dict:
     """Point fields of one state: displacement and, at the contact nodes, status, reaction and slip
     direction in global x/y from each node's own frame (u = t u_T + n u_N)."""
     n_pts = len(u)
     status = np.full(n_pts, -1, dtype=np.int32)
     reaction = np.zeros((n_pts, 3))
     slip_dir = np.zeros((n_pts, 3))
-    frames = (entry.get("curved_contact") or {}).get("frame") or [(1.0, 0.0, 0.0, 1.0)] * len(entry["nodes"])
-    for node, j, t0, n0, (a, b, c, d) in zip(entry["nodes"], contact, src.tangent, src.normal, frames):
+    frames = (_curved(entry) or {}).get("frame") or [(1.0, 0.0, 0.0, 1.0)] * len(entry.nodes)
+    for node, j, t0, n0, (a, b, c, d) in zip(entry.nodes, contact, src.tangent, src.normal, frames):
         t, n = a * t0 + b * n0, c * t0 + d * n0       # the contact frame (the node's own on a line)
-        status[j] = STATUS_CODE[node["status"]]
-        reaction[j, :2] = node["r_T"] * t + node["r_N"] * n
-        if node["status"] == "slip":
-            slip_dir[j, :2] = -float(node["sign"]) * t      # impending slip opposes r_T
+        status[j] = STATUS_CODE[node.status]
+        reaction[j, :2] = node.r_T * t + node.r_N * n
+        if node.status == "slip":
+            slip_dir[j, :2] = -float(node.sign) * t      # impending slip opposes r_T
     return {"displacement": _pad3(u), "contact_status": status, "reaction": reaction, "slip_direction": slip_dir}

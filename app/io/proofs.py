@@ -15,21 +15,22 @@ import zipfile
 
 import numpy as np
 
+from app.io.result import StudyResult
 from app.io.results import file_mode  # one-way: results.py does not import this module
 
 FOLDER = "proofs"
 
 
-def _stored(results: dict):
-    """``(state, proof)`` of each classification whose MCEIP-mu proof is stored (the private
-    ``_proof`` key of its ``mceip_mu`` analysis, which results.json leaves out), each proof once."""
+def _stored(study: StudyResult):
+    """``(state index, proof)`` of each classification whose MCEIP-mu proof is kept (its
+    ``mceip_mu`` analysis's ``proof``, in memory only), each proof once."""
     seen: set[int] = set()
-    for st in results.get("states", []):
-        a = (st.get("analyses") or {}).get("mceip_mu") or {}
-        proof = a.get("_proof")
+    for st in study.states:
+        a = st.analyses.mceip_mu
+        proof = None if a is None else a.proof
         if proof and id(proof) not in seen:
             seen.add(id(proof))
-            yield st, proof
+            yield st.index, proof
 
 
 def npz_bytes(arrays: dict, compressed: set) -> bytes:
@@ -46,19 +47,19 @@ def npz_bytes(arrays: dict, compressed: set) -> bytes:
     return buf.getvalue()
 
 
-def count_proofs(results: dict) -> int:
+def count_proofs(study: StudyResult) -> int:
     """The number of files :func:`write_proofs` writes."""
-    return sum(1 for _ in _stored(results))
+    return sum(1 for _ in _stored(study))
 
 
-def write_proofs(results: dict, outdir: pathlib.Path, written_one=None) -> list[pathlib.Path]:
+def write_proofs(study: StudyResult, outdir: pathlib.Path, written_one=None) -> list[pathlib.Path]:
     """Write one ``.npz`` per proven classification; ``written_one()`` is called after each file
     (progress). Returns the files written."""
     written: list[pathlib.Path] = []
-    for st, proof in _stored(results):
+    for index, proof in _stored(study):
         folder = outdir / FOLDER
         folder.mkdir(exist_ok=True)
-        path = folder / f"state_{int(st['index'])}.npz"
+        path = folder / f"state_{int(index)}.npz"
         arrays = {"A0": proof["A0"], "A1": proof["A1"], "log": np.array(json.dumps(proof["log"]))}
         if "A2" in proof:
             arrays["A2"] = proof["A2"]

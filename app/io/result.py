@@ -1,34 +1,50 @@
-"""Typed, read-only views of a study's results (what ``results.json`` holds).
+"""The typed result of a study: what ``results.json`` holds, described once.
 
-A finished study (`app.study.run.study`) returns a [`StudyResult`][app.io.result.StudyResult] whose states are
-built from the analyses' typed outcomes (`app.analyses.outcomes`, via
-app/io/from_outcomes.py); its ``raw`` is the results dictionary written from those same outcomes,
-so [`StudyResult.to_json`][app.io.result.StudyResult.to_json] is exactly the ``results.json`` content. [`StudyResult.load`][app.io.result.StudyResult.load]
-and [`StudyResult.from_dict`][app.io.result.StudyResult.from_dict] build the same views from a saved file (any format version);
-``tests/test_typed_result.py`` checks that the two constructions agree field by field.
+A finished study (`app.study.run.study`, `app.run_study`) returns a
+[`StudyResult`][app.io.result.StudyResult]; every output (results.json, steps.csv, the summary,
+the plots, the report, the proofs, the fields) reads it. The models below are the one
+description of the results.json format (version 3):
 
-The queries the outputs need ([`StudyResult.first_instability`][app.io.result.StudyResult.first_instability], [`StateResult.min_mu`][app.io.result.StateResult.min_mu],
-[`StudyResult.final`][app.io.result.StudyResult.final], [`StudyResult.state`][app.io.result.StudyResult.state], ...) are written here once.
+- results.json is serialised from them ([`StudyResult.to_json`][app.io.result.StudyResult.to_json]),
+- a saved file is read back into them ([`StudyResult.load`][app.io.result.StudyResult.load],
+  any format version),
+- its JSON Schema is generated from them (:func:`json_schema`, docs/results-schema.json), and
+  :func:`validate` checks a file strictly against them.
 
-This module imports neither PETSc nor DOLFINx: it also reads results saved by earlier runs.
+Each record names the keys every run writes and keeps any other key an analysis adds (the
+solver's evidence, a system type's own load fields): they are read back and written again as
+they were (``model_extra``). Arrays are numpy arrays (read-only); what a run keeps in memory only
+(a mode's kept-space vector ``x``, the pencil and proof log of an MCEIP-mu proof ``proof``) is
+never written.
 
-Notation (the paper's, as in ``docs/method.md``): ``x_Ts`` is the tangential rate of
-the slip nodes in a mode, normalised to sum 1, listed from A to B; ``pattern[i]`` is ``slip``
-where ``x_Ts[i] > 0`` and ``stick`` where it is 0.
+The queries the outputs need ([`StudyResult.first_instability`][app.io.result.StudyResult.first_instability],
+[`StateResult.min_mu`][app.io.result.StateResult.min_mu], [`StudyResult.final`][app.io.result.StudyResult.final],
+[`StudyResult.state`][app.io.result.StudyResult.state], ...) are written here once.
+
+Every number of the file is a JSON number; one that is not finite is ``null`` there and listed
+in ``non_finite`` (app/io/document.py); in the models it is the float itself. Quantities are in
+the units of ``units``. This module imports neither PETSc nor DOLFINx: it also reads results
+saved by earlier runs.
+
+Notation (the paper's, as in ``docs/method.md``): ``x_Ts`` is the tangential rate of the slip
+nodes in a mode, normalised to sum 1, listed from A to B; ``pattern[i]`` is ``slip`` where
+``x_Ts[i] > 0`` and ``stick`` where it is 0.
 """
 from __future__ import annotations
 
 import json
 import math
 import pathlib
-from dataclasses import dataclass, field
-from typing import Any, Iterator, Mapping
+from typing import Annotated, Any, Iterator, Literal, Optional
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, WithJsonSchema, model_validator
+from pydantic.json_schema import SkipJsonSchema
 
-from app.io.document import from_document, to_document
+from app.io.document import FORMAT_VERSION, from_document, to_document
 
-#: keys of an MCEIP solution dictionary that are the evidence that it is one (app/analyses/snes_vi/search.py, app/analyses/enumerate.py)
+#: keys of an MCEIP solution that are the evidence that it is one (app/analyses/snes_vi/search.py,
+#: app/analyses/enumerate.py)
 EVIDENCE_KEYS = ("residual", "complementarity", "min_x_Ts", "min_y_Ts", "iterations", "found_by",
                  "found_count", "relative_error")
 
@@ -54,44 +70,170 @@ def _float(v: Any) -> float:
 
 def float_array(values: Any) -> np.ndarray:
     """Read-only float64 array of ``values`` (``None`` entries: NaN)."""
-    a = np.asarray([_float(v) for v in (values or [])], dtype=np.float64)
+    if isinstance(values, np.ndarray) and values.dtype == np.float64 and values.ndim == 1:
+        a = values.copy()
+    else:
+        if isinstance(values, (str, bytes)) or not isinstance(values, (list, tuple, np.ndarray)):
+            raise ValueError("an array of numbers is expected")
+        if any(isinstance(v, (str, bytes, bool)) for v in values):
+            raise ValueError("an array of numbers is expected")
+        a = np.asarray([_float(v) for v in values], dtype=np.float64)
     a.flags.writeable = False
     return a
 
 
-@dataclass(frozen=True)
-class MceipSolution:
+def _array_json(a: np.ndarray) -> list:
+    return [float(v) for v in a]
+
+
+#: a vector of numbers (read-only float64; ``null`` entries of the file are NaN)
+FloatArray = Annotated[np.ndarray, PlainValidator(float_array), PlainSerializer(_array_json, return_type=list),
+                       WithJsonSchema({"type": "array", "items": {"type": ["number", "null"]}})]
+#: a number of results.json: null in the file when it is not finite (its value is in ``non_finite``)
+Number = Optional[float]
+#: what a run keeps in memory only: never written, never read from a file
+InMemory = SkipJsonSchema[Any]
+
+
+class Record(BaseModel):
+    """A record of results.json: the keys below, and possibly others (kept as they are)."""
+
+    model_config = ConfigDict(extra="allow", arbitrary_types_allowed=True)
+
+    def to_dict(self) -> dict:
+        """The record as it is written (before non-finite numbers become ``null``)."""
+        return self.model_dump(mode="python", exclude_unset=True)
+
+
+class Units(Record):
+    """Names of the units every quantity is given in (the scene's ``units``); labels, no conversion."""
+
+    length: str
+    force: str
+    time: Optional[str] = None
+    lambda2: str = Field(description="unit of lambda^2 (1/time^2)")
+    mu: str = Field(description="friction coefficients: dimensionless, '1'")
+    stiffness: Optional[str] = None
+    mass: Optional[str] = None
+    stress: Optional[str] = Field(None, description="meshed bodies only")
+    density: Optional[str] = Field(None, description="meshed bodies only")
+
+
+class Failure(Record):
+    """A state whose loading or analysis failed (the CLI then exits with status 3)."""
+
+    state: Optional[int] = None
+    analysis: str
+    reason: str
+
+
+class PathInfo(Record):
+    """How the loading path ended; the block's path also gives its normal phase."""
+
+    end: str = Field(description="why the path ended (gross sliding, tangential_max reached, a failure, ...)")
+    failure: Optional[Failure] = None
+    normal_displacement: Number = Field(None, description="block: CD depth reaching the normal force [length]")
+    normal_force: Number = Field(None, description="block: normal resultant at the end of the normal phase [force]")
+    normal_steps: Optional[int] = None
+    tangential_step: Number = Field(None, description="block: CD u_x increment [length]")
+
+
+class Stage(Record):
+    """One timed stage of the run."""
+
+    name: str
+    seconds: Number
+    count: int
+
+
+class NonFinite(Record):
+    """Where results.json has null for a number that is not finite, and what that number is."""
+
+    reason: str
+    values: dict[str, Literal["+inf", "-inf", "nan"]] = Field(
+        description="JSON pointer (RFC 6901) of each null number -> its value")
+
+
+class Load(Record):
+    """The load of a state (block: the CD displacement and the resultants; a program: its step)."""
+
+    phase: Optional[str] = None
+    u_x: Number = Field(None, description="CD displacement [length]")
+    u_y: Number = Field(None, description="CD displacement [length]")
+    normal_resultant: Number = Field(None, description="[force]")
+    tangential_resultant: Number = Field(None, description="[force]")
+    step: Optional[Any] = None
+    parameters: Optional[dict[str, Any]] = None
+
+
+class Classification(Record):
+    """Contact nodes by status at a state."""
+
+    free: int
+    zero: int
+    stick: int
+    slip: int
+
+
+class Node(Record):
+    """A contact node at one state (paper sign convention: u_N <= 0, r_N <= 0 compressive)."""
+
+    id: int
+    x: Number = Field(description="position along the contact line [length]")
+    status: Literal["free", "zero", "stick", "slip"]
+    sign: int = Field(description="slip direction S = sign(r_T) of a slip node, 0 otherwise")
+    u_N: Number
+    u_T: Number
+    r_N: Number
+    r_T: Number
+
+
+class Certificate(Record):
+    """What an analysis proved (or could not), and how (docs/proofs.md)."""
+
+    status: str = Field(description="proven, not proven, ... (docs/proofs.md)")
+    method: str
+    rigorous: Optional[bool] = None
+    interval: Optional[list[Number]] = Field(None, description="the interval of the claim (null end: infinity)")
+    gap: Number = None
+    seconds: Number = None
+    detail: Optional[dict[str, Any]] = None
+    cap: Number = Field(None, description="MCEIP-mu: the interval's upper end asked for")
+    onset: Number = Field(None, description="MCEIP-mu: the proven smallest critical mu (null: none)")
+    ill_conditioned: Optional[list[Number]] = None
+
+
+class MceipSolution(Record):
     """One solution of an MCEIP (or one sufficient-condition mode) and the evidence for it.
 
-    ``value`` is mu (MCEIP-mu), lambda^2 [1/s^2] (MCEIP-lambda^2, sufficient condition);
-    ``x_Ts`` the mode on the slip nodes (sum 1, A to B); ``pattern`` slip/stick per slip node;
-    ``evidence`` residual, complementarity violation, iterations, ``found_by`` (method and start);
-    ``certified``/``certificate`` are present when the analysis proved the solution;
-    ``x`` is the full kept-space vector of (10) when the analysis kept it in memory (never in
-    results.json); ``raw`` the solution's dictionary as in results.json.
+    ``value`` is mu (MCEIP-mu, a [`CriticalMu`][app.io.result.CriticalMu]) or lambda^2 [1/s^2]
+    (MCEIP-lambda^2, sufficient condition); ``x_Ts`` the mode on the slip nodes (sum 1, A to B);
+    ``pattern`` slip/stick per slip node; the solver's evidence (residual, complementarity
+    violation, iterations, ``found_by``: method and start) in :attr:`evidence`;
+    ``certified``/``certificate`` when the analysis proved the solution; ``x`` the full
+    kept-space vector of (10) when the run kept it in memory (never in results.json).
     """
 
-    value: float
-    x_Ts: np.ndarray
-    pattern: tuple[str, ...]
-    evidence: Mapping[str, Any]
-    raw: Mapping[str, Any] = field(repr=False)
-    certified: bool | None = None
-    certificate: Mapping[str, Any] | None = None
-    x: np.ndarray | None = field(default=None, repr=False)
+    value: Number = Field(description="mu (MCEIP-mu) or lambda^2 [lambda2] (MCEIP-lambda^2)")
+    x_Ts: FloatArray = Field(description="tangential rates of the slip nodes, A to B, summing to 1")
+    pattern: tuple[Literal["slip", "stick"], ...] = Field(description="per slip node, A to B")
+    residual: Number = None
+    complementarity: Number = None
+    min_x_Ts: Number = None
+    min_y_Ts: Number = None
+    iterations: Optional[int] = None
+    found_by: Optional[list[str]] = None
+    found_count: Optional[int] = None
+    certified: Optional[bool] = None
+    certificate: Optional[Certificate] = None
+    enclosure: Optional[list[Number]] = None
+    x: InMemory = Field(None, exclude=True, repr=False)
 
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], problem: str = "mu") -> "MceipSolution":
-        """Build from one solution dictionary of results.json."""
-        value = _float(d.get("value"))
-        x = d.get("_x")
-        if x is not None:
-            x = np.array(x, dtype=np.float64)
-            x.flags.writeable = False
-        return cls(value=CriticalMu(value) if problem == "mu" else value, x_Ts=float_array(d.get("x_Ts")),
-                   pattern=tuple(d.get("pattern") or ()),
-                   evidence={k: d[k] for k in EVIDENCE_KEYS if k in d}, raw=d,
-                   certified=d.get("certified"), certificate=d.get("certificate"), x=x)
+    @property
+    def evidence(self) -> dict[str, Any]:
+        """The evidence that it is a solution (:data:`EVIDENCE_KEYS` present in the record)."""
+        data = self.to_dict()
+        return {k: data[k] for k in EVIDENCE_KEYS if k in data}
 
     @property
     def all_slip(self) -> bool:
@@ -104,37 +246,81 @@ class MceipSolution:
         return sum(p == "stick" for p in self.pattern)
 
 
-@dataclass(frozen=True)
-class MceipResult:
+class Status(Record):
+    """Keys any analysis record may have instead of an answer."""
+
+    failed: Optional[bool] = None
+    reason: Optional[str] = None
+    not_applicable: Optional[bool] = None
+
+    @property
+    def answered(self) -> bool:
+        """The analysis gave an answer (it neither failed nor had nothing to compute)."""
+        return not self.failed and not self.not_applicable
+
+
+class NecessaryResult(Status):
+    """Necessary condition (19) at mu: smallest eigenvalues of sym K*(mu) and sym M*(mu)."""
+
+    satisfied: Optional[bool] = None
+    mu: Number = None
+    min_eig_K_sym: Number = None
+    min_eig_M_sym: Number = None
+
+
+class SufficientResult(Status):
+    """Sufficient condition (17)-(18): admissible real eigenpairs lambda^2 > 0 with x_Ts >= 0."""
+
+    satisfied: Optional[bool] = None
+    mu: Number = None
+    lambda2: FloatArray = Field(default_factory=lambda: float_array([]), description="[lambda2]")
+    modes: tuple[MceipSolution, ...] = ()
+
+
+class Onset(Record):
+    """MCEIP-mu: the claim on the smallest critical mu (docs/proofs.md)."""
+
+    status: str
+    proven: bool
+    value: Number = None
+    enclosure: Optional[list[Number]] = None
+
+
+class Complete(Record):
+    """MCEIP-mu: the claim that the list of solutions is complete on an interval."""
+
+    status: str
+    proven: bool
+    count: Optional[int] = None
+    interval: Optional[list[Number]] = None
+
+
+class MceipResult(Status):
     """The answer of one MCEIP analysis at one state (``mceip_mu``, ``mceip_lambda2`` or ``enumerate``).
 
-    ``solutions`` sorted by value; ``result`` the one-line answer (found / none found / proven);
-    ``search`` how the search was bounded (``complete`` is true only for a proof); ``mu`` the
-    friction coefficient of MCEIP-lambda^2; ``failed``/``reason`` when the solver failed.
+    ``problem`` is ``mu`` or ``lambda2``; ``solutions`` sorted by value; ``result`` the one-line
+    answer (found / none found / proven); ``search`` how the search was bounded (``complete`` is
+    true only for a proof); ``mu`` the friction coefficient of MCEIP-lambda^2; ``failed``/``reason``
+    when the solver failed; ``certified``/``certificate`` what is proven.
     """
 
-    problem: str
-    solutions: tuple[MceipSolution, ...]
-    result: str
-    search: Mapping[str, Any]
-    raw: Mapping[str, Any] = field(repr=False)
-    mu: float | None = None
-    method: str | None = None
-    failed: bool = False
-    reason: str | None = None
-    certified: bool | None = None
-    certificate: Mapping[str, Any] | None = None
+    problem: Literal["mu", "lambda2"] = "lambda2"
+    method: Optional[str] = None
+    result: str = Field("", description="the one-line answer")
+    mu: Number = Field(None, description="MCEIP-lambda^2: the friction coefficient")
+    solutions: tuple[MceipSolution, ...] = ()
+    search: dict[str, Any] = Field(default_factory=dict,
+                                   description="how the search was bounded ('complete': a proof)")
+    certified: Optional[bool] = None
+    certificate: Optional[Certificate] = None
 
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], problem: str) -> "MceipResult":
-        """Build from one analysis dictionary of results.json (``problem``: ``mu`` or ``lambda2``)."""
-        problem = d.get("problem", problem)
-        sols = tuple(MceipSolution.from_dict(s, problem) for s in d.get("solutions") or [])
-        return cls(problem=problem, solutions=sols, result=str(d.get("result", "")),
-                   search=d.get("search") or {}, raw=d,
-                   mu=None if d.get("mu") is None else _float(d["mu"]), method=d.get("method"),
-                   failed=bool(d.get("failed", False)), reason=d.get("reason"),
-                   certified=d.get("certified"), certificate=d.get("certificate"))
+    @model_validator(mode="after")
+    def _critical_mu(self) -> "MceipResult":
+        if self.problem == "mu":                      # mu prints with 4 decimals (CriticalMu)
+            for s in self.solutions:
+                if s.value is not None and type(s.value) is not CriticalMu:
+                    s.__dict__["value"] = CriticalMu(s.value)
+        return self
 
     @property
     def values(self) -> np.ndarray:
@@ -150,85 +336,91 @@ class MceipResult:
         return max((s.value for s in self.solutions), default=None)
 
 
-@dataclass(frozen=True)
-class NecessaryResult:
-    """Necessary condition (19) at mu: smallest eigenvalues of sym K*(mu) and sym M*(mu)."""
+class MceipMuResult(MceipResult):
+    """MCEIP-mu (21)-(23) at a state: its solutions are critical friction coefficients; ``onset``
+    and ``complete`` the proof's two claims (docs/proofs.md); ``proof`` the pencil and proof log a
+    run keeps for ``proofs/`` (never in results.json)."""
 
-    satisfied: bool
-    min_eig_K_sym: float
-    min_eig_M_sym: float
-    raw: Mapping[str, Any] = field(repr=False)
-
-
-@dataclass(frozen=True)
-class SufficientResult:
-    """Sufficient condition (17)-(18): admissible real eigenpairs lambda^2 > 0 with x_Ts >= 0."""
-
-    satisfied: bool
-    lambda2: np.ndarray
-    modes: tuple[MceipSolution, ...]
-    raw: Mapping[str, Any] = field(repr=False)
+    problem: Literal["mu", "lambda2"] = "mu"
+    onset: Optional[Onset] = None
+    complete: Optional[Complete] = None
+    proof: InMemory = Field(None, exclude=True, repr=False)
 
 
-@dataclass(frozen=True)
-class Node:
-    """A contact node at one state (paper sign convention: r_N <= 0 compressive, u_N <= 0)."""
+class EnumerationResult(MceipResult):
+    """Exhaustive enumeration of the stick/slip patterns (small s): the first requested problem
+    at the top level, every problem under ``problems``."""
 
-    id: int
-    x: float
-    status: str
-    sign: int
-    u_N: float
-    u_T: float
-    r_N: float
-    r_T: float
+    complete: Optional[bool] = None
+    problems: Optional[dict[str, MceipResult]] = None
 
 
-@dataclass(frozen=True)
-class StateResult:
+class Analyses(Record):
+    """The analyses of a state (shared by the states of one classification)."""
+
+    necessary: Optional[NecessaryResult] = None
+    sufficient: Optional[SufficientResult] = None
+    mceip_mu: Optional[MceipMuResult] = None
+    mceip_lambda2: Optional[MceipResult] = None
+    enumerate: Optional[EnumerationResult] = None
+
+
+class StateResult(Record):
     """One equilibrium state: load, classification, contact nodes and analyses.
 
     ``analyses_shared_with`` is the index of the state whose analyses this state shares (same
-    classification and signs), None when they were computed here.
+    classification and signs), None when they were computed here. :attr:`necessary`,
+    :attr:`mceip_mu`, ... are the analyses that gave an answer (None when not asked, failed or
+    not applicable); :attr:`failed` the reasons of those that failed.
     """
 
     index: int
-    load: Mapping[str, Any]
-    classification: Mapping[str, int]
+    load: Load
+    classification: Classification
     nodes: tuple[Node, ...]
-    analyses_shared_with: int | None
-    necessary: NecessaryResult | None
-    sufficient: SufficientResult | None
-    mceip_mu: MceipResult | None
-    mceip_lambda2: MceipResult | None
-    enumerate: MceipResult | None
-    failed: Mapping[str, str]
-    raw: Mapping[str, Any] = field(repr=False)
+    analyses: Analyses
+    analyses_shared_with: Optional[int] = Field(description="state whose analyses these are; null: computed here")
+    analysis_seconds: Number = None
+    contact_solve: Optional[dict[str, Any]] = Field(None, description="how the contact increment was solved")
 
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "StateResult":
-        """Build from one entry of results.json ``states``."""
-        a = d.get("analyses") or {}
-        ok = {k: v for k, v in a.items() if not v.get("failed") and not v.get("not_applicable")}
-        nec = ok.get("necessary")
-        suf = ok.get("sufficient")
-        enum = ok.get("enumerate")
-        return cls(
-            index=int(d["index"]), load=d.get("load") or {}, classification=d.get("classification") or {},
-            nodes=tuple(Node(id=int(n["id"]), x=_float(n["x"]), status=n["status"], sign=int(n["sign"]),
-                             u_N=_float(n.get("u_N")), u_T=_float(n.get("u_T")), r_N=_float(n.get("r_N")),
-                             r_T=_float(n.get("r_T"))) for n in d.get("nodes") or []),
-            analyses_shared_with=d.get("analyses_shared_with"),
-            necessary=None if nec is None else NecessaryResult(bool(nec["satisfied"]), _float(nec.get("min_eig_K_sym")),
-                                                               _float(nec.get("min_eig_M_sym")), nec),
-            sufficient=None if suf is None else SufficientResult(
-                bool(suf["satisfied"]), float_array(suf.get("lambda2")),
-                tuple(MceipSolution.from_dict(m, "lambda2") for m in suf.get("modes") or []), suf),
-            mceip_mu=None if "mceip_mu" not in ok else MceipResult.from_dict(ok["mceip_mu"], "mu"),
-            mceip_lambda2=None if "mceip_lambda2" not in ok else MceipResult.from_dict(ok["mceip_lambda2"], "lambda2"),
-            enumerate=None if enum is None else MceipResult.from_dict(enum, enum.get("problem", "mu")),
-            failed={k: str(v.get("reason", "")) for k, v in a.items() if v.get("failed")},
-            raw=d)
+    def _answered(self, name: str):
+        a = getattr(self.analyses, name)
+        return a if a is not None and a.answered else None
+
+    @property
+    def necessary(self) -> NecessaryResult | None:
+        """Necessary condition (19), when it gave an answer."""
+        return self._answered("necessary")
+
+    @property
+    def sufficient(self) -> SufficientResult | None:
+        """Sufficient condition (17)-(18), when it gave an answer."""
+        return self._answered("sufficient")
+
+    @property
+    def mceip_mu(self) -> MceipMuResult | None:
+        """MCEIP-mu (21)-(23), when it gave an answer."""
+        return self._answered("mceip_mu")
+
+    @property
+    def mceip_lambda2(self) -> MceipResult | None:
+        """MCEIP-lambda^2 (12)-(14), when it gave an answer."""
+        return self._answered("mceip_lambda2")
+
+    @property
+    def enumerate(self) -> EnumerationResult | None:
+        """The enumeration (24)-(26), when it gave an answer."""
+        return self._answered("enumerate")
+
+    @property
+    def failed(self) -> dict[str, str]:
+        """Analysis name -> the reason it failed."""
+        out = {}
+        for name in Analyses.model_fields:
+            a = getattr(self.analyses, name)
+            if a is not None and a.failed:
+                out[name] = str(a.reason or "")
+        return out
 
     def min_mu(self) -> CriticalMu | None:
         """Smallest critical friction coefficient found by MCEIP-mu at this state, None if none.
@@ -250,42 +442,72 @@ class StateResult:
     def counts(self) -> str:
         """``stick / slip / free`` node counts (and zero-reaction nodes if any), for messages."""
         c = self.classification
-        return (f"{c.get('stick', 0)} stick / {c.get('slip', 0)} slip / {c.get('free', 0)} free"
-                + (f" / {c['zero']} zero" if c.get("zero") else ""))
+        return f"{c.stick} stick / {c.slip} slip / {c.free} free" + (f" / {c.zero} zero" if c.zero else "")
 
 
-@dataclass(frozen=True)
-class StudyResult:
-    """A whole study: the loading path's states and their analyses, with the run's evidence.
+class ModeField(Record):
+    """A mode whose field was written (ParaView, fields.npz) and how its shape was built."""
 
-    Build it with [`app.run_study`][app.api.run_study], or from a saved ``results.json`` with [`load`][app.io.result.StudyResult.load].
+    name: str
+    built: str
+
+
+class OutputsRecord(Record):
+    """The fields and pictures a run made (with the scene's ``outputs``)."""
+
+    notes: list[str] = Field(default_factory=list, description="what was left out or failed, in words")
+    files: list[str] = Field(default_factory=list, description="files written, relative to the results folder")
+    pictured_states: Optional[list[int]] = None
+    modes: Optional[list[ModeField]] = None
+    fields_not_applicable: Optional[str] = Field(None, description="why the system has no fields (no mesh)")
+
+
+class StudyResult(Record):
+    """A whole study (results.json, format 3, docs/outputs.md): the loading path's states and
+    their analyses, with the run's evidence.
+
+    Build it with [`app.run_study`][app.api.run_study], or from a saved ``results.json`` with
+    [`load`][app.io.result.StudyResult.load]. Quantities are in the units of ``units``; no key
+    name carries a unit. Records may hold keys beyond those listed here.
     """
 
+    model_config = ConfigDict(extra="allow", arbitrary_types_allowed=True, title="results.json")
+
+    format_version: Literal[FORMAT_VERSION] = FORMAT_VERSION
     scene: str
-    system: str
-    mu: float
-    units: Mapping[str, str]
+    units: Units
+    system: str = Field(description="the system, in words")
+    mu: Number = Field(description="the scene's friction coefficient")
     analyses_requested: tuple[str, ...]
-    path: Mapping[str, Any]
-    failures: tuple[Mapping[str, Any], ...]
-    warnings: tuple[str, ...]
+    path: PathInfo
+    distinct_classifications: int
+    stages: list[Stage]
+    failures: list[Failure]
+    warnings: list[str]
+    mpi_ranks: int
+    wall_seconds: Number
+    scene_config: dict[str, Any] = Field(description="the validated scene with its defaults (docs/scene-keys.md)")
+    outputs: Optional[OutputsRecord] = Field(None, description="fields and pictures made (with outputs:)")
+    versions: Optional[dict[str, str]] = Field(None, description="software versions (runs with outputs)")
+    library_warnings: Optional[list[Any]] = Field(None, description="warnings of libraries, each kind once")
+    sweep_case: Optional[dict[str, Any]] = Field(None, description="a case of a sweep: its name, values and hash")
+    inspection: Optional[dict[str, Any]] = Field(None, description="a refinement level's own measurements")
+    non_finite: Optional[NonFinite] = Field(None, exclude=True, description=(
+        "the numbers written as null because they are not finite (written by to_json, not kept)"))
     states: tuple[StateResult, ...]
-    raw: Mapping[str, Any] = field(repr=False)
 
     @classmethod
-    def from_dict(cls, results: Mapping[str, Any]) -> "StudyResult":
-        """Wrap a results dictionary (as returned by app.study.run.run_study or read from results.json)."""
-        return cls(scene=str(results.get("scene", "")), system=str(results.get("system", "")),
-                   mu=_float(results.get("mu")), units=results.get("units") or {},
-                   analyses_requested=tuple(results.get("analyses_requested") or ()),
-                   path=results.get("path") or {}, failures=tuple(results.get("failures") or ()),
-                   warnings=tuple(results.get("warnings") or ()),
-                   states=tuple(StateResult.from_dict(s) for s in results.get("states") or []),
-                   raw=results)
+    def from_dict(cls, results: dict) -> "StudyResult":
+        """From a results dictionary (a study's, or a results.json document of any format version
+        read by :func:`app.io.document.from_document`, which brings it to this format)."""
+        data = dict(results)
+        data.pop("format_version", None)
+        data.pop("non_finite", None)
+        return cls.model_validate(data)
 
     @classmethod
     def load(cls, path: str | pathlib.Path) -> "StudyResult":
-        """Read a ``results.json`` (or the results folder holding it)."""
+        """Read a ``results.json`` (or the results folder holding it), of any format version."""
         p = pathlib.Path(path)
         if p.is_dir():
             p = p / "results.json"
@@ -294,7 +516,7 @@ class StudyResult:
     def __len__(self) -> int:
         return len(self.states)
 
-    def __iter__(self) -> Iterator[StateResult]:
+    def __iter__(self) -> Iterator[StateResult]:      # type: ignore[override]
         return iter(self.states)
 
     @property
@@ -328,9 +550,19 @@ class StudyResult:
         return not self.failures
 
     def to_json(self) -> dict:
-        """The results.json document, exactly as the CLI writes it (`to_document`).
+        """The results.json document, exactly as the CLI writes it (`to_document`): JSON data
+        (finite numbers, strings, lists, dicts); what is kept in memory only is left out, and
+        non-finite numbers are written as ``null`` and listed in the ``non_finite`` block."""
+        return to_document(self.to_dict())
 
-        JSON-ready (finite numbers, strings, lists, dicts); in-memory vectors (``_x``) are left out
-        and non-finite numbers written as ``null`` and listed in the ``non_finite`` block.
-        """
-        return to_document(self.raw)
+
+def json_schema() -> dict:
+    """The JSON Schema of results.json (docs/results-schema.json), from the models above."""
+    schema = StudyResult.model_json_schema(mode="validation")
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", **schema}
+
+
+def validate(text: str) -> StudyResult:
+    """Parse a results.json text with the models, strictly (a number must be a JSON number, a
+    string "inf" is refused); raises pydantic.ValidationError."""
+    return StudyResult.model_validate_json(text, strict=True)

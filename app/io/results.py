@@ -96,7 +96,7 @@ def _cell(v: float | None):
 
 def step_row(st: StateResult) -> dict:
     """The steps.csv row of one typed state."""
-    load, c = st.load, st.classification
+    load, c = st.load.to_dict(), st.classification
     return {
         "index": st.index, "phase": load.get("phase", ""), "step": load.get("step", ""),
         # a loading program's parameters (a body from Gmsh: motions, loads, gravity), name=value;...
@@ -104,7 +104,7 @@ def step_row(st: StateResult) -> dict:
         "u_x_CD": load.get("u_x", ""), "u_y_CD": load.get("u_y", ""),
         "normal_resultant": load.get("normal_resultant", ""),
         "tangential_resultant": load.get("tangential_resultant", ""),
-        "n_free": c["free"], "n_zero": c["zero"], "n_stick": c["stick"], "n_slip": c["slip"],
+        "n_free": c.free, "n_zero": c.zero, "n_stick": c.stick, "n_slip": c.slip,
         "necessary_min_eig_K_sym": "" if st.necessary is None else _cell(st.necessary.min_eig_K_sym),
         "necessary_satisfied": "" if st.necessary is None else st.necessary.satisfied,
         "sufficient_max_lambda2": _cell(st.max_lambda2()),
@@ -112,7 +112,7 @@ def step_row(st: StateResult) -> dict:
         "mceip_mu_count": "" if st.mceip_mu is None else len(st.mceip_mu.solutions),
         "mceip_lambda2_max": "" if st.mceip_lambda2 is None else _cell(st.mceip_lambda2.max()),
         "shared_with": "" if st.analyses_shared_with is None else st.analyses_shared_with,
-        "analysis_seconds": st.raw.get("analysis_seconds", ""),
+        "analysis_seconds": "" if st.analysis_seconds is None else st.analysis_seconds,
     }
 
 
@@ -121,7 +121,7 @@ def steps_csv(study: StudyResult) -> str:
     one row per state (:func:`step_row`)."""
     buf = io.StringIO()
     w = csv.writer(buf)
-    w.writerow([csv_header(c, STEP_UNITS.get(c), study.units or {}) for c in STEP_COLUMNS])
+    w.writerow([csv_header(c, STEP_UNITS.get(c), study.units.to_dict()) for c in STEP_COLUMNS])
     w.writerows([row[c] for c in STEP_COLUMNS] for row in map(step_row, study.states))
     return buf.getvalue()
 

@@ -5,7 +5,9 @@ The same function runs inside the study (to know which fields to compute) and in
 """
 from __future__ import annotations
 
-from app.io.result import StudyResult
+from typing import Sequence
+
+from app.io.result import Analyses, MceipSolution, StateResult
 
 MODE_PROBLEMS = (("sufficient", "sufficient"), ("mceip_mu", "mceip_mu"), ("mceip_lambda2", "mceip_lambda2"))
 
@@ -31,10 +33,10 @@ def describe(sel) -> str:
             "all_distinct": "first state of every distinct classification"}.get(sel, str(sel))
 
 
-def select_states(states: list[dict], selectors) -> tuple[list[int], list[str]]:
+def select_states(states: Sequence[StateResult], selectors) -> tuple[list[int], list[str]]:
     """State indices chosen by ``selectors`` (sorted, unique) and a note for each selector that
     chose nothing."""
-    by_index = {s["index"]: s for s in states}
+    by_index = {s.index: s for s in states}
     chosen: list[int] = []
     notes: list[str] = []
     for raw in selectors:
@@ -43,15 +45,14 @@ def select_states(states: list[dict], selectors) -> tuple[list[int], list[str]]:
         if isinstance(sel, int):
             found = [sel] if sel in by_index else []
         elif sel == "final":
-            found = [states[-1]["index"]] if states else []
+            found = [states[-1].index] if states else []
         elif sel == "first_mceip_mu":
-            first = StudyResult.from_dict({"states": states}).first_instability()
-            found = [] if first is None else [first.index]
+            found = [s.index for s in states if s.mceip_mu is not None and s.mceip_mu.solutions][:1]
         elif sel == "all_distinct":
-            found = [s["index"] for s in states if s.get("analyses_shared_with") is None]
+            found = [s.index for s in states if s.analyses_shared_with is None]
         elif isinstance(sel, dict):
-            found = [s["index"] for s in states
-                     if all(s["classification"].get(k) == v for k, v in sel.items())][:1]
+            found = [s.index for s in states
+                     if all(getattr(s.classification, k, None) == v for k, v in sel.items())][:1]
         if not found:
             notes.append(f"outputs.states: {describe(sel)}: no such state in this study "
                          f"({len(states)} states, indices 0 to {len(states) - 1})")
@@ -59,24 +60,24 @@ def select_states(states: list[dict], selectors) -> tuple[list[int], list[str]]:
     return sorted(set(chosen)), notes
 
 
-def analyses_of(states: list[dict], index: int) -> tuple[dict, int]:
+def analyses_of(states: Sequence[StateResult], index: int) -> tuple[Analyses, int]:
     """The analyses of state ``index`` and the index of the state they were computed at."""
-    by_index = {s["index"]: s for s in states}
-    st = by_index[index]
-    first = st.get("analyses_shared_with")
-    first = index if first is None else first
-    return st.get("analyses") or {}, first
+    st = next(s for s in states if s.index == index)
+    first = st.analyses_shared_with
+    return st.analyses, index if first is None else first
 
 
-def modes_of(analyses: dict) -> list[tuple[str, int, dict]]:
-    """Every divergence mode of one state's analyses: (problem, number, solution dict).
+def modes_of(analyses: Analyses) -> list[tuple[str, int, MceipSolution]]:
+    """Every divergence mode of one state's analyses: (problem, number, solution).
 
     problem is ``sufficient`` (eigenpairs of (17)-(18)), ``mceip_mu`` or ``mceip_lambda2``.
     """
     out = []
     for key, problem in MODE_PROBLEMS:
-        a = analyses.get(key) or {}
-        sols = a.get("modes", []) if key == "sufficient" else a.get("solutions", [])
+        a = getattr(analyses, key)
+        if a is None or not a.answered:
+            continue
+        sols = a.modes if key == "sufficient" else a.solutions
         for k, sol in enumerate(sols):
             out.append((problem, k, sol))
     return out

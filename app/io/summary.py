@@ -6,24 +6,23 @@ import pathlib
 from app.io.result import MceipResult, StudyResult
 
 
-def proof_word(analysis: dict) -> str:
-    """What is proven about an analysis: ``proven on [0, cap]`` when ``certified`` (the checker
-    accepted every claim), ``onset proven; list ...`` when only the MCEIP-mu onset is, else
-    ``found (not proven)`` with the proven lower bound when there is one."""
-    if analysis.get("certified"):
-        cert = analysis.get("certificate") or {}
-        iv = cert.get("interval")
-        iv = [float(v) for v in iv] if iv else iv
+def proof_word(analysis: MceipResult) -> str:
+    """What is proven about an MCEIP analysis: ``proven on [0, cap]`` when ``certified`` (the
+    checker accepted every claim), ``onset proven; list ...`` when only the MCEIP-mu onset is,
+    else ``found (not proven)`` with the proven lower bound when there is one."""
+    cert = analysis.certificate
+    if analysis.certified:
+        iv = [float(v) for v in cert.interval] if cert is not None and cert.interval else None
         where = f" on [{iv[0]:.6g}, {iv[1]:.6g}]" if iv and iv[1] > iv[0] else ""
-        if cert.get("rigorous", True) is False:
+        if cert is not None and cert.rigorous is False:
             return f"shown{where} in floating point, not a rigorous proof"
         return f"proven{where}"
-    onset = analysis.get("onset") or {}
-    if onset.get("proven"):
-        cap = (analysis.get("certificate") or {}).get("cap")
+    onset = getattr(analysis, "onset", None)
+    if onset is not None and onset.proven:
+        cap = None if cert is None else cert.cap
         where = f" below {float(cap):.6g}" if cap is not None else ""
         return f"onset proven; list of values{where} not proven"
-    lb = ((analysis.get("certificate") or {}).get("detail") or {}).get("lower_bound")
+    lb = None if cert is None else (cert.detail or {}).get("lower_bound")
     if lb:
         return f"found (not proven; proven: none below {float(lb):.6g})"
     return "found (not proven)"
@@ -39,12 +38,10 @@ def _patterns(m: MceipResult) -> str:
 def summary(study: StudyResult, outdir: pathlib.Path) -> str:
     """The summary of a study: the path, the first state where MCEIP-mu has a solution, the
     final state's analyses with what is proven, the warnings, failures, wall time per stage and
-    the files written in ``outdir``. ``study.raw`` holds the run's record (stages, wall time,
-    files written)."""
-    run = study.raw
+    the files written in ``outdir``."""
     lines = [f"scene '{study.scene}': {study.system}",
-             f"  {len(study)} equilibrium state(s), {run['distinct_classifications']} distinct "
-             f"classification(s); path: {study.path.get('end', '')}"]
+             f"  {len(study)} equilibrium state(s), {study.distinct_classifications} distinct "
+             f"classification(s); path: {study.path.end}"]
     first_mu = study.first_instability()
     if first_mu is not None:
         lines.append(f"  MCEIP-mu first has a solution at state {first_mu.index} ({first_mu.counts()})")
@@ -55,8 +52,8 @@ def summary(study: StudyResult, outdir: pathlib.Path) -> str:
     lines.append(f"  final state {last.index}: {last.counts()}")
     for k, reason in last.failed.items():
         lines.append(f"    {k}: FAILED ({reason})")
-    blocks = last.raw.get("analyses") or {}
-    for reason in sorted({v["reason"] for v in blocks.values() if v.get("not_applicable")}):
+    blocks = [getattr(last.analyses, k) for k in type(last.analyses).model_fields]
+    for reason in sorted({str(v.reason) for v in blocks if v is not None and v.not_applicable}):
         lines.append(f"    stability analyses: {reason}")
     if last.necessary is not None:
         lines.append(f"    necessary condition (19): {'satisfied' if last.necessary.satisfied else 'not satisfied'}"
@@ -66,20 +63,19 @@ def summary(study: StudyResult, outdir: pathlib.Path) -> str:
         lines.append("    sufficient condition (17)-(18): "
                      + (f"satisfied, lambda^2 = {lam:.6g} 1/s^2" if lam is not None else "not satisfied"))
     if last.mceip_mu is not None:
-        lines.append(f"    MCEIP-mu: {_patterns(last.mceip_mu)} [{proof_word(last.mceip_mu.raw)}]")
+        lines.append(f"    MCEIP-mu: {_patterns(last.mceip_mu)} [{proof_word(last.mceip_mu)}]")
     if last.mceip_lambda2 is not None:
         m = last.mceip_lambda2
-        mu = m.raw.get("mu", m.mu)
-        lines.append(f"    MCEIP-lambda^2 at mu = {mu}: {_patterns(m)} [{proof_word(m.raw)}]")
+        lines.append(f"    MCEIP-lambda^2 at mu = {m.mu}: {_patterns(m)} [{proof_word(m)}]")
     for w in study.warnings:
         lines.append(f"  WARNING: {w}")
     if study.failures:
         lines.append(f"  INCOMPLETE: {len(study.failures)} state(s) failed: "
-                     + "; ".join(f"state {f['state']} {f.get('analysis', '')}: {f['reason']}" for f in study.failures[:3]))
-    lines.append(f"  wall time {run['wall_seconds']:.2f} s; stages: "
-                 + ", ".join(f"{s['name']} {s['seconds']:.2f} s" for s in run["stages"]))
+                     + "; ".join(f"state {f.state} {f.analysis}: {f.reason}" for f in study.failures[:3]))
+    lines.append(f"  wall time {study.wall_seconds:.2f} s; stages: "
+                 + ", ".join(f"{s.name} {s.seconds:.2f} s" for s in study.stages))
     lines.append(f"  results: {outdir / 'results.json'}, {outdir / 'steps.csv'}")
-    files = (run.get("outputs") or {}).get("files") or []
+    files = [] if study.outputs is None else study.outputs.files
     if files:
         parts = [str(outdir / "report.md")] if "report.md" in files else []
         for k in ("plots", "screenshots", "paraview"):
@@ -87,6 +83,6 @@ def summary(study: StudyResult, outdir: pathlib.Path) -> str:
             if n:
                 parts.append(f"{n} file(s) in {outdir / k}")
         lines.append("  outputs: " + ", ".join(parts))
-    for note in (run.get("outputs") or {}).get("notes") or []:
+    for note in [] if study.outputs is None else study.outputs.notes:
         lines.append(f"  note: {note}")
     return "\n".join(lines)

@@ -17,6 +17,7 @@ import time
 
 from app.common.errors import write_limit
 from app.common.stages import Stages
+from app.io.result import StudyResult
 from app.io.select import select_states
 
 log = logging.getLogger(__name__)
@@ -31,7 +32,10 @@ def outputs_config(results: dict) -> dict:
 
 def wants_pictures(results: dict) -> bool:
     """Whether the scene's ``outputs`` ask for plots, screenshots or the report."""
-    cfg = outputs_config(results)
+    return _asks_pictures(outputs_config(results))
+
+
+def _asks_pictures(cfg: dict) -> bool:
     return bool(cfg.get("plots") or cfg.get("screenshots") or cfg.get("report"))
 
 
@@ -68,7 +72,7 @@ def draw_outputs(results: dict, outdir: pathlib.Path, progress=None, fields: pat
     stages = Stages()
     # the run's stages; picture stages of an earlier drawing are replaced by this one's
     base = [s for s in results.get("stages", []) if s["name"] not in PICTURE_STAGES]
-    pictured, notes = select_states(results["states"], cfg.get("states") or ["final"])
+    pictured, notes = select_states(StudyResult.from_dict(results).states, cfg.get("states") or ["final"])
     record["pictured_states"] = pictured
     notes = [n for n in notes if n not in record["notes"]]
     plot_files, shot_files = [], []
@@ -187,15 +191,16 @@ def prestarted(scene, comm):
         worker.close_unused()
 
 
-def draw_after_run(results: dict, outdir: pathlib.Path, progress=None) -> dict:
-    """After a run (rank 0): the results as JSON data, with the pictures drawn if the scene asks.
+def draw_after_run(study: StudyResult, outdir: pathlib.Path, progress=None) -> StudyResult:
+    """After a run (rank 0): the study with the pictures drawn if the scene asks (their files,
+    notes and stages recorded in it).
 
     The drawing works on the results as they will be read back from results.json, so a later
     ``render`` draws exactly the same pictures.
     """
-    if not wants_pictures(results):
-        return results
-    from app.io.document import from_document, to_document
-    data = from_document(json.loads(json.dumps(to_document(results), allow_nan=False)))
+    if not _asks_pictures(study.scene_config.get("outputs") or {}):
+        return study
+    from app.io.document import from_document
+    data = from_document(json.loads(json.dumps(study.to_json(), allow_nan=False)))
     draw_outputs(data, outdir, progress)
-    return data
+    return StudyResult.from_dict(data)

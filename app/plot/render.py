@@ -6,7 +6,7 @@ plots, the screenshots and report.md. results.json is left as the run wrote it.
 
 The folder is not trusted (app/io/untrusted.py): results.json is read only when it is a regular
 file under :data:`RESULTS_MAX_BYTES` and is validated with the results.json models
-(app/io/schema.py) and its ``outputs`` section with the scene's own (app/scene/sections.py)
+(app/io/result.py) and its ``outputs`` section with the scene's own (app/scene/sections.py)
 before anything is drawn. The pictures are drawn into a new hidden folder inside the results
 folder and then moved into place by ``rename``: a file is replaced only when the folder's marker
 records it as the app's (app/io/folder.py), the old pictures the app recorded are the only files
@@ -84,7 +84,7 @@ def read_results(outdir: pathlib.Path) -> dict:
     validated; :class:`Refused` when the folder or its results.json cannot be used."""
     from pydantic import ValidationError
 
-    from app.io import schema
+    from app.io import result as schema
     from app.io.document import from_document
     from app.io.folder import MARKER, marker_kind, recorded
     from app.io.untrusted import RESULTS_MAX_BYTES, UntrustedFile, read_bytes

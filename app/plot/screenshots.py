@@ -149,6 +149,7 @@ def resolution_arg(cfg: dict) -> str:
 
 def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
           fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
+    from app.io.result import StudyResult
     from app.io.select import analyses_of, mode_name, modes_of
     if not os.path.lexists(fields_path):
         return [], [f"screenshots left out: {fields_path} is missing (the fields are computed by the run)"]
@@ -159,6 +160,7 @@ def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
     units = results.get("units", {})
     scene = results.get("scene", "")
     by_index = {s["index"]: s for s in results["states"]}
+    typed_states = StudyResult.from_dict(results).states
     files, notes = [], []
     jobs = []
     for i in pictured:
@@ -167,9 +169,9 @@ def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
             continue
         jobs.append(("state", i, None))
         if cfg.get("modes", True):
-            analyses, first = analyses_of(results["states"], i)
+            analyses, first = analyses_of(typed_states, i)
             for problem, k, sol in modes_of(analyses):
-                name = mode_name(first, problem, k, _value(sol["value"]))
+                name = mode_name(first, problem, k, _value(sol.value))
                 if name in [j[2] for j in jobs if j[0] == "mode"]:
                     continue
                 jobs.append(("mode", i, name))

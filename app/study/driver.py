@@ -24,33 +24,29 @@ def run_and_write(scene: Scene, comm, outdir: pathlib.Path, progress: Optional[P
                   extra: Optional[dict[str, Any]] = None) -> StudyResult:
     """Run ``scene`` on ``comm`` (MPI collective), then rank 0 draws and writes into ``outdir``.
 
-    ``extra``: keys added to the results before they are written (e.g. a sweep case's identity).
-    Returns the typed result (on rank 0 its ``raw`` records the pictures drawn).
+    ``extra``: fields of the result set before it is written (e.g. a sweep case's identity,
+    ``sweep_case``). Returns the typed result (on rank 0 with the pictures drawn recorded).
     """
-    import dataclasses
-
     from app.plot.pictures import prestarted
     from app.study.run import study
     progress = progress or Progress(enabled=False)
     with prestarted(scene, comm):     # rank 0: the drawing processes warm up during the study
         # outdir: where the scene's field outputs (if any) go, written while the system is alive
         result = study(scene, comm, progress, outdir=outdir)
-        results = result.raw
         if comm.rank == 0:
             from app.io.proofs import count_proofs, write_proofs
             from app.io.results import write_results
             from app.plot.pictures import draw_after_run  # plots, screenshots, report (if asked)
             if extra:
-                results.update(extra)
-            n = count_proofs(results)
+                result = result.model_copy(update=extra)
+            n = count_proofs(result)
             if n:                              # a large study stores hundreds of MB of pencils
                 bar = progress.bar(n, "writing proofs", unit="file")
-                write_proofs(results, outdir, lambda: bar.update(1))   # before the drawing drops the pencils
+                write_proofs(result, outdir, lambda: bar.update(1))   # before the drawing drops the pencils
                 bar.close()
-            # the drawing records its files, notes and stages in the results (as JSON data)
-            results = draw_after_run(results, outdir, progress)
+            # the drawing records its files, notes and stages in the result
+            result = draw_after_run(result, outdir, progress)
             bar = progress.bar(2, "writing results", unit="file")
-            result = dataclasses.replace(result, raw=results)
             write_results(result, outdir, lambda: bar.update(1))
             bar.close()
     return result

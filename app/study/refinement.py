@@ -38,6 +38,7 @@ from mpi4py import MPI
 from app.analyses.outcomes import MceipMuOutcome, Outcome, SufficientOutcome
 from app.analyses.runner import analyse_state
 from app.common.progress import Progress
+from app.io.result import StudyResult
 from app.loading.classify import FREE, SLIP, classify
 from app.scene.schema import Scene
 from app.study.refinement_report import (  # noqa: F401 - observed_order re-exported
@@ -146,13 +147,13 @@ def _inspector(scene: Scene, ref):
     return inspect
 
 
-def _stage_times(stages: list[dict]) -> dict:
+def _stage_times(stages: list) -> dict:
     out = {k: 0.0 for k in STAGE_GROUPS}
     out["t_other"] = 0.0
     for st in stages:
         for key, names in STAGE_GROUPS.items():
-            if st["name"] in names:
-                out[key] += st["seconds"]
+            if st.name in names:
+                out[key] += st.seconds
                 break
         else:
             out["t_other"] += st["seconds"]
@@ -160,24 +161,24 @@ def _stage_times(stages: list[dict]) -> dict:
 
 
 def run_level(scene: Scene, nx: int, degree: int, plane: str, comm: MPI.Comm,
-              progress: Progress | None = None) -> tuple[dict, dict]:
-    """One level: returns (the row of refinement.csv, the study's results)."""
-    from app.study.run import run_study
+              progress: Progress | None = None) -> tuple[dict, StudyResult]:
+    """One level: returns (the row of refinement.csv, the study's result)."""
+    from app.study.run import study
     lvl = level_scene(scene, nx, degree, plane)
     t0 = time.perf_counter()
-    res = run_study(lvl, comm, progress, inspect=_inspector(lvl, scene.refinement))
+    res = study(lvl, comm, progress, inspect=_inspector(lvl, scene.refinement))
     wall = time.perf_counter() - t0
-    q = res["inspection"]
+    q = res.inspection
     n_contact, n_dofs = q["contact_nodes"], q["dofs"]
     row = {"degree": degree, "plane": plane, "pattern": lvl.system.pattern, "nx": nx, "ny": lvl.system.ny,
            "h": lvl.system.length / nx, "contact_nodes": n_contact, "dofs": n_dofs,
-           "states": len(res["states"]), "distinct": res["distinct_classifications"],
-           "depth": res["path"].get("normal_displacement"),
+           "states": len(res.states), "distinct": res.distinct_classifications,
+           "depth": res.path.normal_displacement,
            **{k: q.get(k) for k in ("final_mu", "first_mu_ux", "first_mu", "lambda2",
                                     "tangential_resultant", "sliding_ux")},
            "first_mu_label": q.get("first_mu_label"), "final_label": q.get("final_label"),
-           "first_method": q.get("first_method"), "path_end": res["path"].get("end"),
-           "wall_s": wall, **_stage_times(res["stages"])}
+           "first_method": q.get("first_method"), "path_end": res.path.end,
+           "wall_s": wall, **_stage_times(res.stages)}
     return row, res
 
 
@@ -185,18 +186,17 @@ def run_level(scene: Scene, nx: int, degree: int, plane: str, comm: MPI.Comm,
 def _warm_up(scene: Scene, comm: MPI.Comm) -> None:
     """Compile the forms of every degree (JIT) on the smallest level, so that the first level's
     wall time is not the compiler's."""
-    from app.study.run import run_study
+    from app.study.run import study
     ref = scene.refinement
     for deg in ref.degrees:
         lvl = level_scene(scene, ref.levels[0], deg, ref.planes[0],
                           tangential_max=scene.loading.tangential_step)
-        run_study(lvl.model_copy(update={"analyses": ["sufficient"]}), comm)
+        study(lvl.model_copy(update={"analyses": ["sufficient"]}), comm)
 
 
 def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = None,
                    outdir: pathlib.Path | None = None, log=print) -> dict:
     """Run every level; rank 0 writes the outputs into ``outdir``. Returns the summary."""
-    from app.io.result import StudyResult
     from app.io.results import steps_csv
     ref = scene.refinement
     t0 = time.perf_counter()
@@ -212,7 +212,7 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
                     continue
                 row, res = run_level(scene, nx, deg, plane, comm, progress)
                 rows.append(row)
-                failures += [{**f, "level": f"P{deg} {plane} nx={nx}"} for f in res["failures"]]
+                failures += [{**f.to_dict(), "level": f"P{deg} {plane} nx={nx}"} for f in res.failures]
                 if comm.rank == 0:
                     log(f"refinement: P{deg} {plane} nx={nx}: {row['dofs']} DOFs, {row['contact_nodes']} contact nodes, "
                         f"final mu {fmt(row['final_mu'])}, first at u_x {fmt(row['first_mu_ux'], 4)}, "
@@ -220,7 +220,7 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
                     if outdir is not None:
                         d = outdir / "levels" / f"P{deg}-{plane}-nx{nx}"
                         d.mkdir(parents=True, exist_ok=True)
-                        (d / "steps.csv").write_text(steps_csv(StudyResult.from_dict(res)))
+                        (d / "steps.csv").write_text(steps_csv(res))
     conv = analyse_convergence(rows)
     cfg = scene.system
     units = CONTINUUM_UNITS[scene.units]

@@ -7,21 +7,19 @@ its analyses with.
 from __future__ import annotations
 
 import time
-from itertools import starmap
 
 import numpy as np
 from mpi4py import MPI
 
-from app.analyses.outcomes import STOPPED, Deferred, Failed, analyses_document
+from app.analyses.outcomes import STOPPED, Deferred, Failed
 from app.analyses.pencils.curvature import attach as attach_curvature
 from app.analyses.runner import analyse_state
 from app.common.interrupt import checkpoint
 from app.common.library_warnings import describe, explained, merged
 from app.common.progress import Progress
 from app.common.stages import Stages
-from app.io.document import PlainRecords
-from app.io.from_outcomes import state_view
-from app.io.result import Node, StudyResult
+from app.io.from_outcomes import analyses_result
+from app.io.result import Node, StateResult, StudyResult
 from app.linalg import one_blas_thread
 from app.loading.classify import ZERO, classify
 from app.scene.schema import Scene
@@ -30,44 +28,35 @@ from app.study.scheduler import EarlyChains, analyse_condensed_distributed
 from app.systems import get as system_type
 
 
-def run_study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
-              outdir=None) -> dict:
-    """Run ``scene``; returns the results dictionary (identical on every rank): the ``raw`` of
-    :func:`study` (the arguments are its own)."""
-    return study(scene, comm, progress, inspect, outdir).raw
-
-
 def study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
           outdir=None) -> StudyResult:
     """Run ``scene`` (MPI collective); returns the typed :class:`StudyResult` (identical on every
-    rank), its states built from the analyses' typed outcomes (app/io/from_outcomes.py) and its
-    ``raw`` the results dictionary that results.json is written from.
+    rank), its states' analyses built from the analyses' typed outcomes (app/io/from_outcomes.py);
+    results.json is written from it (:meth:`StudyResult.to_json`).
 
     ``inspect(system, states, cache)``, if given, runs after the per-state analyses while the
     system is alive (``cache``: classification key -> (first state, its analyses: name -> typed
     outcome of :mod:`app.analyses.outcomes`)); what it
-    returns is stored as ``results["inspection"]`` (used by app/study/refinement.py).
+    returns is stored as the result's ``inspection`` (used by app/study/refinement.py).
     ``outdir``: the results folder, where the field stage (app/io/fields.py: ParaView
     files, screenshot data) writes when the scene's ``outputs`` ask for fields.
     """
     t_start = time.perf_counter()
     stages = Stages()
     with explained() as caught:
-        results, views = _run(scene, comm, stages, progress or Progress(enabled=False), inspect, outdir, t_start)
+        result = _run(scene, comm, stages, progress or Progress(enabled=False), inspect, outdir, t_start)
     # each rank saw the warnings of its own share of the work (MPI collective)
     library = merged(comm.allgather(caught.as_list()))
     if library:
-        results["library_warnings"] = library
-        results["warnings"] += [describe(r) for r in library if not r["explanation"]]
-    return StudyResult(scene=scene.name, system=results["system"], mu=float(scene.mu), units=results["units"],
-                       analyses_requested=tuple(scene.analyses), path=results["path"],
-                       failures=tuple(results["failures"]), warnings=tuple(results["warnings"]),
-                       states=views, raw=results)
+        result = result.model_copy(update={
+            "library_warnings": library,
+            "warnings": [*result.warnings, *(describe(r) for r in library if not r["explanation"])]})
+    return result
 
 
 def _run(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir,
-         t_start: float) -> tuple[dict, tuple]:
-    """The body of :func:`run_study` (library warnings are caught around it)."""
+         t_start: float) -> StudyResult:
+    """The body of :func:`study` (library warnings are caught around it)."""
     kind = system_type(scene.system.type)
     if stream.applies(scene, comm, kind):
         # rank 0 walks the path while the other ranks already prove what it has passed
@@ -108,14 +97,13 @@ class Classified:
         self.cache: dict = {}       # classification key -> (first state, its analyses)
         self.deferred: list = []    # (classification, its analyses, state index): condensed MCEIP-mu
         self.out_states: list = []
-        self.typed_nodes: list = []   # per state: its contact nodes as app.io.result.Node
+        self.typed_nodes: list = []   # per state: its contact nodes (app.io.result.Node)
         self.failures: list = []
         self.postponed: list = []   # (entry, classification) whose analyses wait for every rank
         self.progress = progress
         self._running = ""          # the analysis running now (for the progress line)
         self._ids = [int(n.id) for n in system.nodes]
         self._xs = [float(n.x) for n in system.nodes]
-        self._xs_finite = bool(np.isfinite(self._xs).all())
 
     def add(self, state, postpone: bool = False) -> tuple | None:
         """Classify and analyse ``state``; returns its deferred job ``(classification, analyses)`` if
@@ -127,14 +115,12 @@ class Classified:
         cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
         # one row per contact node, from Python numbers (a 100k-DOF study has 10^5 of them)
         values = [np.asarray(v, dtype=float) for v in (state.u_N, state.u_T, state.r_N, state.r_T)]
-        rows = list(zip(self._ids, self._xs, cls.status, cls.signs, *(v.tolist() for v in values)))
-        self.typed_nodes.append(tuple(starmap(Node, rows)))
-        nodes = [{"id": i, "x": x, "status": st, "sign": sg, "u_N": uN, "u_T": uT, "r_N": rN, "r_T": rT}
-                 for i, x, st, sg, uN, uT, rN, rT in rows]
-        if self._xs_finite and all(np.isfinite(v).all() for v in values):
-            nodes = PlainRecords(nodes)       # JSON data as it is (app/io/document.py)
-        entry = {"index": state.index, "load": state.load, "classification": cls.counts(), "nodes": nodes,
-                 **state.extra}
+        # the app's own numbers: built without validation (model_construct), as fast as a dict
+        self.typed_nodes.append(tuple(
+            Node.model_construct(id=i, x=x, status=st, sign=sg, u_N=uN, u_T=uT, r_N=rN, r_T=rT)
+            for i, x, st, sg, uN, uT, rN, rT in zip(self._ids, self._xs, cls.status, cls.signs,
+                                                       *(v.tolist() for v in values))))
+        entry = {"index": state.index, "load": state.load, "classification": cls.counts(), **state.extra}
         self.out_states.append(entry)
         job = None
         if cls.key in self.cache:
@@ -192,13 +178,12 @@ class Classified:
 
 def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, inspect, outdir, t_start: float,
            system, states, path_info, per_state: Classified | None = None,
-           early: EarlyChains | None = None) -> tuple[dict, tuple]:
-    """The per-state analyses and fields of :func:`_run` on the built ``system``: the results
-    dictionary and the typed state views.
+           early: EarlyChains | None = None) -> StudyResult:
+    """The per-state analyses and fields of :func:`_run` on the built ``system``: the typed result.
 
     The states hold the typed outcomes (:mod:`app.analyses.outcomes`) until every analysis is
-    done; their ``analyses`` blocks are then written once per distinct classification and the
-    views built from the outcomes. ``per_state``: the states already classified (on ranks > 0
+    done; each distinct classification's analyses then become one typed
+    :class:`app.io.result.Analyses`, shared by its states. ``per_state``: the states already classified (on ranks > 0
     while rank 0 walked the path; rank 0 classifies them here); ``early``: the MCEIP-mu chains
     those ranks began (app/study/scheduler.py)."""
     if per_state is None:
@@ -221,21 +206,20 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
             f"MCEIP-mu proof {STOPPED} at {len(stopped)} state(s) (from state {stopped[0]}; settings.mcp "
             "certify_seconds, certify_seconds_large, certify_all_seconds): those statuses depend on the machine's "
             "speed; the budgets themselves count proof-tree nodes")
-    _write_analyses(out_states)
-    views = tuple(state_view(e, n, a, e["analyses"]) for e, n, a in zip(out_states, per_state.typed_nodes, outcomes))
+    typed = _typed_states(out_states, per_state.typed_nodes, outcomes)
     outputs_record = None
     from app.io.fields import wants_fields
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
         from app.io.fields import compute_fields
-        outputs_record = compute_fields(scene, system, out_states, stages, progress, outdir)
-    return {**({"inspection": inspection} if inspect is not None else {}), "scene": scene.name, "units": system.units, "system": system.description,
-            "mu": scene.mu, "analyses_requested": list(scene.analyses),
-            "path": path_info, "distinct_classifications": len(per_state.cache),
-            "stages": stages.as_list(), "failures": failures, "warnings": stages.warnings,
-            "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
-            "scene_config": scene.model_dump(mode="json", exclude_none=True),
-            **({"outputs": outputs_record} if outputs_record is not None else {}),
-            "states": out_states}, views
+        outputs_record = compute_fields(scene, system, typed, stages, progress, outdir)
+    return StudyResult.model_validate({
+        **({"inspection": inspection} if inspect is not None else {}), "scene": scene.name,
+        "units": system.units, "system": system.description, "mu": scene.mu,
+        "analyses_requested": list(scene.analyses), "path": path_info,
+        "distinct_classifications": len(per_state.cache), "stages": stages.as_list(), "failures": failures,
+        "warnings": stages.warnings, "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
+        "scene_config": scene.model_dump(mode="json", exclude_none=True),
+        **({"outputs": outputs_record} if outputs_record is not None else {}), "states": typed})
 
 
 def stopped_by_time(out_states: list[dict]) -> list[int]:
@@ -251,13 +235,16 @@ def stopped_by_time(out_states: list[dict]) -> list[int]:
     return out
 
 
-def _write_analyses(out_states: list[dict]) -> None:
-    """Each state's typed outcomes replaced by its ``analyses`` block of results.json
-    (:func:`app.analyses.outcomes.analyses_document`); states that share their analyses share
-    one block."""
-    written: dict[int, dict] = {}
-    for entry in out_states:
-        analyses = entry["analyses"]
-        if id(analyses) not in written:
-            written[id(analyses)] = analyses_document(analyses)
-        entry["analyses"] = written[id(analyses)]
+def _typed_states(out_states: list[dict], nodes: list[tuple], outcomes: list[dict]) -> list[StateResult]:
+    """Each state typed: its entry (index, load, classification, what its loading path recorded),
+    its contact nodes and the typed analyses of its classification (one
+    :class:`app.io.result.Analyses` shared by the states of a classification, built from the
+    outcomes by :func:`app.io.from_outcomes.analyses_result`)."""
+    shared: dict[int, object] = {}
+    out = []
+    for entry, state_nodes, analyses in zip(out_states, nodes, outcomes):
+        typed = shared.get(id(analyses))
+        if typed is None:
+            typed = shared[id(analyses)] = analyses_result(analyses)
+        out.append(StateResult.model_validate({**entry, "nodes": state_nodes, "analyses": typed}))
+    return out

@@ -59,7 +59,7 @@ def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
     """The case's results.json if it is complete and was computed from the same case scene."""
     from pydantic import ValidationError
 
-    from app.io import schema
+    from app.io import result as schema
     from app.io.untrusted import RESULTS_MAX_BYTES, UntrustedFile, inside, read_bytes
     try:
         text = read_bytes(inside(outdir, "cases", case.name, "results.json"), RESULTS_MAX_BYTES)
@@ -94,7 +94,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
         identity = {"sweep_case": {"sweep": case.scene.name, "name": case.name, "index": case.index,
                                    "values": case.values, "scene_hash": case.scene_hash}}
         try:
-            results = driver.run_and_write(case.scene, gcomm, staging, extra=identity).raw
+            results = driver.run_and_write(case.scene, gcomm, staging, extra=identity).to_dict()
         except UnreachableLoad as err:   # raised identically on every rank of the group
             error = f"loading: {err}"
         except KeyboardInterrupt:
