@@ -119,16 +119,16 @@ def test_two_particles_api_typed_fields():
     assert len(r) == 1 and st.index == 0 and r.state(0) is st and r.first_instability() is st
     mu = st.mceip_mu
     assert [s.pattern for s in mu.solutions] == [("slip", "stick"), ("stick", "slip"), ("slip", "slip")]
-    assert st.enumerate.search == {} and st.enumerate.raw["complete"] is True
+    assert st.enumerate.search == {} and st.enumerate.complete is True
     assert len(st.enumerate.values) == 3 and max(abs(st.enumerate.values - mu.values)) < 1e-9 * mu.max()
     assert str(st.min_mu()) == f"{mu.values[0]:.4f}" and st.min_mu() == mu.values[0]
-    raw = st.raw["analyses"]["mceip_mu"]["solutions"]
-    for sol, d in zip(mu.solutions, raw):
+    written = r.to_json()["states"][0]["analyses"]["mceip_mu"]["solutions"]       # as in results.json
+    for sol, d in zip(mu.solutions, written):
         assert sol.value == d["value"] and sol.x_Ts.dtype == float and list(sol.x_Ts) == d["x_Ts"]
         assert abs(sol.x_Ts.sum() - 1) < 1e-9 and not sol.x_Ts.flags.writeable
         assert sol.pattern == tuple(d["pattern"]) and sol.evidence["residual"] == d["residual"]
         assert sol.certified is d["certified"] is True     # below the cap: proven (app/analyses/mceip_mu/state.py)
-    assert st.mceip_mu.raw["certified"] is True and st.mceip_mu.raw["certificate"]["status"] == "proven"
+    assert st.mceip_mu.certified is True and st.mceip_mu.certificate.status == "proven"
     assert st.mceip_lambda2.mu == 2.5 and st.mceip_lambda2.min() is None
     assert st.sufficient.satisfied is False and st.max_lambda2() is None and st.necessary.satisfied
     with pytest.raises(KeyError):

@@ -42,7 +42,7 @@ from mpi4py import MPI
 from threadpoolctl import threadpool_limits
 
 from app.scene.schema import default_scene_path, parse_scene
-from app.study.run import run_study
+from app.study.run import study as run_scene_study
 
 RTOL = 1e-8                 # agreement of the app's values with the independent ones
 CLASSIFY_RTOL = 1e-8        # "zero" and "equal" relative to the state's scales (docs/method.md section 1)
@@ -74,7 +74,7 @@ def study() -> dict:
         pytest.skip("the dense copies of K and M are taken on one rank")
     scene = yaml.safe_load(default_scene_path().read_text())
     scene.pop("outputs", None)
-    return run_study(parse_scene(scene), MPI.COMM_WORLD, inspect=_inspect)
+    return run_scene_study(parse_scene(scene), MPI.COMM_WORLD, inspect=_inspect).to_dict()
 
 
 # --- the system in paper axes ----------------------------------------------------------------------

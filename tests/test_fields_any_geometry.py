@@ -44,9 +44,9 @@ def _gmsh(file, angle_deg=0.0, point=(0.0, 0.0), degree=1, **settings):
 def _run(data: dict, out: pathlib.Path) -> tuple[dict, dict]:
     """Run a scene in this process with its field stage writing into ``out``; (results, fields.npz)."""
     from app.scene.schema import parse_scene
-    from app.study.run import run_study
+    from app.study.run import study
     out.mkdir(parents=True, exist_ok=True)
-    res = run_study(parse_scene(data), MPI.COMM_WORLD, outdir=out)
+    res = study(parse_scene(data), MPI.COMM_WORLD, outdir=out).to_dict()
     with np.load(out / "fields" / "fields.npz") as z:
         fields = {k: z[k].copy() for k in z.files}
     return res, fields
@@ -201,7 +201,7 @@ def test_matrices_skip_default_field_outputs_and_refuse_asked_ones(tmp_path):
     from app.plot.pictures import draw_after_run
     from app.scene.schema import SceneError, parse_scene
     from app.scene.sections import Outputs, Screenshots
-    from app.study.run import run_study
+    from app.study.run import study
     data = particle_scene(tmp_path, (1, -1), 2.5, analyses=("necessary", "mceip_mu"))
     for key, value in (("paraview", True), ("screenshots", {})):
         with pytest.raises(SceneError, match=f"outputs.{key} = True: needs a mesh: not applicable, a matrices "
@@ -216,14 +216,13 @@ def test_matrices_skip_default_field_outputs_and_refuse_asked_ones(tmp_path):
     type(scene.system).check_scene(scene)                      # not refused
     out = tmp_path / "out"
     out.mkdir()
-    res = run_study(scene, MPI.COMM_WORLD, outdir=out)
+    res = study(scene, MPI.COMM_WORLD, outdir=out)
     why = "ParaView files and screenshots not applicable: a matrices system has no mesh"
-    assert res["outputs"]["notes"] == [why] and res["outputs"]["files"] == []
+    assert res.outputs.notes == [why] and res.outputs.files == []
     res = draw_after_run(res, out)
     assert not (out / "paraview").exists() and not (out / "screenshots").exists() and not (out / "fields").exists()
     assert (out / "plots" / "status_map.png").stat().st_size > 1000 and (out / "plots" / "reactions.png").exists()
-    assert res["outputs"]["notes"].count(why) == 1 and not any("screenshots" in n and n != why
-                                                               for n in res["outputs"]["notes"])
+    assert res.outputs.notes.count(why) == 1 and not any("screenshots" in n and n != why for n in res.outputs.notes)
     assert why in (out / "report.md").read_text()
 
 

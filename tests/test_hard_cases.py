@@ -311,7 +311,7 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
     import app.systems.block.operators as operators
     from app.common.errors import UnreachableLoad
     from app.scene.schema import parse_scene
-    from app.study.run import run_study
+    from app.study.run import study
     original = operators.block_operators
 
     def no_contact(*args, **kwargs):
@@ -321,7 +321,7 @@ def test_empty_contact_set_is_a_clear_error(monkeypatch):
 
     monkeypatch.setattr(operators, "block_operators", no_contact)
     with pytest.raises(UnreachableLoad, match="no contact nodes"):
-        run_study(parse_scene(_with(nx=6, ny=3)), MPI.COMM_WORLD)
+        study(parse_scene(_with(nx=6, ny=3)), MPI.COMM_WORLD)
 
 
 def test_a_signal_during_an_import_is_sent_again_after_it(tmp_path, monkeypatch):

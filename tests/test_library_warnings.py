@@ -62,12 +62,12 @@ def test_merged_sums_counts_over_ranks():
 
 def test_default_study_raises_no_library_warning():
     from app.scene.schema import default_scene_path, parse_scene
-    from app.study.run import run_study
+    from app.study.run import study
     data = yaml.safe_load(default_scene_path().read_text())
     data.pop("outputs", None)
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
-        res = run_study(parse_scene(data), MPI.COMM_WORLD)
+        res = study(parse_scene(data), MPI.COMM_WORLD).to_dict()
     assert "library_warnings" not in res, res.get("library_warnings")
     assert res["warnings"] == []
 

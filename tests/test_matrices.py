@@ -116,8 +116,8 @@ def test_random_system_through_files_equals_in_memory(tmp_path):
 
 
 def run_scene_in(scene):
-    from app.study.run import run_study
-    return run_study(scene, MPI.COMM_WORLD)
+    from app.study.run import study
+    return study(scene, MPI.COMM_WORLD).to_dict()
 
 
 def _values(a):

@@ -69,7 +69,7 @@ sys.path.insert(0, {root!r})
 from mpi4py import MPI
 import app.study.scheduler as distributed
 from app.scene.schema import parse_scene
-from app.study.run import run_study
+from app.study.run import study
 comm = MPI.COMM_WORLD
 real = distributed.state_mceip_mu
 def failing(*a, **k):
@@ -81,7 +81,7 @@ scene = parse_scene({{"name": "fails", "system": {{"type": "block", "nx": 16, "n
                      "analyses": ["mceip_mu"],
                      "settings": {{"mcp": {{"search_full_max": 3, "certify_enumerate_max": 3}}}}}})
 try:
-    run_study(scene, comm)
+    study(scene, comm)
 except Exception as err:
     print(f"rank {{comm.rank}} raised {{type(err).__name__}}: {{err}}", flush=True)
 """

@@ -16,7 +16,7 @@ import yaml
 import app.study.scheduler as distributed
 from app.common.progress import Progress, time_left
 from app.scene.schema import default_scene_path, parse_scene
-from app.study.run import run_study
+from app.study.run import study
 
 
 class _Recorder(io.StringIO):
@@ -84,7 +84,7 @@ def test_slow_mceip_mu_prints_a_line_at_least_every_5_s(monkeypatch):
     rec = _Recorder()
     t0 = time.perf_counter()
     from mpi4py import MPI
-    res = run_study(scene, MPI.COMM_WORLD, Progress(enabled=True, comm=SimpleNamespace(rank=0), stream=rec))
+    res = study(scene, MPI.COMM_WORLD, Progress(enabled=True, comm=SimpleNamespace(rank=0), stream=rec)).to_dict()
     total = res["distinct_classifications"]
     lines = [(t, x) for t, x in rec.lines if x.startswith("MCEIP-mu:")]
     assert len(calls) >= 3 and lines

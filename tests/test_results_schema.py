@@ -1,4 +1,4 @@
-"""docs/results-schema.json is generated from app/io/schema.py (scripts/results_schema.py), and real
+"""docs/results-schema.json is generated from app/io/result.py (scripts/results_schema.py), and real
 results.json files (a small block study, two particles) validate against those models, strictly:
 numbers are JSON numbers, non-finite ones null and listed in ``non_finite``."""
 import json
@@ -9,9 +9,8 @@ import pydantic
 import pytest
 from conftest import run_scene
 
-from app.io.result import StudyResult
+from app.io.result import StateResult, StudyResult, json_schema, validate
 from app.io.results import write_results
-from app.io.schema import ResultsDocument, State, json_schema, validate
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 BLOCK = {"name": "block", "mu": 1.0, "system": {"type": "block", "nx": 4, "ny": 2, "nu": 0.3},
@@ -39,9 +38,9 @@ def test_results_schema_is_generated_from_the_models():
     assert gen.main(["--check"]) == 0
     schema = json.loads(gen.generate())
     assert schema["properties"]["format_version"]["const"] == 3 and "states" in schema["required"]
-    sol = schema["$defs"]["Solution"]["properties"]
+    sol = schema["$defs"]["MceipSolution"]["properties"]
     assert {"type": "number"} in sol["value"]["anyOf"] and {"type": "null"} in sol["value"]["anyOf"]
-    assert {"onset", "complete", "certificate", "search", "solutions"} <= schema["$defs"]["MceipMu"]["properties"].keys()
+    assert {"onset", "complete", "certificate", "search", "solutions"} <= schema["$defs"]["MceipMuResult"]["properties"].keys()
     assert "non_finite" in schema["properties"] and schema == json_schema()
 
 
@@ -57,8 +56,8 @@ def test_results_json_validates_against_the_schema(document):
     data = json.loads(document)
     assert len(doc.states) == len(data["states"]) and doc.format_version == 3
     # every top-level key and every state key the run wrote is described by the schema
-    assert set(data) <= ResultsDocument.model_fields.keys()
-    assert set().union(*(s.keys() for s in data["states"])) <= State.model_fields.keys()
+    assert set(data) <= StudyResult.model_fields.keys()
+    assert set().union(*(s.keys() for s in data["states"])) <= StateResult.model_fields.keys()
     for s in data["states"]:
         assert set(s["analyses"]) <= {"necessary", "sufficient", "mceip_mu", "mceip_lambda2", "enumerate"}
     if "enumerate" in data["analyses_requested"]:          # two particles: proofs with infinite intervals

@@ -49,7 +49,7 @@ from mpi4py import MPI
 import app.systems.block.path as block
 from app.common.errors import UnreachableLoad
 from app.scene.schema import parse_scene
-from app.study.run import run_study
+from app.study.run import study
 comm = MPI.COMM_WORLD
 real = block.walker
 def walker(scene, comm, stages):
@@ -65,7 +65,7 @@ block.walker = walker
 scene = parse_scene({{"name": "fails", "system": {{"type": "block", "nx": 16, "ny": 8}}, "mu": 1.1,
                      "analyses": ["mceip_mu"]}})
 try:
-    run_study(scene, comm)
+    study(scene, comm)
 except UnreachableLoad as err:
     print(f"rank {{comm.rank}} raised UnreachableLoad({{err.key}}): {{err}}", flush=True)
 """

@@ -76,9 +76,9 @@ class Solution:
 
     @classmethod
     def from_fields(cls, d: Mapping[str, Any]) -> "Solution":
-        """From a solver's solution record (``value``, ``x_Ts``, ``pattern``, evidence, ``_x``)."""
-        rest = {k: v for k, v in d.items() if k not in ("value", "x_Ts", "pattern", "_x")}
-        return cls(value=d["value"], x_Ts=d["x_Ts"], pattern=d["pattern"], evidence=rest, x=d.get("_x"))
+        """From a solver's solution record (``value``, ``x_Ts``, ``pattern``, then the evidence)."""
+        rest = {k: v for k, v in d.items() if k not in ("value", "x_Ts", "pattern")}
+        return cls(value=d["value"], x_Ts=d["x_Ts"], pattern=d["pattern"], evidence=rest)
 
     @property
     def certified(self) -> bool | None:

@@ -35,10 +35,19 @@ from __future__ import annotations
 import json
 import math
 import pathlib
-from typing import Annotated, Any, Iterator, Literal, Optional
+from typing import Annotated, Any, Iterator, Literal, Optional, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, WithJsonSchema, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PlainSerializer,
+    PlainValidator,
+    WithJsonSchema,
+    WrapSerializer,
+    model_validator,
+)
 from pydantic.json_schema import SkipJsonSchema
 
 from app.io.document import FORMAT_VERSION, from_document, to_document
@@ -89,6 +98,12 @@ def _array_json(a: np.ndarray) -> list:
 #: a vector of numbers (read-only float64; ``null`` entries of the file are NaN)
 FloatArray = Annotated[np.ndarray, PlainValidator(float_array), PlainSerializer(_array_json, return_type=list),
                        WithJsonSchema({"type": "array", "items": {"type": ["number", "null"]}})]
+def _listed(value, handler) -> list:
+    return list(handler(value))
+
+
+#: a sequence of the results: a tuple in the models, a list in results.json (and ``to_dict``)
+AsList = WrapSerializer(_listed)
 #: a number of results.json: null in the file when it is not finite (its value is in ``non_finite``)
 Number = Optional[float]
 #: what a run keeps in memory only: never written, never read from a file
@@ -157,7 +172,8 @@ class NonFinite(Record):
 class Load(Record):
     """The load of a state (block: the CD displacement and the resultants; a program: its step)."""
 
-    phase: Optional[str] = None
+    phase: Union[str, int, None] = Field(None, description="the block's phase (normal, tangential), or a "
+                                                           "loading program's phase number")
     u_x: Number = Field(None, description="CD displacement [length]")
     u_y: Number = Field(None, description="CD displacement [length]")
     normal_resultant: Number = Field(None, description="[force]")
@@ -216,7 +232,7 @@ class MceipSolution(Record):
 
     value: Number = Field(description="mu (MCEIP-mu) or lambda^2 [lambda2] (MCEIP-lambda^2)")
     x_Ts: FloatArray = Field(description="tangential rates of the slip nodes, A to B, summing to 1")
-    pattern: tuple[Literal["slip", "stick"], ...] = Field(description="per slip node, A to B")
+    pattern: Annotated[tuple[Literal["slip", "stick"], ...], AsList] = Field(description="per slip node, A to B")
     residual: Number = None
     complementarity: Number = None
     min_x_Ts: Number = None
@@ -274,7 +290,7 @@ class SufficientResult(Status):
     satisfied: Optional[bool] = None
     mu: Number = None
     lambda2: FloatArray = Field(default_factory=lambda: float_array([]), description="[lambda2]")
-    modes: tuple[MceipSolution, ...] = ()
+    modes: Annotated[tuple[MceipSolution, ...], AsList] = ()
 
 
 class Onset(Record):
@@ -308,7 +324,7 @@ class MceipResult(Status):
     method: Optional[str] = None
     result: str = Field("", description="the one-line answer")
     mu: Number = Field(None, description="MCEIP-lambda^2: the friction coefficient")
-    solutions: tuple[MceipSolution, ...] = ()
+    solutions: Annotated[tuple[MceipSolution, ...], AsList] = ()
     search: dict[str, Any] = Field(default_factory=dict,
                                    description="how the search was bounded ('complete': a proof)")
     certified: Optional[bool] = None
@@ -377,7 +393,7 @@ class StateResult(Record):
     index: int
     load: Load
     classification: Classification
-    nodes: tuple[Node, ...]
+    nodes: Annotated[tuple[Node, ...], AsList]
     analyses: Analyses
     analyses_shared_with: Optional[int] = Field(description="state whose analyses these are; null: computed here")
     analysis_seconds: Number = None
@@ -478,7 +494,7 @@ class StudyResult(Record):
     units: Units
     system: str = Field(description="the system, in words")
     mu: Number = Field(description="the scene's friction coefficient")
-    analyses_requested: tuple[str, ...]
+    analyses_requested: Annotated[tuple[str, ...], AsList]
     path: PathInfo
     distinct_classifications: int
     stages: list[Stage]
@@ -494,7 +510,7 @@ class StudyResult(Record):
     inspection: Optional[dict[str, Any]] = Field(None, description="a refinement level's own measurements")
     non_finite: Optional[NonFinite] = Field(None, exclude=True, description=(
         "the numbers written as null because they are not finite (written by to_json, not kept)"))
-    states: tuple[StateResult, ...]
+    states: Annotated[tuple[StateResult, ...], AsList]
 
     @classmethod
     def from_dict(cls, results: dict) -> "StudyResult":
