@@ -13,7 +13,7 @@ kept once with a count and:
 Warnings that say nothing about the computation (:data:`IGNORED_IN_LIBRARY`: a library's file
 hygiene, such as FFCx's on a cold JIT cache) are logged at DEBUG only.
 
-:func:`app.study.run.run_study` lists both kinds in results.json ``library_warnings`` (merged over
+:func:`app.study.run.study` lists both kinds in results.json ``library_warnings`` (merged over
 the ranks, :func:`merged`) and adds the unknown ones to the study's ``warnings`` (the summary,
 the report).
 """

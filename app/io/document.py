@@ -134,7 +134,7 @@ def to_document(results: Mapping) -> dict:
     Parameters
     ----------
     results
-        The results dictionary of a study (:func:`app.study.run.run_study`).
+        A study's results as a dictionary (:meth:`app.io.result.StudyResult.to_dict`).
 
     Returns
     -------

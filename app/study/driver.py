@@ -1,7 +1,7 @@
 """The one driver behind ``python -m app run``, sweeps and refinement studies: run a study,
 draw what the scene asks for, write the results, and turn the outcome into an exit status.
 
-* :func:`run_and_write` -- :func:`app.study.run.run_study` (collective), then on rank 0 the pictures
+* :func:`run_and_write` -- :func:`app.study.run.study` (collective), then on rank 0 the pictures
   (app/plot/pictures.py) and ``results.json``/``steps.csv`` (app/io/results.py);
 * :func:`commit` -- every rank has written: rank 0 moves the staged folder into place;
 * :func:`exit_status` -- 0 ok, 3 some states failed (:data:`app.common.errors.EXIT_INCOMPLETE`).

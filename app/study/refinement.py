@@ -71,7 +71,7 @@ def _mu_values(a: Outcome | None) -> list[float]:
 
 
 def _inspector(scene: Scene, ref):
-    """The ``inspect`` hook of :func:`app.study.run.run_study` that computes the level's quantities
+    """The ``inspect`` hook of :func:`app.study.run.study` that computes the level's quantities
     (``scene``: the level's scene; ``ref``: the refinement section)."""
     mu_fixed = ref.mu_fixed if ref.mu_fixed is not None else scene.lambda2_mu
     scene_mu = scene.model_copy(update={"analyses": ["mceip_mu"]})
