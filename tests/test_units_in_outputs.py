@@ -8,7 +8,7 @@ import re
 import pytest
 from conftest import run_scene
 
-from app.io.document import FORMAT_VERSION, RENAMED, from_document, to_document
+from app.io.document import FORMAT_VERSION, RENAMED, from_document
 from app.io.result import StudyResult
 from app.io.results import csv_header, write_results
 
@@ -98,5 +98,5 @@ def test_format_2_names_are_read_as_format_3_names(si_outputs, tmp_path):
     assert from_document(v1)["path"] == {"normal_force": 55.0, "end": "x"}
     (tmp_path / "results.json").write_text(json.dumps(old))
     r = StudyResult.load(tmp_path)
-    assert r.path["normal_force"] == doc["path"]["normal_force"] and r.units["length"] == "m"
-    assert to_document(r.raw)["format_version"] == 3
+    assert r.path.normal_force == doc["path"]["normal_force"] and r.units.length == "m"
+    assert r.to_json()["format_version"] == 3
