@@ -1,6 +1,6 @@
-"""Units live in results.json's ``units`` block, not in key names (format 3); the CSV headers name
-the scene's units (``u_x_CD [m]`` in an SI scene); files of formats 1 and 2 still load, with the
-old key names mapped to the new ones."""
+"""Units live in results.json's ``units`` block, not in key names (format 3); the CSV headers and
+the report name the scene's units (``u_x_CD [m]`` in an SI scene); files of formats 1 and 2 still
+load, with the old key names mapped to the new ones."""
 import csv
 import json
 import re
@@ -9,6 +9,7 @@ import pytest
 from conftest import run_scene
 
 from app.io.document import FORMAT_VERSION, RENAMED, from_document
+from app.io.report import write_report
 from app.io.result import StudyResult
 from app.io.results import csv_header, write_results
 
@@ -59,6 +60,15 @@ def test_si_steps_csv_headers_name_the_scenes_units(si_outputs):
     assert not [h for h in head if "mm" in h]
     doc = json.loads((si_outputs / "results.json").read_text())
     assert [float(r["u_x_CD [m]"]) for r in rows] == [s["load"]["u_x"] for s in doc["states"]]
+
+
+def test_si_report_names_the_scenes_units(si_outputs, tmp_path):
+    """report.md of the SI study: its units line and its table's CD displacement are in metres."""
+    study = StudyResult.load(si_outputs)
+    text = write_report(study, tmp_path, [], [], [], []).read_text()
+    assert "Units: length m, force N, time s, lambda2 1/s^2, mu 1," in text and "stress Pa" in text
+    assert "| states | CD u_x [m] | stick / slip / free |" in text
+    assert "[mm]" not in text and " mm" not in text
 
 
 def test_two_particles_units_are_the_scenes():
