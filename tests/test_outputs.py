@@ -78,6 +78,16 @@ def _states_series(path: pathlib.Path):
     return points, cells, steps
 
 
+def _mode_pictures(study, pictured: list[int]) -> set[str]:
+    """The file names of the mode pictures of the states ``pictured`` of a typed study."""
+    from app.io.select import analyses_of, modes_of
+    want = set()
+    for i in pictured:
+        analyses, first = analyses_of(study.states, i)
+        want |= {f"mode_s{first:04d}_{prob}_{k}_{sol.value:.6g}.png" for prob, k, sol in modes_of(analyses)}
+    return want
+
+
 def _all_modes(results: dict) -> list[tuple[int, str, int, dict]]:
     from app.io.select import modes_of
     out = []
@@ -142,7 +152,8 @@ def test_every_picture_is_drawn_and_not_blank(serial):
         svg = ET.parse(out / "plots" / f"{name}.svg").getroot()
         assert svg.tag.endswith("svg") and len(list(svg.iter())) > 50
     shots = sorted((out / "screenshots").glob("*.png"))
-    from app.io.select import analyses_of, modes_of
+    from app.io.result import StudyResult
+    study = StudyResult.load(out)
     pictured = res["outputs"]["pictured_states"]
     first_mu = next(s["index"] for s in res["states"] if s["analyses"]["mceip_mu"]["solutions"])
     assert pictured == sorted({first_mu, res["states"][-1]["index"]})
@@ -150,11 +161,7 @@ def test_every_picture_is_drawn_and_not_blank(serial):
     modes = [p for p in shots if p.name.startswith("mode_")]
     assert [p.name for p in states] == [f"state_{i:04d}_von_mises.png" for i in pictured]
     # a picture of every mode found at the pictured states (MCEIP-mu and MCEIP-lambda^2)
-    want = set()
-    for i in pictured:
-        analyses, first = analyses_of(res["states"], i)
-        want |= {f"mode_s{first:04d}_{prob}_{k}_{sol['value']:.6g}.png" for prob, k, sol in modes_of(analyses)}
-    assert {p.name for p in modes} == want
+    assert {p.name for p in modes} == _mode_pictures(study, pictured)
     assert any("mceip_lambda2" in p.name for p in modes) and any("mceip_mu" in p.name for p in modes)
     for p in shots:
         _assert_picture(p, size=(640, 400), drawn=0.3)          # the block fills a good part of the picture
@@ -173,6 +180,121 @@ def test_report_ties_everything_together(serial):
     assert links == drawn
     rows = [r for r in text.splitlines() if r.startswith("| ") and " / " in r and not r.startswith("| states")]
     assert len(rows) == res["distinct_classifications"]
+
+
+def test_report_from_the_typed_study(serial, tmp_path):
+    """``write_report`` takes the study's StudyResult (here read back from the run's results.json):
+    every section, the notes, a link to each picture it is given, and one row per distinct
+    classification with the study's own numbers."""
+    from app.io.report import summary_table, write_report
+    from app.io.result import StudyResult
+    out, res, _ = serial
+    study = StudyResult.load(out)
+    pictured = study.outputs.pictured_states
+    plots = [tmp_path / "plots" / f"{name}.png" for name in PLOTS]
+    shots = [tmp_path / "screenshots" / f"state_{i:04d}_von_mises.png" for i in pictured]
+    path = write_report(study, tmp_path, pictured, plots, shots, ["a note of the run"])
+    assert path == tmp_path / "report.md"
+    text = path.read_text()
+    first = study.first_instability()
+    c = first.classification
+    for needle in ("# Study report: outputs-test", f"{study.system}; mu = 1.1; analyses: necessary, mceip_mu, "
+                   "mceip_lambda2; MPI ranks: 1.", f"- {len(study)} equilibrium state(s), "
+                   f"{study.distinct_classifications} distinct classification(s); the path ended: {study.path.end}.",
+                   f"- MCEIP-mu first has a solution at state {first.index} ({c.stick} stick / {c.slip} slip / "
+                   f"{c.free} free): mu = ", "Units: length mm, force N,", "## Distinct classifications",
+                   "| states | CD u_x [mm] | stick / slip / free | min eig sym K* (19) | MCEIP-mu (pattern A to B) "
+                   "| MCEIP-lambda^2 |", "## Plots", "## Screenshots", "Pictured states: final state, first state "
+                   "with an MCEIP-mu solution -> states " + ", ".join(str(i) for i in pictured), "## ParaView files",
+                   "## Notes\n\n- a note of the run\n", "## Stages", "| fields (ParaView files, screenshot data) |",
+                   "## Scene", "## Versions", "fenics-dolfinx"):
+        assert needle in text, needle
+    links = {line.split("](")[1].rstrip(")") for line in text.splitlines() if line.startswith("![")}
+    assert links == {p.relative_to(tmp_path).as_posix() for p in plots + shots}
+    rows = summary_table(study)[2:]
+    assert len(rows) == study.distinct_classifications and all(row in text for row in rows)
+    for row, st in zip(rows, [s for s in study.states if s.analyses_shared_with is None]):
+        cells = row.strip("| ").split(" | ")
+        c = st.classification
+        assert cells[0].split("-")[0] == str(st.index) and cells[2] == f"{c.stick} / {c.slip} / {c.free}"
+        assert cells[3].startswith(f"{st.necessary.min_eig_K_sym:.4g}")
+        assert cells[3].endswith(" (holds)") == bool(st.necessary.satisfied)
+        for cell, analysis in ((cells[4], st.mceip_mu), (cells[5], st.mceip_lambda2)):
+            assert all(f"{s.value:.6g} (" in cell for s in analysis.solutions)
+            assert cell.startswith("none (") == (not analysis.solutions)
+
+
+def test_report_cells_of_a_loading_program_and_of_failed_analyses(serial, tmp_path):
+    """The report of a typed study whose states a loading program reached (phase name and step
+    instead of CD u_x), with a failed analysis, analyses that have nothing to compute, failures
+    and warnings."""
+    from app.io.document import from_document
+    from app.io.report import summary_table, write_report
+    from app.io.result import StudyResult
+    out, res, _ = serial
+    data = from_document(json.loads((out / "results.json").read_text()))
+    for st in data["states"]:     # phase "drag" is named in the scene, phase "press" is not
+        st["load"] = {"phase": "press" if st["index"] < 3 else "drag", "step": st["index"],
+                      "parameters": {"top_x": 0.1 * st["index"]}, **({"name": "drag it"} if st["index"] >= 3 else {})}
+    shared = [s for s in data["states"] if s["analyses_shared_with"] is None]
+    shared[1]["analyses"]["mceip_mu"] = {"failed": True, "reason": "no convergence"}
+    shared[1]["analyses"]["necessary"] = {"failed": True, "reason": "no convergence"}
+    shared[-1]["analyses"] = {"necessary": {"not_applicable": True, "reason": "no friction"},
+                              "mceip_lambda2": {"not_applicable": True, "reason": "no friction"}}
+    data["failures"] = [{"state": shared[1]["index"], "analysis": "mceip_mu", "reason": "no convergence"}]
+    data["warnings"] = ["a warning of the run"]
+    study = StudyResult.from_dict(data)
+    rows = summary_table(study)
+    assert rows[0].startswith("| states | load (phase step) | stick / slip / free |")
+    cells = [r.strip("| ").split(" | ") for r in rows[2:]]
+    ids = [s["index"] for s in shared]
+    for cell, first in zip(cells, ids):
+        members = [s.index for s in study.states if s.index == first or s.analyses_shared_with == first]
+        label = [("drag it" if i >= 3 else "press") + f" {i}" for i in (members[0], members[-1])]
+        assert cell[1] == (label[0] if len(members) == 1 else f"{label[0]} to {label[1]}")
+    assert cells[1][3] == "failed" and cells[1][4] == "failed"
+    assert cells[-1][3] == "n/a" and cells[-1][4] == "" and cells[-1][5] == "n/a"
+    text = write_report(study, tmp_path, [], [], [], []).read_text()
+    for needle in ("- stability analyses at the final state: no friction.",
+                   f"- **incomplete**: 1 failure(s): state {ids[1]}: no convergence",
+                   "- warning: a warning of the run"):
+        assert needle in text, needle
+    assert "- final state" not in text and "## Notes" not in text and "## Screenshots" not in text
+
+
+def test_screenshots_from_the_typed_study_in_a_drawing_process(serial, tmp_path):
+    """The screenshots of a StudyResult (read back from the run's results.json): drawn by a drawing
+    process from the JSON job of ``job_of`` (as after a run), and by ``draw_screenshots`` in a
+    process without DOLFINx (as ``render``), the same pictures, pixel for pixel."""
+    from app.io.result import StudyResult
+    from app.plot import worker
+    from app.plot.screenshots import job_of, resolution_arg
+    out, res, _ = serial
+    study = StudyResult.load(out)
+    cfg = study.scene_config["outputs"]["screenshots"]
+    pictured = study.outputs.pictured_states
+    fields = out / "fields" / "fields.npz"
+    job = tmp_path / "job.json"
+    job.write_text(json.dumps(job_of(study, pictured, cfg, tmp_path / "child", fields), allow_nan=False))
+    files, notes, seconds = worker.Worker("screenshots", resolution_arg(cfg)).submit(job).wait()
+    assert notes == [] and seconds is not None
+    want = {f"state_{i:04d}_von_mises.png" for i in pictured} | _mode_pictures(study, pictured)
+    assert sorted(p.name for p in files) == sorted(want) and all(p.parent == tmp_path / "child" for p in files)
+    for p in files:
+        _assert_picture(p, size=(640, 400), drawn=0.3)
+    code = ("import json, pathlib, sys; from app.io.result import StudyResult; "
+            "from app.plot.screenshots import draw_screenshots; "
+            "study = StudyResult.load(sys.argv[1]); cfg = study.scene_config['outputs']['screenshots']; "
+            "files, notes = draw_screenshots(study, study.outputs.pictured_states, cfg, pathlib.Path(sys.argv[2]), "
+            "pathlib.Path(sys.argv[1]) / 'fields' / 'fields.npz'); "
+            "assert 'dolfinx' not in sys.modules; print(json.dumps([[str(f) for f in files], notes]))")
+    p = subprocess.run([PY, "-c", code, str(out), str(tmp_path / "here")], capture_output=True, text=True,
+                       timeout=300, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    here, notes = json.loads(p.stdout.splitlines()[-1])
+    assert notes == [] and [pathlib.Path(f).name for f in here] == [f.name for f in files]
+    for f in files:
+        assert np.array_equal(_image(f), _image(tmp_path / "here" / f.name)), f.name
 
 
 def test_recorded_stages_and_files(serial):

@@ -1,6 +1,6 @@
-"""Units live in results.json's ``units`` block, not in key names (format 3); the CSV headers name
-the scene's units (``u_x_CD [m]`` in an SI scene); files of formats 1 and 2 still load, with the
-old key names mapped to the new ones."""
+"""Units live in results.json's ``units`` block, not in key names (format 3); the CSV headers and
+the report name the scene's units (``u_x_CD [m]`` in an SI scene); files of formats 1 and 2 still
+load, with the old key names mapped to the new ones."""
 import csv
 import json
 import re
@@ -8,7 +8,8 @@ import re
 import pytest
 from conftest import run_scene
 
-from app.io.document import FORMAT_VERSION, RENAMED, from_document, to_document
+from app.io.document import FORMAT_VERSION, RENAMED, from_document
+from app.io.report import write_report
 from app.io.result import StudyResult
 from app.io.results import csv_header, write_results
 
@@ -61,6 +62,15 @@ def test_si_steps_csv_headers_name_the_scenes_units(si_outputs):
     assert [float(r["u_x_CD [m]"]) for r in rows] == [s["load"]["u_x"] for s in doc["states"]]
 
 
+def test_si_report_names_the_scenes_units(si_outputs, tmp_path):
+    """report.md of the SI study: its units line and its table's CD displacement are in metres."""
+    study = StudyResult.load(si_outputs)
+    text = write_report(study, tmp_path, [], [], [], []).read_text()
+    assert "Units: length m, force N, time s, lambda2 1/s^2, mu 1," in text and "stress Pa" in text
+    assert "| states | CD u_x [m] | stick / slip / free |" in text
+    assert "[mm]" not in text and " mm" not in text
+
+
 def test_two_particles_units_are_the_scenes():
     """The two particles' units block follows the scene's ``units`` (it said mm in an SI scene)."""
     scene = {"name": "tp", "system": {"type": "two_particles", "k": 1000.0, "m": 2.0, "phi_deg": 35.0,
@@ -98,5 +108,5 @@ def test_format_2_names_are_read_as_format_3_names(si_outputs, tmp_path):
     assert from_document(v1)["path"] == {"normal_force": 55.0, "end": "x"}
     (tmp_path / "results.json").write_text(json.dumps(old))
     r = StudyResult.load(tmp_path)
-    assert r.path["normal_force"] == doc["path"]["normal_force"] and r.units["length"] == "m"
-    assert to_document(r.raw)["format_version"] == 3
+    assert r.path.normal_force == doc["path"]["normal_force"] and r.units.length == "m"
+    assert r.to_json()["format_version"] == 3

@@ -8,7 +8,7 @@ import pathlib
 
 import yaml
 
-from app.io.result import StudyResult
+from app.io.result import Load, MceipResult, StateResult, StudyResult
 from app.io.select import describe
 
 PLOT_CAPTIONS = {
@@ -32,16 +32,20 @@ GENERIC_CAPTIONS = {     # a body other than the built-in block: no side AB, no 
 }
 
 
-def _block_like(results: dict) -> bool:
+def _block_like(study: StudyResult) -> bool:
     """The contact side is the block's AB (captions name AB and CD), from the registered system type."""
     from app.systems import SYSTEM_TYPES
-    kind = SYSTEM_TYPES.get(((results.get("scene_config") or {}).get("system") or {}).get("type", "block"))
+    kind = SYSTEM_TYPES.get((study.scene_config.get("system") or {}).get("type", "block"))
     return kind is not None and kind.contact_line == "AB"
 
 
-def _load_label(load: dict) -> str:
-    """A loading program's state: phase name and step (the block's states give CD u_x instead)."""
-    return f"{load.get('name') or load.get('phase', '')} {load.get('step', '')}".strip()
+def _load_label(load: Load) -> str:
+    """A loading program's state: phase name and step (the block's states give CD u_x instead).
+    The phase's name is a key of the loading program's own (``model_extra``)."""
+    name = (load.model_extra or {}).get("name")
+    phase = "" if load.phase is None else load.phase
+    step = "" if load.step is None else load.step
+    return f"{name or phase} {step}".strip()
 
 
 def versions() -> dict:
@@ -97,71 +101,96 @@ def _fmt(v, spec: str = ".6g") -> str:
     return format(v, spec)
 
 
-def _solutions(a: dict | None, key: str = "solutions") -> str:
-    if not a:
+def _pattern(pattern) -> str:
+    """A mode's pattern as one letter per slip node: ``S`` slips in the mode, ``-`` is stuck in it."""
+    return "".join("S" if p == "slip" else "-" for p in pattern)
+
+
+def _solutions(a: MceipResult | None) -> str:
+    """An MCEIP analysis in a table cell: its solutions ``value (pattern)`` and what is proven of
+    them, ``failed``, ``n/a``, or empty when it was not computed."""
+    if a is None:
         return ""
-    if a.get("failed"):
+    if a.failed:
         return "failed"
-    if a.get("not_applicable"):
+    if a.not_applicable:
         return "n/a"
-    sols = a.get(key) or []
-    rigorous = (a.get("certificate") or {}).get("rigorous", True) is not False
-    word = ("proven" if rigorous else "shown in floating point, not a rigorous proof") if a.get("certified") else \
-        "onset proven" if (a.get("onset") or {}).get("proven") else "found (not proven)"
-    if not sols:
+    rigorous = a.certificate is None or a.certificate.rigorous is not False
+    onset = getattr(a, "onset", None)
+    word = ("proven" if rigorous else "shown in floating point, not a rigorous proof") if a.certified else \
+        "onset proven" if onset is not None and onset.proven else "found (not proven)"
+    if not a.solutions:
         return f"none ({word})"
-    return f"{word}: " + ", ".join(f"{_fmt(s['value'])} ({''.join('S' if p == 'slip' else '-' for p in s.get('pattern', []))})"
-                     for s in sols)
+    return f"{word}: " + ", ".join(f"{_fmt(s.value)} ({_pattern(s.pattern)})" for s in a.solutions)
 
 
-def summary_table(results: dict) -> list[str]:
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float))
+
+
+def _necessary_cell(st: StateResult) -> str:
+    nec = st.analyses.necessary
+    if nec is None:
+        return ""
+    if nec.failed:
+        return "failed"
+    if nec.not_applicable:
+        return "n/a"
+    return f"{_fmt(nec.min_eig_K_sym, '.4g')}" + (" (holds)" if nec.satisfied else "")
+
+
+def _sufficient_cell(st: StateResult) -> str:
+    suf = st.analyses.sufficient
+    if suf is None:
+        return "none"
+    if suf.failed:
+        return "failed"
+    if suf.not_applicable:
+        return "n/a"
+    return ", ".join(_fmt(float(v)) for v in suf.lambda2) or "none"
+
+
+def summary_table(study: StudyResult) -> list[str]:
     """One row per distinct classification (its first state and the range of states sharing it)."""
-    states = results["states"]
-    groups: dict[int, list[dict]] = {}
+    states = study.states
+    groups: dict[int, list[StateResult]] = {}
     for s in states:
-        first = s["index"] if s.get("analyses_shared_with") is None else s["analyses_shared_with"]
+        first = s.index if s.analyses_shared_with is None else s.analyses_shared_with
         groups.setdefault(first, []).append(s)
-    asked = results.get("analyses_requested", [])
-    length = results.get("units", {}).get("length", "mm")
-    program = not any(isinstance((s.get("load") or {}).get("u_x"), (int, float)) for s in states) \
-        and any("step" in (s.get("load") or {}) for s in states)
+    asked = study.analyses_requested
+    length = study.units.length
+    program = not any(_is_number(s.load.u_x) for s in states) and any(s.load.step is not None for s in states)
     head = ["states", "load (phase step)" if program else f"CD u_x [{length}]", "stick / slip / free"]
     if "necessary" in asked:
         head.append("min eig sym K* (19)")
     if "sufficient" in asked:
         head.append("sufficient (17)-(18): lambda^2")
     if "mceip_mu" in asked:
-        head.append("MCEIP-mu (pattern A to B)" if _block_like(results) else "MCEIP-mu (pattern along s)")
+        head.append("MCEIP-mu (pattern A to B)" if _block_like(study) else "MCEIP-mu (pattern along s)")
     if "mceip_lambda2" in asked:
         head.append("MCEIP-lambda^2")
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for first, members in groups.items():
         s0 = members[0]
-        a = s0.get("analyses") or {}
-        ids = [m["index"] for m in members]
+        ids = [m.index for m in members]
         rng = f"{ids[0]}" if len(ids) == 1 else f"{ids[0]}-{ids[-1]}" if ids == list(range(ids[0], ids[-1] + 1)) \
             else f"{ids[0]}, ... ({len(ids)})"
-        ux = [m.get("load", {}).get("u_x") for m in members]
-        ux = [u for u in ux if isinstance(u, (int, float))]
+        ux = [m.load.u_x for m in members if _is_number(m.load.u_x)]
         uxs = "" if not ux else (_fmt(ux[0], ".4g") if len(ux) == 1 or ux[0] == ux[-1]
                                   else f"{_fmt(ux[0], '.4g')} to {_fmt(ux[-1], '.4g')}")
         if program:
-            labels = [_load_label(m.get("load") or {}) for m in members]
+            labels = [_load_label(m.load) for m in members]
             uxs = labels[0] if len(labels) == 1 else f"{labels[0]} to {labels[-1]}"
-        c = s0["classification"]
-        row = [rng, uxs, f"{c['stick']} / {c['slip']} / {c['free']}" + (f" / {c['zero']} zero" if c.get("zero") else "")]
+        c = s0.classification
+        row = [rng, uxs, f"{c.stick} / {c.slip} / {c.free}" + (f" / {c.zero} zero" if c.zero else "")]
         if "necessary" in asked:
-            nec = a.get("necessary") or {}
-            row.append("failed" if nec.get("failed") else "n/a" if nec.get("not_applicable") else
-                       f"{_fmt(nec.get('min_eig_K_sym'), '.4g')}" + (" (holds)" if nec.get("satisfied") else ""))
+            row.append(_necessary_cell(s0))
         if "sufficient" in asked:
-            suf = a.get("sufficient") or {}
-            row.append("failed" if suf.get("failed") else "n/a" if suf.get("not_applicable") else
-                       (", ".join(_fmt(v) for v in suf.get("lambda2", [])) or "none"))
+            row.append(_sufficient_cell(s0))
         if "mceip_mu" in asked:
-            row.append(_solutions(a.get("mceip_mu")))
+            row.append(_solutions(s0.analyses.mceip_mu))
         if "mceip_lambda2" in asked:
-            row.append(_solutions(a.get("mceip_lambda2")))
+            row.append(_solutions(s0.analyses.mceip_lambda2))
         rows.append("| " + " | ".join(row) + " |")
     return rows
 
@@ -173,70 +202,68 @@ def _rel(path: pathlib.Path, outdir: pathlib.Path) -> str:
         return str(path)
 
 
-def write_report(results: dict, outdir: pathlib.Path, pictured: list[int], plot_files: list[pathlib.Path],
+def write_report(study: StudyResult, outdir: pathlib.Path, pictured: list[int], plot_files: list[pathlib.Path],
                  shot_files: list[pathlib.Path], notes: list[str]) -> pathlib.Path:
     """``report.md`` in ``outdir``: the study in brief, the classifications, the pictures, the
     ParaView files, notes, stages, the scene and the versions."""
-    cfg = results.get("scene_config") or {}
-    block = _block_like(results)
+    cfg = study.scene_config
+    block = _block_like(study)
     body = "block" if block else "body"
-    modes_built = sorted({m["built"] for m in (results.get("outputs") or {}).get("modes") or []})
-    L = _overview(results) + _classifications(results)
+    modes = (study.outputs.modes if study.outputs is not None else None) or []
+    modes_built = sorted({m.built for m in modes})
+    L = _overview(study) + _classifications(study)
     if plot_files:
         L += _plots(plot_files, outdir, block)
     if shot_files:
         L += _screenshots(shot_files, outdir, cfg.get("outputs") or {}, pictured, body, modes_built)
-    L += _paraview(results, body, modes_built)
-    L += _closing(results, cfg, notes)
+    L += _paraview(study, body, modes_built)
+    L += _closing(study, cfg, notes)
     path_out = outdir / "report.md"
     path_out.write_text("\n".join(L) + "\n", encoding="utf-8")
     return path_out
 
 
-def _overview(results: dict) -> list[str]:
+def _overview(study: StudyResult) -> list[str]:
     """The title and the study in a few lines (states, first instability, final state, failures)."""
     L: list[str] = []
-    name = results.get("scene", "")
-    L += [f"# Study report: {name}", ""]
-    L += [f"{results.get('system', '')}; mu = {results.get('mu')}; analyses: "
-          f"{', '.join(results.get('analyses_requested', []))}; MPI ranks: {results.get('mpi_ranks', 1)}.", ""]
-    states = results["states"]
-    path = results.get("path") or {}
-    L += [f"- {len(states)} equilibrium state(s), {results.get('distinct_classifications', '')} distinct "
-          f"classification(s); the path ended: {path.get('end', '')}."]
-    first_mu = StudyResult.from_dict(results).first_instability()
+    L += [f"# Study report: {study.scene}", ""]
+    L += [f"{study.system}; mu = {study.mu}; analyses: "
+          f"{', '.join(study.analyses_requested)}; MPI ranks: {study.mpi_ranks}.", ""]
+    L += [f"- {len(study.states)} equilibrium state(s), {study.distinct_classifications} distinct "
+          f"classification(s); the path ended: {study.path.end}."]
+    first_mu = study.first_instability()
     if first_mu is not None:
         c = first_mu.classification
         vals = ", ".join(_fmt(float(v)) for v in first_mu.mu_values())
-        L.append(f"- MCEIP-mu first has a solution at state {first_mu.index} ({c['stick']} stick / "
-                 f"{c['slip']} slip / {c['free']} free): mu = {vals}.")
-    last = states[-1]
-    a = last.get("analyses") or {}
-    if "mceip_mu" in a:
-        L.append(f"- final state {last['index']}: MCEIP-mu {_solutions(a['mceip_mu'])}.")
-    na = next((v["reason"] for v in a.values() if isinstance(v, dict) and v.get("not_applicable")), None)
+        L.append(f"- MCEIP-mu first has a solution at state {first_mu.index} ({c.stick} stick / "
+                 f"{c.slip} slip / {c.free} free): mu = {vals}.")
+    last = study.final
+    if last.analyses.mceip_mu is not None:
+        L.append(f"- final state {last.index}: MCEIP-mu {_solutions(last.analyses.mceip_mu)}.")
+    blocks = [getattr(last.analyses, k) for k in type(last.analyses).model_fields]
+    na = next((a.reason for a in blocks if a is not None and a.not_applicable), None)
     if na:
         L.append(f"- stability analyses at the final state: {na}.")
-    if results.get("failures"):
-        L.append(f"- **incomplete**: {len(results['failures'])} failure(s): " + "; ".join(
-            f"state {f.get('state')}: {f.get('reason')}" for f in results["failures"][:5]))
-    for w in results.get("warnings") or []:
+    if study.failures:
+        L.append(f"- **incomplete**: {len(study.failures)} failure(s): " + "; ".join(
+            f"state {f.state}: {f.reason}" for f in study.failures[:5]))
+    for w in study.warnings:
         L.append(f"- warning: {w}")
-    L += [f"- wall time {_fmt(results.get('wall_seconds'), '.2f')} s. Units: "
-          + ", ".join(f"{k} {v}" for k, v in (results.get("units") or {}).items()) + ".", ""]
+    L += [f"- wall time {_fmt(study.wall_seconds, '.2f')} s. Units: "
+          + ", ".join(f"{k} {v}" for k, v in study.units.to_dict().items()) + ".", ""]
     return L
 
 
-def _classifications(results: dict) -> list[str]:
+def _classifications(study: StudyResult) -> list[str]:
     """The table of distinct classifications."""
     L: list[str] = []
     L += ["## Distinct classifications", "",
           "Analyses depend only on the classification, so each row is computed once, at its first state, "
           "and shared by the others. Patterns list the slip nodes "
-          + ("from A to B" if _block_like(results) else "in the order of the contact nodes")
+          + ("from A to B" if _block_like(study) else "in the order of the contact nodes")
           + ": `S` slips in the mode, "
           "`-` is stuck in it. Full numbers: `results.json`, one row per state: `steps.csv`.", ""]
-    L += summary_table(results) + [""]
+    L += summary_table(study) + [""]
     return L
 
 
@@ -270,10 +297,10 @@ def _screenshots(shot_files: list[pathlib.Path], outdir: pathlib.Path, out: dict
     return L
 
 
-def _paraview(results: dict, body: str, modes_built: list[str]) -> list[str]:
+def _paraview(study: StudyResult, body: str, modes_built: list[str]) -> list[str]:
     """What the ParaView files hold, when they were written."""
     L: list[str] = []
-    files = (results.get("outputs") or {}).get("files") or []
+    files = study.outputs.files if study.outputs is not None else []
     if any(f.startswith("paraview/") for f in files):
         L += ["## ParaView files", "",
               "- `paraview/states.xdmf` (+ `states.h5`): every equilibrium state, time = state index. "
@@ -288,19 +315,19 @@ def _paraview(results: dict, body: str, modes_built: list[str]) -> list[str]:
     return L
 
 
-def _closing(results: dict, cfg: dict, notes: list[str]) -> list[str]:
+def _closing(study: StudyResult, cfg: dict, notes: list[str]) -> list[str]:
     """Notes, stages, the scene, the versions and the time of writing."""
     L: list[str] = []
     if notes:
         L += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
 
     L += ["## Stages", "", "| stage | seconds | count |", "|---|---|---|"]
-    for st in results.get("stages", []):
-        L.append(f"| {st['name']} | {_fmt(st.get('seconds'), '.3f')} | {st.get('count', '')} |")
+    for st in study.stages:
+        L.append(f"| {st.name} | {_fmt(st.seconds, '.3f')} | {st.count} |")
     L += [""]
 
     L += ["## Scene", "", "```yaml", yaml.safe_dump(cfg, sort_keys=False, default_flow_style=None).rstrip(), "```", ""]
-    vers = results.get("versions") or {}
+    vers = study.versions or {}
     if vers:
         L += ["## Versions", "", "| software | version |", "|---|---|"]
         L += [f"| {k} | {v} |" for k, v in vers.items()] + [""]

@@ -10,7 +10,8 @@
 
 Nothing assumes a rectangle or a horizontal contact side: the geometry comes from the mesh, the
 contact nodes and the obstacle line saved in fields.npz.
-Drawn from ``fields/fields.npz`` and the results only, so ``python -m app render`` redraws them.
+Drawn from ``fields/fields.npz`` and the study's results (a
+[`StudyResult`][app.io.result.StudyResult]) only, so ``python -m app render`` redraws them.
 
 In a process that has loaded DOLFINx the drawing runs in a child process (app/plot/worker.py,
 started by app/plot/pictures.py): DOLFINx switches the
@@ -26,6 +27,7 @@ import sys
 
 import numpy as np
 
+from app.io.result import Load, StateResult, StudyResult, Units
 from app.plot.canvas import (
     FieldData,
     add_body,
@@ -44,48 +46,61 @@ PROBLEM_TITLE = {"mceip_mu": "MCEIP-\u03bc mode: \u03bc", "mceip_lambda2": "MCEI
                  "sufficient": "sufficient condition (17)-(18) mode: \u03bb\u00b2"}
 
 
-def state_picture(fd: FieldData, state: dict, field: str, res, scale: float, path: pathlib.Path,
-                  units: dict, scene: str) -> pathlib.Path:
+def _unit(value: str | None, default: str) -> str:
+    """A unit name of the study's ``units``, ``default`` when the system has none."""
+    return default if value is None else value
+
+
+def _where(load: Load, length: str) -> str:
+    """Where a state is on the loading path, for a picture's title: the block's CD displacement,
+    or a loading program's phase, step and load parameters (``name``, the phase's name, is a key
+    of the program's own, in ``model_extra``); empty for a single state."""
+    if load.u_x is not None:
+        return f"CD moved by u_x = {load.u_x:.4g} {length}, u_y = {load.u_y:.4g} {length}"
+    if load.parameters is not None:
+        extra = load.model_extra or {}
+        phase = extra["name"] if "name" in extra else "" if load.phase is None else load.phase
+        step = "" if load.step is None else load.step
+        return (f"phase '{phase}', step {step}: "
+                + ", ".join(f"{k} = {v:.4g}" for k, v in load.parameters.items()))
+    return ""
+
+
+def state_picture(fd: FieldData, state: StateResult, field: str, res, scale: float, path: pathlib.Path,
+                  units: Units, scene: str) -> pathlib.Path:
     """Screenshot of the body at ``state``, coloured by ``field`` (``von_mises`` per cell, else the
     displacement magnitude), displacements drawn ``scale`` times, contact nodes marked by status;
     written to ``path`` as a PNG of ``res`` pixels, which is returned."""
-    k = fd.state_index.index(state["index"])
+    k = fd.state_index.index(state.index)
     u = fd.state_u[k]
     grid = fd.grid(scale * u)
     pl = plotter(res)
     if field == "von_mises":
         grid.cell_data["von Mises"] = fd.state_vm[k]
-        name, bar = "von Mises", f"von Mises stress [{units.get('stress', 'MPa')}]"
+        name, bar = "von Mises", f"von Mises stress [{_unit(units.stress, 'MPa')}]"
     else:
         grid.point_data["u"] = np.linalg.norm(u, axis=1)
-        name, bar = "u", f"displacement magnitude [{units.get('length', 'mm')}]"
+        name, bar = "u", f"displacement magnitude [{units.length}]"
     add_body(pl, fd, grid, scale * u, scalars=name, cmap="viridis", scalar_bar_args=bar_args(bar, "%.3g", res))
     pts = fd.points + scale * u
     groups: dict[str, list[int]] = {key: [] for key in ("stick", "slip", "free", "zero")}
-    for nd, j in zip(state["nodes"], fd.contact):
-        groups[nd["status"]].append(int(j))
+    for nd, j in zip(state.nodes, fd.contact):
+        groups[nd.status].append(int(j))
     legend = markers(pl, pts, groups, size=max(9.0, res[0] / 100))
-    c = state["classification"]
-    load = state.get("load") or {}
-    length = units.get("length", "mm")
-    if "u_x" in load:
-        where = f"CD moved by u_x = {load['u_x']:.4g} {length}, u_y = {load['u_y']:.4g} {length}"
-    elif "parameters" in load:       # a loading program: the phase and its load parameters
-        where = (f"phase '{load.get('name', load.get('phase', ''))}', step {load.get('step', '')}: "
-                 + ", ".join(f"{k} = {v:.4g}" for k, v in load["parameters"].items()))
-    else:
-        where = ""
-    title = [f"{scene}: state {state['index']}, {c['stick']} stick / {c['slip']} slip / {c['free']} free"
-             + (f" / {c['zero']} zero" if c.get("zero") else ""),
-             where + ("" if scale == 1.0 else f"; displacements drawn x{scale:g}")]
+    c = state.classification
+    title = [f"{scene}: state {state.index}, {c.stick} stick / {c.slip} slip / {c.free} free"
+             + (f" / {c.zero} zero" if c.zero else ""),
+             _where(state.load, units.length) + ("" if scale == 1.0 else f"; displacements drawn x{scale:g}")]
     return finish(pl, fd, pts, title, legend, path, res)
 
 
-def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path, scene: str,
-                 units: dict | None = None) -> pathlib.Path:
-    """Screenshot of the mode ``meta`` (an MCEIP solution at ``state``), drawn with its largest
-    displacement 12 % of the body's smaller side and coloured by magnitude; the slip nodes are marked
-    by whether they slip or stay stuck in the mode. Written to ``path``, which is returned."""
+def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathlib.Path, scene: str,
+                 units: Units | None = None) -> pathlib.Path:
+    """Screenshot of the mode ``meta`` (an MCEIP solution at ``state``: its entry in fields.npz's
+    ``modes_json``, with ``name``, ``state``, ``problem``, ``value`` and ``pattern``), drawn with
+    its largest displacement 12 % of the body's smaller side and coloured by magnitude; the slip
+    nodes are marked by whether they slip or stay stuck in the mode. Written to ``path``, which is
+    returned."""
     v = fd.mode(meta["name"])
     amp = 0.12 * fd.small                        # max mode displacement drawn: 12 % of the smaller side
     grid = fd.grid(amp * v)
@@ -98,8 +113,8 @@ def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path
     pattern = list(meta.get("pattern") or [])
     slip_k = 0
     stuck_nodes = []
-    for pos, (nd, j) in enumerate(zip(state["nodes"], fd.contact)):
-        st = nd["status"]
+    for pos, (nd, j) in enumerate(zip(state.nodes, fd.contact)):
+        st = nd.status
         if st == "slip":
             in_mode = pattern[slip_k] if slip_k < len(pattern) else "slip"
             slip_k += 1
@@ -109,36 +124,46 @@ def mode_picture(fd: FieldData, meta: dict, state: dict, res, path: pathlib.Path
         else:
             groups[st].append(int(j))
     legend = markers(pl, pts, groups, size=max(9.0, res[0] / 100))
-    c = state["classification"]
+    c = state.classification
     what = PROBLEM_TITLE.get(meta["problem"], meta["problem"])
     if not truetype_font():      # VTK's own font has no Greek letters
         what = what.replace("\u03bc", "mu").replace("\u03bb\u00b2", "lambda^2")
-    stuck = (f"{len(stuck_nodes)} of {c['slip']} slip nodes stuck in the mode (node{'s' if len(stuck_nodes) > 1 else ''} "
+    stuck = (f"{len(stuck_nodes)} of {c.slip} slip nodes stuck in the mode (node{'s' if len(stuck_nodes) > 1 else ''} "
              + ", ".join(str(k) for k in stuck_nodes) + " numbered along the obstacle)") if stuck_nodes else \
-        f"all {c['slip']} slip nodes slip in the mode"
-    unit = "" if meta["problem"] == "mceip_mu" else " " + (units or {}).get("lambda2", "1/s^2")
+        f"all {c.slip} slip nodes slip in the mode"
+    unit = "" if meta["problem"] == "mceip_mu" else " " + ("1/s^2" if units is None else units.lambda2)
     title = [f"{what} = {meta['value']:.6g}{unit}",
-             f"{scene}: state {meta['state']}, {c['stick']} stick / {c['slip']} slip / {c['free']} free; {stuck}"]
+             f"{scene}: state {meta['state']}, {c.stick} stick / {c.slip} slip / {c.free} free; {stuck}"]
     return finish(pl, fd, pts, title, legend, path, res)
 
 
-def draw_screenshots(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
+def draw_screenshots(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path,
                      fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
-    """Every screenshot the scene asks for, drawn in this process; returns (files, notes).
+    """Every screenshot the scene asks for (``cfg``: its ``outputs.screenshots``), of the states
+    ``pictured``, drawn in this process into ``outdir``; returns (files, notes).
 
     Not in a process that has loaded DOLFINx (see the module docstring): there
-    app/plot/pictures.py has them drawn by a child process (app/plot/worker.py)."""
+    app/plot/pictures.py has them drawn by a child process (app/plot/worker.py, :func:`job_of`)."""
     if "dolfinx.cpp" in sys.modules:
         raise RuntimeError("screenshots cannot be drawn in a process that has loaded DOLFINx: "
                            "use app.plot.pictures.draw_outputs (it draws them in a child process)")
-    return _draw(results, pictured, cfg, outdir, fields_path, progress)
+    return _draw(study, pictured, cfg, outdir, fields_path, progress)
 
 
-def job_of(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields_path: pathlib.Path,
+def job_of(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields_path: pathlib.Path,
            progress=None) -> dict:
-    """The job of a drawing process (JSON data)."""
-    return {"results": results, "pictured": pictured, "cfg": cfg, "outdir": str(outdir), "fields": str(fields_path),
-            "progress": bool(progress is not None and getattr(progress, "enabled", False))}
+    """The job of a drawing process, as JSON data: ``results`` is the study's results.json
+    document (:meth:`StudyResult.to_json`, read back by :func:`job_study`), with the other
+    arguments of :func:`draw_screenshots`."""
+    return {"results": study.to_json(), "pictured": list(pictured), "cfg": cfg, "outdir": str(outdir),
+            "fields": str(fields_path), "progress": bool(progress is not None and getattr(progress, "enabled", False))}
+
+
+def job_study(job: dict) -> StudyResult:
+    """The study of a job of :func:`job_of` (its results.json document read back, as a saved
+    results.json is)."""
+    from app.io.document import from_document
+    return StudyResult.from_dict(from_document(job["results"]))
 
 
 def resolution_arg(cfg: dict) -> str:
@@ -147,9 +172,8 @@ def resolution_arg(cfg: dict) -> str:
     return f"{int(w)}x{int(h)}"
 
 
-def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
+def _draw(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path,
           fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
-    from app.io.result import StudyResult
     from app.io.select import analyses_of, mode_name, modes_of
     if not os.path.lexists(fields_path):
         return [], [f"screenshots left out: {fields_path} is missing (the fields are computed by the run)"]
@@ -157,10 +181,7 @@ def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
     res = tuple(cfg.get("resolution") or (1200, 800))
     field = cfg.get("field", "von_mises")
     scale = float(cfg.get("scale", 1.0))
-    units = results.get("units", {})
-    scene = results.get("scene", "")
-    by_index = {s["index"]: s for s in results["states"]}
-    typed_states = StudyResult.from_dict(results).states
+    by_index = {s.index: s for s in study.states}
     files, notes = [], []
     jobs = []
     for i in pictured:
@@ -169,7 +190,7 @@ def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
             continue
         jobs.append(("state", i, None))
         if cfg.get("modes", True):
-            analyses, first = analyses_of(typed_states, i)
+            analyses, first = analyses_of(study.states, i)
             for problem, k, sol in modes_of(analyses):
                 name = mode_name(first, problem, k, _value(sol.value))
                 if name in [j[2] for j in jobs if j[0] == "mode"]:
@@ -181,11 +202,11 @@ def _draw(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path,
         for kind, i, name in jobs:
             if kind == "state":
                 files.append(state_picture(fd, by_index[i], field, res, scale,
-                                           outdir / f"state_{i:04d}_{field}.png", units, scene))
+                                           outdir / f"state_{i:04d}_{field}.png", study.units, study.scene))
             elif name in known:
                 meta = known[name]
                 files.append(mode_picture(fd, meta, by_index[meta["state"]], res, outdir / f"mode_{name}.png",
-                                          scene, units))
+                                          study.scene, study.units))
             else:
                 notes.append(f"screenshot of mode {name} left out: its field is not in {fields_path.name}")
             if bar is not None:
@@ -218,7 +239,7 @@ def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
     if job["progress"]:
         from app.common.progress import Progress
         progress = Progress(enabled=True, comm=types.SimpleNamespace(rank=0))
-    return _draw(job["results"], job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
+    return _draw(job_study(job), job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
                  pathlib.Path(job["fields"]), progress)
 
 
