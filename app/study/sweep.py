@@ -11,7 +11,7 @@ values, e.g. ``mu=1.1_system.length=80``.
 Running (``mpirun -n P python -m app run sweep.yaml --ranks-per-case K``):
 
 * the P ranks are split (``comm.Split``) into groups of K consecutive ranks (the last group
-  may be smaller); each group runs whole cases (app/study/driver.py: ``run_and_write(case_scene, group_comm, ...)``);
+  may be smaller); each group runs whole cases with ``study(case_scene, group_comm)``;
 * world rank 0 is the dispatcher **and** works: a thread on rank 0 answers the group leaders'
   requests (MPI point-to-point messages on a duplicate of the world communicator) with the
   index of the next case, so a long case never holds up the others. If the MPI library does not
