@@ -70,8 +70,8 @@ def main() -> None:
         ops.destroy()
     peak = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, op=MPI.SUM)
     if comm.rank == 0:
-        print(json.dumps({"row": row, "stages": res["stages"], "wall_s": wall, "factor_s": factor_s,
-                          "peak_rss_mb": peak, "ranks": comm.size}), flush=True)
+        print(json.dumps({"row": row, "stages": [st.to_dict() for st in res.stages], "wall_s": wall,
+                          "factor_s": factor_s, "peak_rss_mb": peak, "ranks": comm.size}), flush=True)
 
 
 if __name__ == "__main__":

@@ -45,8 +45,8 @@ def test_first_solution_is_skipped_with_none_and_found_by_the_scan():
     assert a["first_mu_ux"] is None and a["final_mu"] == pytest.approx(b["final_mu"], rel=1e-12)
     assert b["first_method"].startswith("scan")
     # no state before the one found has an MCEIP-mu solution
-    first = next(s for s in res["states"] if s["load"]["u_x"] == b["first_mu_ux"])
-    assert first["classification"]["slip"] > 0
+    first = next(s for s in res.states if s.load.u_x == b["first_mu_ux"])
+    assert first.classification.slip > 0
 
 
 def test_observed_order_and_richardson_on_a_known_sequence():

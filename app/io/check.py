@@ -288,8 +288,7 @@ def _max_side() -> int:
 
 def check_folder(folder: pathlib.Path) -> FolderCheck:
     """Re-derive every MCEIP-mu claim of the results folder ``folder`` (module docstring)."""
-    results = read_results(folder)
-    every = state_claims(results)
+    every = state_claims(read_results(folder))
     claims = [c for c in every if c.any]
     by_index = {c.state: c for c in every}
     max_side = _max_side()

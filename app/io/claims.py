@@ -3,17 +3,25 @@
 What results.json calls proven at a state (docs/proofs.md): the **onset** (no critical mu in
 ``[0, cap]``, or the smallest one inside ``onset.enclosure``), the **complete list** on
 ``complete.interval``, each **certified solution**, the **lower bound**
-``certificate.detail.lower_bound``; ``certified: true`` claims the onset and the list. Each is read
-into :class:`StateClaims` with its types checked: a document that is not this app's results is a
-:class:`MalformedResults` naming the JSON path, never a traceback. :mod:`app.io.check` verifies them.
+``certificate.detail.lower_bound``; ``certified: true`` claims the onset and the list.
+
+:func:`read_results` reads results.json into the typed :class:`app.io.result.StudyResult`:
+bounded in size, then validated strictly with its models (:func:`app.io.result.validate`, format
+3). :func:`state_claims` then reads each state's claims into :class:`StateClaims`, checking what
+the models allow but a claim cannot be (a negative index or count, a number that is NaN, an
+interval that is not ``[low, high]``, a proven value without its enclosure, ...). A document that
+is not this app's results is a :class:`MalformedResults` naming the JSON path, never a traceback.
+:mod:`app.io.check` verifies the claims.
 """
 from __future__ import annotations
 
 import math
 import pathlib
+import reprlib
 from dataclasses import dataclass
 
-from app.io.untrusted import RESULTS_MAX_BYTES, inside, load_json
+from app.io.result import Certificate, MceipMuResult, StateResult, StudyResult
+from app.io.untrusted import RESULTS_MAX_BYTES, inside, parse_json, read_bytes
 
 
 class MalformedResults(ValueError):
@@ -90,105 +98,129 @@ def _pair(x, where: str) -> tuple[float, float]:
     return lo, hi
 
 
-def state_claims(doc: dict) -> list[StateClaims]:
-    """The MCEIP-mu claims of every state of a results document (:func:`app.io.document.from_document`
-    of results.json); :class:`MalformedResults` when its structure is not this app's."""
-    states = doc.get("states")
-    if not isinstance(states, list):
-        raise _bad("states", f"expected a list of states, found {type(states).__name__}")
-    out = []
-    for k, st in enumerate(states):
-        out.append(_claims(json_object(st, f"states[{k}]"), f"states[{k}]"))
-    return out
+def state_claims(study: StudyResult) -> list[StateClaims]:
+    """The MCEIP-mu claims of every state of ``study`` (:func:`read_results`); :class:`MalformedResults`
+    when a claim is not one this app can make."""
+    return [_claims(st, f"states[{k}]") for k, st in enumerate(study.states)]
 
 
-def _claims(st: dict, where: str) -> StateClaims:
-    index = st.get("index")
-    if isinstance(index, bool) or not isinstance(index, int) or index < 0:
-        raise _bad(f"{where}.index", f"{index!r} is not a state index")
-    shared = st.get("analyses_shared_with")
-    if shared is not None and (isinstance(shared, bool) or not isinstance(shared, int) or shared < 0):
-        raise _bad(f"{where}.analyses_shared_with", f"{shared!r} is not a state index")
-    cls = json_object(st.get("classification"), f"{where}.classification")
-    counts = {}
+def _index(v: int | None, where: str, what: str) -> None:
+    if v is not None and v < 0:
+        raise _bad(where, f"{v!r} is not {what}")
+
+
+def _claims(st: StateResult, where: str) -> StateClaims:
+    _index(st.index, f"{where}.index", "a state index")
+    shared = st.analyses_shared_with
+    _index(shared, f"{where}.analyses_shared_with", "a state index")
+    cls = st.classification
     for key in ("slip", "zero"):
-        v = cls.get(key, 0)
-        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise _bad(f"{where}.classification.{key}", f"{v!r} is not a count")
-        counts[key] = v
-    nodes = st.get("nodes", [])
-    if not isinstance(nodes, list):
-        raise _bad(f"{where}.nodes", "expected a list")
-    statuses = tuple(str(json_object(n, f"{where}.nodes").get("status")) for n in nodes)
-    analyses = json_object(st.get("analyses", {}), f"{where}.analyses")
-    block = analyses.get("mceip_mu")
-    empty = StateClaims(index, index if shared is None else shared, counts["slip"], counts["zero"], statuses,
+        _index(getattr(cls, key), f"{where}.classification.{key}", "a count")
+    statuses = tuple(n.status for n in st.nodes)
+    # the record as written, whether it says it failed or not: whatever it calls proven is a claim
+    a = st.analyses.mceip_mu
+    empty = StateClaims(st.index, st.index if shared is None else shared, cls.slip, cls.zero, statuses,
                         False, None, None, 0.0, ())
-    if block is None:
+    if a is None:
         return empty
-    a = json_object(block, f"{where}.analyses.mceip_mu")
     w = f"{where}.analyses.mceip_mu"
-    cert = a.get("certificate") or {}
-    cert = json_object(cert, f"{w}.certificate")
+    cert = a.certificate
     onset = None
-    o = a.get("onset")
-    if o is not None and json_object(o, f"{w}.onset").get("proven") is True:
-        value = json_number(o.get("value"), f"{w}.onset.value", allow_none=True)
-        enc = None if o.get("enclosure") is None else _pair(o["enclosure"], f"{w}.onset.enclosure")
+    o = a.onset
+    if o is not None and o.proven:
+        value = json_number(o.value, f"{w}.onset.value", allow_none=True)
+        enc = None if o.enclosure is None else _pair(o.enclosure, f"{w}.onset.enclosure")
         if value is not None and enc is None:
             raise _bad(f"{w}.onset", "a proven onset value without its enclosure")
-        cap = _claim_cap(cert, a, w)
-        onset = (value, enc, cap)
+        onset = (value, enc, _claim_cap(cert, a, w))
     complete = None
-    c = a.get("complete")
-    if c is not None and json_object(c, f"{w}.complete").get("proven") is True:
-        lo, hi = _pair(c.get("interval"), f"{w}.complete.interval")
-        count = c.get("count")
-        if count is not None and (isinstance(count, bool) or not isinstance(count, int) or count < 0):
-            raise _bad(f"{w}.complete.count", f"{count!r} is not a count")
-        complete = (hi, count)
-    if a.get("certified") is True and (onset is None or complete is None):
+    c = a.complete
+    if c is not None and c.proven:
+        lo, hi = _pair(c.interval, f"{w}.complete.interval")
+        _index(c.count, f"{w}.complete.count", "a count")
+        complete = (hi, c.count)
+    if a.certified is True and (onset is None or complete is None):
         raise _bad(w, "certified: true without a proven onset and a proven complete list")
-    detail = json_object(cert.get("detail") or {}, f"{w}.certificate.detail")
+    detail = (cert.detail if cert is not None else None) or {}
     lb = json_number(detail.get("lower_bound", 0.0), f"{w}.certificate.detail.lower_bound") or 0.0
-    sols = a.get("solutions") or []
-    if not isinstance(sols, list):
-        raise _bad(f"{w}.solutions", "expected a list")
     claimed = []
-    for j, d in enumerate(sols):
-        d = json_object(d, f"{w}.solutions[{j}]")
-        if d.get("certified") is not True:
+    for j, d in enumerate(a.solutions):
+        if d.certified is not True:
             continue
-        value = json_number(d.get("value"), f"{w}.solutions[{j}].value")
-        enc = None if d.get("enclosure") is None else _pair(d["enclosure"], f"{w}.solutions[{j}].enclosure")
-        pattern = d.get("pattern")
+        value = json_number(d.value, f"{w}.solutions[{j}].value")
+        enc = None if d.enclosure is None else _pair(d.enclosure, f"{w}.solutions[{j}].enclosure")
         support = None
-        if isinstance(pattern, list) and counts["zero"] == 0 and len(pattern) == counts["slip"]:
-            support = tuple(i for i, p in enumerate(pattern) if p == "slip")
+        if cls.zero == 0 and len(d.pattern) == cls.slip:
+            support = tuple(i for i, p in enumerate(d.pattern) if p == "slip")
         claimed.append(SolutionClaim(value, enc, support))
-    return StateClaims(index, empty.proof_state, counts["slip"], counts["zero"], statuses, a.get("quadratic") is True,
+    quadratic = (a.model_extra or {}).get("quadratic") is True
+    return StateClaims(st.index, empty.proof_state, cls.slip, cls.zero, statuses, quadratic,
                        onset, complete, max(lb, 0.0), tuple(claimed))
 
 
-def _claim_cap(cert: dict, a: dict, where: str) -> float:
-    """The cap a proven onset speaks about: the certificate's, else the complete interval's end."""
-    cap = cert.get("cap")
+def _claim_cap(cert: Certificate | None, a: MceipMuResult, where: str) -> float:
+    """The cap a proven onset speaks about: the certificate's, else the complete interval's end,
+    else the end of the certificate's interval (null there: infinity)."""
+    cap = None if cert is None else cert.cap
     if cap is None:
-        c = a.get("complete") or {}
-        if isinstance(c, dict) and c.get("interval") is not None:
-            return _pair(c["interval"], f"{where}.complete.interval")[1]
-        cap = (cert.get("interval") or [0.0, math.inf])[1]
+        if a.complete is not None and a.complete.interval is not None:
+            return _pair(a.complete.interval, f"{where}.complete.interval")[1]
+        interval = (None if cert is None else cert.interval) or [0.0, math.inf]
+        if len(interval) != 2:
+            raise _bad(f"{where}.certificate.interval", f"expected [low, high], found {interval!r:.60}")
+        cap = interval[1]
     v = json_number(cap, f"{where}.certificate.cap", allow_none=True)
     return math.inf if v is None else v
 
 
-def read_results(folder: pathlib.Path) -> dict:
-    """results.json of ``folder``, bounded and checked (:class:`UntrustedFile`, :class:`MalformedResults`)."""
+def _short(value) -> str:
+    """``repr(value)`` cut short for an error line, however large ``value`` is (never built in full)."""
+    r = reprlib.Repr()
+    r.maxlevel, r.maxdict, r.maxlist, r.maxtuple, r.maxset = 2, 3, 3, 3, 3
+    r.maxstring = r.maxother = r.maxlong = 40
+    return r.repr(value)
+
+
+def _where(loc: tuple) -> str:
+    """A pydantic error location as a JSON path of the claims' messages: ``states[3].analyses``."""
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+def _problem(err) -> str:
+    """The one line of a results.json that the models refuse: the first problem that is not a
+    missing key (a value of the wrong kind says most about a foreign document), its path and the
+    value found, and how many other problems there are."""
+    errors = err.errors(include_url=False)
+    first = next((e for e in errors if e["type"] != "missing"), errors[0])
+    where = _where(tuple(first.get("loc", ()))) or "the document"
+    got = "" if first["type"] == "missing" else f" (got {_short(first.get('input'))})"
+    more = f"; and {len(errors) - 1} other problem(s)" if len(errors) > 1 else ""
+    return f"results.json {where}: {first.get('msg', 'invalid')}{got}{more}"
+
+
+def read_results(folder: pathlib.Path) -> StudyResult:
+    """results.json of ``folder`` as the typed study: at most :data:`~app.io.untrusted.RESULTS_MAX_BYTES`
+    bytes of a regular file (:class:`~app.io.untrusted.UntrustedFile` otherwise, FileNotFoundError
+    when missing), JSON (:class:`~app.io.untrusted.UntrustedFile`: not JSON, nested too deeply),
+    and valid results.json of this format, read strictly (:class:`MalformedResults`)."""
+    from pydantic import ValidationError
+
     from app.io.document import from_document
-    doc = load_json(inside(folder, "results.json"), RESULTS_MAX_BYTES)
+    from app.io.result import validate
+    path = inside(folder, "results.json")
+    text = read_bytes(path, RESULTS_MAX_BYTES)
+    doc = parse_json(text, str(path))
     if not isinstance(doc, dict):
         raise MalformedResults(f"results.json: expected an object, found {type(doc).__name__}")
     try:
-        return from_document(doc)
+        validate(text)              # strict; its null numbers are not yet the non_finite block's values
+        data = from_document(doc)   # a new dictionary: the text and the parsed document can go
+        del text, doc
+        return StudyResult.from_dict(data)
+    except ValidationError as err:
+        raise MalformedResults(_problem(err)) from None
     except (ValueError, TypeError, KeyError) as err:
         raise MalformedResults(f"results.json: {err}") from None

@@ -38,7 +38,7 @@ from mpi4py import MPI
 from app.analyses.outcomes import MceipMuOutcome, Outcome, SufficientOutcome
 from app.analyses.runner import analyse_state
 from app.common.progress import Progress
-from app.io.result import StudyResult
+from app.io.result import Stage, StudyResult
 from app.loading.classify import FREE, SLIP, classify
 from app.scene.schema import Scene
 from app.study.refinement_report import (  # noqa: F401 - observed_order re-exported
@@ -147,7 +147,8 @@ def _inspector(scene: Scene, ref):
     return inspect
 
 
-def _stage_times(stages: list) -> dict:
+def _stage_times(stages: list[Stage]) -> dict:
+    """The study's stage times summed into the columns of :data:`STAGE_GROUPS` (the rest: ``t_other``)."""
     out = {k: 0.0 for k in STAGE_GROUPS}
     out["t_other"] = 0.0
     for st in stages:
@@ -156,7 +157,7 @@ def _stage_times(stages: list) -> dict:
                 out[key] += st.seconds
                 break
         else:
-            out["t_other"] += st["seconds"]
+            out["t_other"] += st.seconds
     return out
 
 

@@ -43,6 +43,7 @@ from collections import deque
 
 from app.common.interrupt import Stopped
 from app.io.document import from_document
+from app.io.result import StudyResult
 from app.io.results import append_line
 from app.scene.schema import Scene, SceneError
 from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.study.sweep.expand)
@@ -55,25 +56,27 @@ def case_dir(outdir: pathlib.Path, case: Case) -> pathlib.Path:
     return outdir / "cases" / case.name
 
 
-def completed_results(outdir: pathlib.Path, case: Case) -> dict | None:
-    """The case's results.json if it is complete and was computed from the same case scene."""
+def completed_results(outdir: pathlib.Path, case: Case) -> StudyResult | None:
+    """The study of the case's results.json if that file is complete, valid (format 3, read
+    strictly) and was computed from the same case scene; None otherwise (the case runs again)."""
     from pydantic import ValidationError
 
-    from app.io import result as schema
+    from app.io.result import validate
     from app.io.untrusted import RESULTS_MAX_BYTES, UntrustedFile, inside, read_bytes
     try:
         text = read_bytes(inside(outdir, "cases", case.name, "results.json"), RESULTS_MAX_BYTES)
-        schema.validate(text)              # a malformed or foreign results.json: the case runs again
-        res = from_document(json.loads(text))
+        validate(text)                     # a malformed or foreign results.json: the case runs again
+        study = StudyResult.from_dict(from_document(json.loads(text)))
     except (OSError, ValueError, UntrustedFile, ValidationError, RecursionError):
         return None
-    if not isinstance(res, dict) or (res.get("sweep_case") or {}).get("scene_hash") != case.scene_hash:
+    if (study.sweep_case or {}).get("scene_hash") != case.scene_hash:
         return None
-    return res
+    return study
 
 
 def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
-    """Run ``case`` on ``gcomm`` (app/study/driver.py); the group's rank 0 writes it and returns its table row.
+    """Run ``case`` on ``gcomm`` (app/study/driver.py); the group's rank 0 writes it and returns its
+    table row (:func:`app.study.sweep_table.case_row` of the case's study), the other ranks None.
 
     The case is written into a hidden staging folder beside its final one and moved into place
     when written (:func:`_commit_case`), so a killed sweep leaves no half-written case folder: a
@@ -94,7 +97,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
         identity = {"sweep_case": {"sweep": case.scene.name, "name": case.name, "index": case.index,
                                    "values": case.values, "scene_hash": case.scene_hash}}
         try:
-            results = driver.run_and_write(case.scene, gcomm, staging, extra=identity).to_dict()
+            study = driver.run_and_write(case.scene, gcomm, staging, extra=identity)
         except UnreachableLoad as err:   # raised identically on every rank of the group
             error = f"loading: {err}"
         except KeyboardInterrupt:
@@ -115,7 +118,7 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
         raise
     if refused is not None:
         return error_row(case, refused if error is None else f"{error}; {refused}")
-    return error_row(case, error) if error is not None else case_row(results, case)
+    return error_row(case, error) if error is not None else case_row(study, case)
 
 
 def _remove_unfinished(folder: pathlib.Path) -> None:
@@ -230,11 +233,11 @@ def run_sweep(scene: Scene, cases: list[Case], comm, outdir: pathlib.Path, ranks
         rows: dict[int, dict] = {}
         todo = []
         for c in cases:
-            res = None if rerun else completed_results(outdir, c)
-            if res is None:
+            done = None if rerun else completed_results(outdir, c)
+            if done is None:
                 todo.append(c.index)
             else:
-                rows[c.index] = case_row(res, c, ran="earlier")
+                rows[c.index] = case_row(done, c, ran="earlier")
         info = {"mpi_ranks": comm.size, "ranks_per_case": ranks_per_case}
         dispatcher = Dispatcher(scene, cases, todo, rows, outdir, quiet, info)
         dispatcher.log("sweep", None, f"{len(cases)} cases, {len(cases) - len(todo)} already complete, "

@@ -13,7 +13,7 @@ import re
 import tempfile
 from typing import Any
 
-from app.io.result import StateResult
+from app.io.result import StateResult, StudyResult
 from app.io.results import file_mode
 from app.scene.schema import Scene
 from app.scene.sweep import Case, format_value
@@ -61,24 +61,25 @@ PLOTTED = ["final_mceip_mu_min", "first_mceip_mu_value", "first_mceip_mu_u_x", "
            "final_n_stick", "final_n_free", "n_states", "wall_seconds"]
 
 
-def _min_mu(state: dict) -> float | None:
-    m = StateResult.from_dict(state).min_mu()
+def _min_mu(state: StateResult) -> float | None:
+    """The state's smallest MCEIP-mu as a plain float (None when MCEIP-mu found none or gave no answer)."""
+    m = state.min_mu()
     return None if m is None else float(m)
 
 
-def case_row(results: dict, case: Case, ran: str = "this run") -> dict:
-    """One row of the combined table from a case's results dictionary (or its results.json)."""
+def case_row(study: StudyResult, case: Case, ran: str = "this run") -> dict:
+    """One row of the combined table from a case's study (run now, or read from its results.json)."""
     row: dict[str, Any] = {"case": case.name, "index": case.index}
     row.update({k: format_value(v) if isinstance(v, (list, tuple)) else v for k, v in case.values.items()})
     row.update({q: None for q, _ in QUANTITIES})
-    states = results.get("states") or []
-    fails = results.get("failures") or []
+    states = study.states
+    fails = study.failures
     row["status"] = f"incomplete ({len(fails)} state(s) failed)" if fails else "ok"
-    row["path_end"] = str(results.get("path", {}).get("end", "")).split(":")[0]
+    row["path_end"] = study.path.end.split(":")[0]
     row["n_states"] = len(states)
-    row["distinct_classifications"] = results.get("distinct_classifications")
-    row["wall_seconds"] = results.get("wall_seconds")
-    row["ranks"] = results.get("mpi_ranks")
+    row["distinct_classifications"] = study.distinct_classifications
+    row["wall_seconds"] = study.wall_seconds
+    row["ranks"] = study.mpi_ranks
     row["ran"] = ran
     columns = getattr(case.scene.system, "table_columns", None)   # e.g. the block's L/H (app/systems/)
     if columns is not None:
@@ -86,31 +87,32 @@ def case_row(results: dict, case: Case, ran: str = "this run") -> dict:
     if not states:
         return row
     last = states[-1]
-    row["n_contact_nodes"] = len(last.get("nodes", []))
-    row["final_u_x"] = last.get("load", {}).get("u_x")
+    row["n_contact_nodes"] = len(last.nodes)
+    row["final_u_x"] = last.load.u_x
     for k in ("slip", "stick", "free", "zero"):
-        row[f"final_n_{k}"] = last["classification"][k]
-    if "mceip_mu" in results.get("analyses_requested", []):
+        row[f"final_n_{k}"] = getattr(last.classification, k)
+    if "mceip_mu" in study.analyses_requested:
         row["final_mceip_mu_min"] = _min_mu(last)
-        row["final_mceip_mu_count"] = len(last.get("analyses", {}).get("mceip_mu", {}).get("solutions") or [])
+        record = last.analyses.mceip_mu          # as written, answered or not
+        row["final_mceip_mu_count"] = 0 if record is None else len(record.solutions)
         mins = [_min_mu(s) for s in states]
         first = next((i for i, m in enumerate(mins) if m is not None), None)
         row["states_with_mceip_mu"] = sum(m is not None for m in mins)
         if first is not None:
             st = states[first]
-            c = st["classification"]
-            row["first_mceip_mu_state"] = st["index"]
-            row["first_mceip_mu_u_x"] = st.get("load", {}).get("u_x")
+            c = st.classification
+            row["first_mceip_mu_state"] = st.index
+            row["first_mceip_mu_u_x"] = st.load.u_x
             row["first_mceip_mu_value"] = mins[first]
-            row["first_mceip_mu_n_slip"], row["first_mceip_mu_n_stick"] = c["slip"], c["stick"]
-            row["first_mceip_mu_n_free"] = c["free"]
-            in_contact = c["slip"] + c["stick"] + c["zero"]
-            row["first_mceip_mu_slip_fraction"] = c["slip"] / in_contact if in_contact else None
+            row["first_mceip_mu_n_slip"], row["first_mceip_mu_n_stick"] = c.slip, c.stick
+            row["first_mceip_mu_n_free"] = c.free
+            in_contact = c.slip + c.stick + c.zero
+            row["first_mceip_mu_slip_fraction"] = c.slip / in_contact if in_contact else None
             ux0, ux1 = row["first_mceip_mu_u_x"], row["final_u_x"]
             if isinstance(ux0, (int, float)) and isinstance(ux1, (int, float)) and ux1 != 0:
                 row["first_mceip_mu_u_x_fraction"] = ux0 / ux1
             row["states_without_mceip_mu_after_first"] = sum(m is None for m in mins[first:])
-            found = [(m, s["classification"]["stick"]) for m, s in zip(mins[first:], states[first:]) if m is not None]
+            found = [(m, s.classification.stick) for m, s in zip(mins[first:], states[first:]) if m is not None]
             pairs = list(zip(found, found[1:]))
             row["mceip_mu_decreases_as_slip_spreads"] = all(b < a for (a, sa), (b, sb) in pairs if sb < sa)
             row["mceip_mu_max_rise"] = max([0.0] + [b / a - 1 for (a, _), (b, _) in pairs if a > 0])
