@@ -578,7 +578,16 @@ def json_schema() -> dict:
     return {"$schema": "https://json-schema.org/draft/2020-12/schema", **schema}
 
 
+def _no_constant(word: str):
+    raise ValueError(f"{word} is not a JSON number (results.json writes a non-finite number as null)")
+
+
 def validate(text: str) -> StudyResult:
-    """Parse a results.json text with the models, strictly (a number must be a JSON number, a
-    string "inf" is refused); raises pydantic.ValidationError."""
+    """Parse a results.json text with the models, strictly (a number must be a JSON number: a
+    string "inf" and the literals NaN and Infinity, which JSON does not have, are refused);
+    raises pydantic.ValidationError or ValueError."""
+    try:
+        json.loads(text, parse_constant=_no_constant)
+    except RecursionError:
+        raise ValueError("nested too deeply to be a results.json") from None
     return StudyResult.model_validate_json(text, strict=True)
