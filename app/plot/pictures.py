@@ -17,7 +17,7 @@ import time
 
 from app.common.errors import write_limit
 from app.common.stages import Stages
-from app.io.result import StudyResult
+from app.io.result import OutputsRecord, Stage, StudyResult
 from app.io.select import select_states
 
 log = logging.getLogger(__name__)
@@ -25,14 +25,14 @@ log = logging.getLogger(__name__)
 PICTURE_STAGES = ("plots (matplotlib)", "screenshots (pyvista)", "report")
 
 
-def outputs_config(results: dict) -> dict:
-    """The scene's ``outputs`` section as stored in results.json (``scene_config``), empty if none."""
-    return ((results.get("scene_config") or {}).get("outputs")) or {}
+def outputs_config(study: StudyResult) -> dict:
+    """The scene's ``outputs`` section as the study records it (``scene_config``), empty if none."""
+    return study.scene_config.get("outputs") or {}
 
 
-def wants_pictures(results: dict) -> bool:
+def wants_pictures(study: StudyResult) -> bool:
     """Whether the scene's ``outputs`` ask for plots, screenshots or the report."""
-    return _asks_pictures(outputs_config(results))
+    return _asks_pictures(outputs_config(study))
 
 
 def _asks_pictures(cfg: dict) -> bool:
@@ -52,73 +52,90 @@ def _survive(what: str, notes: list[str]):
                      f"redraw with python -m app render")
 
 
-def draw_outputs(results: dict, outdir: pathlib.Path, progress=None, fields: pathlib.Path | None = None) -> list[str]:
-    """Draw every picture asked for into ``outdir``, a folder holding no earlier pictures (a run's
-    staging folder, or the new folder of a redraw); returns the files drawn (relative to
-    ``outdir``) and updates ``results["outputs"]`` (files, notes, pictured states) and
-    ``results["stages"]``. ``fields``: the screenshots' fields.npz (default
-    ``outdir/fields/fields.npz``).
+def _stages(base: list[Stage], stages: Stages) -> list[Stage]:
+    """The study's stages ``base`` followed by the picture stages timed so far."""
+    return base + [Stage.model_validate(r) for r in stages.as_list()]
 
-    ``results`` must be JSON-like (as read back from results.json) so that a run and a later
-    render draw the same pictures.
+
+def draw_outputs(study: StudyResult, outdir: pathlib.Path, progress=None,
+                 fields: pathlib.Path | None = None) -> tuple[StudyResult, list[str]]:
+    """Draw every picture asked for into ``outdir``, a folder holding no earlier pictures (a run's
+    staging folder, or the new folder of a redraw). ``fields``: the screenshots' fields.npz
+    (default ``outdir/fields/fields.npz``).
+
+    Returns the study with the drawing recorded, and the files drawn (relative to ``outdir``).
+    The record: in ``outputs``, the files drawn added to ``files``, the notes of what was left out
+    or failed added to ``notes``, the ``pictured_states``; in ``stages``, the picture stages of
+    this drawing in place of those of an earlier one; ``versions`` (with the report) when the study
+    has none. A study whose scene asks for no picture comes back with its ``outputs`` record only
+    (``notes`` and ``files`` present).
+
+    ``study`` should be the study as read back from results.json (:func:`draw_after_run`) so that
+    a run and a later render draw the same pictures.
     """
     fields = outdir / "fields" / "fields.npz" if fields is None else fields
-    cfg = outputs_config(results)
-    record = results.setdefault("outputs", {"notes": [], "files": []})
-    record.setdefault("notes", [])
-    record.setdefault("files", [])
-    if not wants_pictures(results):
-        return []
+    cfg = outputs_config(study)
+    record = study.outputs or OutputsRecord()
+    record = record.model_copy(update={"notes": list(record.notes), "files": list(record.files)})
+    if not wants_pictures(study):
+        return study.model_copy(update={"outputs": record}), []
     stages = Stages()
     # the run's stages; picture stages of an earlier drawing are replaced by this one's
-    base = [s for s in results.get("stages", []) if s["name"] not in PICTURE_STAGES]
-    pictured, notes = select_states(StudyResult.from_dict(results).states, cfg.get("states") or ["final"])
-    record["pictured_states"] = pictured
-    notes = [n for n in notes if n not in record["notes"]]
+    base = [s for s in study.stages if s.name not in PICTURE_STAGES]
+    pictured, notes = select_states(study.states, cfg.get("states") or ["final"])
+    notes = [n for n in notes if n not in record.notes]
     plot_files, shot_files = [], []
     want_plots = bool(cfg.get("plots"))
-    want_shots = bool(cfg.get("screenshots")) and not record.get("fields_not_applicable")    # e.g. no mesh (matrices)
+    want_shots = bool(cfg.get("screenshots")) and not record.fields_not_applicable    # e.g. no mesh (matrices)
     if "dolfinx.cpp" in sys.modules:
         # after a run: two child processes draw the plots and the screenshots at the same time
         if want_plots or want_shots:
-            plot_files, shot_files = _draw_in_children(results, pictured, cfg, outdir, fields, progress, stages,
+            plot_files, shot_files = _draw_in_children(study, pictured, cfg, outdir, fields, progress, stages,
                                                        notes, want_plots, want_shots)
     else:                    # no DOLFINx here (e.g. python -m app render): drawn in this process
         if want_plots:
             with stages(PICTURE_STAGES[0]), _survive("plots", notes):
                 from app.plot.plots import draw_plots
-                plot_files, n = draw_plots(results, pictured, outdir / "plots")
+                plot_files, n = draw_plots(study, pictured, outdir / "plots")
                 notes += n
         if want_shots:
             with stages(PICTURE_STAGES[1]), _survive("screenshots", notes):
                 from app.plot.screenshots import draw_screenshots
-                shot_files, n = draw_screenshots(results, pictured, cfg["screenshots"], outdir / "screenshots",
+                shot_files, n = draw_screenshots(study, pictured, cfg["screenshots"], outdir / "screenshots",
                                                  fields, progress)
                 notes += n
-    record["notes"] += notes
     for n in notes:
         log.warning("%s", n)
+    notes = record.notes + notes      # every note of the study, a failure of the report added below
+    record = record.model_copy(update={"notes": notes, "pictured_states": pictured})
     drawn = [p.relative_to(outdir).as_posix() for p in plot_files + shot_files]
     if cfg.get("report"):
         from app.io.report import versions, write_report
-        results.setdefault("versions", versions())
-        results["stages"] = base + stages.as_list()      # the report lists the stages before it
-        with stages(PICTURE_STAGES[2]), _survive("report", record["notes"]):
-            rep = write_report(results, outdir, pictured, plot_files, shot_files, record["notes"])
+        # the report lists the stages before it, and the versions
+        study = study.model_copy(update={"versions": study.versions if study.versions is not None else versions(),
+                                         "stages": _stages(base, stages), "outputs": record})
+        with stages(PICTURE_STAGES[2]), _survive("report", notes):
+            rep = write_report(study, outdir, pictured, plot_files, shot_files, notes)
             drawn.append(rep.relative_to(outdir).as_posix())
-    results["stages"] = base + stages.as_list()
-    record["files"] = list(dict.fromkeys(record["files"] + drawn))
+    record = record.model_copy(update={"notes": notes, "files": list(dict.fromkeys(record.files + drawn))})
+    study = study.model_copy(update={"stages": _stages(base, stages), "outputs": record})
     for st in stages.as_list():
         log.info("%s: %.2f s", st["name"], st["seconds"])
     log.info("pictures: drew %d file(s)", len(drawn))
-    return drawn
+    return study, drawn
 
 
-def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields: pathlib.Path,
-                      progress, stages, notes: list[str], want_plots: bool, want_shots: bool) -> tuple[list, list]:
+def _draw_in_children(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path,
+                      fields: pathlib.Path, progress, stages: Stages, notes: list[str], want_plots: bool,
+                      want_shots: bool) -> tuple[list, list]:
     """Plots and screenshots drawn by two child processes at once (app/plot/worker.py: VTK cannot
     run next to DOLFINx; the children started by :func:`prestarted` are already warm). Each
-    picture stage records the drawing time its child reports."""
+    picture stage records the drawing time its child reports; the notes of the children are added
+    to ``notes``.
+
+    Both children read one job file, JSON data: :func:`app.plot.screenshots.job_of`'s job, whose
+    ``results`` is the results.json document (each child reads the study back from it), and the
+    plots' folder ``plots_dir``."""
     from app.plot import worker
     from app.plot.screenshots import job_of, resolution_arg
     t0 = time.perf_counter()
@@ -127,7 +144,7 @@ def _draw_in_children(results: dict, pictured: list[int], cfg: dict, outdir: pat
     running, out = [], {}
     try:
         with _survive("plots and screenshots", notes):
-            data = job_of(results, pictured, shots_cfg, outdir / "screenshots", fields, progress)
+            data = job_of(study, pictured, shots_cfg, outdir / "screenshots", fields, progress)
             # a new file of this run's own (exclusive create), removed below
             fd, name = tempfile.mkstemp(dir=outdir, prefix=".pictures-job-", suffix=".json")
             job = pathlib.Path(name)
@@ -191,16 +208,21 @@ def prestarted(scene, comm):
         worker.close_unused()
 
 
+def read_back(study: StudyResult) -> StudyResult:
+    """The study as ``render`` reads it from its results.json: what is kept in memory only (mode
+    vectors, proofs' pencils) left out, every value as the file gives it back."""
+    from app.io.document import from_document
+    return StudyResult.from_dict(from_document(json.loads(json.dumps(study.to_json(), allow_nan=False))))
+
+
 def draw_after_run(study: StudyResult, outdir: pathlib.Path, progress=None) -> StudyResult:
     """After a run (rank 0): the study with the pictures drawn if the scene asks (their files,
-    notes and stages recorded in it).
+    notes and stages recorded in it, :func:`draw_outputs`).
 
-    The drawing works on the results as they will be read back from results.json, so a later
-    ``render`` draws exactly the same pictures.
+    The drawing works on the study as it will be read back from results.json (:func:`read_back`),
+    so a later ``render`` draws exactly the same pictures; that is the study returned.
     """
-    if not _asks_pictures(study.scene_config.get("outputs") or {}):
+    if not wants_pictures(study):
         return study
-    from app.io.document import from_document
-    data = from_document(json.loads(json.dumps(study.to_json(), allow_nan=False)))
-    draw_outputs(data, outdir, progress)
-    return StudyResult.from_dict(data)
+    result, _ = draw_outputs(read_back(study), outdir, progress)
+    return result

@@ -1,4 +1,5 @@
-"""Plots of a study (matplotlib, PNG and SVG), drawn from the results alone.
+"""Plots of a study (matplotlib, PNG and SVG), drawn from the typed results
+([`StudyResult`][app.io.result.StudyResult]) alone.
 
 * ``status_map``: the status of every contact node (free, zero, stick, slip) against the load
   step: how slip spreads along AB;
@@ -11,12 +12,14 @@
 """
 from __future__ import annotations
 
+import json
 import math
 import pathlib
+from typing import Sequence
 
 import numpy as np
 
-from app.io.result import StateResult
+from app.io.result import StateResult, StudyResult
 
 STATUS_ORDER = ("free", "zero", "stick", "slip")
 STATUS_COLOURS = {"free": "#d9d9d9", "zero": "#9467bd", "stick": "#1f77b4", "slip": "#d62728"}
@@ -30,12 +33,8 @@ def _plt():
 
 
 def _num(v) -> float:
-    """A results.json number (written 'inf'/None for non-finite values) as a float."""
-    if v is None:
-        return math.nan
-    if isinstance(v, str):
-        return {"inf": math.inf, "-inf": -math.inf}.get(v, math.nan)
-    return float(v)
+    """A number of the results as a float (``None``, no number: NaN)."""
+    return math.nan if v is None else float(v)
 
 
 def _save(fig, path: pathlib.Path) -> list[pathlib.Path]:
@@ -62,23 +61,24 @@ def _save(fig, path: pathlib.Path) -> list[pathlib.Path]:
     return out
 
 
-def _tangential_start(states: list[dict]) -> int | None:
+def _tangential_start(states: Sequence[StateResult]) -> int | None:
+    """Index of the block's first state of tangential loading, None when there is none."""
     for s in states:
-        if (s.get("load") or {}).get("phase") == "tangential":
-            return s["index"]
+        if s.load.phase == "tangential":
+            return s.index
     return None
 
 
-def _mark_phases(ax, states: list[dict]) -> None:
-    """The block's tangential loading, or where each phase of a loading program after the first starts."""
+def _mark_phases(ax, states: Sequence[StateResult]) -> None:
+    """The block's tangential loading, or where each phase of a loading program after the first
+    starts (a program numbers its phases and names them in the load's ``name``)."""
     t0 = _tangential_start(states)
     starts = [(t0, "tangential loading")] if t0 is not None else []
     prev = None
     for s in states if t0 is None else ():
-        load = s.get("load") or {}
-        ph = load.get("phase")
+        ph = s.load.phase
         if isinstance(ph, int) and prev is not None and ph != prev:
-            starts.append((s["index"], load.get("name") or f"phase {ph}"))
+            starts.append((s.index, (s.load.model_extra or {}).get("name") or f"phase {ph}"))
         prev = ph
     for i, label in starts:
         ax.axvline(i - 0.5, color="0.4", lw=0.8, ls=":")
@@ -86,28 +86,28 @@ def _mark_phases(ax, states: list[dict]) -> None:
                     xytext=(3, 3), textcoords="offset points", va="bottom", fontsize=8, color="0.3")
 
 
-def _title(results: dict, what: str) -> str:
-    return f"{results.get('scene', '')}: {what}"
+def _title(study: StudyResult, what: str) -> str:
+    return f"{study.scene}: {what}"
 
 
-def _system_type(results: dict):
-    """The registered system type of a results dictionary (app/systems/), None if unknown."""
+def _system_type(study: StudyResult):
+    """The registered system type of the study (app/systems/, from its scene), None if unknown."""
     from app.systems import SYSTEM_TYPES
-    return SYSTEM_TYPES.get(((results.get("scene_config") or {}).get("system") or {}).get("type", "block"))
+    return SYSTEM_TYPES.get((study.scene_config.get("system") or {}).get("type", "block"))
 
 
-def _contact_line(results: dict) -> str | None:
+def _contact_line(study: StudyResult) -> str | None:
     """Name of the contact side (the block's AB), None when the system type has none."""
-    kind = _system_type(results)
+    kind = _system_type(study)
     return kind.contact_line if kind is not None else None
 
 
-def _position_label(results: dict) -> str | None:
+def _position_label(study: StudyResult) -> str | None:
     """Axis label of the contact nodes' ``x`` when it is a position (block: along AB; gmsh body:
     along the obstacle's tangent), None when nodes are only numbered (particles, matrices)."""
-    kind = _system_type(results)
-    length = results.get("units", {}).get("length", "mm")
-    return kind.position_axis.format(length=length) if kind is not None and kind.position_axis else None
+    kind = _system_type(study)
+    return (kind.position_axis.format(length=study.units.length)
+            if kind is not None and kind.position_axis else None)
 
 
 def _few_states(ax, idx: np.ndarray) -> None:
@@ -117,7 +117,7 @@ def _few_states(ax, idx: np.ndarray) -> None:
         ax.set_xlim(idx.min() - 0.5, idx.max() + 0.5)
 
 
-def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     """The contact status (stick, slip, free, zero) of every node at every state: one row per node at
     its position along the contact line, states left to right; ``status_map.png`` and ``.svg`` in
     ``outdir``, whose paths are returned."""
@@ -126,16 +126,16 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
-    states = results["states"]
-    n = len(states[0]["nodes"])
-    codes = np.array([[STATUS_ORDER.index(nd["status"]) for nd in s["nodes"]] for s in states]).T
-    xs = np.array([nd["x"] for nd in states[0]["nodes"]])
-    idx = np.array([s["index"] for s in states])
+    states = study.states
+    n = len(states[0].nodes)
+    codes = np.array([[STATUS_ORDER.index(nd.status) for nd in s.nodes] for s in states]).T
+    xs = np.array([nd.x for nd in states[0].nodes])
+    idx = np.array([s.index for s in states])
     fig, ax = plt.subplots(figsize=(10, 4.2))
     cmap = ListedColormap([STATUS_COLOURS[k] for k in STATUS_ORDER])
     # node rows at their positions along AB: edges halfway between neighbours; nodes that do not
     # increase strictly along it (e.g. a contact curve folding back over the obstacle) as numbered rows
-    label, line = _position_label(results), _contact_line(results)
+    label, line = _position_label(study), _contact_line(study)
     if label and n > 1 and np.any(np.diff(xs) <= 0):
         xs, label, line = np.arange(n, dtype=float), None, None
     if n > 1:
@@ -158,7 +158,7 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     ax.add_collection(runs)
     runs.sticky_edges.x[:] = [xedges.min(), xedges.max()]
     runs.sticky_edges.y[:] = [yedges.min(), yedges.max()]
-    length = results.get("units", {}).get("length", "mm")
+    length = study.units.length
     ax.set_xlabel("load step (state index)")
     ax.hlines(yedges[1:-1], xedges[0], xedges[-1], colors="white", linewidth=0.6)    # one row per node
     if n <= 12 or not label:
@@ -171,42 +171,41 @@ def status_map(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     present = sorted({s for row in codes for s in row})
     ax.legend(handles=[Patch(color=STATUS_COLOURS[STATUS_ORDER[k]], label=STATUS_ORDER[k]) for k in present],
               loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    ax.set_title(_title(results, f"contact status of the {n} contact nodes along the loading"))
+    ax.set_title(_title(study, f"contact status of the {n} contact nodes along the loading"))
     return _save(fig, outdir / "status_map")
 
 
-def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[pathlib.Path]:
+def reactions(study: StudyResult, pictured: list[int], outdir: pathlib.Path) -> list[pathlib.Path]:
     """Normal and tangential reactions along the contact at the ``pictured`` states (the final state
-    when none of them is a state of the results), with the Coulomb limits ``+-mu |r_N|`` and the slip
+    when none of them is a state of the study), with the Coulomb limits ``+-mu |r_N|`` and the slip
     nodes marked; ``reactions.png`` and ``.svg`` in ``outdir``, whose paths are returned."""
     plt = _plt()
-    by_index = {s["index"]: s for s in results["states"]}
-    ids = [i for i in pictured if i in by_index] or [results["states"][-1]["index"]]
-    mu = _num(results.get("mu"))
-    units = results.get("units", {})
-    force = units.get("force", "N")
+    by_index = {s.index: s for s in study.states}
+    ids = [i for i in pictured if i in by_index] or [study.final.index]
+    mu = _num(study.mu)
+    force = study.units.force
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     many = len(ids) > 8
     cmap = plt.get_cmap("viridis")
     for k, i in enumerate(ids):
         s = by_index[i]
-        x = np.array([nd["x"] for nd in s["nodes"]])
-        rn = -np.array([nd["r_N"] for nd in s["nodes"]])
-        rt = np.array([nd["r_T"] for nd in s["nodes"]])
+        x = np.array([nd.x for nd in s.nodes])
+        rn = -np.array([nd.r_N for nd in s.nodes])
+        rt = np.array([nd.r_T for nd in s.nodes])
         c = cmap(k / max(len(ids) - 1, 1)) if many else f"C{k % 10}"
-        cl = s["classification"]
-        label = None if many else f"state {i} ({cl['stick']} stick / {cl['slip']} slip / {cl['free']} free)"
+        cl = s.classification
+        label = None if many else f"state {i} ({cl.stick} stick / {cl.slip} slip / {cl.free} free)"
         a1.plot(x, rn, "-o", color=c, ms=3.5, lw=1.2, label=label)
         a2.plot(x, rt, "-o", color=c, ms=3.5, lw=1.2)
         if np.isfinite(mu):
             a2.plot(x, mu * rn, ls="--", color=c, lw=0.8, alpha=0.7)
             a2.plot(x, -mu * rn, ls="--", color=c, lw=0.8, alpha=0.7)
-        slip = np.array([nd["status"] == "slip" for nd in s["nodes"]])
+        slip = np.array([nd.status == "slip" for nd in s.nodes])
         a2.plot(x[slip], rt[slip], "s", mfc="none", mec=STATUS_COLOURS["slip"], ms=6)
     a1.set_ylabel(f"normal reaction -r_N [{force}]\n(compression > 0)")
     a2.set_ylabel(f"tangential reaction r_T [{force}]\n(dashed: +-mu |r_N|)")
-    a2.set_xlabel(_position_label(results) or "contact node")
-    if not _position_label(results):
+    a2.set_xlabel(_position_label(study) or "contact node")
+    if not _position_label(study):
         a2.set_xticks(x)
     for a in (a1, a2):
         a.axhline(0, color="0.5", lw=0.6)
@@ -219,34 +218,34 @@ def reactions(results: dict, pictured: list[int], outdir: pathlib.Path) -> list[
     a2.plot([], [], "s", mfc="none", mec=STATUS_COLOURS["slip"], label="slip nodes (on the Coulomb limit)")
     a2.plot([], [], "--", color="0.4", lw=0.8, label="Coulomb limits +-mu |r_N|")
     a2.legend(fontsize=8, loc="best")
-    line = _contact_line(results)
-    where = f"along {line}" if line else "along the obstacle" if _position_label(results) else "at the contact nodes"
-    a1.set_title(_title(results, f"reactions {where} (mu = {results.get('mu')})"))
+    line = _contact_line(study)
+    where = f"along {line}" if line else "along the obstacle" if _position_label(study) else "at the contact nodes"
+    a1.set_title(_title(study, f"reactions {where} (mu = {study.mu})"))
     return _save(fig, outdir / "reactions")
 
 
-def mceip_mu(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     """MCEIP-mu along the loading: every value found and the smallest one at each state, the scene's
     mu and the number of slip nodes; ``mceip_mu.png`` and ``.svg`` in ``outdir``, whose paths are
     returned."""
     plt = _plt()
-    states = results["states"]
-    idx = np.array([s["index"] for s in states])
-    nslip = np.array([s["classification"]["slip"] for s in states])
+    states = study.states
+    idx = np.array([s.index for s in states])
+    nslip = np.array([s.classification.slip for s in states])
     best = np.full(len(states), np.nan)
     fig, ax = plt.subplots(figsize=(10, 4.5))
     allx, ally = [], []
     for k, s in enumerate(states):
-        vals = [float(v) for v in StateResult.from_dict(s).mu_values()]
+        vals = [float(v) for v in s.mu_values()]
         if vals:
             best[k] = min(vals)
-            allx += [s["index"]] * len(vals)
+            allx += [s.index] * len(vals)
             ally += vals
     positive = np.concatenate([best[np.isfinite(best) & (best > 0)], [v for v in ally if v > 0]])
     ax.plot(allx, ally, ".", color="0.6", ms=3, label="every MCEIP-mu value found")
     ax.plot(idx, best, "-", color="C0", lw=1.6, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
             label="smallest MCEIP-mu value")
-    mu = _num(results.get("mu"))
+    mu = _num(study.mu)
     if np.isfinite(mu):
         ax.axhline(mu, color="C3", ls="--", lw=1.2, label=f"scene mu = {mu:g}")
     if len(positive) and positive.max() / max(positive.min(), 1e-300) > 50:
@@ -267,26 +266,27 @@ def mceip_mu(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     if not np.isfinite(best).any():
         ax.text(0.5, 0.5, "no MCEIP-mu solution at any state", transform=ax.transAxes, ha="center", color="0.3")
     ax.grid(alpha=0.3)
-    ax.set_title(_title(results, "MCEIP-mu (transition to divergence) along the loading"))
+    ax.set_title(_title(study, "MCEIP-mu (transition to divergence) along the loading"))
     return _save(fig, outdir / "mceip_mu")
 
 
-def necessary(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
+def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     """The necessary condition (19) along the loading: the smallest eigenvalue of sym K*(mu) at each
     state, the states where (19) holds shaded, a note when sym M*(mu) is indefinite somewhere;
     ``necessary.png`` and ``.svg`` in ``outdir``, whose paths are returned."""
     plt = _plt()
-    states = results["states"]
-    idx = np.array([s["index"] for s in states])
-    lamK = np.array([_num(((s.get("analyses") or {}).get("necessary") or {}).get("min_eig_K_sym")) for s in states])
-    lamM = np.array([_num(((s.get("analyses") or {}).get("necessary") or {}).get("min_eig_M_sym")) for s in states])
-    units = results.get("units", {})
+    states = study.states
+    idx = np.array([s.index for s in states])
+    # the record as the state holds it (an analysis that failed has no eigenvalue: NaN)
+    recs = [s.analyses.necessary for s in states]
+    lamK = np.array([_num(None if r is None else r.min_eig_K_sym) for r in recs])
+    lamM = np.array([_num(None if r is None else r.min_eig_M_sym) for r in recs])
     fig, ax = plt.subplots(figsize=(10, 4.2))
     ax.plot(idx, lamK, "-", color="C0", lw=1.5, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
             label="smallest eigenvalue of sym K*(mu)")
     _few_states(ax, idx)
     ax.axhline(0, color="0.3", lw=0.8)
-    sat = np.array([bool(((s.get("analyses") or {}).get("necessary") or {}).get("satisfied")) for s in states])
+    sat = np.array([r is not None and bool(r.satisfied) for r in recs])
     if sat.any():
         ax.fill_between(idx, 0, 1, where=sat, transform=ax.get_xaxis_transform(), color="C3", alpha=0.08,
                         step="mid", label="necessary condition (19) holds")
@@ -297,30 +297,40 @@ def necessary(results: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
         ax.text(0.99, 0.02, f"sym M*(mu) is indefinite at some states (min {np.nanmin(lamM):.3g})",
                 transform=ax.transAxes, ha="right", fontsize=8, color="C3")
     ax.set_xlabel("load step (state index)")
-    ax.set_ylabel(f"min eig sym K*(mu) [{units.get('stiffness', 'N/mm')}]")
+    ax.set_ylabel(f"min eig sym K*(mu) [{study.units.stiffness or 'N/mm'}]")
     _mark_phases(ax, states)
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(alpha=0.3)
-    ax.set_title(_title(results, f"necessary condition (19) at mu = {results.get('mu')}"))
+    ax.set_title(_title(study, f"necessary condition (19) at mu = {study.mu}"))
     return _save(fig, outdir / "necessary")
 
 
-def draw_plots(results: dict, pictured: list[int], outdir: pathlib.Path) -> tuple[list[pathlib.Path], list[str]]:
-    """Every plot the results allow and the scene asked for; returns (files, notes for the report)."""
+def draw_plots(study: StudyResult, pictured: list[int],
+               outdir: pathlib.Path) -> tuple[list[pathlib.Path], list[str]]:
+    """Every plot the study allows and the scene asked for; returns (files, notes for the report)."""
     files, notes = [], []
-    files += status_map(results, outdir)
-    files += reactions(results, pictured, outdir)
-    asked = results.get("analyses_requested", [])
-    if "mceip_mu" in asked:                  # the analyses' plots only when the scene asked for them
-        files += mceip_mu(results, outdir)   # (no warning otherwise: that was the user's choice)
+    files += status_map(study, outdir)
+    files += reactions(study, pictured, outdir)
+    asked = study.analyses_requested
+    if "mceip_mu" in asked:                # the analyses' plots only when the scene asked for them
+        files += mceip_mu(study, outdir)   # (no warning otherwise: that was the user's choice)
     if "necessary" in asked:
-        files += necessary(results, outdir)
+        files += necessary(study, outdir)
     return files, notes
 
 
+def study_of_job(job: dict) -> StudyResult:
+    """The study of a drawing process's job: ``job["results"]`` is the results.json document (JSON
+    data, or its text), read back as ``render`` reads the file."""
+    from app.io.document import from_document
+    doc = job["results"]
+    return StudyResult.from_dict(from_document(json.loads(doc) if isinstance(doc, str) else doc))
+
+
 def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
-    """Draw the plots of a drawing process's job (app/plot/worker.py)."""
-    return draw_plots(job["results"], job["pictured"], pathlib.Path(job["plots_dir"]))
+    """Draw the plots of a drawing process's job (app/plot/worker.py): the study
+    (:func:`study_of_job`), the ``pictured`` states and the folder ``plots_dir``."""
+    return draw_plots(study_of_job(job), job["pictured"], pathlib.Path(job["plots_dir"]))
 
 
 def warm_up(_arg: str = "") -> None:

@@ -23,6 +23,8 @@ import stat
 import sys
 import tempfile
 
+from app.io.result import StudyResult
+
 #: the app's sub-folders a redraw writes into
 PICTURE_FOLDERS = ("plots", "screenshots")
 
@@ -44,23 +46,23 @@ def render_main(args) -> int:
         return 0
     outdir = pathlib.Path(args.results)
     try:
-        results = read_results(outdir)
+        study = read_results(outdir)
     except Refused as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     from app.plot.pictures import outputs_config, wants_pictures
-    if not wants_pictures(results):
+    if not wants_pictures(study):
         if not args.quiet:
             print(f"{outdir}: nothing to draw: the scene's 'outputs' ask for no plots, screenshots or report")
         return 0
     from app.common.progress import Progress
     try:
-        drawn, failed = redraw(results, outdir, Progress(enabled=not args.quiet))
+        drawn, failed = redraw(study, outdir, Progress(enabled=not args.quiet))
     except Refused as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     if not args.quiet:
-        cfg = outputs_config(results)
+        cfg = outputs_config(study)
         print(f"{outdir}: redrew {len(drawn)} file(s) ("
               + ", ".join(k for k in ("plots", "screenshots", "report") if cfg.get(k)) + ")")
         for f in drawn:
@@ -79,8 +81,8 @@ def _pydantic_line(err) -> str:
     return f"{where}: {first.get('msg', 'invalid')} (got {got})"
 
 
-def read_results(outdir: pathlib.Path) -> dict:
-    """The results dictionary of the results folder ``outdir``, with its scene's ``outputs``
+def read_results(outdir: pathlib.Path) -> StudyResult:
+    """The study of the results folder ``outdir`` (its results.json), with its scene's ``outputs``
     validated; :class:`Refused` when the folder or its results.json cannot be used."""
     from pydantic import ValidationError
 
@@ -111,15 +113,19 @@ def read_results(outdir: pathlib.Path) -> dict:
     except ValidationError as err:
         raise Refused(f"{res_file}: {_pydantic_line(err)}: not a results.json this version can redraw") from None
     try:
-        results = from_document(json.loads(text))
+        # the validated text once more, its non-finite numbers (null, listed in non_finite) as floats
+        study = StudyResult.from_dict(from_document(json.loads(text)))
     except RecursionError:
         raise Refused(f"{res_file}: nested too deeply to be read") from None
+    except ValidationError as err:
+        raise Refused(f"{res_file}: {_pydantic_line(err)}: not a results.json this version can redraw") from None
     except ValueError as err:
         raise Refused(f"{res_file}: cannot be read ({err})") from None
-    results["scene_config"]["outputs"] = _outputs(results["scene_config"].get("outputs"), res_file)
-    if results["scene_config"]["outputs"].get("screenshots"):
+    outputs = _outputs(study.scene_config.get("outputs"), res_file)
+    study = study.model_copy(update={"scene_config": {**study.scene_config, "outputs": outputs}})
+    if outputs.get("screenshots"):
         _check_fields(outdir / "fields" / "fields.npz")
-    return results
+    return study
 
 
 def _check_fields(path: pathlib.Path) -> None:
@@ -158,18 +164,19 @@ def _real_folder_or_missing(path: pathlib.Path) -> None:
         raise Refused(f"{path}: is {kind_of(mode)}, not the folder this app wrote: nothing was redrawn")
 
 
-def redraw(results: dict, outdir: pathlib.Path, progress=None) -> tuple[list[str], list[str]]:
-    """Draw the pictures into a new hidden folder in ``outdir`` and move them into place
-    (:func:`install`); returns (the files drawn relative to ``outdir``, the failure notes)."""
+def redraw(study: StudyResult, outdir: pathlib.Path, progress=None) -> tuple[list[str], list[str]]:
+    """Draw the pictures of ``study`` into a new hidden folder in ``outdir`` and move them into
+    place (:func:`install`); returns (the files drawn relative to ``outdir``, the notes of the
+    pictures that failed). results.json is not rewritten."""
     from app.plot.pictures import draw_outputs
-    before = len(results["outputs"]["notes"]) if results.get("outputs") else 0
+    before = len(study.outputs.notes) if study.outputs is not None else 0
     staging = pathlib.Path(tempfile.mkdtemp(dir=outdir, prefix=".render-"))
     try:
-        drawn = draw_outputs(results, staging, progress, fields=outdir / "fields" / "fields.npz")
+        drawn_study, drawn = draw_outputs(study, staging, progress, fields=outdir / "fields" / "fields.npz")
         install(staging, outdir, drawn)
     finally:
         shutil.rmtree(staging, ignore_errors=True)      # this call's own folder (what is left of it)
-    failed = [n for n in results["outputs"]["notes"][before:] if " failed (" in n]
+    failed = [n for n in drawn_study.outputs.notes[before:] if " failed (" in n]
     return drawn, failed
 
 
