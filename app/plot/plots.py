@@ -12,7 +12,6 @@
 """
 from __future__ import annotations
 
-import json
 import math
 import pathlib
 from typing import Sequence
@@ -319,18 +318,11 @@ def draw_plots(study: StudyResult, pictured: list[int],
     return files, notes
 
 
-def study_of_job(job: dict) -> StudyResult:
-    """The study of a drawing process's job: ``job["results"]`` is the results.json document (JSON
-    data, or its text), read back as ``render`` reads the file."""
-    from app.io.document import from_document
-    doc = job["results"]
-    return StudyResult.from_dict(from_document(json.loads(doc) if isinstance(doc, str) else doc))
-
-
 def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
     """Draw the plots of a drawing process's job (app/plot/worker.py): the study
-    (:func:`study_of_job`), the ``pictured`` states and the folder ``plots_dir``."""
-    return draw_plots(study_of_job(job), job["pictured"], pathlib.Path(job["plots_dir"]))
+    (:func:`app.plot.worker.job_study`), the ``pictured`` states and the folder ``plots_dir``."""
+    from app.plot.worker import job_study
+    return draw_plots(job_study(job), job["pictured"], pathlib.Path(job["plots_dir"]))
 
 
 def warm_up(_arg: str = "") -> None:

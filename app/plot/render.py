@@ -112,6 +112,8 @@ def read_results(outdir: pathlib.Path) -> StudyResult:
         schema.validate(text)
     except ValidationError as err:
         raise Refused(f"{res_file}: {_pydantic_line(err)}: not a results.json this version can redraw") from None
+    except ValueError as err:            # not JSON data: NaN or Infinity literals, nested too deeply
+        raise Refused(f"{res_file}: {err}: not a results.json this version can redraw") from None
     try:
         # the validated text once more, its non-finite numbers (null, listed in non_finite) as floats
         study = StudyResult.from_dict(from_document(json.loads(text)))

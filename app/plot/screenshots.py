@@ -153,17 +153,10 @@ def draw_screenshots(study: StudyResult, pictured: list[int], cfg: dict, outdir:
 def job_of(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields_path: pathlib.Path,
            progress=None) -> dict:
     """The job of a drawing process, as JSON data: ``results`` is the study's results.json
-    document (:meth:`StudyResult.to_json`, read back by :func:`job_study`), with the other
+    document (:meth:`StudyResult.to_json`, read back by :func:`app.plot.worker.job_study`), with the other
     arguments of :func:`draw_screenshots`."""
     return {"results": study.to_json(), "pictured": list(pictured), "cfg": cfg, "outdir": str(outdir),
             "fields": str(fields_path), "progress": bool(progress is not None and getattr(progress, "enabled", False))}
-
-
-def job_study(job: dict) -> StudyResult:
-    """The study of a job of :func:`job_of` (its results.json document read back, as a saved
-    results.json is)."""
-    from app.io.document import from_document
-    return StudyResult.from_dict(from_document(job["results"]))
 
 
 def resolution_arg(cfg: dict) -> str:
@@ -239,6 +232,7 @@ def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
     if job["progress"]:
         from app.common.progress import Progress
         progress = Progress(enabled=True, comm=types.SimpleNamespace(rank=0))
+    from app.plot.worker import job_study
     return _draw(job_study(job), job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
                  pathlib.Path(job["fields"]), progress)
 
