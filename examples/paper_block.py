@@ -46,8 +46,8 @@ print(scene.loading, "mu =", scene.mu, "analyses:", scene.analyses)
 
 # %%
 r = app.run_study(scene)
-print(len(r), "equilibrium states;", r.raw["distinct_classifications"], "distinct classifications")
-print("path:", r.path["end"])
+print(len(r), "equilibrium states;", r.distinct_classifications, "distinct classifications")
+print("path:", r.path.end)
 
 # %% [markdown]
 # ## The final state: gross sliding
@@ -61,15 +61,15 @@ print("path:", r.path["end"])
 
 # %%
 final = r.final
-print("final state", final.index, ":", final.counts(), "at CD u_x =", final.load["u_x"], "mm")
+print("final state", final.index, ":", final.counts(), "at CD u_x =", final.load.u_x, "mm")
 print("critical mu:", final.min_mu())
 (sol,) = final.mceip_mu.solutions
 print("mode x_Ts (A to B):", sol.x_Ts.round(3))
 print("evidence: residual", sol.evidence["residual"], "complementarity", sol.evidence["complementarity"],
       "found by", sol.evidence["found_count"], "runs, e.g.", sol.evidence["found_by"][0])
 
-assert final.classification["slip"] == 17 and final.classification["free"] == 4
-assert final.classification["stick"] == 0
+assert final.classification.slip == 17 and final.classification.free == 4
+assert final.classification.stick == 0
 assert sol.all_slip and str(final.min_mu()) == "1.7048"
 assert abs(final.min_mu() / 1.71 - 1) < 0.005 and abs(final.min_mu() / 1.705 - 1) < 0.001
 
@@ -82,9 +82,9 @@ assert abs(final.min_mu() / 1.71 - 1) < 0.005 and abs(final.min_mu() / 1.705 - 1
 # %%
 first = r.first_instability()
 (m,) = first.mceip_mu.solutions
-print("first solution at state", first.index, "(CD u_x =", first.load["u_x"], "mm):", first.counts(),
+print("first solution at state", first.index, "(CD u_x =", first.load.u_x, "mm):", first.counts(),
       "mu =", first.min_mu(), "with", m.n_stick, "slip nodes stuck in the mode")
-assert first.classification["slip"] == 11 and m.n_stick == 3
+assert first.classification.slip == 11 and m.n_stick == 3
 assert abs(first.min_mu() - 1802.27) < 0.01
 
 # %% [markdown]
@@ -93,7 +93,7 @@ assert abs(first.min_mu() - 1802.27) < 0.01
 # The paper: mu = 60.81, one slip node stuck in the mode: the fourth node from A.
 
 # %%
-fig2 = next(s for s in r if (s.classification["stick"], s.classification["slip"], s.classification["free"]) == (2, 15, 4))
+fig2 = next(s for s in r if (s.classification.stick, s.classification.slip, s.classification.free) == (2, 15, 4))
 (m,) = fig2.mceip_mu.solutions
 slip_nodes = [n for n in fig2.nodes if n.status == "slip"]          # A to B
 stuck = [n for n, p in zip(slip_nodes, m.pattern) if p == "stick"]
@@ -113,12 +113,12 @@ assert abs(fig2.min_mu() - 60.81) < 0.005 and len(stuck) == 1 and order_from_A =
 by_slip = {}
 for s in r:
     if s.min_mu() is not None:
-        by_slip.setdefault(s.classification["slip"], s.min_mu())
+        by_slip.setdefault(s.classification.slip, s.min_mu())
 print({k: str(v) for k, v in by_slip.items()})
 assert min(by_slip) == 11 and by_slip[11] > by_slip[15] > by_slip[17]
 nec = next(s for s in r if s.necessary.satisfied)
-print("necessary condition first holds at state", nec.index, "(CD u_x =", nec.load["u_x"], "mm):", nec.counts())
-assert nec.load["phase"] == "tangential" and nec.index < first.index
+print("necessary condition first holds at state", nec.index, "(CD u_x =", nec.load.u_x, "mm):", nec.counts())
+assert nec.load.phase == "tangential" and nec.index < first.index
 assert not any(s.sufficient.satisfied for s in r)
 
 # %% [markdown]

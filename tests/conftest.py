@@ -77,6 +77,35 @@ def run_scene(data: dict) -> dict:
     return study(parse_scene(data), MPI.COMM_WORLD).to_dict()
 
 
+def minimal_study(states: list[dict], **fields):
+    """A typed study (app/io/result.py) around hand-written ``states``, the keys every run writes
+    filled with neutral values: a state's missing ``load``, ``nodes``, ``analyses`` and
+    classification counts, a solution's missing ``x_Ts`` and ``pattern``."""
+    from app.io.result import StudyResult
+
+    def solution(d: dict) -> dict:
+        return {"x_Ts": [1.0], "pattern": ["slip"], **d}
+
+    def analyses(a: dict) -> dict:
+        out = {}
+        for name, block in a.items():
+            block = dict(block)
+            for key in ("solutions", "modes"):
+                if key in block:
+                    block[key] = [solution(d) for d in block[key]]
+            out[name] = block
+        return out
+
+    typed = [{"load": {}, "nodes": [], "analyses_shared_with": None, **st,
+              "classification": {"free": 0, "zero": 0, "stick": 0, "slip": 0, **st.get("classification", {})},
+              "analyses": analyses(st.get("analyses", {}))} for st in states]
+    return StudyResult.from_dict({
+        "scene": "test", "units": {"length": "mm", "force": "N", "lambda2": "1/s^2", "mu": "1"}, "system": "test",
+        "mu": 1.0, "analyses_requested": [], "path": {"end": "test"}, "distinct_classifications": len(states),
+        "stages": [], "failures": [], "warnings": [], "mpi_ranks": 1, "wall_seconds": 0.0, "scene_config": {},
+        **fields, "states": typed})
+
+
 def run_cli(*args: str, ranks: int = 1, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
     """Run ``python -m app ARGS`` (under mpirun when ranks > 1)."""
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",

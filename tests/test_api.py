@@ -23,7 +23,7 @@ import pathlib
 
 import pytest
 import yaml
-from conftest import ROOT, run_cli, run_cli_here
+from conftest import ROOT, minimal_study, run_cli, run_cli_here
 
 import app
 from app.io.document import FORMAT_VERSION, from_document, to_document
@@ -145,15 +145,15 @@ def test_critical_mu_prints_four_decimals_and_keeps_the_value():
 
 def test_solution_carries_keys_added_by_other_analyses():
     d = {"value": 2.0, "x_Ts": [0.25, 0.75], "pattern": ["slip", "slip"], "residual": 1e-15,
-         "certified": True, "certificate": {"method": "branch-and-bound", "interval": [0, 10]}, "new": 1}
-    results = {"scene": "s", "mu": 1.0, "states": [{"index": 0, "classification": {"slip": 2},
-                                                     "analyses": {"mceip_mu": {"solutions": [d]}}}]}
-    r = StudyResult.from_dict(results)
+         "certified": True, "certificate": {"status": "proven", "method": "branch-and-bound", "interval": [0, 10]},
+         "new": 1}
+    r = minimal_study([{"index": 0, "classification": {"slip": 2}, "analyses": {"mceip_mu": {"solutions": [d]}}}])
     sol = r.final.mceip_mu.solutions[0]
-    assert sol.certified is True and sol.certificate["method"] == "branch-and-bound" and sol.all_slip
+    assert sol.certified is True and sol.certificate.method == "branch-and-bound" and sol.all_slip
+    assert sol.model_extra == {"new": 1} and sol.certificate.interval == [0, 10]
     assert r.to_json()["states"][0]["analyses"]["mceip_mu"]["solutions"][0] == d
     assert r.to_json()["format_version"] == FORMAT_VERSION
-    assert StudyResult.from_dict(r.to_json()).to_json() == r.to_json()
+    assert StudyResult.from_json(r.to_json()).to_json() == r.to_json()
 
 
 def test_non_finite_numbers_are_null_with_a_reason():

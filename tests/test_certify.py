@@ -10,6 +10,7 @@ import json
 
 import numpy as np
 import pytest
+from conftest import minimal_study
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from mpi4py import MPI
@@ -258,8 +259,8 @@ def test_proof_files_never_replace_an_existing_file(tmp_path):
     from app.io.proofs import write_proofs
     A0, A1 = np.eye(2), np.array([[-1.0, 0.2], [0.1, -0.5]])
     r = mceip_mu(A0, A1, 10.0)
-    results = {"states": [{"index": 3, "analyses": {"mceip_mu": {"_proof": {"A0": A0, "A1": A1,
-                                                                           "log": r.log.to_json()}}}}]}
+    results = minimal_study([{"index": 3, "analyses": {"mceip_mu": {"solutions": []}}}])
+    results.states[0].analyses.mceip_mu.proof = {"A0": A0, "A1": A1, "log": r.log.to_json()}    # in memory only
     (tmp_path / "proofs").mkdir()
     (tmp_path / "proofs" / "state_3.npz").write_bytes(b"a user's file")
     with pytest.raises(FileExistsError):

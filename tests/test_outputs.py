@@ -18,7 +18,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 import yaml
-from conftest import PY, ROOT, run_cli, run_cli_here
+from conftest import PY, ROOT, minimal_study, run_cli, run_cli_here
 
 SCENE = {
     "name": "outputs-test",
@@ -88,12 +88,14 @@ def _mode_pictures(study, pictured: list[int]) -> set[str]:
     return want
 
 
-def _all_modes(results: dict) -> list[tuple[int, str, int, dict]]:
+def _all_modes(results: dict) -> list[tuple[int, str, int, object]]:
+    """(state, problem, number, solution) of every mode of a results.json document's study."""
+    from app.io.result import StudyResult
     from app.io.select import modes_of
     out = []
-    for s in results["states"]:
-        if s.get("analyses_shared_with") is None:
-            out += [(s["index"], p, k, sol) for p, k, sol in modes_of(s["analyses"])]
+    for s in StudyResult.from_json(results).states:
+        if s.analyses_shared_with is None:
+            out += [(s.index, p, k, sol) for p, k, sol in modes_of(s.analyses)]
     return out
 
 
@@ -129,12 +131,13 @@ def test_outputs_schema_defaults_off_and_clear_errors():
 def test_state_selection():
     from app.io.select import select_states
     cls = lambda st, sl, fr: {"stick": st, "slip": sl, "free": fr, "zero": 0}   # noqa: E731
-    states = [{"index": 0, "classification": cls(5, 0, 0), "analyses_shared_with": None, "analyses": {}},
-              {"index": 1, "classification": cls(5, 0, 0), "analyses_shared_with": 0, "analyses": {}},
-              {"index": 2, "classification": cls(2, 2, 1), "analyses_shared_with": None,
-               "analyses": {"mceip_mu": {"solutions": [{"value": 3.0}]}}},
-              {"index": 3, "classification": cls(0, 4, 1), "analyses_shared_with": None,
-               "analyses": {"mceip_mu": {"solutions": []}}}]
+    states = minimal_study([
+        {"index": 0, "classification": cls(5, 0, 0), "analyses_shared_with": None, "analyses": {}},
+        {"index": 1, "classification": cls(5, 0, 0), "analyses_shared_with": 0, "analyses": {}},
+        {"index": 2, "classification": cls(2, 2, 1), "analyses_shared_with": None,
+         "analyses": {"mceip_mu": {"solutions": [{"value": 3.0}]}}},
+        {"index": 3, "classification": cls(0, 4, 1), "analyses_shared_with": None,
+         "analyses": {"mceip_mu": {"solutions": []}}}]).states
     assert select_states(states, ["final"]) == ([3], [])
     assert select_states(states, ["first_mceip_mu", 1]) == ([1, 2], [])
     assert select_states(states, ["all_distinct"]) == ([0, 2, 3], [])
@@ -382,12 +385,12 @@ def test_paraview_modes_are_the_modes_found(serial):
     out, res, _ = serial
     vtu = meshio.read(out / "paraview" / "modes.vtu")
     modes = _all_modes(res)
-    assert sorted(vtu.point_data) == sorted(f"s{f:04d}_{p}_{k}_{sol['value']:.6g}" for f, p, k, sol in modes)
+    assert sorted(vtu.point_data) == sorted(f"s{f:04d}_{p}_{k}_{sol.value:.6g}" for f, p, k, sol in modes)
     assert len(modes) >= 3
     points = vtu.points
     by_index = {s["index"]: s for s in res["states"]}
     for first, problem, k, sol in modes:
-        v = vtu.point_data[f"s{first:04d}_{problem}_{k}_{sol['value']:.6g}"]
+        v = vtu.point_data[f"s{first:04d}_{problem}_{k}_{sol.value:.6g}"]
         assert v.shape == (len(points), 3)
         assert np.linalg.norm(v, axis=1).max() == pytest.approx(1.0)
         nodes = by_index[first]["nodes"]
@@ -398,7 +401,7 @@ def test_paraview_modes_are_the_modes_found(serial):
         assert np.allclose([v[j, 1] for j, _ in slip], 0.0, atol=1e-12)   # slip nodes stay on the obstacle
         # slip nodes move along -S x_Ts (one positive factor for all)
         vx = np.array([v[j, 0] for j, _ in slip])
-        want = -np.array([n["sign"] for _, n in slip]) * np.array(sol["x_Ts"])
+        want = -np.array([n["sign"] for _, n in slip]) * np.array(sol.x_Ts)
         c = float(vx @ want / (want @ want))
         assert c > 0 and np.allclose(vx, c * want, atol=1e-10)
         # the whole block takes part: the interior moves
@@ -518,7 +521,7 @@ def test_condensed_and_full_mode_fields_agree(tmp_path):
     from mpi4py import MPI
 
     from app.scene.schema import parse_scene
-    from app.study.run import run_study
+    from app.study.run import study
     fields = {}
     for method in ("condensed", "full"):
         data = {**{k: v for k, v in SCENE.items() if k != "outputs"}, "analyses": ["mceip_mu"],
@@ -526,8 +529,11 @@ def test_condensed_and_full_mode_fields_agree(tmp_path):
                 "outputs": {"screenshots": {"modes": True}, "states": ["all_distinct"]}}
         out = tmp_path / method
         out.mkdir()
-        res = run_study(parse_scene(data), MPI.COMM_WORLD, outdir=out)
-        assert not any("_x" in sol for s in res["states"] for sol in s["analyses"]["mceip_mu"].get("solutions", []))
+        res = study(parse_scene(data), MPI.COMM_WORLD, outdir=out)
+        # the full-size solve keeps its kept-space vectors in memory, never in results.json
+        kept = [sol for s in res.states for sol in s.analyses.mceip_mu.solutions]
+        assert all("x" not in sol.to_dict() for sol in kept)
+        assert any(sol.x is not None for sol in kept) == (method == "full")
         with np.load(out / "fields" / "fields.npz") as z:
             fields[method] = (json.loads(str(z["modes_json"])), z["mode_v"].copy())
     (m1, v1), (m2, v2) = fields["condensed"], fields["full"]

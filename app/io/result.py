@@ -522,12 +522,17 @@ class StudyResult(Record):
         return cls.model_validate(data)
 
     @classmethod
+    def from_json(cls, doc: dict) -> "StudyResult":
+        """From a results.json document (JSON data, any format version): :meth:`to_json` read back."""
+        return cls.from_dict(from_document(doc))
+
+    @classmethod
     def load(cls, path: str | pathlib.Path) -> "StudyResult":
         """Read a ``results.json`` (or the results folder holding it), of any format version."""
         p = pathlib.Path(path)
         if p.is_dir():
             p = p / "results.json"
-        return cls.from_dict(from_document(json.loads(p.read_text(encoding="utf-8"))))
+        return cls.from_json(json.loads(p.read_text(encoding="utf-8")))
 
     def __len__(self) -> int:
         return len(self.states)

@@ -320,9 +320,8 @@ def draw_plots(study: StudyResult, pictured: list[int],
 
 def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
     """Draw the plots of a drawing process's job (app/plot/worker.py): the study
-    (:func:`app.plot.worker.job_study`), the ``pictured`` states and the folder ``plots_dir``."""
-    from app.plot.worker import job_study
-    return draw_plots(job_study(job), job["pictured"], pathlib.Path(job["plots_dir"]))
+    (``results``: its results.json document), the ``pictured`` states and the folder ``plots_dir``."""
+    return draw_plots(StudyResult.from_json(job["results"]), job["pictured"], pathlib.Path(job["plots_dir"]))
 
 
 def warm_up(_arg: str = "") -> None:

@@ -153,7 +153,7 @@ def draw_screenshots(study: StudyResult, pictured: list[int], cfg: dict, outdir:
 def job_of(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path, fields_path: pathlib.Path,
            progress=None) -> dict:
     """The job of a drawing process, as JSON data: ``results`` is the study's results.json
-    document (:meth:`StudyResult.to_json`, read back by :func:`app.plot.worker.job_study`), with the other
+    document (:meth:`StudyResult.to_json`, read back by :meth:`StudyResult.from_json`), with the other
     arguments of :func:`draw_screenshots`."""
     return {"results": study.to_json(), "pictured": list(pictured), "cfg": cfg, "outdir": str(outdir),
             "fields": str(fields_path), "progress": bool(progress is not None and getattr(progress, "enabled", False))}
@@ -232,8 +232,7 @@ def draw_job(job: dict) -> tuple[list[pathlib.Path], list[str]]:
     if job["progress"]:
         from app.common.progress import Progress
         progress = Progress(enabled=True, comm=types.SimpleNamespace(rank=0))
-    from app.plot.worker import job_study
-    return _draw(job_study(job), job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
+    return _draw(StudyResult.from_json(job["results"]), job["pictured"], job["cfg"], pathlib.Path(job["outdir"]),
                  pathlib.Path(job["fields"]), progress)
 
 

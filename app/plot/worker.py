@@ -246,10 +246,3 @@ def _main(argv: list[str]) -> int:
 if __name__ == "__main__":
     sys.exit(_main(sys.argv[1:]))
 
-
-def job_study(job: dict):
-    """The study of a drawing job (:func:`app.plot.screenshots.job_of`, and the plots' job):
-    ``job["results"]`` is the results.json document, read back as a saved results.json is."""
-    from app.io.document import from_document
-    from app.io.result import StudyResult
-    return StudyResult.from_dict(from_document(job["results"]))
