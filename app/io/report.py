@@ -128,26 +128,23 @@ def _is_number(v) -> bool:
     return isinstance(v, (int, float))
 
 
+def _unanswered(a) -> str | None:
+    """The cell of an analysis that gave no answer (``failed``, ``n/a``), None when it answered."""
+    return "failed" if a.failed else ("n/a" if a.not_applicable else None)
+
+
 def _necessary_cell(st: StateResult) -> str:
     nec = st.analyses.necessary
     if nec is None:
         return ""
-    if nec.failed:
-        return "failed"
-    if nec.not_applicable:
-        return "n/a"
-    return f"{_fmt(nec.min_eig_K_sym, '.4g')}" + (" (holds)" if nec.satisfied else "")
+    return _unanswered(nec) or f"{_fmt(nec.min_eig_K_sym, '.4g')}" + (" (holds)" if nec.satisfied else "")
 
 
 def _sufficient_cell(st: StateResult) -> str:
     suf = st.analyses.sufficient
     if suf is None:
         return "none"
-    if suf.failed:
-        return "failed"
-    if suf.not_applicable:
-        return "n/a"
-    return ", ".join(_fmt(float(v)) for v in suf.lambda2) or "none"
+    return _unanswered(suf) or ", ".join(_fmt(float(v)) for v in suf.lambda2) or "none"
 
 
 def summary_table(study: StudyResult) -> list[str]:
