@@ -390,3 +390,20 @@ def _neighbours(A0: np.ndarray, A1: np.ndarray, found: dict[tuple, Candidate], t
                 found[k] = Candidate(exact=ex, newton_value=float("nan"), newton_residual=float("nan"), iterations=0,
                                      found_by=["exact eigenpair (25) of a pattern one flip from a found one"])
                 frontier.append(k[1])
+
+
+def policy(A0: np.ndarray, A1: np.ndarray, pairs: list[tuple[int, int]], enumerate_max: int,
+           t_max: float = np.inf, **search_kw) -> tuple[list[PatternSolution], DenseSearchReport]:
+    """The floating-point candidates of the condensed MCEIP-mu that guide its proof (they never
+    decide it): every support enumerated (eqs. (24)-(26), :func:`enumerate_patterns`) up to
+    ``enumerate_max`` slip nodes, the dense search (:func:`search`, keywords ``search_kw``) above;
+    the exact solutions found and the report of what was done. The one policy of the studies
+    (app/analyses/mceip_mu/state.py) and of ``app.mceip_mu`` (app/analyses/mceip_mu/proven.py)."""
+    s = A0.shape[0]
+    if s <= enumerate_max:
+        sols = enumerate_patterns(A0, A1, np.arange(s), t_max=t_max, pairs=list(pairs))
+        return sols, DenseSearchReport([], 0, 0, 0, 0.0, note=(
+            f"no search: s = {s} <= certify_enumerate_max, every support enumerated in floating point "
+            "(candidates for the proof)"))
+    rep = search(A0, A1, pairs=list(pairs), t_max=t_max, **search_kw)
+    return [c.exact for c in rep.candidates], rep

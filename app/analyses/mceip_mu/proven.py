@@ -79,16 +79,11 @@ class MuProof:
 
 
 def _candidates(a0: np.ndarray, a1: np.ndarray, cap: float, pairs, search_kw: dict | None):
-    """Floating-point candidates ``(support, mu, x)``: they guide the proof, never decide it."""
-    from app.analyses.enumerate import enumerate_patterns
+    """Floating-point candidates ``(support, mu, x)`` below the cap: they guide the proof, never
+    decide it (:func:`app.analyses.mceip_mu.candidates.policy`)."""
     from app.analyses.mceip_mu import candidates
-    s = a0.shape[0]
-    if s <= ENUMERATE_CANDIDATES_MAX:
-        sols = enumerate_patterns(a0, a1, np.arange(s), t_max=cap * (1 + 1e-9), pairs=list(pairs))
-    else:
-        rep = candidates.search(a0, a1, pairs=list(pairs), **(search_kw or {}))
-        sols = [c.exact for c in rep.candidates]
-    return [(np.flatnonzero(p.support), p.value, p.x) for p in sols]
+    sols, _ = candidates.policy(a0, a1, list(pairs), ENUMERATE_CANDIDATES_MAX, **(search_kw or {}))
+    return [(np.flatnonzero(p.support), p.value, p.x) for p in sols if p.value <= cap * (1 + 1e-9)]
 
 
 def mceip_mu(A0: np.ndarray, A1: np.ndarray, cap: float, pairs=None, seconds: float | None = None,

@@ -86,7 +86,6 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     true when the independent checker accepted both; ``onset.proven`` when it accepted the first.
     Candidates above the cap are listed as found (``certified: false``). The pencil and the proof
     log travel in the private ``_proof`` key (written to ``proofs/`` beside results.json)."""
-    from app.analyses.enumerate import enumerate_patterns
     from app.analyses.mceip_mu import candidates
     from app.analyses.mceip_mu.proven import mceip_mu, mceip_mu_none_below_cap
     from app.analyses.mceip_mu.prover.live import LIVE
@@ -96,13 +95,7 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
     pairs = list(pairs or [])
     large = s > settings.search_full_max
     with one_blas_thread():
-        if s <= settings.certify_enumerate_max:
-            cands = enumerate_patterns(A0, A1, comp, pairs=pairs)
-            rep = candidates.DenseSearchReport([], 0, 0, 0, 0.0, note=(
-                f"no search: s = {s} <= certify_enumerate_max, every support enumerated in floating point "
-                "(candidates for the proof)"))
-            found_by = {}
-        elif large and settings.certify and settings.prove_first and \
+        if s > settings.certify_enumerate_max and large and settings.certify and settings.prove_first and \
                 (quick := mceip_mu_none_below_cap(A0, A1, cap, pairs=pairs)) is not None:
             # proven without a search: no critical mu in [0, cap] (values above the cap, which a
             # search might meet, are outside every claim and not searched for)
@@ -110,13 +103,13 @@ def condensed_mu_result(A0: np.ndarray, A1: np.ndarray, cap: float, settings,
                 f"no search: s = {s} > search_full_max and the sign argument alone proved that no critical mu "
                 f"lies in [0, {cap:.6g}] (values above the cap are not searched for)"))
             return _outcome(A0, A1, cap, quick, [], {}, rep, comp, settings)
-        else:
+        if s > settings.certify_enumerate_max:
             LIVE.reset("search")
-            rep = candidates.search(A0, A1, pairs=pairs, mu0s=tuple(settings.starts) + (1000.0,),
-                                   zero_one_max=settings.search_zero_one_max, full_max=settings.search_full_max,
-                                   one_node=settings.search_one_node, warm=warm)
-            cands = [c.exact for c in rep.candidates]
-            found_by = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
+        cands, rep = candidates.policy(A0, A1, pairs, settings.certify_enumerate_max,
+                                       mu0s=tuple(settings.starts) + (1000.0,),
+                                       zero_one_max=settings.search_zero_one_max, full_max=settings.search_full_max,
+                                       one_node=settings.search_one_node, warm=warm)
+        found_by = {(round(c.exact.value, 9), tuple(c.exact.support)): c for c in rep.candidates}
         proof = None
         if settings.certify:
             guide = [(np.flatnonzero(p.support), p.value, p.x) for p in cands if p.value <= cap * (1 + 1e-9)]
