@@ -111,18 +111,28 @@ def farkas_closes(a0: np.ndarray, a1: np.ndarray, U: np.ndarray, F, a: float, b:
     the family (complementarity fixed on ``F``, dropped elsewhere) is infeasible exactly when such
     a vector exists; it is found by an LP in the prover and re-checked here with a rigorous bound
     on the rounding of ``g``, never taken from the LP's status."""
-    s = a0.shape[0]
-    w = np.asarray(w, dtype=float)
     U = np.asarray(U, dtype=np.int64)
-    if w.shape != (s,) or len(U) == 0 or not np.all(np.isfinite(w)) or not (a <= b):
+    if len(U) == 0 or not (a <= b):
+        return False
+    return farkas_at((pencil_at(a0[:, U], a1[:, U], mu) for mu in ((a, b) if a != b else (a,))), w, F, a0.shape[0])
+
+
+def farkas_at(enclosures, w, F, s: int) -> bool:
+    """The Farkas test of :func:`farkas_closes` on pencils given by ``enclosures``: pairs
+    ``(C, rC)`` (midpoint, radius) enclosing the columns ``U`` of each pencil the family's mu
+    range is a convex combination of (the ends of ``[a, b]`` for ``A0 + mu A1``; the corners of
+    the lifting for the quadratic pencil, app/analyses/mceip_mu/quadratic/check.py). ``w``: the
+    vector (length ``s``), nonpositive off the forced set ``F``, with ``(C^T w)_j > 0`` for every
+    enclosed ``C`` (rigorously, with the radii)."""
+    w = np.asarray(w, dtype=float)
+    if w.shape != (s,) or not np.all(np.isfinite(w)):
         return False
     free = np.zeros(s, dtype=bool)
     free[[int(i) for i in F if 0 <= int(i) < s]] = True
     if np.any(w[~free] > 0):
         return False
-    for mu in ((a, b) if a != b else (a,)):
-        A, rA = pencil_at(a0[:, U], a1[:, U], mu)
-        g, rg = mr_mul(A.T, rA.T, w[:, None], None)
+    for C, rC in enclosures:
+        g, rg = mr_mul(C.T, rC.T, w[:, None], None)
         if not np.all(g[:, 0] - rg[:, 0] > 0):
             return False
     return True

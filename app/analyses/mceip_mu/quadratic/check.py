@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.analyses.mceip_mu.kernel.closing import pd_plus_nn
+from app.analyses.mceip_mu.kernel.closing import farkas_at, pd_plus_nn
 from app.analyses.mceip_mu.kernel.rounding import U_ROUND, gamma, mr_mul, rounded_up, safe_inv
 
 THETAS = (0.0, 0.5, 1.0)
@@ -84,20 +84,10 @@ def cop_closes(a0, a1, a2, U, a: float, b: float, d, theta: float) -> bool:
 def farkas_closes(a0, a1, a2, U, F, a: float, b: float, w) -> bool:
     """No solution with ``F <= P <= U`` and mu in ``[a, b]``: ``w_i <= 0`` off ``F`` and
     ``(C^T w)_U > 0`` at the four corners (rigorously, with the radii)."""
-    s = a0.shape[0]
     U = np.asarray(U, dtype=np.int64)
-    w = np.asarray(w, dtype=float)
-    if w.shape != (s,) or len(U) == 0 or not np.all(np.isfinite(w)) or not (0 <= a <= b):
+    if len(U) == 0 or not (0 <= a <= b):
         return False
-    free = np.zeros(s, dtype=bool)
-    free[[int(i) for i in F]] = True
-    if np.any(w[~free] > 0):
-        return False
-    for C, rC in corners(a0[:, U], a1[:, U], a2[:, U], a, b):
-        g, rg = mr_mul(C.T, rC.T, w[:, None], None)
-        if not np.all(g[:, 0] - rg[:, 0] > 0):
-            return False
-    return True
+    return farkas_at(corners(a0[:, U], a1[:, U], a2[:, U], a, b), w, F, a0.shape[0])
 
 
 def nonsingular_closes(a0, a1, a2, U, a: float, b: float) -> bool:
