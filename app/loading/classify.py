@@ -55,6 +55,16 @@ class Classification:
         return f"{c[STICK]} stick / {c[SLIP]} slip / {c[FREE]} free" + (f" / {c[ZERO]} zero" if c[ZERO] else "")
 
 
+def classified(state: EquilibriumState, mu: float, rtol: float = 1e-8) -> Classification:
+    """:func:`classify`, made once per state: the loading path's classification of ``state``
+    (``state.classified``) when it used the same ``mu`` and ``rtol``, else a new one (kept)."""
+    if state.classified is not None and state.classified[:2] == (mu, rtol):
+        return state.classified[2]
+    cls = classify(state, mu, rtol)
+    state.classified = (mu, rtol, cls)
+    return cls
+
+
 def classify(state: EquilibriumState, mu: float, rtol: float = 1e-8) -> Classification:
     """Classify the contact nodes of ``state`` for friction coefficient ``mu``.
 

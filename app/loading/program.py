@@ -22,7 +22,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from app.loading.classify import FREE, SLIP, classify
+from app.loading.classify import FREE, SLIP, classified
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.state import EquilibriumState
 
@@ -163,7 +163,7 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
                     states.append(st)
                     bar.update(1)
                     if ph.stop_at_gross_sliding and mu > 0:     # frictionless: "slip" is every contact
-                        cls = classify(st, mu, classify_rtol)
+                        cls = classified(st, mu, classify_rtol)
                         contact = [s for s in cls.status if s != FREE]
                         if contact and all(s == SLIP for s in contact):
                             stop = (f"gross sliding in phase {i} ('{ph.name}') at step {k}: all {len(contact)} "

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, Optional
 
 import numpy as np
 
@@ -21,3 +22,6 @@ class EquilibriumState:
     r_T: np.ndarray
     r_N: np.ndarray
     extra: dict = field(default_factory=dict)
+    #: the classification the loading path made of this state (to see gross sliding) with its
+    #: friction coefficient and tolerance: the study reuses it for the same ``(mu, rtol)``
+    classified: Optional[tuple[float, float, Any]] = field(default=None, repr=False)

@@ -21,7 +21,7 @@ from app.common.stages import Stages
 from app.io.from_outcomes import analyses_result
 from app.io.result import Node, StateResult, StudyResult
 from app.linalg import one_blas_thread
-from app.loading.classify import ZERO, classify
+from app.loading.classify import ZERO, classified
 from app.scene.schema import Scene
 from app.study import stream
 from app.study.scheduler import EarlyChains, analyse_condensed_distributed
@@ -112,7 +112,7 @@ class Classified:
         t_state = time.perf_counter()
         system, scene = self.system, self.scene
         # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/pencils/curvature.py)
-        cls = attach_curvature(classify(state, scene.mu, scene.settings.classify_rtol), state, system)
+        cls = attach_curvature(classified(state, scene.mu, scene.settings.classify_rtol), state, system)
         # one row per contact node, from Python numbers (a 100k-DOF study has 10^5 of them)
         values = [np.asarray(v, dtype=float) for v in (state.u_N, state.u_T, state.r_N, state.r_T)]
         # the app's own numbers: built without validation (model_construct), as fast as a dict

@@ -20,7 +20,7 @@ from mpi4py import MPI
 from app.common.errors import UnreachableLoad
 from app.common.progress import Progress
 from app.common.stages import Stages
-from app.loading.classify import FREE, SLIP, classify
+from app.loading.classify import FREE, SLIP, classified
 from app.loading.contact import ContactSolveError, FrictionalContact
 from app.loading.flexibility import contact_flexibility
 from app.loading.state import EquilibriumState
@@ -159,7 +159,7 @@ def _loading(scene, flex, n: int, stages: Stages, progress: Progress, on_state):
             states.append(st)
             on_state(st)
             bar.update(1)
-            cls = classify(st, scene.mu, scene.settings.classify_rtol)
+            cls = classified(st, scene.mu, scene.settings.classify_rtol)
             contact = [s for s in cls.status if s not in (FREE,)]
             if contact and all(s == SLIP for s in contact):
                 end = (f"gross sliding at CD u_x = {gx:.6g} {UNITS[scene.units]['length']}: all {len(contact)} nodes in contact slip "
