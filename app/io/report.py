@@ -106,15 +106,18 @@ def _pattern(pattern) -> str:
     return "".join("S" if p == "slip" else "-" for p in pattern)
 
 
-def _solutions(a: MceipResult | None) -> str:
+def _solutions(a: MceipResult | None, slip_nodes: int) -> str:
     """An MCEIP analysis in a table cell: its solutions ``value (pattern)`` and what is proven of
-    them, ``failed``, ``n/a``, or empty when it was not computed."""
+    them, ``failed``, ``n/a``, ``none (no slip node)`` at a state without unknowns, or empty when
+    it was not computed."""
     if a is None:
         return ""
     if a.failed:
         return "failed"
     if a.not_applicable:
         return "n/a"
+    if slip_nodes == 0:
+        return "none (no slip node)"
     rigorous = a.certificate is None or a.certificate.rigorous is not False
     onset = getattr(a, "onset", None)
     word = ("proven" if rigorous else "shown in floating point, not a rigorous proof") if a.certified else \
@@ -185,9 +188,9 @@ def summary_table(study: StudyResult) -> list[str]:
         if "sufficient" in asked:
             row.append(_sufficient_cell(s0))
         if "mceip_mu" in asked:
-            row.append(_solutions(s0.analyses.mceip_mu))
+            row.append(_solutions(s0.analyses.mceip_mu, s0.classification.slip))
         if "mceip_lambda2" in asked:
-            row.append(_solutions(s0.analyses.mceip_lambda2))
+            row.append(_solutions(s0.analyses.mceip_lambda2, s0.classification.slip))
         rows.append("| " + " | ".join(row) + " |")
     return rows
 
@@ -236,7 +239,7 @@ def _overview(study: StudyResult) -> list[str]:
                  f"{c.slip} slip / {c.free} free): mu = {vals}.")
     last = study.final
     if last.analyses.mceip_mu is not None:
-        L.append(f"- final state {last.index}: MCEIP-mu {_solutions(last.analyses.mceip_mu)}.")
+        L.append(f"- final state {last.index}: MCEIP-mu {_solutions(last.analyses.mceip_mu, last.classification.slip)}.")
     blocks = [getattr(last.analyses, k) for k in type(last.analyses).model_fields]
     na = next((a.reason for a in blocks if a is not None and a.not_applicable), None)
     if na:

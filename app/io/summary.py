@@ -6,10 +6,13 @@ import pathlib
 from app.io.result import MceipResult, StudyResult
 
 
-def proof_word(analysis: MceipResult) -> str:
-    """What is proven about an MCEIP analysis: ``proven on [0, cap]`` when ``certified`` (the
-    checker accepted every claim), ``onset proven; list ...`` when only the MCEIP-mu onset is,
-    else ``found (not proven)`` with the proven lower bound when there is one."""
+def proof_word(analysis: MceipResult, slip_nodes: int | None = None) -> str:
+    """What is proven about an MCEIP analysis: ``no slip node: nothing to prove`` at a state
+    without unknowns (``slip_nodes`` 0: "no solution" holds trivially), ``proven on [0, cap]``
+    when ``certified`` (the checker accepted every claim), ``onset proven; list ...`` when only
+    the MCEIP-mu onset is, else ``found (not proven)`` with the proven lower bound when there is one."""
+    if slip_nodes == 0:
+        return "no slip node: no unknowns, nothing to prove"
     cert = analysis.certificate
     if analysis.certified:
         iv = [float(v) for v in cert.interval] if cert is not None and cert.interval else None
@@ -63,10 +66,10 @@ def summary(study: StudyResult, outdir: pathlib.Path) -> str:
         lines.append("    sufficient condition (17)-(18): "
                      + (f"satisfied, lambda^2 = {lam:.6g} 1/s^2" if lam is not None else "not satisfied"))
     if last.mceip_mu is not None:
-        lines.append(f"    MCEIP-mu: {_patterns(last.mceip_mu)} [{proof_word(last.mceip_mu)}]")
+        lines.append(f"    MCEIP-mu: {_patterns(last.mceip_mu)} [{proof_word(last.mceip_mu, last.classification.slip)}]")
     if last.mceip_lambda2 is not None:
         m = last.mceip_lambda2
-        lines.append(f"    MCEIP-lambda^2 at mu = {m.mu}: {_patterns(m)} [{proof_word(m)}]")
+        lines.append(f"    MCEIP-lambda^2 at mu = {m.mu}: {_patterns(m)} [{proof_word(m, last.classification.slip)}]")
     for w in study.warnings:
         lines.append(f"  WARNING: {w}")
     if study.failures:

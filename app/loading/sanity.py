@@ -17,6 +17,10 @@ The strain limit is 10 %: the paper's own block study reaches a mean nominal she
 limit would flag the reference study itself.
 
 Each violated check gives one warning naming the first state, the worst state and by how much.
+
+:func:`check_contact` looks at the classified path of any system type: a body that never touches
+the obstacle, a path that slides grossly at its first step of loading, and a path without a
+single slip node, on which the MCEIPs have no unknowns (their "no solution" holds trivially).
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ from typing import Sequence
 
 import numpy as np
 
+from app.loading.classify import FREE, SLIP, Classification
 from app.loading.state import EquilibriumState
 
 STRAIN_LIMIT = 0.10          # beyond this nominal strain, small-strain elasticity is clearly invalid
@@ -133,3 +138,26 @@ def check_block_path(states: Sequence[EquilibriumState], length: float, height: 
          lambda i: f"max u_N = {pen[i] * size:.4g} {unit}"),
     ]
     return out + _reports(checks, states)
+
+
+def check_contact(states: Sequence[EquilibriumState], classes: Sequence[Classification], end: str,
+                  mceip: bool) -> list[str]:
+    """Warnings for a classified path that makes the analyses meaningless: no contact node in
+    contact at any state; gross sliding (``end``: the path's end in words) at the first step of
+    a phase (of the tangential loading for the block), as when E or the loads are off by orders of
+    magnitude; no slip node at any state while an MCEIP is asked for (``mceip``)."""
+    out = []
+    if not states:
+        return out
+    if all(all(st == FREE for st in c.status) for c in classes):
+        out.append(f"no contact node touches the obstacle in any of the {len(states)} states: there is no "
+                   "contact to analyse (check the obstacle's position and the loading)")
+    elif mceip and not any(SLIP in c.status for c in classes):
+        out.append(f"no contact node slips in any of the {len(states)} states: MCEIP-mu and MCEIP-lambda^2 have "
+                   "no unknowns, so their 'no solution' holds trivially (nothing was proven about slip)")
+    phase = [st.load.get("phase") for st in states]
+    if end.startswith("gross sliding") and (len(states) == 1 or phase[-1] != phase[-2]):
+        out.append(f"gross sliding at the first loading step of its phase (state {states[-1].index}, "
+                   f"phase {phase[-1]!r}): the whole contact slipped at once, so the path has no state of "
+                   "partial slip to analyse (check E, mu, the loads and the units, or take smaller steps)")
+    return out

@@ -22,6 +22,7 @@ from app.io.from_outcomes import analyses_result
 from app.io.result import Node, StateResult, StudyResult
 from app.linalg import one_blas_thread
 from app.loading.classify import ZERO, classified
+from app.loading.sanity import check_contact
 from app.scene.schema import Scene
 from app.study import stream
 from app.study.scheduler import EarlyChains, analyse_condensed_distributed
@@ -98,6 +99,8 @@ class Classified:
         self.deferred: list = []    # (classification, its analyses, state index): condensed MCEIP-mu
         self.out_states: list = []
         self.typed_nodes: list = []   # per state: its contact nodes (app.io.result.Node)
+        self.states: list = []        # the states classified, and their classifications
+        self.classes: list = []
         self.failures: list = []
         self.postponed: list = []   # (entry, classification) whose analyses wait for every rank
         self.progress = progress
@@ -113,6 +116,8 @@ class Classified:
         system, scene = self.system, self.scene
         # on a curved obstacle the pencils also depend on kappa P and the contact frames (app/analyses/pencils/curvature.py)
         cls = attach_curvature(classified(state, scene.mu, scene.settings.classify_rtol), state, system)
+        self.states.append(state)
+        self.classes.append(cls)
         # one row per contact node, from Python numbers (a 100k-DOF study has 10^5 of them)
         values = [np.asarray(v, dtype=float) for v in (state.u_N, state.u_T, state.r_N, state.r_T)]
         # the app's own numbers: built without validation (model_construct), as fast as a dict
@@ -190,6 +195,8 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
         per_state = Classified(system, scene, progress)
         per_state.add_all(states)
     out_states = per_state.out_states
+    stages.warnings += check_contact(per_state.states, per_state.classes, str(path_info.get("end", "")),
+                                     mceip=bool({"mceip_mu", "mceip_lambda2"} & set(scene.analyses)))
     failures = [path_info["failure"]] if path_info.get("failure") else []
     failures += per_state.failures
     deferred = per_state.deferred

@@ -27,6 +27,7 @@ from app.loading.state import EquilibriumState
 from app.systems.base import ContactNode, System
 from app.systems.block.schema import Block
 from app.systems.units import CONTINUUM_UNITS as UNITS
+from app.systems.units import implausible_material
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +41,9 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
     with stages("assemble stiffness"):
         ops = block_operators(mesh, facets, cfg.E, cfg.nu, cfg.thickness, cfg.density, plane=cfg.plane,
                               degree=cfg.degree, mass_kind=cfg.mass)
+    for w in implausible_material("system", cfg.E, cfg.density, units):
+        log.warning("%s", w)
+        stages.warnings.append(w)
     if cfg.degree == 1 and cfg.plane == "strain" and cfg.nu >= 0.45:
         log.warning("P1 triangles lock in plane strain as nu -> 0.5 (nu = %s): displacements, reactions "
                     "and mode shapes are too stiff; use degree: 2", cfg.nu)

@@ -29,6 +29,7 @@ from app.systems.gmsh.fields import BodyFields, parameter_name
 from app.systems.gmsh.operators import BodyError, body_operators
 from app.systems.gmsh.schema import GmshBody
 from app.systems.units import CONTINUUM_UNITS as UNITS
+from app.systems.units import implausible_material
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +49,30 @@ class LoadingInput:
     contact_xy: np.ndarray         # the contact nodes' coordinates
     recovery: ContactRecovery      # nodal reactions -> contact tractions
     obstacle: Optional[Any] = None  # a curved obstacle's geometry (None: the straight line)
+
+
+def _check_left_out(cfg: GmshBody, ops, stages: Stages) -> None:
+    """A warning when nodes of the contact curve with one prescribed component are left out of the
+    contact set (they are not kept out of the obstacle)."""
+    if not len(ops.left_out):
+        return
+    gl = cfg.obstacle.clearance(ops.left_out)
+    i = int(np.argmin(gl))
+    g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.size else 0.0
+    w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
+         f"left out of the contact set (not kept out of the obstacle), e.g. {point_text(ops.left_out[i], ops.size)} "
+         f"with initial gap {g:.3g}")
+    log.warning("%s", w)
+    stages.warnings.append(w)
+
+
+def _check_materials(cfg: GmshBody, units: str, stages: Stages) -> None:
+    """A warning for each material whose E or density no real solid has in the scene's units."""
+    named = {"system.material": cfg.material} if cfg.material else {f"system.materials.{k}": m for k, m in cfg.materials.items()}
+    for key, m in named.items():
+        for w in implausible_material(key, m.E, m.density, units):
+            log.warning("%s", w)
+            stages.warnings.append(w)
 
 
 def _contact_columns(flex, loads: list[PETSc.Vec]) -> np.ndarray:
@@ -125,21 +150,14 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         log.warning("%s", w)
         stages.warnings.append(w)
     mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
+    _check_materials(cfg, units, stages)
     u = UNITS[units]
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
                     build_contact_schur=lambda: flex.schur,
                     description=(f"gmsh body {pathlib.Path(cfg.file).name}, P{cfg.degree}, plane {cfg.plane}, "
                                  f"thickness {cfg.thickness} {u['length']}, {mats}, {cfg.obstacle.describe()}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
-    if len(ops.left_out):
-        gl = cfg.obstacle.clearance(ops.left_out)
-        i = int(np.argmin(gl))
-        g = float(gl[i]) if abs(gl[i]) > 1e-10 * ops.size else 0.0
-        w = (f"{len(ops.left_out)} node(s) of the contact curve '{cfg.contact}' have one prescribed component and are "
-             f"left out of the contact set (not kept out of the obstacle), e.g. {point_text(ops.left_out[i], ops.size)} "
-             f"with initial gap {g:.3g}")
-        log.warning("%s", w)
-        stages.warnings.append(w)
+    _check_left_out(cfg, ops, stages)
     system.flexibility = flex
     system.own(ops.R, ops.kept, *ops.loads, zero)
     geometry = None
