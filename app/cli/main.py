@@ -80,6 +80,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--overwrite", action="store_true",
                      help="replace the results this app wrote earlier in the output folder (atomically, at the "
                           "end of the run); a folder holding other files is never replaced")
+    run.add_argument("--set", action="append", default=[], dest="overrides", metavar="KEY=VALUE",
+                     help="set a scene key before validation, as if the file said so (repeatable): "
+                          "--set mu=0.8 --set system.nx=40 --set analyses=[mceip_mu]")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no summary")
     run.add_argument("--ranks-per-case", type=int, default=None, metavar="K",
                      help="sweep scenes (a 'sweep' section): MPI ranks per case; the ranks form groups of K "
@@ -98,6 +101,8 @@ def _parser() -> argparse.ArgumentParser:
                          description="Check a scene file without running it (exit status 0 ok, 2 bad "
                                      "input); then run it with: python -m app run SCENE")
     val.add_argument("scene", help="scene YAML file")
+    val.add_argument("--set", action="append", default=[], dest="overrides", metavar="KEY=VALUE",
+                     help="set a scene key before validation (repeatable), as in run")
     chk = sub.add_parser("check", help="re-verify every MCEIP-mu claim of a results folder from its stored pencils",
                          description="Re-derive every MCEIP-mu claim results.json makes (proven onsets, complete "
                                      "lists, certified values, lower bounds) from the stored pencils "
@@ -257,7 +262,7 @@ def _main(args) -> int:
         return 2
     from app.scene.schema import SceneError, default_scene_path, load_scene
     try:
-        scene = load_scene(args.scene or default_scene_path())
+        scene = load_scene(args.scene or default_scene_path(), getattr(args, "overrides", ()))
     except SceneError as err:
         return _fail(str(err), err.exit_code)
     from mpi4py import MPI

@@ -6,9 +6,10 @@ is allowed (:class:`SceneError`); the CLI prints that line and exits with status
 """
 from __future__ import annotations
 
+import difflib
 import pathlib
 import re
-from typing import Annotated, Any, Literal, Optional, Union
+from typing import Annotated, Any, Literal, Optional, Sequence, Union
 
 import yaml
 from pydantic import BaseModel, Field, ValidationError, field_validator, model_validator
@@ -132,16 +133,61 @@ class Scene(Strict):
         return self.mu if self.mceip_lambda2_mu is None else self.mceip_lambda2_mu
 
 
+def _keys_at(loc: tuple) -> list[str]:
+    """The keys a scene allows at the mapping of location ``loc`` (pydantic's, with the system
+    type's tag), for a suggestion; empty when it is not a mapping of known keys."""
+    model: Any = Scene
+    for part in loc:
+        if isinstance(part, str) and part in SYSTEM_TYPES:
+            model = SYSTEM_TYPES[part].schema
+            continue
+        field = getattr(model, "model_fields", {}).get(part)
+        if field is None:
+            return []
+        model = _model_in(field.annotation)
+        if model is None and part != "system":
+            return []
+    fields = getattr(model, "model_fields", {})
+    return [f.alias or name for name, f in fields.items()]
+
+
+def _model_in(annotation) -> Any:
+    """The pydantic model an annotation holds (through Optional and Annotated), else None."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in getattr(annotation, "__args__", ()) or ():
+        found = _model_in(arg)
+        if found is not None:
+            return found
+    meta = getattr(annotation, "__origin__", None)
+    return _model_in(meta) if isinstance(meta, type) and issubclass(meta, BaseModel) else None
+
+
+def _did_you_mean(e: dict) -> str | None:
+    """``did you mean 'x'?`` for an unknown key close to an allowed one."""
+    loc = tuple(e["loc"])
+    if not loc or not isinstance(loc[-1], str):
+        return None
+    keys = {k.lower(): k for k in _keys_at(loc[:-1])}
+    close = difflib.get_close_matches(loc[-1].lower(), list(keys), n=1, cutoff=0.6)
+    return f"did you mean '{keys[close[0]]}'?" if close else None
+
+
 def format_error(err: ValidationError) -> str:
-    """The one-line message of a pydantic validation error: key path, bad value, what is allowed."""
-    e = err.errors(include_url=False)[0]
+    """The one-line message of a pydantic validation error: key path, bad value, what is allowed.
+    An unknown key close to an allowed one is named first, with the key it probably is (a
+    misspelt required key is also missing: "did you mean" says more than "missing")."""
+    errors = err.errors(include_url=False)
+    typo = next(((e, hint) for e in errors if e["type"] == "extra_forbidden" and (hint := _did_you_mean(e))), None)
+    e = typo[0] if typo else errors[0]
     # Drop the discriminator tag pydantic inserts in the location of tagged unions.
     loc = [one_line(str(p)) for p in e["loc"] if p not in SYSTEM_TYPES]
     path = ".".join(loc) if loc else "(top level)"
     msg = e["msg"]
     value = e.get("input")
     if e["type"] == "extra_forbidden":
-        return f"unknown key '{path}' (not allowed here; check the spelling)"
+        hint = typo[1] if typo else None
+        return f"unknown key '{path}' (not allowed here; {hint or 'check the spelling'})"
     if e["type"] == "missing":
         return f"missing key '{path}'"
     if e["type"] == "invalid_key":
@@ -269,8 +315,49 @@ def _read_scene_text(path: pathlib.Path) -> str:
                          f"a scene file must be UTF-8 encoded YAML") from None
 
 
-def load_scene(path: str | pathlib.Path) -> Scene:
-    """Read and validate a scene file. Raises :class:`SceneError` with a one-line message."""
+def with_overrides(data: Any, overrides: Sequence[str]) -> Any:
+    """``data`` (a scene document) with each ``KEY=VALUE`` of ``overrides`` set: ``KEY`` a dotted
+    path of keys (a number indexes a list: ``system.program.0.steps``), ``VALUE`` read as YAML
+    (``0.8``, ``[1, 2]``, ``{E: 5.0, nu: 0.3}``); missing mappings on the way are created. The
+    result is validated as the file is. Raises :class:`SceneError` with a one-line message."""
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        parts = key.strip().split(".")
+        if not sep or not all(parts):
+            raise SceneError(f"--set {item!r}: expected KEY=VALUE with a dotted key, e.g. --set mu=0.8 or "
+                             "--set system.nx=40")
+        try:
+            value = yaml.load(text, Loader=_UniqueKeyLoader)     # noqa: S506 - a SafeLoader subclass
+        except (yaml.YAMLError, SceneError, RecursionError, ValueError, TypeError) as err:
+            raise SceneError(f"--set {item!r}: the value is not valid YAML ({one_line(str(err))})") from None
+        if not isinstance(data, dict):
+            raise SceneError(f"--set {item!r}: the scene is not a mapping")
+        node: Any = data
+        for i, part in enumerate(parts[:-1]):
+            where = ".".join(parts[:i + 1])
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise SceneError(f"--set {item!r}: '{where}': the list has {len(node)} entries (0 to {len(node) - 1})")
+                node = node[int(part)]
+            elif isinstance(node, dict):
+                node = node.setdefault(part, {})
+            else:
+                raise SceneError(f"--set {item!r}: '{'.'.join(parts[:i])}' is not a mapping or a list")
+        last = parts[-1]
+        if isinstance(node, list):
+            if not last.isdigit() or int(last) >= len(node):
+                raise SceneError(f"--set {item!r}: '{key}': the list has {len(node)} entries (0 to {len(node) - 1})")
+            node[int(last)] = value
+        elif isinstance(node, dict):
+            node[last] = value
+        else:
+            raise SceneError(f"--set {item!r}: '{'.'.join(parts[:-1])}' is not a mapping or a list")
+    return data
+
+
+def load_scene(path: str | pathlib.Path, overrides: Sequence[str] = ()) -> Scene:
+    """Read and validate a scene file, with the command line's ``--set KEY=VALUE`` ``overrides``
+    applied first (:func:`with_overrides`). Raises :class:`SceneError` with a one-line message."""
     path = pathlib.Path(path)
     text = _read_scene_text(path)
     try:
@@ -287,7 +374,9 @@ def load_scene(path: str | pathlib.Path) -> Scene:
     except Exception as err:     # the YAML constructors' own errors, e.g. "!!int abc", over-long integers
         raise SceneError(f"{path}: invalid YAML: a value could not be converted "
                          f"({type(err).__name__}: {err})") from None
-    return parse_scene(data, str(path), path.parent)
+    if overrides:
+        data = with_overrides(data, overrides)
+    return parse_scene(data, str(path) + (" with --set" if overrides else ""), path.parent)
 
 
 def default_scene_path() -> pathlib.Path:
