@@ -114,6 +114,16 @@ def _parser() -> argparse.ArgumentParser:
                                 "be read as this app's results")
     chk.add_argument("results", help="results folder (the one holding results.json and proofs/)")
     chk.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
+    exp = sub.add_parser("export", help="write a results folder's matrices for other tools (Matrix Market)",
+                         description="Write K and M, and for each distinct classification K*(mu), M*(mu) and "
+                                     "the condensed MCEIP-mu pencil A0, A1 (A2 on a curved obstacle) with the "
+                                     "proven answers (answers.json), into a new folder; the system is rebuilt "
+                                     "from the scene results.json stores. One process only.",
+                         epilog="exit status: 0 written, 2 the folder cannot be read or the output exists")
+    exp.add_argument("results", help="results folder (the one holding results.json)")
+    exp.add_argument("--matrices", action="store_true", required=True,
+                     help="export the matrices (the only export so far)")
+    exp.add_argument("-o", "--output", help="a new folder (default: RESULTS-export beside the results folder)")
     return p
 
 
@@ -149,6 +159,8 @@ def main(argv: list[str] | None = None) -> int:
             return _guarded(render_main, args)
         if args.command == "check":
             return _check(args)
+        if args.command == "export":
+            return _export(args)
         return _guarded(_main, args)
 
 
@@ -212,6 +224,33 @@ def _interrupted(signum: int, left: str | None = None) -> int:
     if MPI.COMM_WORLD.size > 1:
         MPI.COMM_WORLD.Abort(code)
     return code
+
+
+def _export(args) -> int:
+    """``python -m app export RESULTS --matrices``: app/study/export.py; exit status 0 written, 2
+    the folder cannot be read or exported."""
+    from mpi4py import MPI
+
+    from app.io.check import MalformedResults
+    from app.io.untrusted import UntrustedFile
+    from app.scene.schema import SceneError
+    from app.study.export import ExportError, export_matrices
+    folder = pathlib.Path(args.results)
+    if not folder.is_dir():
+        return _fail(f"{folder}: not a folder (give the results folder a run wrote)")
+    out = pathlib.Path(args.output) if args.output else folder.parent / f"{folder.resolve().name}-export"
+    try:
+        files = export_matrices(folder, out, MPI.COMM_WORLD)
+    except FileNotFoundError as err:
+        return _fail(f"{folder}: {err.strerror or 'not found'}: {err.filename or 'results.json'}")
+    except (UntrustedFile, MalformedResults, ExportError) as err:
+        return _fail(str(err))
+    except SceneError as err:
+        return _fail(f"{folder}: the scene results.json stores cannot be rebuilt: {err}")
+    except OSError as err:
+        return _fail(f"{out}: cannot be written: {err.strerror or err}", EXIT_WRITE)
+    print(f"{out}: {len(files)} files (K, M and {sum(f.endswith('answers.json') for f in files)} classifications)")
+    return 0
 
 
 def _check(args) -> int:

@@ -12,8 +12,8 @@ from app.common.validation import PathError
 
 
 def check_circle_keys(model: Any, circle_keys: tuple[str, ...], line_keys: tuple[str, ...]) -> None:
-    """Raise :class:`PathError` unless the keys given match ``model.type``."""
-    given = model.model_fields_set
+    """Raise :class:`PathError` unless the keys given match ``model.type`` (:func:`given_keys`)."""
+    given = given_keys(model)
     if model.type == "line":
         for key in circle_keys:
             if key in given:
@@ -33,7 +33,7 @@ def check_circle_keys(model: Any, circle_keys: tuple[str, ...], line_keys: tuple
 
 def check_curve_keys(model: Any) -> None:
     """A ``type: curve`` obstacle (gmsh bodies) has ``physical`` and ``side: left|right`` only."""
-    given = model.model_fields_set
+    given = given_keys(model)
     if model.type != "curve":
         raise PathError("physical", model.physical, f"allowed only with type: curve (this obstacle is type: {model.type})")
     for key in ("point", "normal", "angle_deg", "centre", "radius"):
@@ -45,3 +45,17 @@ def check_curve_keys(model: Any) -> None:
     if model.side not in ("left", "right"):
         raise PathError("side", model.side, "allowed with type: curve: left or right (the side of the body, looking "
                         "along the curve's direction)")
+
+
+def given_keys(model: Any) -> set[str]:
+    """The keys given to ``model`` with a value other than their default: a key given with its
+    default value changes nothing, and a stored scene (results.json ``scene_config``, which lists
+    every default) validates again."""
+    fields = type(model).model_fields
+    return {k for k in model.model_fields_set if k not in fields or getattr(model, k) != _default(fields[k])}
+
+
+def _default(field) -> Any:
+    """A field's default value, as the model holds it (a list default compared as a tuple too)."""
+    d = field.get_default(call_default_factory=True)
+    return tuple(d) if isinstance(d, list) else d

@@ -94,7 +94,7 @@ class Obstacle(StrictModel):
 
     @model_validator(mode="after")
     def _one_way(self) -> "Obstacle":
-        from app.systems.obstacle_schema import check_circle_keys, check_curve_keys
+        from app.systems.obstacle_schema import check_circle_keys, check_curve_keys, given_keys
         if self.type == "curve" or "physical" in self.model_fields_set:
             check_curve_keys(self)
             return self
@@ -102,7 +102,7 @@ class Obstacle(StrictModel):
         if self.type == "circle" and self.side not in ("outside", "inside"):
             raise SystemPathError("side", self.side, "allowed with type: circle: outside (the body outside a convex "
                                   "cylinder) or inside (the body inside a concave bore)")
-        if self.angle_deg is not None and "normal" in self.model_fields_set:
+        if self.angle_deg is not None and "normal" in given_keys(self):
             raise SystemPathError("angle_deg", self.angle_deg, "give either normal or angle_deg, not both")
         return self
 

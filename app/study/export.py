@@ -1,0 +1,143 @@
+"""``python -m app export RESULTS --matrices``: a results folder's matrices for other tools.
+
+For researchers who test complementarity eigenvalue solvers on finite-element instances, and for
+users who want the system in their own code. From the results folder (read strictly, as
+``check`` reads it: app/io/claims.py) the scene it stores is validated again and its system
+built (no loading path: the states are in results.json); then, in a new folder:
+
+- ``K.mtx``, ``M.mtx``: the stiffness and mass matrices (Matrix Market, the system's DOFs);
+- ``state_<k>/`` for the first state ``k`` of each distinct classification (the states that
+  share it are listed in its ``answers.json``):
+
+  - ``Kstar.mtx``, ``Mstar.mtx``: ``K*(mu)`` and ``M*(mu)`` of the paper's eq. (15) at the
+    scene's mu, on the kept DOFs (docs/method.md section 2);
+  - ``A0.mtx``, ``A1.mtx`` (and ``A2.mtx`` on a curved obstacle): the condensed MCEIP-mu pencil
+    ``A0 + mu A1 (+ mu^2 A2)`` on the slip nodes, eqs. (21)-(23) (none without slip nodes);
+  - ``answers.json``: what results.json says of that classification: the MCEIP-mu record
+    (solutions, the proven onset and list, the certificate), the state's classification and mu;
+- ``index.json``: the scene, the units, mu and the classifications exported.
+
+``app.mceip_mu(A0, A1, cap)`` on the exported pencil re-proves the stored answers
+(tests/test_export.py). The folder is written under a temporary name and renamed at the end:
+nothing half-written is left, and an existing folder is never replaced. One process only.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import shutil
+
+import numpy as np
+import scipy.io
+import scipy.sparse
+from petsc4py import PETSc
+
+from app.analyses.pencils.curvature import attach as attach_curvature
+from app.analyses.pencils.curvature import is_curved
+from app.analyses.pencils.state import StatePencils
+from app.common.stages import Stages
+from app.io.claims import read_results
+from app.io.document import json_clean
+from app.io.result import StateResult, StudyResult
+from app.loading.classify import Classification
+from app.loading.state import EquilibriumState
+from app.scene.schema import parse_scene
+from app.systems import SYSTEM_TYPES
+
+
+class ExportError(Exception):
+    """A results folder that cannot be exported (one line)."""
+
+
+def export_matrices(results: pathlib.Path, out: pathlib.Path, comm) -> list[str]:
+    """Write the matrices of the results folder ``results`` into the new folder ``out`` (see the
+    module's docstring); returns the files written, relative to ``out``."""
+    if comm.size != 1:
+        raise ExportError("export runs on one process (without mpirun)")
+    if os.path.lexists(out):
+        raise ExportError(f"{out} exists: give a new folder with -o (an existing one is never replaced)")
+    study = read_results(results)
+    scene = parse_scene(study.scene_config, f"{results}/results.json scene_config", results)
+    staging = out.parent / f".{out.name}.partial-{os.getpid()}"
+    staging.mkdir(parents=False)
+    try:
+        files = _write(study, scene, staging, comm)
+        os.rename(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return files
+
+
+def _write(study: StudyResult, scene, folder: pathlib.Path, comm) -> list[str]:
+    files: list[str] = []
+    kind = SYSTEM_TYPES[scene.system.type]
+    with kind.build(scene.system, comm, Stages()) as system:
+        _mtx(folder / "K.mtx", _sparse(system.K), "the stiffness matrix K", files, folder)
+        try:
+            M = system.mass()
+        except RuntimeError:             # a system given as matrices without M
+            M = None
+        if M is not None:
+            _mtx(folder / "M.mtx", _sparse(M), "the mass matrix M", files, folder)
+        exported = [_classification(study, st, system, folder, files) for st in study.states
+                    if st.analyses_shared_with is None]
+        dofs = int(system.n_dofs)
+    (folder / "index.json").write_text(json.dumps(json_clean({
+        "scene": study.scene, "units": study.units.to_dict(), "mu": study.mu, "system": study.system,
+        "dofs": dofs, "classifications": exported}), indent=1, allow_nan=False))
+    files.append("index.json")
+    return files
+
+
+def _classification(study: StudyResult, st: StateResult, system, folder: pathlib.Path, files: list[str]) -> dict:
+    """The files of one distinct classification (first state ``st``); its line of index.json."""
+    cls = attach_curvature(Classification(tuple(n.status for n in st.nodes), tuple(int(n.sign) for n in st.nodes)),
+                           _state(st), system)
+    sub = folder / f"state_{st.index}"
+    sub.mkdir()
+    p = StatePencils(system, cls)
+    try:
+        Ks, Ms = p.star(study.mu)
+        _mtx(sub / "Kstar.mtx", _sparse(Ks), f"K*(mu) of eq. (15) at mu = {study.mu}", files, folder)
+        _mtx(sub / "Mstar.mtx", _sparse(Ms), f"M*(mu) of eq. (15) at mu = {study.mu}", files, folder)
+        s = len(cls.slip)
+        if s:
+            pencil = p.condensed_mu_quadratic() if is_curved(cls) else p.condensed_mu()
+            for name, A in zip(("A0", "A1", "A2"), pencil):
+                _mtx(sub / f"{name}.mtx", np.asarray(A), f"{name} of the condensed MCEIP-mu pencil, eqs. (21)-(23)",
+                     files, folder)
+    finally:
+        p.destroy()
+    sharing = [x.index for x in study.states if x.index == st.index or x.analyses_shared_with == st.index]
+    mu = st.analyses.mceip_mu
+    non_finite: dict[str, str] = {}
+    answers = json_clean({"state": st.index, "states": sharing, "classification": st.classification.to_dict(),
+                          "slip_nodes": s, "mu": study.mu, "quadratic": is_curved(cls),
+                          "mceip_mu": None if mu is None else mu.to_dict()}, non_finite)
+    if non_finite:
+        answers["non_finite"] = non_finite          # JSON pointer -> +inf / -inf / nan (written as null)
+    (sub / "answers.json").write_text(json.dumps(answers, indent=1, allow_nan=False))
+    files.append(f"state_{st.index}/answers.json")
+    return {"state": st.index, "states": len(sharing), "slip_nodes": s, "folder": f"state_{st.index}"}
+
+
+def _state(st: StateResult) -> EquilibriumState:
+    """The equilibrium state of a results.json state (its contact values and what its loading
+    path recorded), for the curvature terms of a curved obstacle."""
+    def values(name: str) -> np.ndarray:
+        return np.array([getattr(n, name) for n in st.nodes], dtype=float)
+    return EquilibriumState(index=st.index, load=st.load.to_dict(), u_T=values("u_T"), u_N=values("u_N"),
+                            r_T=values("r_T"), r_N=values("r_N"), extra=dict(st.model_extra or {}))
+
+
+def _sparse(A: PETSc.Mat) -> scipy.sparse.csr_matrix:
+    """A sequential PETSc matrix as a SciPy CSR matrix."""
+    ai, aj, av = A.getValuesCSR()
+    return scipy.sparse.csr_matrix((av, aj, ai), shape=A.getSize())
+
+
+def _mtx(path: pathlib.Path, A, comment: str, files: list[str], folder: pathlib.Path) -> None:
+    scipy.io.mmwrite(str(path), A, comment=comment, precision=17)
+    files.append(str(path.relative_to(folder)))
