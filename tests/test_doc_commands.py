@@ -66,7 +66,7 @@ def _workdir(prepared, tmp_path, cmd: str):
         shutil.copy(prepared / name, tmp_path / name)
     (tmp_path / "app").symlink_to(ROOT / "app")
     args = shlex.split(cmd)
-    if len(args) > 4 and args[3] in ("render", "check"):
+    if len(args) > 4 and args[3] in ("render", "check", "export"):
         shutil.copytree(prepared / "results", tmp_path / args[4])
     return tmp_path
 
