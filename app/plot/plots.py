@@ -60,29 +60,47 @@ def _save(fig, path: pathlib.Path) -> list[pathlib.Path]:
     return out
 
 
-def _tangential_start(states: Sequence[StateResult]) -> int | None:
-    """Index of the block's first state of tangential loading, None when there is none."""
-    for s in states:
-        if s.load.phase == "tangential":
-            return s.index
-    return None
+def load_axis(study: StudyResult) -> tuple[np.ndarray, str, bool]:
+    """The x-axis of the plots along the loading: ``(x of each state, label, is_load)``. For a
+    loading given by the motion of CD (the block: ``u_x``, ``u_y`` at every state) the distance CD
+    has travelled along the path, pressed then dragged, in the length unit (monotone, so every
+    state has its place); otherwise the state index."""
+    states = study.states
+    loads = [(s.load.u_x, s.load.u_y) for s in states]
+    if states and all(ux is not None and uy is not None and np.isfinite(ux) and np.isfinite(uy) for ux, uy in loads):
+        u = np.array([(0.0, 0.0), *loads], dtype=float)
+        x = np.cumsum(np.hypot(*np.diff(u, axis=0).T))
+        if np.all(np.diff(x) > 0):
+            return x, f"distance travelled by CD, pressed then dragged [{study.units.length}]", True
+    return np.array([s.index for s in states], dtype=float), "load step (state index)", False
 
 
-def _mark_phases(ax, states: Sequence[StateResult]) -> None:
+def _edges(x: np.ndarray) -> np.ndarray:
+    """Cell edges around increasing centres ``x`` (halfway between neighbours)."""
+    if len(x) == 1:
+        return np.array([x[0] - 0.5, x[0] + 0.5])
+    mid = 0.5 * (x[1:] + x[:-1])
+    return np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
+
+
+def _mark_phases(ax, states: Sequence[StateResult], x: np.ndarray) -> None:
     """The block's tangential loading, or where each phase of a loading program after the first
-    starts (a program numbers its phases and names them in the load's ``name``)."""
-    t0 = _tangential_start(states)
+    starts (a program numbers its phases and names them in the load's ``name``), at the edge
+    before the phase's first state (``x``: the states' positions on the axis)."""
+    edges = _edges(x)
+    t0 = next((k for k, s in enumerate(states) if s.load.phase == "tangential"), None)
     starts = [(t0, "tangential loading")] if t0 is not None else []
     prev = None
-    for s in states if t0 is None else ():
+    for k, s in enumerate(states) if t0 is None else ():
         ph = s.load.phase
         if isinstance(ph, int) and prev is not None and ph != prev:
-            starts.append((s.index, (s.load.model_extra or {}).get("name") or f"phase {ph}"))
+            starts.append((k, (s.load.model_extra or {}).get("name") or f"phase {ph}"))
         prev = ph
-    for i, label in starts:
-        ax.axvline(i - 0.5, color="0.4", lw=0.8, ls=":")
-        ax.annotate(f"{label} ->", (i - 0.5, 0.0), xycoords=("data", "axes fraction"),
-                    xytext=(3, 3), textcoords="offset points", va="bottom", fontsize=8, color="0.3")
+    for k, label in starts:
+        ax.axvline(edges[k], color="0.4", lw=0.8, ls=":")
+        ax.annotate(f"{label} ->", (edges[k], 1.0), xycoords=("data", "axes fraction"),
+                    xytext=(3, -3), textcoords="offset points", va="top", fontsize=8, color="0.3",
+                    bbox={"facecolor": "white", "alpha": 0.75, "linewidth": 0, "pad": 1})
 
 
 def _title(study: StudyResult, what: str) -> str:
@@ -109,9 +127,9 @@ def _position_label(study: StudyResult) -> str | None:
             if kind is not None and kind.position_axis else None)
 
 
-def _few_states(ax, idx: np.ndarray) -> None:
-    """A study of one or a few states: integer ticks on the state axis."""
-    if len(idx) <= 3:
+def _few_states(ax, idx: np.ndarray, is_load: bool = False) -> None:
+    """A study of one or a few states: integer ticks on the state-index axis."""
+    if len(idx) <= 3 and not is_load:
         ax.set_xticks(idx)
         ax.set_xlim(idx.min() - 0.5, idx.max() + 0.5)
 
@@ -129,7 +147,7 @@ def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     n = len(states[0].nodes)
     codes = np.array([[STATUS_ORDER.index(nd.status) for nd in s.nodes] for s in states]).T
     xs = np.array([nd.x for nd in states[0].nodes])
-    idx = np.array([s.index for s in states])
+    x_load, xlabel, is_load = load_axis(study)
     fig, ax = plt.subplots(figsize=(10, 4.2))
     cmap = ListedColormap([STATUS_COLOURS[k] for k in STATUS_ORDER])
     # node rows at their positions along AB: edges halfway between neighbours; nodes that do not
@@ -142,7 +160,7 @@ def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
         yedges = np.concatenate([[xs[0] - (mid[0] - xs[0])], mid, [xs[-1] + (xs[-1] - mid[-1])]])
     else:
         yedges = np.array([xs[0] - 0.5, xs[0] + 0.5])
-    xedges = np.concatenate([idx - 0.5, [idx[-1] + 0.5]])
+    xedges = _edges(x_load)
     # what pcolormesh(xedges, yedges, codes) draws, as one rectangle per run of equal status along a
     # node's row: the same picture, but the SVG holds ~100 rectangles instead of n x states quads
     rects, colours = [], []
@@ -158,15 +176,15 @@ def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     runs.sticky_edges.x[:] = [xedges.min(), xedges.max()]
     runs.sticky_edges.y[:] = [yedges.min(), yedges.max()]
     length = study.units.length
-    ax.set_xlabel("load step (state index)")
+    ax.set_xlabel(xlabel)
     ax.hlines(yedges[1:-1], xedges[0], xedges[-1], colors="white", linewidth=0.6)    # one row per node
     if n <= 12 or not label:
         ax.set_yticks(xs)
         ax.set_yticklabels([f"{x:g}" for x in xs] if label else [f"node {i}" for i in range(n)])
     ax.set_ylabel(f"contact node position x [{length}] ({line[0]} at the bottom)" if line
                   else label or "contact node")
-    _few_states(ax, idx)
-    _mark_phases(ax, states)
+    _few_states(ax, x_load, is_load)
+    _mark_phases(ax, states, x_load)
     present = sorted({s for row in codes for s in row})
     ax.legend(handles=[Patch(color=STATUS_COLOURS[STATUS_ORDER[k]], label=STATUS_ORDER[k]) for k in present],
               loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
@@ -229,7 +247,7 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     returned."""
     plt = _plt()
     states = study.states
-    idx = np.array([s.index for s in states])
+    idx, xlabel, is_load = load_axis(study)
     nslip = np.array([s.classification.slip for s in states])
     best = np.full(len(states), np.nan)
     fig, ax = plt.subplots(figsize=(10, 4.5))
@@ -238,7 +256,7 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
         vals = [float(v) for v in s.mu_values()]
         if vals:
             best[k] = min(vals)
-            allx += [s.index] * len(vals)
+            allx += [idx[k]] * len(vals)
             ally += vals
     positive = np.concatenate([best[np.isfinite(best) & (best > 0)], [v for v in ally if v > 0]])
     ax.plot(allx, ally, ".", color="0.6", ms=3, label="every MCEIP-mu value found")
@@ -249,13 +267,13 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
         ax.axhline(mu, color="C3", ls="--", lw=1.2, label=f"scene mu = {mu:g}")
     if len(positive) and positive.max() / max(positive.min(), 1e-300) > 50:
         ax.set_yscale("log")
-    ax.set_xlabel("load step (state index)")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("critical friction coefficient mu (MCEIP-mu)")
-    _mark_phases(ax, states)
+    _mark_phases(ax, states, idx)
     ax2 = ax.twinx()
     ax2.step(idx, nslip, where="mid", color="C2", lw=1.0, alpha=0.8, marker="s" if len(idx) <= 3 else None,
              label="slip nodes")
-    _few_states(ax, idx)
+    _few_states(ax, idx, is_load)
     ax2.set_ylabel("number of slip nodes", color="C2")
     ax2.tick_params(axis="y", colors="C2")
     ax2.set_ylim(0, max(1, nslip.max()) * 1.05)
@@ -275,7 +293,7 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     ``necessary.png`` and ``.svg`` in ``outdir``, whose paths are returned."""
     plt = _plt()
     states = study.states
-    idx = np.array([s.index for s in states])
+    idx, xlabel, is_load = load_axis(study)
     # the record as the state holds it (an analysis that failed has no eigenvalue: NaN)
     recs = [s.analyses.necessary for s in states]
     lamK = np.array([_num(None if r is None else r.min_eig_K_sym) for r in recs])
@@ -283,7 +301,7 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     fig, ax = plt.subplots(figsize=(10, 4.2))
     ax.plot(idx, lamK, "-", color="C0", lw=1.5, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
             label="smallest eigenvalue of sym K*(mu)")
-    _few_states(ax, idx)
+    _few_states(ax, idx, is_load)
     ax.axhline(0, color="0.3", lw=0.8)
     sat = np.array([r is not None and bool(r.satisfied) for r in recs])
     if sat.any():
@@ -295,9 +313,9 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     if np.isfinite(lamM).any() and np.nanmin(lamM) < 0:
         ax.text(0.99, 0.02, f"sym M*(mu) is indefinite at some states (min {np.nanmin(lamM):.3g})",
                 transform=ax.transAxes, ha="right", fontsize=8, color="C3")
-    ax.set_xlabel("load step (state index)")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel(f"min eig sym K*(mu) [{study.units.stiffness or 'N/mm'}]")
-    _mark_phases(ax, states)
+    _mark_phases(ax, states, idx)
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(alpha=0.3)
     ax.set_title(_title(study, f"necessary condition (19) at mu = {study.mu}"))
