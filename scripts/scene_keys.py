@@ -82,6 +82,8 @@ MEANING = {
     "outputs.screenshots.field": "colouring of the block", "outputs.screenshots.modes":
         "also draw every divergence mode found at the pictured states",
     "outputs.screenshots.scale": "magnification of the state displacements (modes are scaled to fit)",
+    "outputs.screenshots.animate": "also an animated GIF of each mode drawn, growing as a0 exp(lambda t) "
+                                   "(lambda^2 > 0), linearly for MCEIP-mu's static mode",
     "refinement.levels": "mesh levels: nx cells along AB (ny = nx * height / length)",
     "refinement.degrees": "Lagrange degrees run at every level", "refinement.planes": "plane models run",
     "refinement.mu_fixed": "mu of the sufficient condition at the final state (null: mceip_lambda2_mu or mu)",

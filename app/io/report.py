@@ -289,10 +289,12 @@ def _screenshots(shot_files: list[pathlib.Path], outdir: pathlib.Path, out: dict
         L += [f"Mode shapes (drawn with the largest displacement at 12 % of the {body}'s smaller side): "
               + "; ".join(modes_built) + ".", ""]
     for p in shot_files:
-        kind = "state" if p.name.startswith("state_") else "mode"
-        cap = (f"The {body} at this state (contact nodes marked by status; grey: the obstacle; thin line: "
-               f"the undeformed {body})." if kind == "state" else
-               "Divergence mode (shape scaled to fit; contact nodes marked; black: slip nodes stuck in the mode).")
+        kind = "state" if p.name.startswith("state_") else ("animation" if p.suffix == ".gif" else "mode")
+        cap = {"state": f"The {body} at this state (contact nodes marked by status; grey: the obstacle; thin line: "
+                        f"the undeformed {body}).",
+               "mode": "Divergence mode (shape scaled to fit; contact nodes marked; black: slip nodes stuck in the mode).",
+               "animation": "The mode growing as the divergence it predicts, a0 exp(lambda t) from 5 % to the drawn "
+                            "amplitude (the time in the title; linearly for MCEIP-mu's static mode)."}[kind]
         L += [f"![{p.stem}]({_rel(p, outdir)})", "", f"*{p.stem}*: {cap}", ""]
     return L
 

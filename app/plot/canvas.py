@@ -263,8 +263,11 @@ def text(pl, text: str, x: float, y: float, size: int, colour: str = "black") ->
 
 
 def finish(pl, fd: FieldData, pts: np.ndarray, title: list[str], legend: list[tuple[str, str]],
-            path: pathlib.Path, res) -> pathlib.Path:
-    """Obstacle, outline, title lines and legend row at the top, camera, screenshot."""
+            path: pathlib.Path, res, extent: np.ndarray | None = None) -> pathlib.Path:
+    """Obstacle, outline, title lines and legend row at the top, camera, screenshot. ``extent``:
+    the points the view must hold (default ``pts``; the frames of an animation give the largest
+    displacement's, so that the camera stays still)."""
+    pts = pts if extent is None else np.vstack([pts, extent])
     strip = _obstacle(pl, fd, pts)
     pl.add_mesh(_outline(fd), color="#666666", line_width=1.5, style="wireframe")
     seen = np.vstack([pts, fd.points, strip])

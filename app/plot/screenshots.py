@@ -95,14 +95,16 @@ def state_picture(fd: FieldData, state: StateResult, field: str, res, scale: flo
 
 
 def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathlib.Path, scene: str,
-                 units: Units | None = None) -> pathlib.Path:
+                 units: Units | None = None, grow: float = 1.0, when: str | None = None) -> pathlib.Path:
     """Screenshot of the mode ``meta`` (an MCEIP solution at ``state``: its entry in fields.npz's
     ``modes_json``, with ``name``, ``state``, ``problem``, ``value`` and ``pattern``), drawn with
     its largest displacement 12 % of the body's smaller side and coloured by magnitude; the slip
     nodes are marked by whether they slip or stay stuck in the mode. Written to ``path``, which is
-    returned."""
+    returned. ``grow``: a frame of :func:`mode_animation`, the mode at that fraction of its drawn
+    amplitude (the view fixed by the full one), ``when`` its time in the title."""
     v = fd.mode(meta["name"])
-    amp = 0.12 * fd.small                        # max mode displacement drawn: 12 % of the smaller side
+    full = 0.12 * fd.small                       # max mode displacement drawn: 12 % of the smaller side
+    amp = full * grow
     grid = fd.grid(amp * v)
     grid.point_data["mode"] = np.linalg.norm(v, axis=1)
     pl = plotter(res)
@@ -133,8 +135,46 @@ def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathl
         f"all {c.slip} slip nodes slip in the mode"
     unit = "" if meta["problem"] == "mceip_mu" else " " + ("1/s^2" if units is None else units.lambda2)
     title = [f"{what} = {meta['value']:.6g}{unit}",
-             f"{scene}: state {meta['state']}, {c.stick} stick / {c.slip} slip / {c.free} free; {stuck}"]
-    return finish(pl, fd, pts, title, legend, path, res)
+             f"{scene}: state {meta['state']}, {c.stick} stick / {c.slip} slip / {c.free} free; {stuck}",
+             *([when] if when else [])]
+    return finish(pl, fd, pts, title, legend, path, res, extent=fd.points + full * v)
+
+
+#: frames of a mode animation, and the amplitude its exponential growth starts from (of the drawn one)
+FRAMES = 16
+START = 0.05
+
+
+def mode_animation(fd: FieldData, meta: dict, state: StateResult, res, path: pathlib.Path, scene: str,
+                   units: Units | None = None) -> pathlib.Path:
+    """An animated GIF of the mode ``meta`` growing, as the divergence it predicts: ``u0 + a(t) v``
+    with ``a(t) = a0 exp(lambda t)`` for a mode with ``lambda^2 > 0`` (MCEIP-lambda^2, the
+    sufficient condition; the paper's eq. (8)), from 5 % of the drawn amplitude to all of it over
+    ``t = ln(20) / lambda``, each frame titled with its time; linear growth for the static mode of
+    MCEIP-mu (``lambda = 0``, the transition). Written to ``path``, which is returned."""
+    import tempfile
+
+    from PIL import Image
+    lam2 = float(meta["value"]) if meta["problem"] != "mceip_mu" else 0.0
+    lam = float(np.sqrt(lam2)) if lam2 > 0 else 0.0
+    time_unit = "s" if units is None or not units.time else units.time
+    frames = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for k in range(FRAMES):
+            f = k / (FRAMES - 1)
+            if lam > 0:
+                t = f * np.log(1.0 / START) / lam
+                grow = START * np.exp(lam * t)
+                when = f"growing as a0 exp(lambda t), lambda = {lam:.4g} 1/{time_unit}: t = {1e3 * t:.3g} m{time_unit}"
+            else:
+                grow, when = max(f, START), "static mode (lambda = 0): the amplitude drawn growing linearly"
+            frame = mode_picture(fd, meta, state, res, pathlib.Path(tmp) / f"{k:03d}.png", scene, units, grow, when)
+            with Image.open(frame) as im:
+                frames.append(im.convert("P", palette=Image.ADAPTIVE, colors=255))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=90, loop=0,
+                   optimize=False)
+    return path
 
 
 def draw_screenshots(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path,
@@ -186,9 +226,11 @@ def _draw(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Pa
             analyses, first = analyses_of(study.states, i)
             for problem, k, sol in modes_of(analyses):
                 name = mode_name(first, problem, k, _value(sol.value))
-                if name in [j[2] for j in jobs if j[0] == "mode"]:
+                if name in [j[2] for j in jobs if j[0] == "mode"]:      # its animation is listed with it
                     continue
                 jobs.append(("mode", i, name))
+                if cfg.get("animate"):
+                    jobs.append(("animation", i, name))
     known = {m["name"]: m for m in fd.modes}
     bar = progress.bar(len(jobs), "screenshots", unit="picture") if progress is not None else None
     try:
@@ -196,6 +238,10 @@ def _draw(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Pa
             if kind == "state":
                 files.append(state_picture(fd, by_index[i], field, res, scale,
                                            outdir / f"state_{i:04d}_{field}.png", study.units, study.scene))
+            elif name in known and kind == "animation":
+                meta = known[name]
+                files.append(mode_animation(fd, meta, by_index[meta["state"]], res, outdir / f"mode_{name}.gif",
+                                            study.scene, study.units))
             elif name in known:
                 meta = known[name]
                 files.append(mode_picture(fd, meta, by_index[meta["state"]], res, outdir / f"mode_{name}.png",

@@ -247,6 +247,7 @@ class Screenshots(Strict):
     field: Literal["displacement", "von_mises"] = "von_mises"
     modes: bool = True               # also draw every divergence mode found at the pictured states
     scale: PosFloat = 1.0            # magnification of the state displacements (modes are scaled to fit)
+    animate: bool = False            # also an animated GIF of each mode drawn, growing as exp(lambda t)
 
 
 class Outputs(Strict):
