@@ -33,7 +33,7 @@ def figures(monkeypatch):
 
 def test_block_plots_are_drawn_against_the_load(figures, tmp_path):
     r = study(parse_scene(BLOCK), MPI.COMM_WORLD)
-    x, label, is_load = plots.load_axis(r)
+    x, label, is_load = plots.load_axis(r.states, r.units.length)
     assert is_load and label.endswith("[mm]") and np.all(np.diff(x) > 0)
     # the distance CD travelled: the press depth, then the drag
     depth = abs(r.states[BLOCK["loading"]["normal_steps"] - 1].load.u_y)
@@ -56,7 +56,7 @@ def test_a_system_without_a_cd_motion_keeps_the_state_index(figures, tmp_path):
     r = study(parse_scene({"name": "two", "mu": 2.5, "analyses": ["mceip_mu"],
                            "system": {"type": "two_particles", "k": 1, "m": 1, "phi_deg": 30, "signs": [1, 1]}}),
               MPI.COMM_WORLD)
-    x, label, is_load = plots.load_axis(r)
+    x, label, is_load = plots.load_axis(r.states, r.units.length)
     assert not is_load and label == "load step (state index)" and list(x) == [s.index for s in r.states]
     plots.draw_plots(r, [r.final.index], tmp_path)
     assert figures["mceip_mu"].axes[0].get_xlabel() == label

@@ -45,7 +45,7 @@ from mpi4py import MPI
 
 from app.io.gather import MeshGather
 from app.io.result import MceipSolution, StateResult
-from app.io.select import analyses_of, mode_name, modes_of, select_states
+from app.io.select import analyses_of, load_axis, mode_name, modes_of, select_states
 from app.io.xdmf import XdmfSeries
 from app.loading.classify import Classification
 from app.systems import jit
@@ -224,8 +224,10 @@ def _compute_fields(scene, system, out_states: Sequence[StateResult], stages, pr
             if outputs.paraview:
                 paraview_dir.mkdir(parents=True, exist_ok=True)
         series = XdmfSeries(paraview_dir / "states.xdmf") if (rank0 and outputs.paraview) else None
+        # ParaView's time: the load where the loading is CD's motion (the block), else the index
+        at = dict(zip((s.index for s in out_states), load_axis(out_states, system.units["length"])[0]))
         kept_u, kept_vm, worst = _state_fields(maker, [by_index[i] for i in state_ids], pictured, contact,
-                                               series, progress)
+                                               series, progress, at)
         record["contact_displacement_check"] = worst
         log.info("fields: %d state(s) computed (contact displacements reproduced to %.2g relative)",
                  len(state_ids), worst)
@@ -252,7 +254,7 @@ def _compute_fields(scene, system, out_states: Sequence[StateResult], stages, pr
 
 
 def _state_fields(maker: "_FieldMaker", entries: list[StateResult], pictured, contact, series: XdmfSeries | None,
-                  progress) -> tuple[dict, dict, float]:
+                  progress, at: dict) -> tuple[dict, dict, float]:
     """The fields of the states ``entries`` (MPI collective): on rank 0 written to the ParaView
     ``series`` (if any) and kept for the ``pictured`` states. Returns the kept displacements and
     von Mises stresses by state index and the largest contact-displacement mismatch."""
@@ -270,7 +272,7 @@ def _state_fields(maker: "_FieldMaker", entries: list[StateResult], pictured, co
             worst = max(worst, mismatch)
             if rank0:
                 if writer is not None:
-                    writer.write_data(idx, point_data=_contact_fields(entry, u, contact, src),
+                    writer.write_data(float(at[idx]), point_data=_contact_fields(entry, u, contact, src),
                                       cell_data={"von_mises": [vm]})
                 if idx in pictured:
                     kept_u[idx], kept_vm[idx] = u, vm

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from typing import Sequence
 
+import numpy as np
+
 from app.io.result import Analyses, MceipSolution, StateResult
 
 MODE_PROBLEMS = (("sufficient", "sufficient"), ("mceip_mu", "mceip_mu"), ("mceip_lambda2", "mceip_lambda2"))
@@ -86,3 +88,18 @@ def modes_of(analyses: Analyses) -> list[tuple[str, int, MceipSolution]]:
 def mode_name(first: int, problem: str, k: int, value: float) -> str:
     """Field name of a mode: its state, problem, number and eigenvalue, e.g. ``s0237_mceip_mu_0_60.8058``."""
     return f"s{first:04d}_{problem}_{k}_{value:.6g}"
+
+
+def load_axis(states: Sequence[StateResult], length: str) -> tuple[np.ndarray, str, bool]:
+    """Where each state sits along the loading: ``(x of each state, label, is_load)``. For a
+    loading given by the motion of CD (the block: ``u_x``, ``u_y`` at every state) the distance CD
+    has travelled along the path, pressed then dragged, in the length unit ``length`` (strictly
+    increasing, so every state has its place: the plots' x-axis, ParaView's time); otherwise the
+    state index."""
+    loads = [(s.load.u_x, s.load.u_y) for s in states]
+    if states and all(ux is not None and uy is not None and np.isfinite(ux) and np.isfinite(uy) for ux, uy in loads):
+        u = np.array([(0.0, 0.0), *loads], dtype=float)
+        x = np.cumsum(np.hypot(*np.diff(u, axis=0).T))
+        if np.all(np.diff(x) > 0):
+            return x, f"distance travelled by CD, pressed then dragged [{length}]", True
+    return np.array([s.index for s in states], dtype=float), "load step (state index)", False

@@ -19,6 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from app.io.result import StateResult, StudyResult
+from app.io.select import load_axis
 
 STATUS_ORDER = ("free", "zero", "stick", "slip")
 STATUS_COLOURS = {"free": "#d9d9d9", "zero": "#9467bd", "stick": "#1f77b4", "slip": "#d62728"}
@@ -58,21 +59,6 @@ def _save(fig, path: pathlib.Path) -> list[pathlib.Path]:
         out.append(p)
     _plt().close(fig)
     return out
-
-
-def load_axis(study: StudyResult) -> tuple[np.ndarray, str, bool]:
-    """The x-axis of the plots along the loading: ``(x of each state, label, is_load)``. For a
-    loading given by the motion of CD (the block: ``u_x``, ``u_y`` at every state) the distance CD
-    has travelled along the path, pressed then dragged, in the length unit (monotone, so every
-    state has its place); otherwise the state index."""
-    states = study.states
-    loads = [(s.load.u_x, s.load.u_y) for s in states]
-    if states and all(ux is not None and uy is not None and np.isfinite(ux) and np.isfinite(uy) for ux, uy in loads):
-        u = np.array([(0.0, 0.0), *loads], dtype=float)
-        x = np.cumsum(np.hypot(*np.diff(u, axis=0).T))
-        if np.all(np.diff(x) > 0):
-            return x, f"distance travelled by CD, pressed then dragged [{study.units.length}]", True
-    return np.array([s.index for s in states], dtype=float), "load step (state index)", False
 
 
 def _edges(x: np.ndarray) -> np.ndarray:
@@ -147,7 +133,7 @@ def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     n = len(states[0].nodes)
     codes = np.array([[STATUS_ORDER.index(nd.status) for nd in s.nodes] for s in states]).T
     xs = np.array([nd.x for nd in states[0].nodes])
-    x_load, xlabel, is_load = load_axis(study)
+    x_load, xlabel, is_load = load_axis(study.states, study.units.length)
     fig, ax = plt.subplots(figsize=(10, 4.2))
     cmap = ListedColormap([STATUS_COLOURS[k] for k in STATUS_ORDER])
     # node rows at their positions along AB: edges halfway between neighbours; nodes that do not
@@ -247,7 +233,7 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     returned."""
     plt = _plt()
     states = study.states
-    idx, xlabel, is_load = load_axis(study)
+    idx, xlabel, is_load = load_axis(study.states, study.units.length)
     nslip = np.array([s.classification.slip for s in states])
     best = np.full(len(states), np.nan)
     fig, ax = plt.subplots(figsize=(10, 4.5))
@@ -293,7 +279,7 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     ``necessary.png`` and ``.svg`` in ``outdir``, whose paths are returned."""
     plt = _plt()
     states = study.states
-    idx, xlabel, is_load = load_axis(study)
+    idx, xlabel, is_load = load_axis(study.states, study.units.length)
     # the record as the state holds it (an analysis that failed has no eigenvalue: NaN)
     recs = [s.analyses.necessary for s in states]
     lamK = np.array([_num(None if r is None else r.min_eig_K_sym) for r in recs])
