@@ -120,3 +120,28 @@ def test_a_curved_obstacle_exports_its_quadratic_pencil(tmp_path):
         sub = tmp_path / "out" / c["folder"]
         assert json.loads((sub / "answers.json").read_text())["quadratic"] is True
         assert all(np.asarray(scipy.io.mmread(sub / f"A{k}.mtx")).shape == (c["slip_nodes"],) * 2 for k in range(3))
+
+
+def test_a_results_folder_from_someone_else_is_data(exported, tmp_path):
+    """export reads results.json as ``check`` does (no symlink followed) and the scene it stores
+    as a scene file (a Gmsh body's file is read through the .geo checks, never run): a hostile
+    folder is one line, and nothing is written."""
+    import shutil
+    res, _, _ = exported
+    linked = tmp_path / "linked"
+    linked.mkdir()
+    (linked / "results.json").symlink_to(res / "results.json")
+    p = run_cli_here("export", str(linked), "--matrices", "-o", str(tmp_path / "a"))
+    assert p.returncode == 2 and len(p.stderr.splitlines()) == 1 and not (tmp_path / "a").exists()
+    forged = tmp_path / "forged"
+    shutil.copytree(res, forged)
+    doc = json.loads((forged / "results.json").read_text())
+    doc["scene_config"]["system"] = {"type": "gmsh", "file": "/etc/passwd", "contact": "bottom",
+                                     "prescribed": {"top": "xy"}, "material": {"E": 5.0, "nu": 0.3},
+                                     "program": [{"steps": 1, "displacement": {"top": {"translation": [0, -0.1]}}}]}
+    (forged / "results.json").write_text(json.dumps(doc))
+    p = run_cli_here("export", str(forged), "--matrices", "-o", str(tmp_path / "b"))
+    assert p.returncode == 2 and len(p.stderr.splitlines()) == 1, p.stderr
+    assert "the scene results.json stores cannot be rebuilt" in p.stderr and "allowed: a Gmsh .geo or .msh file" \
+        in p.stderr and "root:" not in p.stderr
+    assert not (tmp_path / "b").exists() and not any(".partial" in q.name for q in tmp_path.iterdir())
