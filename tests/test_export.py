@@ -111,7 +111,9 @@ def test_a_curved_obstacle_exports_its_quadratic_pencil(tmp_path):
     s["system"]["file"] = str(ROOT / "app/scenes/gmsh" / s["system"]["file"])
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
     assert run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "res"), "-q").returncode == 0
-    p = run_cli_here("export", str(tmp_path / "res"), "--matrices", "-o", str(tmp_path / "out"))
+    # a Gmsh body names its .geo: the user gives the scene (a stored path is never opened)
+    p = run_cli_here("export", str(tmp_path / "res"), "--matrices", "-o", str(tmp_path / "out"),
+                     "--scene", str(tmp_path / "s.yaml"))
     assert p.returncode == 0, p.stderr
     index = json.loads((tmp_path / "out" / "index.json").read_text())
     slipping = [c for c in index["classifications"] if c["slip_nodes"]]
@@ -123,9 +125,9 @@ def test_a_curved_obstacle_exports_its_quadratic_pencil(tmp_path):
 
 
 def test_a_results_folder_from_someone_else_is_data(exported, tmp_path):
-    """export reads results.json as ``check`` does (no symlink followed) and the scene it stores
-    as a scene file (a Gmsh body's file is read through the .geo checks, never run): a hostile
-    folder is one line, and nothing is written."""
+    """export reads results.json as ``check`` does (no symlink followed) and never opens a path
+    the stored scene names (a Gmsh body's file: the user gives the scene with --scene, of the
+    same system); a hostile folder is one line, and nothing is written."""
     import shutil
     res, _, _ = exported
     linked = tmp_path / "linked"
@@ -142,6 +144,10 @@ def test_a_results_folder_from_someone_else_is_data(exported, tmp_path):
     (forged / "results.json").write_text(json.dumps(doc))
     p = run_cli_here("export", str(forged), "--matrices", "-o", str(tmp_path / "b"))
     assert p.returncode == 2 and len(p.stderr.splitlines()) == 1, p.stderr
-    assert "the scene results.json stores cannot be rebuilt" in p.stderr and "allowed: a Gmsh .geo or .msh file" \
-        in p.stderr and "root:" not in p.stderr
+    assert "the scene results.json stores cannot be rebuilt" in p.stderr and "a path read from there is never " \
+        "opened: give the scene file yourself (export --scene)" in p.stderr and "root:" not in p.stderr
     assert not (tmp_path / "b").exists() and not any(".partial" in q.name for q in tmp_path.iterdir())
+    other = run_cli_here("export", str(res), "--matrices", "-o", str(tmp_path / "c"),
+                         "--scene", str(ROOT / "app/scenes/gmsh/l_shape.yaml"))
+    assert other.returncode == 2 and "system.type = 'gmsh', but the results are of a 'block' system" in other.stderr
+    assert not (tmp_path / "c").exists()

@@ -124,6 +124,8 @@ def _parser() -> argparse.ArgumentParser:
     exp.add_argument("--matrices", action="store_true", required=True,
                      help="export the matrices (the only export so far)")
     exp.add_argument("-o", "--output", help="a new folder (default: RESULTS-export beside the results folder)")
+    exp.add_argument("--scene", help="the scene file to build the system from (needed when the scene names "
+                                     "files, e.g. a Gmsh body's .geo: a path stored in results.json is never opened)")
     return p
 
 
@@ -240,13 +242,14 @@ def _export(args) -> int:
         return _fail(f"{folder}: not a folder (give the results folder a run wrote)")
     out = pathlib.Path(args.output) if args.output else folder.parent / f"{folder.resolve().name}-export"
     try:
-        files = export_matrices(folder, out, MPI.COMM_WORLD)
+        files = export_matrices(folder, out, MPI.COMM_WORLD, pathlib.Path(args.scene) if args.scene else None)
     except FileNotFoundError as err:
         return _fail(f"{folder}: {err.strerror or 'not found'}: {err.filename or 'results.json'}")
     except (UntrustedFile, MalformedResults, ExportError) as err:
         return _fail(str(err))
     except SceneError as err:
-        return _fail(f"{folder}: the scene results.json stores cannot be rebuilt: {err}")
+        return _fail(f"{args.scene}: {err}" if args.scene else
+                     f"{folder}: the scene results.json stores cannot be rebuilt: {err}")
     except OSError as err:
         return _fail(f"{out}: cannot be written: {err.strerror or err}", EXIT_WRITE)
     print(f"{out}: {len(files)} files (K, M and {sum(f.endswith('answers.json') for f in files)} classifications)")

@@ -231,13 +231,15 @@ def _limits_of(data: dict) -> Limits | None:
         return None
 
 
-def scene_context(data: dict, base_dir) -> dict:
-    """The validation context of a scene document: the folder its paths are relative to, and its
-    ``settings.limits`` read ahead (the system reads its files under them)."""
-    return {"base_dir": base_dir, "limits": _limits_of(data)}
+def scene_context(data: dict, base_dir, files: bool = True) -> dict:
+    """The validation context of a scene document: the folder its paths are relative to, its
+    ``settings.limits`` read ahead (the system reads its files under them), and whether it may
+    name files at all (``files``: False for a scene stored in a results folder, which is data)."""
+    return {"base_dir": base_dir, "limits": _limits_of(data), "files": files}
 
 
-def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path | None = None) -> Scene:
+def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path | None = None,
+                files: bool = True) -> Scene:
     """Validate an already loaded YAML document; file paths in it are relative to ``base_dir``
     (the scene file's folder; default the current directory)."""
     if data is None:
@@ -247,7 +249,7 @@ def parse_scene(data: Any, source: str = "scene", base_dir: str | pathlib.Path |
         raise SceneError(f"{source}: (top level) = {show_value(data)}: the scene must be a YAML mapping of keys "
                          f"(name, system, mu, ...), not a {type(data).__name__}")
     try:
-        return Scene.model_validate(data, context=scene_context(data, base_dir))
+        return Scene.model_validate(data, context=scene_context(data, base_dir, files))
     except ValidationError as err:
         cause = (err.errors(include_url=False)[0].get("ctx") or {}).get("error")
         raise SceneError(f"{source}: {format_error(err)}", 4 if isinstance(cause, ResourcePathError) else 2) from None

@@ -3,7 +3,10 @@
 For researchers who test complementarity eigenvalue solvers on finite-element instances, and for
 users who want the system in their own code. From the results folder (read strictly, as
 ``check`` reads it: app/io/claims.py) the scene it stores is validated again and its system
-built (no loading path: the states are in results.json); then, in a new folder:
+built (no loading path: the states are in results.json). A scene that names files (a Gmsh
+body's ``.geo``, matrices) is refused there: a path read from a results folder is never opened,
+so the user gives the scene file (``--scene``), whose system must have the stored one's type,
+contact nodes and DOFs. Then, in a new folder:
 
 - ``K.mtx``, ``M.mtx``: the stiffness and mass matrices (Matrix Market, the system's DOFs);
 - ``state_<k>/`` for the first state ``k`` of each distinct classification (the states that
@@ -42,7 +45,7 @@ from app.io.document import json_clean
 from app.io.result import StateResult, StudyResult
 from app.loading.classify import Classification
 from app.loading.state import EquilibriumState
-from app.scene.schema import parse_scene
+from app.scene.schema import load_scene, parse_scene
 from app.systems import SYSTEM_TYPES
 
 
@@ -50,15 +53,23 @@ class ExportError(Exception):
     """A results folder that cannot be exported (one line)."""
 
 
-def export_matrices(results: pathlib.Path, out: pathlib.Path, comm) -> list[str]:
+def export_matrices(results: pathlib.Path, out: pathlib.Path, comm, scene_file: pathlib.Path | None = None) -> list[str]:
     """Write the matrices of the results folder ``results`` into the new folder ``out`` (see the
-    module's docstring); returns the files written, relative to ``out``."""
+    module's docstring); ``scene_file``: the scene to build the system from instead of the stored
+    one. Returns the files written, relative to ``out``."""
     if comm.size != 1:
         raise ExportError("export runs on one process (without mpirun)")
     if os.path.lexists(out):
         raise ExportError(f"{out} exists: give a new folder with -o (an existing one is never replaced)")
     study = read_results(results)
-    scene = parse_scene(study.scene_config, f"{results}/results.json scene_config", results)
+    if scene_file is None:
+        scene = parse_scene(study.scene_config, f"{results}/results.json scene_config", results, files=False)
+    else:
+        scene = load_scene(scene_file)
+        stored = (study.scene_config.get("system") or {}).get("type")
+        if scene.system.type != stored:
+            raise ExportError(f"{scene_file}: system.type = {scene.system.type!r}, but the results are of a "
+                              f"{stored!r} system")
     staging = out.parent / f".{out.name}.partial-{os.getpid()}"
     staging.mkdir(parents=False)
     try:
@@ -74,6 +85,10 @@ def _write(study: StudyResult, scene, folder: pathlib.Path, comm) -> list[str]:
     files: list[str] = []
     kind = SYSTEM_TYPES[scene.system.type]
     with kind.build(scene.system, comm, Stages()) as system:
+        nodes = len(study.states[0].nodes) if study.states else len(system.nodes)
+        if len(system.nodes) != nodes:
+            raise ExportError(f"the scene's system has {len(system.nodes)} contact nodes, the results' {nodes}: "
+                              "not the system of these results")
         _mtx(folder / "K.mtx", _sparse(system.K), "the stiffness matrix K", files, folder)
         try:
             M = system.mass()

@@ -80,6 +80,9 @@ def resolve_file(key: str, value: str, info: ValidationInfo | None) -> pathlib.P
     """Absolute path of an existing, readable file named in the scene (relative to the scene file)."""
     if not isinstance(value, str) or not value.strip():
         raise SystemPathError(key, value, "allowed: a file path (relative to the scene file)")
+    if info is not None and isinstance(info.context, dict) and info.context.get("files") is False:
+        raise SystemPathError(key, value, "a scene stored in a results folder names files, and a path read from "
+                                          "there is never opened: give the scene file yourself (export --scene)")
     try:
         path = pathlib.Path(value).expanduser()
         if not path.is_absolute():
