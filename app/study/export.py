@@ -66,10 +66,9 @@ def export_matrices(results: pathlib.Path, out: pathlib.Path, comm, scene_file: 
         scene = parse_scene(study.scene_config, f"{results}/results.json scene_config", results, files=False)
     else:
         scene = load_scene(scene_file)
-        stored = (study.scene_config.get("system") or {}).get("type")
-        if scene.system.type != stored:
-            raise ExportError(f"{scene_file}: system.type = {scene.system.type!r}, but the results are of a "
-                              f"{stored!r} system")
+        stored, given = (study.scene_config.get("system") or {}).get("type"), SYSTEM_TYPES[scene.system.type].name
+        if given != stored:
+            raise ExportError(f"{scene_file}: system.type = {given!r}, but the results are of a {stored!r} system")
     staging = out.parent / f".{out.name}.partial-{os.getpid()}"
     staging.mkdir(parents=False)
     try:
