@@ -346,7 +346,7 @@ def test_paraview_states_series(serial):
     # ParaView's time is the load: the distance CD travelled, pressed then dragged
     from app.io.result import StudyResult
     from app.io.select import load_axis
-    x, _, is_load = load_axis(StudyResult.from_json(res).states, "mm")
+    x, _, is_load = load_axis(StudyResult.from_json(res).states, {"length": "mm"})
     assert is_load and [t for t, _, _ in steps] == pytest.approx(list(x), rel=1e-15)
     for (t, pd, cd), st in zip(steps, res["states"]):
         assert pd["displacement"].shape == (n_pts, 3) and cd["von_mises"][0].shape == (n_cells,)

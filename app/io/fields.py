@@ -224,8 +224,8 @@ def _compute_fields(scene, system, out_states: Sequence[StateResult], stages, pr
             if outputs.paraview:
                 paraview_dir.mkdir(parents=True, exist_ok=True)
         series = XdmfSeries(paraview_dir / "states.xdmf") if (rank0 and outputs.paraview) else None
-        # ParaView's time: the load where the loading is CD's motion (the block), else the index
-        at = dict(zip((s.index for s in out_states), load_axis(out_states, system.units["length"])[0]))
+        # ParaView's time: the load (CD's travel, a program's parameters) where there is one, else the index
+        at = dict(zip((s.index for s in out_states), load_axis(out_states, system.units)[0]))
         kept_u, kept_vm, worst = _state_fields(maker, [by_index[i] for i in state_ids], pictured, contact,
                                                series, progress, at)
         record["contact_displacement_check"] = worst

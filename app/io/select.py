@@ -90,16 +90,66 @@ def mode_name(first: int, problem: str, k: int, value: float) -> str:
     return f"s{first:04d}_{problem}_{k}_{value:.6g}"
 
 
-def load_axis(states: Sequence[StateResult], length: str) -> tuple[np.ndarray, str, bool]:
-    """Where each state sits along the loading: ``(x of each state, label, is_load)``. For a
-    loading given by the motion of CD (the block: ``u_x``, ``u_y`` at every state) the distance CD
-    has travelled along the path, pressed then dragged, in the length unit ``length`` (strictly
-    increasing, so every state has its place: the plots' x-axis, ParaView's time); otherwise the
-    state index."""
+def _unit(units, key: str) -> str | None:
+    """A unit name of the study's ``units`` (the typed :class:`~app.io.result.Units` or its dict)."""
+    return units.get(key) if isinstance(units, dict) else getattr(units, key, None)
+
+
+def parameter_unit(name: str, units) -> str | None:
+    """The unit of a loading program's load parameter named as results.json's ``load.parameters``
+    names it (app/systems/gmsh/fields.py ``parameter_name``): ``motion.<curve>.tx``/``ty`` a
+    length, ``motion.<curve>.rz`` radians, ``traction.<curve>.x``/``y`` a stress,
+    ``force.<curve>.x``/``y`` a force, ``gravity.x``/``y`` an acceleration; None if unknown."""
+    kind, _, comp = name.partition(".")
+    comp = comp.rpartition(".")[2]
+    length, time = _unit(units, "length"), _unit(units, "time") or "s"
+    if kind == "motion":
+        return "rad" if comp == "rz" else length
+    return {"traction": _unit(units, "stress"), "force": _unit(units, "force"),
+            "gravity": f"{length}/{time}^2"}.get(kind)
+
+
+def _program_axis(states: Sequence[StateResult], units) -> tuple[np.ndarray, str] | None:
+    """A loading program's load parameters as one axis: when every parameter the program moves has
+    the same unit, the distance the parameters travel (Euclidean, summed over the steps, from the
+    unloaded start), strictly increasing; None otherwise."""
+    params = [dict((s.load.parameters or {})) if s.load is not None else None for s in states]
+    if not states or any(p is None for p in params):
+        return None
+    names = sorted({n for p in params for n in p})
+    found = {parameter_unit(n, units) for n in names}
+    if not names or len(found) != 1 or None in found:
+        return None
+    unit = found.pop()
+    a = np.array([[0.0] * len(names)] + [[float(p.get(n, 0.0)) for n in names] for p in params])
+    if not np.all(np.isfinite(a)):
+        return None
+    x = np.cumsum(np.linalg.norm(np.diff(a, axis=0), axis=1))
+    if not np.all(np.diff(x) > 0) or x[0] <= 0:
+        return None
+    kinds = sorted({n.split(".")[0] for n in names})
+    curves = sorted({n.split(".")[1] for n in names if n.count(".") == 2})
+    on = f" of {', '.join(curves[:3])}{', ...' if len(curves) > 3 else ''}" if curves else ""
+    what = {"motion": "prescribed motion", "traction": "applied traction", "force": "applied force",
+            "gravity": "body acceleration"}.get(kinds[0], kinds[0]) if len(kinds) == 1 else "load parameters"
+    return x, f"{what}{on}, travelled along the program [{unit}]"
+
+
+def load_axis(states: Sequence[StateResult], units) -> tuple[np.ndarray, str, bool]:
+    """Where each state sits along the loading: ``(x of each state, label, is_load)``, in the units
+    of ``units`` (the study's :class:`~app.io.result.Units` or its dict). For a loading given by
+    the motion of CD (the block: ``u_x``, ``u_y`` at every state) the distance CD has travelled
+    along the path, pressed then dragged; for a loading program whose parameters share one unit
+    (motions, or forces, ...) the distance its parameters travel; both strictly increasing, so
+    every state has its place (the plots' x-axis, ParaView's time). Otherwise the state index."""
+    length = _unit(units, "length")
     loads = [(s.load.u_x, s.load.u_y) for s in states]
     if states and all(ux is not None and uy is not None and np.isfinite(ux) and np.isfinite(uy) for ux, uy in loads):
         u = np.array([(0.0, 0.0), *loads], dtype=float)
         x = np.cumsum(np.hypot(*np.diff(u, axis=0).T))
         if np.all(np.diff(x) > 0):
             return x, f"distance travelled by CD, pressed then dragged [{length}]", True
+    program = _program_axis(states, units)
+    if program is not None:
+        return program[0], program[1], True
     return np.array([s.index for s in states], dtype=float), "load step (state index)", False

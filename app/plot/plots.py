@@ -22,6 +22,8 @@ from app.io.result import StateResult, StudyResult
 from app.io.select import load_axis
 
 STATUS_ORDER = ("free", "zero", "stick", "slip")
+#: space between a plot along the loading and its title, for the phase labels (points)
+TITLE_PAD = 14
 STATUS_COLOURS = {"free": "#d9d9d9", "zero": "#9467bd", "stick": "#1f77b4", "slip": "#d62728"}
 
 
@@ -82,11 +84,20 @@ def _mark_phases(ax, states: Sequence[StateResult], x: np.ndarray) -> None:
         if isinstance(ph, int) and prev is not None and ph != prev:
             starts.append((k, (s.load.model_extra or {}).get("name") or f"phase {ph}"))
         prev = ph
+    # the labels sit just above the frame, under the title (:data:`TITLE_PAD`), clear of the data
     for k, label in starts:
         ax.axvline(edges[k], color="0.4", lw=0.8, ls=":")
-        ax.annotate(f"{label} ->", (edges[k], 1.0), xycoords=("data", "axes fraction"),
-                    xytext=(3, -3), textcoords="offset points", va="top", fontsize=8, color="0.3",
-                    bbox={"facecolor": "white", "alpha": 0.75, "linewidth": 0, "pad": 1})
+        ax.annotate(f"{label} \u2192", (edges[k], 1.0), xycoords=("data", "axes fraction"),
+                    xytext=(0, 2), textcoords="offset points", va="bottom", ha="left", fontsize=8, color="0.3")
+
+
+def _isolated(y: np.ndarray) -> np.ndarray:
+    """Where ``y`` is finite but both neighbours are not: a step line (``steps-mid``) draws nothing
+    there, so these values are drawn as markers."""
+    f = np.isfinite(y)
+    prev = np.concatenate([[False], f[:-1]])
+    nxt = np.concatenate([f[1:], [False]])
+    return f & ~prev & ~nxt
 
 
 def _title(study: StudyResult, what: str) -> str:
@@ -133,7 +144,7 @@ def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     n = len(states[0].nodes)
     codes = np.array([[STATUS_ORDER.index(nd.status) for nd in s.nodes] for s in states]).T
     xs = np.array([nd.x for nd in states[0].nodes])
-    x_load, xlabel, is_load = load_axis(study.states, study.units.length)
+    x_load, xlabel, is_load = load_axis(study.states, study.units)
     fig, ax = plt.subplots(figsize=(10, 4.2))
     cmap = ListedColormap([STATUS_COLOURS[k] for k in STATUS_ORDER])
     # node rows at their positions along AB: edges halfway between neighbours; nodes that do not
@@ -174,7 +185,7 @@ def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     present = sorted({s for row in codes for s in row})
     ax.legend(handles=[Patch(color=STATUS_COLOURS[STATUS_ORDER[k]], label=STATUS_ORDER[k]) for k in present],
               loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    ax.set_title(_title(study, f"contact status of the {n} contact nodes along the loading"))
+    ax.set_title(_title(study, f"contact status of the {n} contact nodes along the loading"), pad=TITLE_PAD)
     return _save(fig, outdir / "status_map")
 
 
@@ -206,7 +217,7 @@ def reactions(study: StudyResult, pictured: list[int], outdir: pathlib.Path) -> 
         slip = np.array([nd.status == "slip" for nd in s.nodes])
         a2.plot(x[slip], rt[slip], "s", mfc="none", mec=STATUS_COLOURS["slip"], ms=6)
     a1.set_ylabel(f"normal reaction -r_N [{force}]\n(compression > 0)")
-    a2.set_ylabel(f"tangential reaction r_T [{force}]\n(dashed: +-mu |r_N|)")
+    a2.set_ylabel(f"tangential reaction r_T [{force}]\n(dashed: \u00b1\u03bc |r_N|)")
     a2.set_xlabel(_position_label(study) or "contact node")
     if not _position_label(study):
         a2.set_xticks(x)
@@ -219,11 +230,11 @@ def reactions(study: StudyResult, pictured: list[int], outdir: pathlib.Path) -> 
     else:
         a1.legend(fontsize=8)
     a2.plot([], [], "s", mfc="none", mec=STATUS_COLOURS["slip"], label="slip nodes (on the Coulomb limit)")
-    a2.plot([], [], "--", color="0.4", lw=0.8, label="Coulomb limits +-mu |r_N|")
+    a2.plot([], [], "--", color="0.4", lw=0.8, label="Coulomb limits \u00b1\u03bc |r_N|")
     a2.legend(fontsize=8, loc="best")
     line = _contact_line(study)
     where = f"along {line}" if line else "along the obstacle" if _position_label(study) else "at the contact nodes"
-    a1.set_title(_title(study, f"reactions {where} (mu = {study.mu})"))
+    a1.set_title(_title(study, f"reactions {where} (\u03bc = {study.mu})"))
     return _save(fig, outdir / "reactions")
 
 
@@ -232,8 +243,9 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     mu and the number of slip nodes; ``mceip_mu.png`` and ``.svg`` in ``outdir``, whose paths are
     returned."""
     plt = _plt()
+    from matplotlib.ticker import MaxNLocator
     states = study.states
-    idx, xlabel, is_load = load_axis(study.states, study.units.length)
+    idx, xlabel, is_load = load_axis(study.states, study.units)
     nslip = np.array([s.classification.slip for s in states])
     best = np.full(len(states), np.nan)
     fig, ax = plt.subplots(figsize=(10, 4.5))
@@ -245,16 +257,19 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
             allx += [idx[k]] * len(vals)
             ally += vals
     positive = np.concatenate([best[np.isfinite(best) & (best > 0)], [v for v in ally if v > 0]])
-    ax.plot(allx, ally, ".", color="0.6", ms=3, label="every MCEIP-mu value found")
+    ax.plot(allx, ally, ".", color="0.6", ms=3, label="every MCEIP-\u03bc value found")
     ax.plot(idx, best, "-", color="C0", lw=1.6, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
-            label="smallest MCEIP-mu value")
+            label="smallest MCEIP-\u03bc value")
+    lone = _isolated(best)
+    if lone.any() and len(idx) > 3:
+        ax.plot(idx[lone], best[lone], "o", color="C0", ms=4)
     mu = _num(study.mu)
     if np.isfinite(mu):
-        ax.axhline(mu, color="C3", ls="--", lw=1.2, label=f"scene mu = {mu:g}")
+        ax.axhline(mu, color="C3", ls="--", lw=1.2, label=f"scene \u03bc = {mu:g}")
     if len(positive) and positive.max() / max(positive.min(), 1e-300) > 50:
         ax.set_yscale("log")
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("critical friction coefficient mu (MCEIP-mu)")
+    ax.set_ylabel("critical friction coefficient \u03bc (MCEIP-\u03bc)")
     _mark_phases(ax, states, idx)
     ax2 = ax.twinx()
     ax2.step(idx, nslip, where="mid", color="C2", lw=1.0, alpha=0.8, marker="s" if len(idx) <= 3 else None,
@@ -263,13 +278,14 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     ax2.set_ylabel("number of slip nodes", color="C2")
     ax2.tick_params(axis="y", colors="C2")
     ax2.set_ylim(0, max(1, nslip.max()) * 1.05)
+    ax2.yaxis.set_major_locator(MaxNLocator(integer=True))     # a number of nodes
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=4, frameon=False)
     if not np.isfinite(best).any():
-        ax.text(0.5, 0.5, "no MCEIP-mu solution at any state", transform=ax.transAxes, ha="center", color="0.3")
+        ax.text(0.5, 0.5, "no MCEIP-\u03bc solution at any state", transform=ax.transAxes, ha="center", color="0.3")
     ax.grid(alpha=0.3)
-    ax.set_title(_title(study, "MCEIP-mu (transition to divergence) along the loading"))
+    ax.set_title(_title(study, "MCEIP-\u03bc (transition to divergence) along the loading"), pad=TITLE_PAD)
     return _save(fig, outdir / "mceip_mu")
 
 
@@ -279,14 +295,17 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     ``necessary.png`` and ``.svg`` in ``outdir``, whose paths are returned."""
     plt = _plt()
     states = study.states
-    idx, xlabel, is_load = load_axis(study.states, study.units.length)
+    idx, xlabel, is_load = load_axis(study.states, study.units)
     # the record as the state holds it (an analysis that failed has no eigenvalue: NaN)
     recs = [s.analyses.necessary for s in states]
     lamK = np.array([_num(None if r is None else r.min_eig_K_sym) for r in recs])
     lamM = np.array([_num(None if r is None else r.min_eig_M_sym) for r in recs])
     fig, ax = plt.subplots(figsize=(10, 4.2))
     ax.plot(idx, lamK, "-", color="C0", lw=1.5, drawstyle="steps-mid", marker="o" if len(idx) <= 3 else None,
-            label="smallest eigenvalue of sym K*(mu)")
+            label="smallest eigenvalue of sym K*(\u03bc)")
+    lone = _isolated(lamK)
+    if lone.any() and len(idx) > 3:
+        ax.plot(idx[lone], lamK[lone], "o", color="C0", ms=4)
     _few_states(ax, idx, is_load)
     ax.axhline(0, color="0.3", lw=0.8)
     sat = np.array([r is not None and bool(r.satisfied) for r in recs])
@@ -297,14 +316,14 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     if len(finite) and np.abs(finite).max() > 100 * max(np.abs(finite[finite != 0]).min(initial=1.0), 1e-300):
         ax.set_yscale("symlog", linthresh=max(np.abs(finite[finite != 0]).min(initial=1.0), 1e-12))
     if np.isfinite(lamM).any() and np.nanmin(lamM) < 0:
-        ax.text(0.99, 0.02, f"sym M*(mu) is indefinite at some states (min {np.nanmin(lamM):.3g})",
+        ax.text(0.99, 0.02, f"sym M*(\u03bc) is indefinite at some states (min {np.nanmin(lamM):.3g})",
                 transform=ax.transAxes, ha="right", fontsize=8, color="C3")
     ax.set_xlabel(xlabel)
-    ax.set_ylabel(f"min eig sym K*(mu) [{study.units.stiffness or 'N/mm'}]")
+    ax.set_ylabel(f"min eig sym K*(\u03bc) [{study.units.stiffness or 'N/mm'}]")
     _mark_phases(ax, states, idx)
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(alpha=0.3)
-    ax.set_title(_title(study, f"necessary condition (19) at mu = {study.mu}"))
+    ax.set_title(_title(study, f"necessary condition (19) at \u03bc = {study.mu}"), pad=TITLE_PAD)
     return _save(fig, outdir / "necessary")
 
 
