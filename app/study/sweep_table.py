@@ -14,6 +14,7 @@ import tempfile
 from typing import Any
 
 from app.io.result import StateResult, StudyResult
+from app.io.select import load_axis
 from app.io.results import file_mode
 from app.scene.schema import Scene
 from app.scene.sweep import Case, format_value
@@ -46,6 +47,11 @@ QUANTITIES = [   # (column, description), in table order after the swept keys
                                            "drops whenever the number of stick nodes drops"),
     ("mceip_mu_max_rise", "largest relative rise of the smallest MCEIP-mu from one state with solutions to the "
                           "next (0: it never rises along the path)"),
+    ("final_load", "the load at the final state, as the plots' x-axis measures it: the distance CD "
+                   "travelled (the block), the distance a loading program's parameters travelled (one unit); "
+                   "the unit in load_label"),
+    ("first_mceip_mu_load", "the load at the first state with an MCEIP-mu solution (as final_load)"),
+    ("load_label", "what final_load and first_mceip_mu_load measure, with the unit"),
     ("wall_seconds", "wall time of the case's study [s]"),
     ("ranks", "MPI ranks that ran the case"),
     ("ran", "'this run' or 'earlier' (skipped on restart: results.json already complete)"),
@@ -56,9 +62,20 @@ QUANTITIES = [   # (column, description), in table order after the swept keys
 UNIT_OF = {"final_u_x": "length", "first_mceip_mu_u_x": "length"}
 
 
-PLOTTED = ["final_mceip_mu_min", "first_mceip_mu_value", "first_mceip_mu_u_x", "first_mceip_mu_n_slip",
-           "first_mceip_mu_slip_fraction", "first_mceip_mu_u_x_fraction", "final_u_x", "final_n_slip",
-           "final_n_stick", "final_n_free", "n_states", "wall_seconds"]
+#: the plotted columns in panel order: (column, title in words, y-axis label; ``{load}`` is the case's
+#: load label, ``{length}`` the length unit). The wall time is a cost, not a result: it is in the
+#: tables, not in the plots.
+PLOTTED = [
+    ("final_mceip_mu_min", "critical \u03bc at the final state", "smallest MCEIP-\u03bc"),
+    ("first_mceip_mu_value", "critical \u03bc where MCEIP-\u03bc first has a solution", "smallest MCEIP-\u03bc"),
+    ("first_mceip_mu_load", "load where MCEIP-\u03bc first has a solution", "{load}"),
+    ("first_mceip_mu_n_slip", "slip nodes where MCEIP-\u03bc first has a solution", "slip nodes"),
+    ("first_mceip_mu_slip_fraction", "share of the contact slipping there", "slip / in contact"),
+    ("final_load", "load at the final state", "{load}"),
+    ("final_n_slip", "slip nodes at the final state", "slip nodes"),
+    ("final_n_stick", "stick nodes at the final state", "stick nodes"),
+    ("n_states", "equilibrium states on the path", "states"),
+]
 
 
 def _min_mu(state: StateResult) -> float | None:
@@ -89,6 +106,10 @@ def case_row(study: StudyResult, case: Case, ran: str = "this run") -> dict:
     last = states[-1]
     row["n_contact_nodes"] = len(last.nodes)
     row["final_u_x"] = last.load.u_x
+    x_load, load_label, is_load = load_axis(states, study.units)
+    if is_load:
+        row["load_label"], row["final_load"] = load_label, float(x_load[-1])
+    row.update(_parameters("final", last, study))
     for k in ("slip", "stick", "free", "zero"):
         row[f"final_n_{k}"] = getattr(last.classification, k)
     if "mceip_mu" in study.analyses_requested:
@@ -103,6 +124,9 @@ def case_row(study: StudyResult, case: Case, ran: str = "this run") -> dict:
             c = st.classification
             row["first_mceip_mu_state"] = st.index
             row["first_mceip_mu_u_x"] = st.load.u_x
+            if is_load:
+                row["first_mceip_mu_load"] = float(x_load[first])
+            row.update(_parameters("first_mceip_mu", st, study))
             row["first_mceip_mu_value"] = mins[first]
             row["first_mceip_mu_n_slip"], row["first_mceip_mu_n_stick"] = c.slip, c.stick
             row["first_mceip_mu_n_free"] = c.free
@@ -119,6 +143,19 @@ def case_row(study: StudyResult, case: Case, ran: str = "this run") -> dict:
     return row
 
 
+def _parameters(prefix: str, state: StateResult, study: StudyResult) -> dict:
+    """A loading program's load parameters at ``state`` as columns ``<prefix>:<parameter>`` (e.g.
+    ``final:motion.top.tx``), none for a loading without named parameters (the block)."""
+    return {f"{prefix}:{k}": float(v) for k, v in sorted((state.load.parameters or {}).items())
+            if isinstance(v, (int, float))}
+
+
+def parameter_columns(rows: dict[int, dict]) -> list[str]:
+    """The load-parameter columns (:func:`_parameters`) found in any row, final ones first."""
+    found = {k for r in rows.values() for k in r if ":" in k and k.split(":")[0] in ("final", "first_mceip_mu")}
+    return sorted(found, key=lambda k: (k.split(":")[0] != "final", k))
+
+
 def error_row(case: Case, message: str, ran: str = "this run") -> dict:
     """The sweep table's row of a case that failed: its name, index and swept values, every quantity
     empty, status ``error: <message>`` and ``ran`` (``this run`` or ``earlier``)."""
@@ -129,17 +166,27 @@ def error_row(case: Case, message: str, ran: str = "this run") -> dict:
     return row
 
 
-def _columns(cases: list[Case]) -> list[str]:
-    return ["case", "index", *cases[0].values.keys(), *(q for q, _ in QUANTITIES)]
+def _columns(cases: list[Case], rows: dict[int, dict]) -> list[str]:
+    return ["case", "index", *cases[0].values.keys(), *(q for q, _ in QUANTITIES), *parameter_columns(rows)]
+
+
+def _header(column: str, units: dict) -> str:
+    """sweep.csv's header of a column: with its unit, a load parameter's from its name."""
+    from app.io.results import csv_header
+    from app.io.select import parameter_unit
+    if ":" in column:
+        unit = parameter_unit(column.split(":", 1)[1], units)
+        return f"{column} [{unit}]" if unit else column
+    return csv_header(column, UNIT_OF.get(column), units)
 
 
 def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: dict[int, dict],
                  info: dict) -> None:
     """sweep.csv and sweep.json (atomically): one row per case, finished or not."""
     from app.io.document import NON_FINITE_REASON, json_clean
-    from app.io.results import atomic_write, csv_header
+    from app.io.results import atomic_write
     from app.systems.units import CONTINUUM_UNITS
-    cols = _columns(cases)
+    cols = _columns(cases, rows)
     table = []
     for c in cases:
         row = rows.get(c.index)
@@ -149,7 +196,7 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
     units = CONTINUUM_UNITS[scene.units]
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow([csv_header(k, UNIT_OF.get(k), units) for k in cols])
+    w.writerow([_header(k, units) for k in cols])
     for r in table:
         w.writerow(["" if v is None else (repr(v) if isinstance(v, float) else v) for v in r.values()])
     atomic_write(outdir / "sweep.csv", buf.getvalue())
@@ -159,7 +206,10 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
            "units": {k: units[k] for k in ("length", "force", "time")},
            "columns": {"case": "stable case name (cases/<case>/ holds its results.json, steps.csv)",
                        "index": "case number in sweep order (from 0)",
-                       **{k: "swept key" for k in cases[0].values}, **dict(QUANTITIES)},
+                       **{k: "swept key" for k in cases[0].values}, **dict(QUANTITIES),
+                       **{k: f"load parameter {k.split(':', 1)[1]} at the "
+                             f"{'final state' if k.startswith('final:') else 'first state with an MCEIP-mu solution'}"
+                          for k in parameter_columns(rows)}},
            "cases": table}
     non_finite: dict[str, str] = {}
     data = json_clean(doc, non_finite)
@@ -168,60 +218,126 @@ def write_tables(outdir: pathlib.Path, scene: Scene, cases: list[Case], rows: di
     atomic_write(outdir / "sweep.json", json.dumps(data, indent=1, allow_nan=False))
 
 
-def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[int, dict]) -> list[pathlib.Path]:
-    """One PNG per swept key: every plotted quantity against it (one line per value of the
-    other swept keys in a product sweep)."""
+#: swept scene keys in words and the quantity of their unit (a key of the units block; None: no unit)
+KEY_LABELS = {
+    "mu": ("friction coefficient \u03bc", None),
+    "system.length": ("block length L", "length"), "system.height": ("block height H", "length"),
+    "system.thickness": ("thickness", "length"), "system.E": ("Young's modulus E", "stress"),
+    "system.nu": ("Poisson's ratio \u03bd", None), "system.density": ("density", "density"),
+    "system.nx": ("cells along the contact side (nx)", None), "system.ny": ("cells across (ny)", None),
+    "system.material.E": ("Young's modulus E", "stress"), "system.material.nu": ("Poisson's ratio \u03bd", None),
+    "system.material.density": ("density", "density"),
+    "loading.normal_force": ("normal force", "force"), "loading.normal_steps": ("normal load steps", None),
+    "loading.tangential_step": ("tangential step", "length"),
+    "loading.tangential_max": ("largest tangential motion", "length"),
+}
+
+
+def key_label(key: str, units: dict) -> str:
+    """A swept key as an axis label: in words with its unit where known (``block length L [mm]``),
+    the key itself otherwise."""
+    words, quantity = KEY_LABELS.get(key, (key, None))
+    unit = units.get(quantity) if quantity else None
+    return f"{words} [{unit}]" if unit else words
+
+
+def _ending(r: dict) -> str:
+    """How a case's path ended, for the plots' markers ("gross sliding", "all phases applied", ...,
+    without where), or its status when it did not run to the end."""
+    if r.get("status") != "ok":
+        return str(r.get("status") or "not run").split(":")[0].split(" (")[0]
+    end = str(r.get("path_end"))
+    return "gross sliding" if "gross sliding" in end else end
+
+
+def _numeric(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[int, dict],
+                units: dict | None = None) -> list[pathlib.Path]:
+    """One PNG per swept key: every plotted quantity (:data:`PLOTTED`, titled in words with units)
+    against it, one line per value of the other swept keys in a product sweep; log axes where a
+    quantity spans more than a decade; cases whose path ended otherwise than most (or that failed)
+    drawn with open markers and named under the panels."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator
+    units = units or {}
     keys = list(cases[0].values)
     out = []
     (outdir / "plots").mkdir(exist_ok=True)
     table = [(c, rows.get(c.index) or {}) for c in cases]
+    endings = [_ending(r) for _, r in table if r]
+    usual = max(set(endings), key=endings.count) if endings else None
+    loads = {r.get("load_label") for _, r in table if r.get("load_label")}
+    described = loads.pop() if len(loads) == 1 else None
+    # a load axis is labelled "load [unit]"; what the load measures is said under the panels
+    load = f"load [{described.rsplit('[', 1)[1]}" if described and "[" in described else "load (see load_label)"
     for key in keys:
-        quantities = [q for q in PLOTTED if any(isinstance(r.get(q), (int, float)) and not isinstance(r.get(q), bool)
-                                                 for _, r in table)]
-        if not quantities:
+        panels = [(q, title, ylabel.format(load=load)) for q, title, ylabel in PLOTTED
+                  if any(_numeric(r.get(q)) for _, r in table)]
+        if not panels:
             continue
         xs_all = [c.values[key] for c, _ in table]
-        numeric = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in xs_all)
+        numeric = all(_numeric(x) for x in xs_all)
         categories = list(dict.fromkeys(format_value(x) for x in xs_all))
         others = [k for k in keys if k != key]
         series: dict[str, list] = {}
         for c, r in table:
             label = ", ".join(f"{k}={format_value(c.values[k])}" for k in others) if mode != "zip" else ""
             series.setdefault(label, []).append((c, r))
-        ncol = min(3, len(quantities))
-        nrow = math.ceil(len(quantities) / ncol)
-        fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.1 * nrow), squeeze=False)
-        for ax, q in zip(axes.flat, quantities):
-            for label, items in series.items():
-                pts = [((c.values[key] if numeric else categories.index(format_value(c.values[key]))), r.get(q))
-                       for c, r in items]
-                pts = sorted((x, y) for x, y in pts if isinstance(y, (int, float)) and not isinstance(y, bool))
-                if pts:
-                    ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=4, label=label or None)
-            ys = [r.get(q) for _, r in table if isinstance(r.get(q), (int, float))]
-            if "mceip_mu" in q and ys and min(ys) > 0 and max(ys) / min(ys) > 50:
+        ncol = min(3, len(panels))
+        nrow = math.ceil(len(panels) / ncol)
+        fig, axes = plt.subplots(nrow, ncol, figsize=(4.4 * ncol, 3.3 * nrow), squeeze=False)
+        odd: dict[str, list[str]] = {}
+        for ax, (q, title, ylabel) in zip(axes.flat, panels):
+            for k, (label, items) in enumerate(series.items()):
+                pts = sorted(((c.values[key] if numeric else categories.index(format_value(c.values[key]))),
+                              r.get(q), _ending(r), c.name) for c, r in items if _numeric(r.get(q)))
+                if not pts:
+                    continue
+                colour = f"C{k % 10}"
+                ax.plot([p[0] for p in pts], [p[1] for p in pts], "-", color=colour, lw=1.2, label=label or None)
+                for x, y, end, name in pts:
+                    ax.plot([x], [y], "o", ms=5, color=colour, mfc=colour if end == usual else "white")
+                    if end != usual:
+                        odd.setdefault(end, []).append(name)
+            ys = [r.get(q) for _, r in table if _numeric(r.get(q))]
+            if ys and min(ys) > 0 and max(ys) / min(ys) > 10:
                 ax.set_yscale("log")
-            ax.set_title(q, fontsize=9)
-            ax.set_xlabel(key, fontsize=8)
-            ax.tick_params(labelsize=7)
+                if max(ys) / min(ys) < 100:      # less than two decades: plain labels at 1, 2, 5 x 10^k
+                    ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+                    for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
+                        axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.set_title(title, fontsize=9)
+            ax.set_ylabel(ylabel, fontsize=8)
+            ax.set_xlabel(key_label(key, units), fontsize=8)
+            ax.tick_params(which="both", labelsize=7)
+            if q.endswith(("_n_slip", "_n_stick", "n_states")):
+                ax.yaxis.get_major_locator().set_params(integer=True)
             if not numeric:
-                ax.set_xticks(range(len(categories)), categories, rotation=30)
+                ax.set_xticks(range(len(categories)), categories, rotation=30, ha="right")
             ax.grid(alpha=0.3)
-        for ax in list(axes.flat)[len(quantities):]:
+        for ax in list(axes.flat)[len(panels):]:
             ax.set_visible(False)
         if len(series) > 1:
             axes.flat[0].legend(fontsize=6)
-        fig.suptitle(f"{cases[0].scene.name}: quantities against {key}", fontsize=10)
-        fig.tight_layout()
+        notes = ([f"load: {described.rsplit(' [', 1)[0]}"] if described and any(
+            p[2].startswith("load") for p in panels) else [])
+        notes += [f"open markers: the path ended with \u201c{end}\u201d ({', '.join(sorted(set(names)))}); "
+                 f"the others: \u201c{usual}\u201d" for end, names in odd.items()]
+        fig.suptitle(f"{cases[0].scene.name}: results against {key_label(key, units)}", fontsize=10)
+        fig.tight_layout(rect=(0, 0.03 * len(notes), 1, 1))
+        for k, note in enumerate(notes):
+            fig.text(0.01, 0.005 + 0.03 * k, note, fontsize=7, color="0.3")
         path = outdir / "plots" / f"{re.sub(r'[^A-Za-z0-9_.=-]', '-', key)}.png"
         # drawn into a new file and renamed over the old one: a link in its place is replaced, never followed
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
         try:
             with os.fdopen(fd, "wb") as f:
-                fig.savefig(f, dpi=90, format="png")
+                fig.savefig(f, dpi=110, format="png")
             os.chmod(tmp, file_mode())
             os.replace(tmp, path)
         except BaseException:
@@ -236,12 +352,12 @@ def summary_table(cases: list[Case], rows: dict[int, dict]) -> str:
     """A short plain-text table of the main quantities, one line per case."""
     def f(v, fmt="{:.4g}"):
         return "-" if v is None else (fmt.format(v) if isinstance(v, float) else str(v))
-    head = ["case", "final mu", "1st mu", "1st state", "1st u_x", "1st slip", "final slip/stick/free", "s"]
+    head = ["case", "final \u03bc", "1st \u03bc", "1st state", "1st load", "1st slip", "final slip/stick/free", "s"]
     lines = [head]
     for c in cases:
         r = rows.get(c.index) or {}
         lines.append([c.name, f(r.get("final_mceip_mu_min")), f(r.get("first_mceip_mu_value")),
-                      f(r.get("first_mceip_mu_state")), f(r.get("first_mceip_mu_u_x")),
+                      f(r.get("first_mceip_mu_state")), f(r.get("first_mceip_mu_load")),
                       f(r.get("first_mceip_mu_n_slip")),
                       "/".join(f(r.get(f"final_n_{k}")) for k in ("slip", "stick", "free")),
                       f(r.get("wall_seconds"), "{:.1f}")])
