@@ -14,8 +14,8 @@ import tempfile
 from typing import Any
 
 from app.io.result import StateResult, StudyResult
-from app.io.select import load_axis
 from app.io.results import file_mode
+from app.io.select import load_axis
 from app.scene.schema import Scene
 from app.scene.sweep import Case, format_value
 
@@ -263,7 +263,6 @@ def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[i
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import FuncFormatter, LogLocator
     units = units or {}
     keys = list(cases[0].values)
     out = []
@@ -293,33 +292,10 @@ def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[i
         fig, axes = plt.subplots(nrow, ncol, figsize=(4.4 * ncol, 3.3 * nrow), squeeze=False)
         odd: dict[str, list[str]] = {}
         for ax, (q, title, ylabel) in zip(axes.flat, panels):
-            for k, (label, items) in enumerate(series.items()):
-                pts = sorted(((c.values[key] if numeric else categories.index(format_value(c.values[key]))),
-                              r.get(q), _ending(r), c.name) for c, r in items if _numeric(r.get(q)))
-                if not pts:
-                    continue
-                colour = f"C{k % 10}"
-                ax.plot([p[0] for p in pts], [p[1] for p in pts], "-", color=colour, lw=1.2, label=label or None)
-                for x, y, end, name in pts:
-                    ax.plot([x], [y], "o", ms=5, color=colour, mfc=colour if end == usual else "white")
-                    if end != usual:
-                        odd.setdefault(end, []).append(name)
-            ys = [r.get(q) for _, r in table if _numeric(r.get(q))]
-            if ys and min(ys) > 0 and max(ys) / min(ys) > 10:
-                ax.set_yscale("log")
-                if max(ys) / min(ys) < 100:      # less than two decades: plain labels at 1, 2, 5 x 10^k
-                    ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
-                    for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
-                        axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            _panel(ax, q, series, key, numeric, categories, usual, odd)
             ax.set_title(title, fontsize=9)
             ax.set_ylabel(ylabel, fontsize=8)
             ax.set_xlabel(key_label(key, units), fontsize=8)
-            ax.tick_params(which="both", labelsize=7)
-            if q.endswith(("_n_slip", "_n_stick", "n_states")):
-                ax.yaxis.get_major_locator().set_params(integer=True)
-            if not numeric:
-                ax.set_xticks(range(len(categories)), categories, rotation=30, ha="right")
-            ax.grid(alpha=0.3)
         for ax in list(axes.flat)[len(panels):]:
             ax.set_visible(False)
         if len(series) > 1:
@@ -333,19 +309,55 @@ def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[i
         for k, note in enumerate(notes):
             fig.text(0.01, 0.005 + 0.03 * k, note, fontsize=7, color="0.3")
         path = outdir / "plots" / f"{re.sub(r'[^A-Za-z0-9_.=-]', '-', key)}.png"
-        # drawn into a new file and renamed over the old one: a link in its place is replaced, never followed
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                fig.savefig(f, dpi=110, format="png")
-            os.chmod(tmp, file_mode())
-            os.replace(tmp, path)
-        except BaseException:
-            pathlib.Path(tmp).unlink(missing_ok=True)
-            raise
+        _save_png(fig, path)
         plt.close(fig)
         out.append(path)
     return out
+
+
+def _panel(ax, q: str, series: dict[str, list], key: str, numeric: bool, categories: list[str],
+           usual: str | None, odd: dict[str, list[str]]) -> None:
+    """One quantity ``q`` against the swept ``key``: a line per series, open markers for the cases
+    whose path ended otherwise than ``usual`` (named into ``odd``), a log axis over a decade."""
+    from matplotlib.ticker import FuncFormatter, LogLocator
+    for k, (label, items) in enumerate(series.items()):
+        pts = sorted(((c.values[key] if numeric else categories.index(format_value(c.values[key]))),
+                      r.get(q), _ending(r), c.name) for c, r in items if _numeric(r.get(q)))
+        if not pts:
+            continue
+        colour = f"C{k % 10}"
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], "-", color=colour, lw=1.2, label=label or None)
+        for x, y, end, name in pts:
+            ax.plot([x], [y], "o", ms=5, color=colour, mfc=colour if end == usual else "white")
+            if end != usual:
+                odd.setdefault(end, []).append(name)
+    ys = [r.get(q) for items in series.values() for _, r in items if _numeric(r.get(q))]
+    if ys and min(ys) > 0 and max(ys) / min(ys) > 10:
+        ax.set_yscale("log")
+        if max(ys) / min(ys) < 100:      # less than two decades: plain labels at 1, 2, 5 x 10^k
+            ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+            for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
+                axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.tick_params(which="both", labelsize=7)
+    if q.endswith(("_n_slip", "_n_stick", "n_states")):
+        ax.yaxis.get_major_locator().set_params(integer=True)
+    if not numeric:
+        ax.set_xticks(range(len(categories)), categories, rotation=30, ha="right")
+    ax.grid(alpha=0.3)
+
+
+def _save_png(fig, path: pathlib.Path) -> None:
+    """The figure as PNG, drawn into a new file and renamed over the old one: a link in its place is
+    replaced, never followed."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            fig.savefig(f, dpi=110, format="png")
+        os.chmod(tmp, file_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        pathlib.Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def summary_table(cases: list[Case], rows: dict[int, dict]) -> str:
