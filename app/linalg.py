@@ -17,7 +17,8 @@ file. :func:`owned` is the context manager that destroys a PETSc object on every
 
 Also here: :func:`set_linesearch` (a SNES line search default through the options database,
 removed at once), :func:`one_blas_thread` (one BLAS thread around dense numpy/LAPACK work) and
-:func:`flush_subnormals` (around the large factorisations of well-conditioned matrices).
+:func:`flush_subnormals` (around the large factorisations of well-conditioned matrices) and
+:func:`set_up` (a factorisation with the interpreter released, so that progress and signals go on).
 """
 from __future__ import annotations
 
@@ -138,6 +139,37 @@ def set_linesearch(snes: PETSc.SNES, kind: str) -> None:
         opts.delValue(name)
 
 
+def set_up(solver) -> None:
+    """``solver.setUp()`` for a KSP (its factorisation) or an EPS (its spectral transformation's
+    factorisation), called through PETSc's or SLEPc's C function with ctypes, which releases the
+    interpreter for the call: petsc4py's own ``setUp()`` holds it until the C code returns, so
+    during a long factorisation (6 s at 10^6 DOFs) no other thread ran, the progress lines
+    stopped, and a Ctrl-C waited. Released, the progress thread goes on and the signal watchdog
+    (:mod:`app.common.hard_stop`) can stop the run within a second of the signal. Nothing here
+    calls back into Python (monitors run in ``solve``, not in ``setUp``). A PETSc error raises
+    :class:`PETSc.Error` with PETSc's code, as petsc4py's call does."""
+    err = _setup_function(type(solver).__name__)(ctypes.c_void_p(solver.handle))
+    if err != 0:
+        raise PETSc.Error(err)
+
+
+@functools.lru_cache(maxsize=None)
+def _setup_function(kind: str):
+    """The C function ``<kind>SetUp`` (``KSPSetUp``, ``EPSSetUp``) from the library petsc4py or
+    slepc4py is linked to, looked up once per process."""
+    if kind == "EPS":
+        from slepc4py import SLEPc
+        module = SLEPc
+    elif kind == "KSP":
+        module = PETSc
+    else:
+        raise TypeError(f"set_up: a KSP or an EPS, not {kind}")
+    fn = getattr(ctypes.CDLL(module.__file__), f"{kind}SetUp")
+    fn.argtypes = [ctypes.c_void_p]
+    fn.restype = ctypes.c_int
+    return fn
+
+
 def lu_solver(A: PETSc.Mat, *, prefix: str, factor: Factor = "lu", mumps: Optional[bool] = True,
               inertia: bool = False, ordering: Optional[str] = None) -> PETSc.KSP:
     """A KSP on ``A``'s communicator that solves with the factors of ``A`` (MPI collective).
@@ -152,7 +184,7 @@ def lu_solver(A: PETSc.Mat, *, prefix: str, factor: Factor = "lu", mumps: Option
         ksp.setOperators(A)
         configure_direct(ksp, factor=factor, mumps=mumps, inertia=inertia, ordering=ordering)
         from_options(ksp)
-        ksp.setUp()
+        set_up(ksp)
     except BaseException:
         ksp.destroy()
         raise

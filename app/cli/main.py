@@ -198,6 +198,10 @@ def _guarded(fn, args) -> int:
         return _unexpected()
 
 
+def _nothing() -> None:
+    """A hard stop's cleanup on a rank that holds no folder."""
+
+
 def _interrupted(signum: int, left: str | None = None) -> int:
     """One line for a run stopped by SIGINT or SIGTERM (``left``: what the stopped command keeps,
     default none of its results); exit status 128 + the signal.
@@ -213,8 +217,7 @@ def _interrupted(signum: int, left: str | None = None) -> int:
     interrupt.clear()
     code = 128 + signum
     if MPI.COMM_WORLD.rank == 0:
-        print(f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
-              f"{left or 'the run stopped and wrote no results'}", file=sys.stderr, flush=True)
+        print(interrupt.message(signum, left), file=sys.stderr, flush=True)
     if MPI.COMM_WORLD.size > 1 and left is not None:
         sys.stderr.flush()
         # mpirun ends the whole job (SIGKILL) as soon as one rank exits with a non-zero status.
@@ -311,7 +314,7 @@ def _main(args) -> int:
     comm = MPI.COMM_WORLD
     if scene.sweep is not None or getattr(args, "ranks_per_case", None) is not None:
         from app.study.sweep import main as sweep_main  # a batch of cases (app/study/sweep.py)
-        runtime.catch_signals()
+        runtime.catch_signals(comm.rank)
         return sweep_main(scene, args, comm)
     from app.scene import limits as preflight
     try:
@@ -346,9 +349,12 @@ def _main(args) -> int:
     # Everything is written into the staging folder (created and probed by check()) and moved into
     # place at the very end; the lock on the folder is held until then.
     outdir = folder.staging
-    runtime.catch_signals()
+    runtime.catch_signals(comm.rank)
     try:
-        return _run(args, scene, comm, folder, outdir)
+        # a signal the main thread cannot take (inside a long C call) drops the staging folder and
+        # the lock from the watchdog (app/common/hard_stop.py), as this block's finally would
+        with interrupt.cleanup_on_hard_stop(folder.abort if comm.rank == 0 else _nothing):
+            return _run(args, scene, comm, folder, outdir)
     finally:
         if comm.rank == 0:
             folder.abort()              # interrupted or failed: drop the partial files (kept if the commit failed)

@@ -12,16 +12,47 @@ KeyboardInterrupt again. Nothing is recorded outside a command-line run.
 """
 from __future__ import annotations
 
+import contextlib
+from typing import Callable, Iterator
+
 #: the signals received during this run, in order (cleared by :func:`clear`)
 RECEIVED: list[int] = []
 #: whether a KeyboardInterrupt has been raised for them (then a repeated signal raises none)
 RAISED: list[bool] = []
+#: how many times the handler took each signal since the run's handlers were installed (never
+#: cleared by :func:`clear`: app/common/hard_stop.py tells by it whether the main thread is taking
+#: signals at all)
+TAKEN: dict[int, int] = {}
+#: what a hard stop (app/common/hard_stop.py) must undo, innermost last: (cleanup, what the stopped
+#: command keeps, or None: nothing), see :func:`cleanup_on_hard_stop`
+CLEANUPS: list[tuple[Callable[[], None], str | None]] = []
 
 
 def record(signum: int) -> None:
-    """Note that ``signum`` arrived."""
+    """Note that ``signum`` arrived (the handler took it)."""
+    TAKEN[signum] = TAKEN.get(signum, 0) + 1
     if signum not in RECEIVED:
         RECEIVED.append(signum)
+
+
+def message(signum: int, left: str | None = None) -> str:
+    """The one line of a run stopped by ``signum`` (``left``: what the command keeps)."""
+    return (f"error: interrupted by {'SIGTERM' if signum == 15 else 'SIGINT (Ctrl-C)'}; "
+            f"{left or 'the run stopped and wrote no results'}")
+
+
+@contextlib.contextmanager
+def cleanup_on_hard_stop(cleanup: Callable[[], None], left: str | None = None) -> Iterator[None]:
+    """While the block runs, a hard stop (a signal the main thread could not take within a second,
+    app/common/hard_stop.py) calls ``cleanup`` (drop the staging folder, release the lock) before
+    the process ends; ``left`` says what the stopped command keeps, for its one line. The normal
+    path (a KeyboardInterrupt) cleans up by itself and never calls it."""
+    entry = (cleanup, left)
+    CLEANUPS.append(entry)
+    try:
+        yield
+    finally:
+        CLEANUPS.remove(entry)
 
 
 def raised() -> bool:

@@ -18,7 +18,10 @@ their reasons). The patches, who gets each, and what each relies on:
    harm (:func:`_deferring`), and ``sys.unraisablehook`` is :func:`_during_run`. It relies on FFCx
    0.5.x compiling in ``ffcx/codegeneration/jit.py`` (the claim of a C file in the shared JIT
    cache); with another FFCx it is installed all the same, with a DEBUG line (a signal during a
-   compilation is then raised at once, as without the app). Not by the API: a user's program
+   compilation is then raised at once, as without the app). The interpreter's wakeup descriptor
+   (:func:`signal.set_wakeup_fd`) is the pipe of the watchdog thread of app/common/hard_stop.py,
+   which stops the run itself, cleanups run and one line written, when the handler has not taken
+   a SIGINT or SIGTERM within a second (the main thread inside a long C call). Not by the API: a user's program
    owns its signal handlers, and a Ctrl-C there is Python's usual KeyboardInterrupt.
 3. After an interrupt (:func:`quiet_after_interrupt`; the command line only): a signal sent
    again is ignored and ``sys.unraisablehook`` sends destructor failures to the debug log.
@@ -66,7 +69,7 @@ import threading
 import warnings
 from collections.abc import Callable, Iterator
 
-from app.common import interrupt
+from app.common import hard_stop, interrupt
 
 log = logging.getLogger(__name__)
 
@@ -121,15 +124,21 @@ def _mpi_environment_defaults() -> None:
 
 # ---- signals (the command line's runs) --------------------------------------------------------
 
-def catch_signals() -> None:
-    """From here on SIGTERM and SIGINT stop the run with one line (:func:`_terminate`)."""
+def catch_signals(rank: int = 0) -> None:
+    """From here on SIGTERM and SIGINT stop the run with one line (:func:`_terminate`), within
+    about a second even inside a long C call (the watchdog of app/common/hard_stop.py; ``rank``:
+    the MPI rank, rank 0 writes the line)."""
     pinned("fenics-ffcx", "ffcx", FENICS_SERIES, patch="putting off a signal during FFCx's JIT compilation",
            otherwise="installed all the same (a signal during a compilation is raised at once)")
     interrupt.clear()
+    interrupt.TAKEN.clear()
     sys.unraisablehook = _during_run
     signal.signal(signal.SIGTERM, _terminate)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:     # not when started with SIGINT ignored
         signal.signal(signal.SIGINT, _terminate)
+    # the interpreter's C-level handler writes each signal to the watchdog's pipe at once, even
+    # while the main thread is inside a long C call (app/common/hard_stop.py)
+    signal.set_wakeup_fd(hard_stop.watchdog(rank).wakeup_fd, warn_on_full_buffer=False)
 
 
 def quiet_after_interrupt() -> None:

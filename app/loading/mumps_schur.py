@@ -17,7 +17,7 @@ import functools
 import numpy as np
 from petsc4py import PETSc
 
-from app.linalg import flush_subnormals, from_options, with_prefix
+from app.linalg import flush_subnormals, from_options, set_up, with_prefix
 
 
 @functools.lru_cache(maxsize=1)
@@ -83,7 +83,7 @@ class SchurComplements:
                     return None
                 self._set = True
             with flush_subnormals():             # a mass-like A's far fill underflows (see there)
-                ksp.setUp()
+                set_up(ksp)              # the interpreter released: progress and signals go on
             F = ksp.getPC().getFactorMatrix()
         except PETSc.Error:
             return None

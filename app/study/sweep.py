@@ -41,6 +41,7 @@ import time
 import traceback
 from collections import deque
 
+from app.common import interrupt
 from app.common.interrupt import Stopped
 from app.io.document import from_document
 from app.io.result import StudyResult
@@ -98,7 +99,8 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
         identity = {"sweep_case": {"sweep": case.scene.name, "name": case.name, "index": case.index,
                                    "values": case.values, "scene_hash": case.scene_hash}}
         try:
-            study = driver.run_and_write(case.scene, gcomm, staging, extra=identity)
+            with interrupt.cleanup_on_hard_stop(lambda: _drop_staging(staging) if gcomm.rank == 0 else None):
+                study = driver.run_and_write(case.scene, gcomm, staging, extra=identity)
         except UnreachableLoad as err:   # raised identically on every rank of the group
             error = f"loading: {err}"
         except KeyboardInterrupt:
@@ -114,12 +116,22 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
             atomic_write(staging / "error.json", json.dumps({"case": case.name, "error": error}, indent=1))
         refused = _commit_case(staging, folder)
     except KeyboardInterrupt:            # a signal, wherever it lands: the unfinished case leaves nothing
-        if gcomm.rank == 0 and staging is not None and staging.is_dir() and not staging.is_symlink():
-            shutil.rmtree(staging, ignore_errors=True)      # this run's own staging folder (not yet moved)
+        if gcomm.rank == 0:
+            _drop_staging(staging)
         raise
     if refused is not None:
         return error_row(case, refused if error is None else f"{error}; {refused}")
     return error_row(case, error) if error is not None else case_row(study, case)
+
+
+def _drop_staging(staging: pathlib.Path | None) -> None:
+    """Remove this run's own staging folder of a case (not yet moved into place)."""
+    if staging is not None and staging.is_dir() and not staging.is_symlink():
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def _nothing() -> None:
+    """A hard stop's cleanup on a rank that holds no lock."""
 
 
 def _remove_unfinished(folder: pathlib.Path) -> None:
@@ -321,12 +333,13 @@ def main(scene: Scene, args, comm) -> int:
     problem = comm.bcast(problem, root=0)
     if problem:
         return _fail(problem)
+    left = f"the sweep stopped; the cases it completed are in {outdir} (run it again to run the others)"
     try:
-        return run_sweep(scene, cases, comm, outdir, rpc, quiet=args.quiet,
-                         rerun=bool(getattr(args, "overwrite", False)))
+        with interrupt.cleanup_on_hard_stop(lock.release if comm.rank == 0 else _nothing, left):
+            return run_sweep(scene, cases, comm, outdir, rpc, quiet=args.quiet,
+                             rerun=bool(getattr(args, "overwrite", False)))
     except KeyboardInterrupt as err:     # a signal (app/common/runtime.py): the complete cases stay
-        raise Stopped(err, f"the sweep stopped; the cases it completed are in {outdir} (run it again to "
-                           "run the others)") from None
+        raise Stopped(err, left) from None
     finally:
         if comm.rank == 0:
             lock.release()

@@ -15,7 +15,7 @@ from slepc4py import SLEPc
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
 from app.analyses.outcomes import NecessaryOutcome, Solution, SufficientOutcome
 from app.analyses.pencils.reduced import combine, diag_scale, gather_vec, serial_copy, sym_part
-from app.linalg import configure_direct, from_options, mumps_null_pivots, owned, with_prefix
+from app.linalg import configure_direct, from_options, mumps_null_pivots, owned, set_up, with_prefix
 from app.scene.schema import EigSettings
 
 #: from this size on, shift-and-invert factorises with MUMPS even on one rank: its factorisation is
@@ -177,11 +177,12 @@ def _nearest_sym_eig_once(At: PETSc.Mat, sigma: float, settings: EigSettings, sh
             v0.destroy()
         if shift_below:
             with mumps_null_pivots("cd_necessary_st_"):      # the inertia of MUMPS's factor
-                eps.setUp()
-            ksp.setUp()
+                set_up(eps)
+            set_up(ksp)
             neg, zero, _ = ksp.getPC().getFactorMatrix().getInertia()
             if neg + zero > 0:
                 return _NOT_BELOW
+        set_up(eps)                   # the factorisation, with the interpreter released
         eps.solve()
         vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
         if vals and vectors is not None:

@@ -8,7 +8,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.conditions import full_size
-from app.linalg import configure_direct, flush_subnormals, owned, with_prefix
+from app.linalg import configure_direct, flush_subnormals, owned, set_up, with_prefix
 from app.scene.schema import EigSettings
 
 
@@ -59,6 +59,7 @@ def smallest_pairs(Xii: PETSc.Mat, nev: int, tol: float) -> tuple[np.ndarray, np
         eps.setTarget(0.0)
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
         configure_direct(st.getKSP(), factor="cholesky", mumps=True)
+        set_up(eps)                   # the factorisation, with the interpreter released
         eps.solve()
         got = eps.getConverged()
         if got < 1:

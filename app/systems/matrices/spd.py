@@ -36,7 +36,7 @@ def _inertia_mumps(S) -> tuple[int, int]:
     """(negative pivots, null pivots) of the sparse symmetric S by MUMPS (serial)."""
     from petsc4py import PETSc
 
-    from app.linalg import from_options, with_prefix
+    from app.linalg import from_options, set_up, with_prefix
     n = S.shape[0]
     mat = PETSc.Mat().createAIJ((n, n), csr=(S.indptr.astype(PETSc.IntType), S.indices.astype(PETSc.IntType),
                                              S.data), comm=PETSc.COMM_SELF)
@@ -55,7 +55,7 @@ def _inertia_mumps(S) -> tuple[int, int]:
         F.setMumpsIcntl(4, 0)           # quiet
         from_options(ksp)
         try:
-            ksp.setUp()
+            set_up(ksp)
         except PETSc.Error:
             return 0, 1                 # the factorisation broke down: a zero pivot
         return int(F.getMumpsInfog(12)), int(F.getMumpsInfog(28))
