@@ -23,16 +23,21 @@ handler, which Python runs first when the call returns, then takes the signal as
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 import threading
 import time
+from typing import Iterator
 
 from app.common import interrupt
 
-#: seconds the main thread has to take a signal before the watchdog stops the run itself
-GRACE = 1.0
+#: seconds the main thread has to take a signal before the watchdog stops the run itself (under
+#: mpirun, which sends SIGTERM at a Ctrl-C and SIGKILL one second later, the stop must be sooner);
+#: none while the main thread is inside a call that releases the interpreter (:func:`released`):
+#: it cannot take the signal before the call returns
+GRACE = 0.5
 #: the signals the watchdog acts on (others written to the wakeup descriptor are ignored)
 STOPPING = (signal.SIGINT, signal.SIGTERM)
 
@@ -58,7 +63,7 @@ class Watchdog:
             if not data:
                 return
             for signum in set(data):
-                if signum in STOPPING and not self._taken_within(signum, GRACE):
+                if signum in STOPPING and not self._taken_within(signum, 0.0 if _INSIDE else GRACE):
                     self.stop(signum)
 
     @staticmethod
@@ -90,6 +95,17 @@ class Watchdog:
         os._exit(128 + signum)
 
 
+@contextlib.contextmanager
+def released() -> Iterator[None]:
+    """Mark a C call made with the interpreter released (app/linalg.py): a signal arriving during
+    it stops the run at once (the main thread could take it only when the call returns)."""
+    _INSIDE.append(True)
+    try:
+        yield
+    finally:
+        _INSIDE.pop()
+
+
 def watchdog(rank: int) -> Watchdog:
     """The watchdog of this process, started on first use (one per process: the wakeup descriptor
     is process-wide); app/common/runtime.py points the interpreter's wakeup descriptor at its
@@ -101,3 +117,5 @@ def watchdog(rank: int) -> Watchdog:
 
 #: the process's watchdog once started (one per process: the wakeup descriptor is process-wide)
 _STARTED: list[Watchdog] = []
+#: one entry per released C call the main thread is inside (:func:`released`)
+_INSIDE: list[bool] = []

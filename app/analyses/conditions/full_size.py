@@ -15,7 +15,7 @@ from slepc4py import SLEPc
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
 from app.analyses.outcomes import NecessaryOutcome, Solution, SufficientOutcome
 from app.analyses.pencils.reduced import combine, diag_scale, gather_vec, serial_copy, sym_part
-from app.linalg import configure_direct, from_options, mumps_null_pivots, owned, set_up, with_prefix
+from app.linalg import configure_direct, eps_solve, from_options, mumps_null_pivots, owned, set_up, with_prefix
 from app.scene.schema import EigSettings
 
 #: from this size on, shift-and-invert factorises with MUMPS even on one rank: its factorisation is
@@ -183,7 +183,7 @@ def _nearest_sym_eig_once(At: PETSc.Mat, sigma: float, settings: EigSettings, sh
             if neg + zero > 0:
                 return _NOT_BELOW
         set_up(eps)                   # the factorisation, with the interpreter released
-        eps.solve()
+        eps_solve(eps)
         vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
         if vals and vectors is not None:
             v = At.createVecRight()
@@ -251,7 +251,7 @@ def min_sym_eig(A: PETSc.Mat, settings: EigSettings, hint: float | None = None,
             if lam is not None:
                 return lam
         with owned(_eps(At, None, True, settings, "cd_necessary_")[0]) as eps:
-            eps.solve()
+            eps_solve(eps)
             vals = [eps.getEigenvalue(i).real for i in range(eps.getConverged())]
     finally:
         At.destroy()
@@ -316,7 +316,7 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
         owns.enter_context(owned(eps))
         op = eps.getOperators()[0]          # Ks, or its serial copy (:func:`_eps`)
         vr, vi = (owns.enter_context(owned(op.createVecRight())) for _ in range(2))
-        eps.solve()
+        eps_solve(eps)
         nconv = eps.getConverged()
         candidates, admissible, modes = [], [], []
         for i in range(nconv):

@@ -8,7 +8,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.conditions import full_size
-from app.linalg import configure_direct, flush_subnormals, owned, set_up, with_prefix
+from app.linalg import configure_direct, eps_solve, flush_subnormals, owned, set_up, with_prefix
 from app.scene.schema import EigSettings
 
 
@@ -60,7 +60,7 @@ def smallest_pairs(Xii: PETSc.Mat, nev: int, tol: float) -> tuple[np.ndarray, np
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
         configure_direct(st.getKSP(), factor="cholesky", mumps=True)
         set_up(eps)                   # the factorisation, with the interpreter released
-        eps.solve()
+        eps_solve(eps)
         got = eps.getConverged()
         if got < 1:
             raise RuntimeError("SLEPc found no eigenvalue of the interior block")

@@ -30,7 +30,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.pencils.reduced import REPLICATE_MAX, axpy_structure, diag_scale, serial_copy, sym_part
-from app.linalg import from_options, lu, owned, with_prefix
+from app.linalg import eps_solve, from_options, lu, owned, with_prefix
 
 PROVEN = "proven"
 
@@ -171,7 +171,7 @@ def free_block_max_omega2(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, tol: f
             eps.setDimensions(nev=1)
             eps.setTolerances(tol=tol, max_it=2000)
             from_options(eps)
-            eps.solve()
+            eps_solve(eps)
             if eps.getConverged() < 1:
                 return None
             return float(eps.getEigenvalue(0).real)
