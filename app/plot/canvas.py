@@ -32,6 +32,12 @@ def import_pyvista():
     return pv
 
 
+#: a mode is drawn with its largest displacement at most this fraction of the body's smaller side,
+MODE_SIDE = 0.12
+#: and no edge of the mesh changed by more than this fraction of its length
+MODE_EDGE = 0.3
+
+
 class FieldData:
     """The content of fields/fields.npz."""
 
@@ -71,6 +77,31 @@ class FieldData:
         conn = np.hstack([np.full((len(self.cells), 1), k), self.cells]).ravel()
         pts = np.column_stack([self.points + displacement, np.zeros(len(self.points))])
         return pv.UnstructuredGrid(conn, np.full(len(self.cells), vtk_type, dtype=np.uint8), pts)
+
+    def edges(self) -> np.ndarray:
+        """The mesh's edges between cell corners, ``(E, 2)`` point indices, each once (computed once)."""
+        if getattr(self, "_edges", None) is None:
+            tri = self.cells[:, :3]          # a P2 triangle's corners come first (VTK order)
+            e = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+            self._edges = np.unique(e, axis=0)
+        return self._edges
+
+    def element_size(self) -> float:
+        """The element size h: the median length of the mesh's edges."""
+        e = self.edges()
+        return float(np.median(np.linalg.norm(self.points[e[:, 0]] - self.points[e[:, 1]], axis=1)))
+
+    def mode_amplitude(self, v: np.ndarray) -> float:
+        """How large to draw the mode ``v`` (max |v| = 1): its largest displacement at most
+        :data:`MODE_SIDE` of the body's smaller side, and small enough that no edge of the mesh
+        changes by more than :data:`MODE_EDGE` of its length (the displacement difference of its
+        two ends): a slipping node is never drawn past its stuck neighbour, the mesh never folds."""
+        e = self.edges()
+        length = np.linalg.norm(self.points[e[:, 0]] - self.points[e[:, 1]], axis=1)
+        jump = np.linalg.norm(v[e[:, 0]] - v[e[:, 1]], axis=1)
+        moving = jump > 0
+        fold = MODE_EDGE * float(np.min(length[moving] / jump[moving])) if moving.any() else np.inf
+        return min(MODE_SIDE * self.small, fold)
 
     def mode(self, name: str) -> np.ndarray:
         """The displacement of the mode named ``name`` at every point, shape (N, 2), normalised to

@@ -98,12 +98,13 @@ def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathl
                  units: Units | None = None, grow: float = 1.0, when: str | None = None) -> pathlib.Path:
     """Screenshot of the mode ``meta`` (an MCEIP solution at ``state``: its entry in fields.npz's
     ``modes_json``, with ``name``, ``state``, ``problem``, ``value`` and ``pattern``), drawn with
-    its largest displacement 12 % of the body's smaller side and coloured by magnitude; the slip
+    its largest displacement as large as the mesh allows without folding (at most 12 % of the
+    body's smaller side, app/plot/canvas.py), that scale stated, and coloured by magnitude; the slip
     nodes are marked by whether they slip or stay stuck in the mode. Written to ``path``, which is
     returned. ``grow``: a frame of :func:`mode_animation`, the mode at that fraction of its drawn
     amplitude (the view fixed by the full one), ``when`` its time in the title."""
     v = fd.mode(meta["name"])
-    full = 0.12 * fd.small                       # max mode displacement drawn: 12 % of the smaller side
+    full = fd.mode_amplitude(v)                  # the largest displacement drawn (the mesh never folds)
     amp = full * grow
     grid = fd.grid(amp * v)
     grid.point_data["mode"] = np.linalg.norm(v, axis=1)
@@ -134,8 +135,11 @@ def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathl
              + ", ".join(str(k) for k in stuck_nodes) + " numbered along the obstacle)") if stuck_nodes else \
         f"all {c.slip} slip nodes slip in the mode"
     unit = "" if meta["problem"] == "mceip_mu" else " " + ("1/s^2" if units is None else units.lambda2)
+    h = fd.element_size()
+    length = units.length if units is not None else ""
     title = [f"{what} = {meta['value']:.6g}{unit}",
              f"{scene}: state {meta['state']}, {c.stick} stick / {c.slip} slip / {c.free} free; {stuck}",
+             f"largest displacement drawn {full:.3g} {length} = {full / h:.2g} h (element size h = {h:.3g} {length})",
              *([when] if when else [])]
     return finish(pl, fd, pts, title, legend, path, res, extent=fd.points + full * v)
 
