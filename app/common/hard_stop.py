@@ -29,7 +29,7 @@ import signal
 import sys
 import threading
 import time
-from typing import Iterator
+from typing import Callable, Iterator
 
 from app.common import interrupt
 
@@ -45,8 +45,9 @@ STOPPING = (signal.SIGINT, signal.SIGTERM)
 class Watchdog:
     """The watchdog thread of one process (:func:`start`), reading the wakeup descriptor."""
 
-    def __init__(self, rank: int):
+    def __init__(self, rank: int, armed: Callable[[int], bool]):
         self.rank = rank
+        self.armed = armed
         self._read, write = os.pipe()
         os.set_blocking(write, False)          # the C-level handler must never block
         #: the descriptor app/common/runtime.py gives :func:`signal.set_wakeup_fd`
@@ -63,7 +64,8 @@ class Watchdog:
             if not data:
                 return
             for signum in set(data):
-                if signum in STOPPING and not self._taken_within(signum, 0.0 if _INSIDE else GRACE):
+                if signum in STOPPING and self.armed(signum) and not self._taken_within(
+                        signum, 0.0 if _INSIDE else GRACE):
                     self.stop(signum)
 
     @staticmethod
@@ -106,13 +108,17 @@ def released() -> Iterator[None]:
         _INSIDE.pop()
 
 
-def watchdog(rank: int) -> Watchdog:
+def watchdog(rank: int, armed: Callable[[int], bool]) -> Watchdog:
     """The watchdog of this process, started on first use (one per process: the wakeup descriptor
     is process-wide); app/common/runtime.py points the interpreter's wakeup descriptor at its
-    ``wakeup_fd``. ``rank``: the MPI rank (rank 0 writes the line)."""
+    ``wakeup_fd``. ``rank``: the MPI rank (rank 0 writes the line); ``armed(signum)``: whether the
+    run's handler is still the signal's (it acts only then: a program that put its own handler back
+    after a run, the test suite's, keeps its signals)."""
     if not _STARTED:
-        _STARTED.append(Watchdog(rank))
-    return _STARTED[0]
+        _STARTED.append(Watchdog(rank, armed))
+    dog = _STARTED[0]
+    dog.rank, dog.armed = rank, armed
+    return dog
 
 
 #: the process's watchdog once started (one per process: the wakeup descriptor is process-wide)

@@ -138,7 +138,8 @@ def catch_signals(rank: int = 0) -> None:
         signal.signal(signal.SIGINT, _terminate)
     # the interpreter's C-level handler writes each signal to the watchdog's pipe at once, even
     # while the main thread is inside a long C call (app/common/hard_stop.py)
-    signal.set_wakeup_fd(hard_stop.watchdog(rank).wakeup_fd, warn_on_full_buffer=False)
+    dog = hard_stop.watchdog(rank, lambda signum: signal.getsignal(signum) is _terminate)
+    signal.set_wakeup_fd(dog.wakeup_fd, warn_on_full_buffer=False)
 
 
 def quiet_after_interrupt() -> None:
