@@ -27,7 +27,8 @@ def test_two_level_refinement_writes_table_plot_and_csv(tmp_path):
         assert r["depth"] > 0 and r["tangential_resultant"] > 0 and r["sliding_ux"] < 0
         assert r["wall_s"] > 0 and r["t_mceip_mu"] > 0
     assert not summary["failures"]
-    for name in ("refinement.csv", "refinement.md", "refinement.png", "refinement.svg", "refinement.json"):
+    for name in ("refinement.csv", "refinement.md", "refinement.png", "refinement.svg", "refinement_cost.png",
+                 "refinement_cost.svg", "refinement.json"):
         assert (tmp_path / name).stat().st_size > 0
     with open(tmp_path / "refinement.csv") as f:
         table = list(csv.DictReader(f))
@@ -81,3 +82,36 @@ def test_refinement_needs_a_block():
     with pytest.raises(SceneError, match="needs a block system"):
         parse_scene({"name": "x", "mu": 1.0, "refinement": {"levels": [2, 4]},
                      "system": {"type": "two_particles", "k": 1, "m": 1, "phi_deg": 30, "signs": [1, -1]}})
+
+
+def test_refinement_figures_show_error_against_h_with_the_observed_slope_and_against_time(tmp_path, monkeypatch):
+    """Quantities that converge exactly as q = 3 + h^2 (P1) and q = 3 + h^3 (P2): the error-against-h
+    figure shows each series' fitted slope, 2 and 3, from the order estimator; the cost figure
+    puts the same errors against the levels' wall times. Checked on matplotlib's objects."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from app.study.refinement_report import QOIS, analyse_convergence, plot
+    rows = []
+    for deg, power in ((1, 2), (2, 3)):
+        for nx in (10, 20, 40, 80):
+            h = 80.0 / nx
+            rows.append({"degree": deg, "plane": "stress", "nx": nx, "h": h, "wall_s": 0.01 * nx ** 1.5 * deg,
+                         **{k: 3.0 + h ** power for k in QOIS}})
+    summary = {"scene": "s", "units": {"length": "mm"}, "rows": rows, "convergence": analyse_convergence(rows)}
+    kept = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: kept.append(fig))
+    paths = plot(summary, tmp_path)
+    assert {p.name for p in paths} == {"refinement.png", "refinement.svg", "refinement_cost.png", "refinement_cost.svg"}
+    by_h, by_time = kept
+    for ax in by_h.axes:
+        assert ax.get_xlabel() == "cell size h along the contact side [mm]" and ax.get_xscale() == "log"
+        labels = ax.get_legend_handles_labels()[1]
+        # P2's reference is its own Richardson value (exact here); P1's error against it: slope 2
+        assert any(lab.startswith("P1 stress, slope 2.0") for lab in labels), labels
+        assert any(lab.startswith("P2 stress, slope 3.0") for lab in labels), labels
+    assert "\u03bc" in by_h.axes[0].get_title()
+    for ax in by_time.axes:
+        assert ax.get_xlabel() == "wall time of the level [s]" and ax.get_ylabel()
+        assert not any("slope" in lab for lab in ax.get_legend_handles_labels()[1])

@@ -20,7 +20,8 @@ monotone with ``p > 0``, a Richardson-extrapolated reference ``q1 + (q1 - q2) / 
 otherwise the finest level is the reference and the note says why. Outputs (rank 0):
 ``refinement.csv`` (one row per level), ``refinement.json``, ``refinement.md`` (tables, orders,
 the cheapest level reaching 10 %, 1 % and 0.1 %), ``refinement.png``/``.svg`` (relative error
-against wall time, log-log: the accuracy-cost front) and each level's ``steps.csv``.
+against the cell size h, log-log, with each series' fitted slope), ``refinement_cost.png``/``.svg``
+(relative error against wall time: the accuracy-cost front) and each level's ``steps.csv``.
 
 The first solution is found by scanning the distinct classifications along the path in order
 (one MCEIP-mu search each, up to the first with a solution: ``first_solution: scan``), or not
@@ -253,5 +254,5 @@ def main(scene: Scene, args, comm: MPI.Comm, folder, outdir: pathlib.Path) -> in
     if comm.rank == 0 and not quiet:
         print(f"refinement study '{scene.name}': {len(summary['rows'])} levels in "
               f"{summary['wall_seconds']:.1f} s; results in {final}/ (refinement.md, refinement.csv, "
-              f"refinement.png)")
+              f"refinement.png, refinement_cost.png)")
     return driver.exit_status(summary["failures"])

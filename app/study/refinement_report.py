@@ -1,6 +1,7 @@
 """Convergence analysis and report of a mesh-refinement study (app/study/refinement.py): observed
 orders, Richardson references, the cheapest level per accuracy, and the files
-``refinement.csv``, ``refinement.md``, ``refinement.json``, ``refinement.png``/``.svg``.
+``refinement.csv``, ``refinement.md``, ``refinement.json``, ``refinement.png``/``.svg`` (error
+against h) and ``refinement_cost.png``/``.svg`` (error against time).
 """
 from __future__ import annotations
 
@@ -215,39 +216,73 @@ def markdown(summary: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: the quantities in the plots' words (μ and λ² as everywhere in the pictures)
+PLOT_TITLES = {
+    "final_mu": "final-state smallest MCEIP-\u03bc",
+    "first_mu_ux": "CD u_x at the first MCEIP-\u03bc solution",
+    "lambda2": "sufficient-condition \u03bb\u00b2 at \u03bc_fixed (final state)",
+}
+
+
 def plot(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
-    """Relative error of each quantity of interest against the wall time of its level, one series per
-    degree and plane model (log-log, points labelled with nx); writes ``refinement.png`` and
-    ``.svg`` in ``outdir`` and returns their paths."""
+    """Two figures of the relative error of each quantity of interest, one series per degree and
+    plane model, points labelled with nx: against the cell size h (log-log, each series' fitted
+    slope, the observed order, in its legend: ``refinement.png`` and ``.svg``) and against the wall
+    time of its level (``refinement_cost.png`` and ``.svg``, what accuracy costs). Returns the paths."""
+    length = (summary.get("units") or {}).get("length", "")
+    paths = []
+    for stem, x_key, xlabel, slopes in (
+            ("refinement", "h", f"cell size h along the contact side [{length}]", True),
+            ("refinement_cost", "wall_s", "wall time of the level [s]", False)):
+        paths += _error_figure(summary, outdir / stem, x_key, xlabel, slopes)
+    return paths
+
+
+def _error_figure(summary: dict, path: pathlib.Path, x_key: str, xlabel: str, slopes: bool) -> list[pathlib.Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
     rows = summary["rows"]
-    keys = list(QOIS)
-    fig, axes = plt.subplots(2, 3, figsize=(15, 9))
-    for ax, key in zip(axes.ravel(), keys):
-        for (deg, plane), rs in _series(rows).items():
-            pts = [(r["wall_s"], r[f"err_{key}"], r["nx"]) for r in rs
-                   if r.get(f"err_{key}") is not None and r[f"err_{key}"] > 0]
+    series = summary.get("convergence", {}).get("series", {})
+    fig, axes = plt.subplots(2, 3, figsize=(14, 8.6))
+    for ax, key in zip(axes.ravel(), QOIS):
+        for k, ((deg, plane), rs) in enumerate(_series(rows).items()):
+            pts = [(r[x_key], r[f"err_{key}"], r["nx"]) for r in rs
+                   if r.get(f"err_{key}") is not None and r[f"err_{key}"] > 0 and r.get(x_key)]
             if not pts:
                 continue
-            t, e, nx = zip(*pts)
-            ax.loglog(t, e, "o-" if deg == 1 else "s--", label=f"P{deg} {plane}")
-            for ti, ei, ni in pts:
-                ax.annotate(str(ni), (ti, ei), textcoords="offset points", xytext=(4, 4), fontsize=7)
-        ax.set_title(QOIS[key][0], fontsize=10)
-        ax.set_xlabel("wall time of the level [s]")
-        ax.set_ylabel("relative error vs reference")
+            x, e, nx = zip(*pts)
+            label = f"P{deg} {plane}"
+            fitted = (series.get(label) or {}).get(key, {}).get("fitted")
+            if slopes and fitted is not None:
+                label += f", slope {fitted:.2f}"
+            ax.loglog(x, e, "o-" if deg == 1 else "s--", color=f"C{k % 10}", label=label)
+            for xi, ei, ni in pts:
+                ax.annotate(str(ni), (xi, ei), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        ax.set_title(PLOT_TITLES.get(key, QOIS[key][0]), fontsize=10)
+        ax.set_xlabel(xlabel, fontsize=9)
+        ax.set_ylabel("relative error against the reference", fontsize=9)
+        for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+            if hi / lo < 100:       # under two decades: plain labels at 1, 2, 5 x 10^k
+                axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+                axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            else:                   # decades only, no crowded minor labels
+                axis.set_major_locator(LogLocator(numticks=6))
+            axis.set_minor_formatter(NullFormatter())
+        ax.margins(x=0.1, y=0.1)                # room for the nx labels
+        ax.tick_params(labelsize=8)
         ax.grid(True, which="both", alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
-    fig.suptitle(f"Accuracy against cost: {summary['scene']} (labels: nx)")
+    what = "the cell size (slopes: observed orders)" if slopes else "the wall time of the level (what accuracy costs)"
+    fig.suptitle(f"{summary['scene']}: relative error against {what}; points labelled with nx")
     fig.tight_layout()
-    paths = [outdir / "refinement.png", outdir / "refinement.svg"]
-    for p in paths:
+    out = [path.with_suffix(".png"), path.with_suffix(".svg")]
+    for p in out:
         fig.savefig(p, dpi=110)
     plt.close(fig)
-    return paths
+    return out
 
 
 def write_outputs(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
