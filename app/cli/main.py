@@ -93,7 +93,15 @@ def _parser() -> argparse.ArgumentParser:
                          description="Redraw every picture the scene's 'outputs' asked for (plots, "
                                      "screenshots, report.md) from a results folder, without recomputing "
                                      "the study (the screenshots use the fields saved by the run).")
-    ren.add_argument("results", help="results folder (the one holding results.json)")
+    ren.add_argument("results", help="results folder (the one holding results.json), or a sweep's folder "
+                                      "(every case is redrawn)")
+    ren.add_argument("--states", action="append", metavar="SEL",
+                     help="picture these states instead of the scene's outputs.states (repeatable): a state "
+                          "index, final, first_mceip_mu or all_distinct; a state's screenshot needs its field "
+                          "in fields/fields.npz, which holds the states the run pictured (a note says which "
+                          "are left out)")
+    ren.add_argument("--field", choices=["von_mises", "displacement"],
+                     help="colour the state screenshots by this field instead of the scene's")
     ren.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no list of files")
     ren.add_argument("--log-level", default="WARNING",
                      choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="log level (default WARNING)")

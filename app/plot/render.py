@@ -1,4 +1,5 @@
-"""``python -m app render RESULTS_DIR``: redraw the pictures of a results folder, never recomputing.
+"""``python -m app render RESULTS_DIR``: redraw the pictures of a results folder, never recomputing
+(of every case of a sweep folder: each ``cases/<case>/`` is a results folder of its own).
 
 Reads ``results.json`` (the study, with the scene's ``outputs`` section in ``scene_config``)
 and ``fields/fields.npz`` (the fields the screenshots need, saved by the run), and redraws the
@@ -45,8 +46,41 @@ def render_main(args) -> int:
     if MPI.COMM_WORLD.rank != 0:          # nothing parallel to do: rank 0 draws
         return 0
     outdir = pathlib.Path(args.results)
+    from app.io.folder import marker_kind
+    if marker_kind(outdir) == "sweep" and not os.path.lexists(outdir / "results.json"):
+        return _render_sweep(outdir, args)
+    return _render_one(outdir, args)
+
+
+def _render_sweep(outdir: pathlib.Path, args) -> int:
+    """Redraw the pictures of every case of the sweep folder ``outdir`` (``cases/<case>/``, each a
+    results folder of its own, read and redrawn as :func:`_render_one` does; a case folder that is
+    not a real folder is skipped with a line). Exit status: the worst of the cases'."""
+    cases = outdir / "cases"
     try:
-        study = read_results(outdir)
+        mode = os.lstat(cases).st_mode
+    except FileNotFoundError:
+        print(f"{outdir}: a sweep folder with no finished case: nothing to draw")
+        return 0
+    if not stat.S_ISDIR(mode):
+        print(f"error: {cases}: not the folder this app wrote: nothing was redrawn", file=sys.stderr)
+        return 2
+    worst = 0
+    for entry in sorted(os.scandir(cases), key=lambda e: e.name):
+        if entry.name.startswith("."):                # a staging folder of an unfinished case
+            continue
+        if not entry.is_dir(follow_symlinks=False):
+            print(f"error: {cases / entry.name}: not a case folder this app wrote (skipped)", file=sys.stderr)
+            worst = max(worst, 2)
+            continue
+        worst = max(worst, _render_one(cases / entry.name, args))
+    return worst
+
+
+def _render_one(outdir: pathlib.Path, args) -> int:
+    """Redraw one results folder (``render``'s body for a study)."""
+    try:
+        study = with_options(read_results(outdir), getattr(args, "states", None), getattr(args, "field", None))
     except Refused as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -57,7 +91,7 @@ def render_main(args) -> int:
         return 0
     from app.common.progress import Progress
     try:
-        drawn, failed = redraw(study, outdir, Progress(enabled=not args.quiet))
+        drawn, failed, notes = redraw(study, outdir, Progress(enabled=not args.quiet))
     except Refused as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -67,6 +101,8 @@ def render_main(args) -> int:
               + ", ".join(k for k in ("plots", "screenshots", "report") if cfg.get(k)) + ")")
         for f in drawn:
             print(f"  {outdir / f}")
+    for n in notes:                       # e.g. a state asked for with --states whose field was not saved
+        print(f"note: {n}", file=sys.stderr)
     for n in failed:
         print(f"error: {n}", file=sys.stderr)
     return 1 if failed else 0
@@ -130,6 +166,24 @@ def read_results(outdir: pathlib.Path) -> StudyResult:
     return study
 
 
+def with_options(study: StudyResult, states: list[str] | None, field: str | None) -> StudyResult:
+    """The study with the command line's choices of pictured states (``--states``: the selectors of
+    ``outputs.states``, a state index or ``final``, ``first_mceip_mu``, ``all_distinct``) and of the
+    screenshots' field (``--field``) in place of its scene's, validated as the scene's own."""
+    if not states and not field:
+        return study
+    outputs = dict(study.scene_config.get("outputs") or {})
+    if states:
+        outputs["states"] = [int(x) if x.strip().lstrip("-").isdigit() else x.strip() for x in states]
+    if field:
+        if not outputs.get("screenshots"):
+            raise Refused("--field: the scene asked for no screenshots (outputs.screenshots), so there are none "
+                          "to draw with another field")
+        outputs["screenshots"] = {**outputs["screenshots"], "field": field}
+    checked = _outputs(outputs, pathlib.Path("--states/--field"))
+    return study.model_copy(update={"scene_config": {**study.scene_config, "outputs": checked}})
+
+
 def _check_fields(path: pathlib.Path) -> None:
     """fields.npz, when there, is a regular file whose ``.npy`` headers match its members and fit
     in memory (checked before any array is read)."""
@@ -166,10 +220,10 @@ def _real_folder_or_missing(path: pathlib.Path) -> None:
         raise Refused(f"{path}: is {kind_of(mode)}, not the folder this app wrote: nothing was redrawn")
 
 
-def redraw(study: StudyResult, outdir: pathlib.Path, progress=None) -> tuple[list[str], list[str]]:
+def redraw(study: StudyResult, outdir: pathlib.Path, progress=None) -> tuple[list[str], list[str], list[str]]:
     """Draw the pictures of ``study`` into a new hidden folder in ``outdir`` and move them into
     place (:func:`install`); returns (the files drawn relative to ``outdir``, the notes of the
-    pictures that failed). results.json is not rewritten."""
+    pictures that failed, the other notes: pictures left out and why). results.json is not rewritten."""
     from app.plot.pictures import draw_outputs
     before = len(study.outputs.notes) if study.outputs is not None else 0
     staging = pathlib.Path(tempfile.mkdtemp(dir=outdir, prefix=".render-"))
@@ -178,8 +232,9 @@ def redraw(study: StudyResult, outdir: pathlib.Path, progress=None) -> tuple[lis
         install(staging, outdir, drawn)
     finally:
         shutil.rmtree(staging, ignore_errors=True)      # this call's own folder (what is left of it)
-    failed = [n for n in drawn_study.outputs.notes[before:] if " failed (" in n]
-    return drawn, failed
+    new_notes = drawn_study.outputs.notes[before:]
+    failed = [n for n in new_notes if " failed (" in n]
+    return drawn, failed, [n for n in new_notes if " failed (" not in n]
 
 
 def _plan_parent(outdir: pathlib.Path, rel: str, folders: set[str], create: list[str]) -> None:
