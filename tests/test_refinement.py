@@ -78,8 +78,8 @@ def test_bad_refinement_sections_are_one_line_errors(section, message):
         parse_scene({**TINY, "refinement": section})
 
 
-def test_refinement_needs_a_block():
-    with pytest.raises(SceneError, match="needs a block system"):
+def test_refinement_needs_a_meshed_body():
+    with pytest.raises(SceneError, match="needs a meshed body"):
         parse_scene({"name": "x", "mu": 1.0, "refinement": {"levels": [2, 4]},
                      "system": {"type": "two_particles", "k": 1, "m": 1, "phi_deg": 30, "signs": [1, -1]}})
 
@@ -105,13 +105,65 @@ def test_refinement_figures_show_error_against_h_with_the_observed_slope_and_aga
     paths = plot(summary, tmp_path)
     assert {p.name for p in paths} == {"refinement.png", "refinement.svg", "refinement_cost.png", "refinement_cost.svg"}
     by_h, by_time = kept
-    for ax in by_h.axes:
+    assert len([a for a in by_h.axes if a.get_visible()]) == len(QOIS)     # a panel per quantity with values
+    for ax in (a for a in by_h.axes if a.get_visible()):
         assert ax.get_xlabel() == "cell size h along the contact side [mm]" and ax.get_xscale() == "log"
         labels = ax.get_legend_handles_labels()[1]
         # P2's reference is its own Richardson value (exact here); P1's error against it: slope 2
         assert any(lab.startswith("P1 stress, slope 2.0") for lab in labels), labels
         assert any(lab.startswith("P2 stress, slope 3.0") for lab in labels), labels
     assert "\u03bc" in by_h.axes[0].get_title()
-    for ax in by_time.axes:
+    for ax in (a for a in by_time.axes if a.get_visible()):
         assert ax.get_xlabel() == "wall time of the level [s]" and ax.get_ylabel()
         assert not any("slope" in lab for lab in ax.get_legend_handles_labels()[1])
+
+
+def _gmsh_refinement(factors, file="l_shape.geo", **extra):
+    import yaml
+    from conftest import ROOT
+    data = yaml.safe_load((ROOT / "app/scenes/gmsh/l_shape.yaml").read_text())
+    data["system"]["file"] = file
+    data.pop("outputs", None)
+    data.update(analyses=[], refinement={"size_factors": factors, **extra})
+    return parse_scene(data, "l.yaml", base_dir=ROOT / "app/scenes/gmsh")
+
+
+def test_a_gmsh_body_is_refined_by_its_size_factor(tmp_path):
+    """The L-shaped body's .geo meshed with its characteristic lengths times 2 and times 1: about 4x
+    the DOFs (2D), the program's load quantities in the load's unit, the report and plots written."""
+    summary = run_refinement(_gmsh_refinement([1.0, 2.0]), MPI.COMM_WORLD, outdir=tmp_path, log=lambda *a: None)
+    rows = summary["rows"]
+    assert [r["size_factor"] for r in rows] == [2.0, 1.0] and [r["h"] for r in rows] == [2.0, 1.0]
+    assert 2.5 < rows[1]["dofs"] / rows[0]["dofs"] < 6.0 and rows[1]["contact_nodes"] > rows[0]["contact_nodes"]
+    for r in rows:
+        assert r["final_mu"] is not None and r["final_mu"] > 0
+        assert r["first_mu_load"] is not None and r["first_mu_load"] > 0
+        assert r["load_label"] == "prescribed motion of top, travelled along the program [mm]"
+        assert r.get("first_mu_ux") is None and r.get("tangential_resultant") is None
+    assert summary["units"]["load"] == "mm"
+    with open(tmp_path / "refinement.csv") as f:
+        header = next(csv.reader(f))
+    assert "size_factor" in header and "first_mu_load [mm]" in header and "h" in header and "nx" not in header
+    md = (tmp_path / "refinement.md").read_text()
+    assert "size factor 2" in md and "load at the first MCEIP-mu solution [mm]" in md
+    assert (tmp_path / "levels" / "P1-stress-f0.5").exists() is False
+    assert (tmp_path / "levels" / "P1-stress-f2" / "steps.csv").exists()
+    assert (tmp_path / "refinement.png").stat().st_size > 0
+
+
+def test_gmsh_refinement_refusals():
+    """One line each: a .geo whose curves fix their node counts (Transfinite: the paper's block) does
+    not get finer with the factor; a Gmsh body's levels are size factors; a block's are nx."""
+    import yaml
+    from conftest import ROOT
+    from test_gmsh_body import gmsh_scene
+    block = gmsh_scene(ROOT / "app/scenes/gmsh/block.geo")
+    block["refinement"] = {"size_factors": [1.0, 0.5]}
+    with pytest.raises(SceneError, match="does not get finer with the level"):
+        run_refinement(parse_scene(block), MPI.COMM_WORLD, log=lambda *a: None)
+    data = yaml.safe_load((ROOT / "app/scenes/gmsh/l_shape.yaml").read_text())
+    data["refinement"] = {"levels": [10, 20]}
+    with pytest.raises(SceneError, match="refinement.size_factors"):
+        parse_scene(data, "l.yaml", base_dir=ROOT / "app/scenes/gmsh")
+    with pytest.raises(SceneError, match="refinement.levels"):
+        parse_scene({**TINY, "refinement": {"size_factors": [1.0, 0.5]}})

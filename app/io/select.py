@@ -110,11 +110,17 @@ def parameter_unit(name: str, units) -> str | None:
 
 
 def _program_axis(states: Sequence[StateResult], units) -> tuple[np.ndarray, str] | None:
-    """A loading program's load parameters as one axis: when every parameter the program moves has
+    """:func:`program_load` of the states' load parameters."""
+    return program_load([s.load.parameters if s.load is not None else None for s in states], units)
+
+
+def program_load(parameters: Sequence[dict | None], units) -> tuple[np.ndarray, str] | None:
+    """A loading program's load parameters (one dict per state, results.json's
+    ``load.parameters``) as one axis ``(x, label)``: when every parameter the program moves has
     the same unit, the distance the parameters travel (Euclidean, summed over the steps, from the
     unloaded start), strictly increasing; None otherwise."""
-    params = [dict((s.load.parameters or {})) if s.load is not None else None for s in states]
-    if not states or any(p is None for p in params):
+    params = [None if p is None else dict(p) for p in parameters]
+    if not params or any(p is None for p in params):
         return None
     names = sorted({n for p in params for n in p})
     found = {parameter_unit(n, units) for n in names}

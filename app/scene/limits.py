@@ -31,13 +31,16 @@ class Estimate:
                 f"nodes, memory estimate {self.memory_bytes / 2**30:.2g} GiB")
 
 
-def estimate(scene: Scene, nx: int | None = None) -> Estimate:
-    """Sizes and a rough memory estimate of ``scene`` (``nx``: override of ``system.nx``, ny scaled)."""
+def estimate(scene: Scene, nx: int | float | None = None) -> Estimate:
+    """Sizes and a rough memory estimate of ``scene`` (``nx``: a refinement level, the block's
+    override of ``system.nx``, ny scaled, or a Gmsh body's ``system.mesh_size_factor``)."""
     cfg = scene.system
     if not hasattr(cfg, "mesh_sizes"):     # a system type sized by its files, or not at all (app/systems/)
         states = cfg.load_states()[0] if hasattr(cfg, "load_states") else 1
         if not hasattr(cfg, "file_sizes"):
             return Estimate(states=states, dofs=4, contact_nodes=2, memory_bytes=200 * 2**20 + 1500 * 2 * states)
+        if nx is not None and hasattr(cfg, "mesh_size_factor"):       # a refinement level: the .geo meshed at it
+            cfg = cfg.model_copy(update={"mesh_size_factor": float(nx)})
         dofs, contact, _ = cfg.file_sizes()          # from the mesh or matrix file read at validation
         return Estimate(states=states, dofs=dofs, contact_nodes=contact,
                         memory_bytes=_memory(scene, dofs, contact, states, getattr(cfg, "degree", 1)))
@@ -63,6 +66,8 @@ def _memory(scene: Scene, dofs: int, contact: int, states: int, degree: int) -> 
 def _size_key(scene: Scene, nx: int | None) -> tuple[str, object]:
     """(key, value) that sets the size of the study, named in the pre-flight's refusals."""
     cfg = scene.system
+    if nx is not None and hasattr(cfg, "mesh_size_factor"):
+        return "refinement.size_factors", nx
     if hasattr(cfg, "file_sizes"):
         import pathlib
         key = cfg.file_sizes()[2]
@@ -119,7 +124,7 @@ def address_space_limit() -> int | None:
 def check(scene: Scene, source: str = "scene") -> Estimate:
     """Estimate ``scene`` and raise :class:`SceneError` (one line naming the key) above a limit."""
     lim = scene.settings.limits
-    levels = scene.refinement.levels if scene.refinement is not None else [None]
+    levels = scene.refinement.steps() if scene.refinement is not None else [None]
     worst = None
     for nx in levels:
         est = estimate(scene, nx)
@@ -149,7 +154,7 @@ def check(scene: Scene, source: str = "scene") -> Estimate:
         elif worst.states > 10 * worst.contact_nodes and hasattr(scene.system, "load_states"):
             key, val = scene.system.load_states()[1], worst.states
         elif scene.refinement is not None:
-            key, val = "refinement.levels", max(scene.refinement.levels)
+            key, val = _size_key(scene, scene.refinement.steps()[-1])
         else:
             key, val = _size_key(scene, None)
         raise SceneError(f"{source}: {key} = {val}: memory estimate {worst.memory_bytes / 2**30:.3g} GiB "

@@ -120,11 +120,22 @@ class Scene(Strict):
         return self
 
     @model_validator(mode="after")
-    def _refinement_needs_block(self) -> "Scene":
-        if self.refinement is not None and not getattr(self.system, "refinable", False):
-            raise PathError("refinement", self.refinement.model_dump(), "needs a block system (it refines its mesh)")
-        if self.refinement is not None and self.sweep is not None:
-            raise PathError("refinement", self.refinement.model_dump(), "cannot be combined with 'sweep': use one")
+    def _refinement_needs_a_mesh(self) -> "Scene":
+        ref = self.refinement
+        if ref is not None and not getattr(self.system, "refinable", False):
+            raise PathError("refinement", ref.model_dump(), "needs a meshed body (a block, or a Gmsh body from a "
+                                                            ".geo): it refines its mesh")
+        if ref is not None and self.sweep is not None:
+            raise PathError("refinement", ref.model_dump(), "cannot be combined with 'sweep': use one")
+        if ref is not None:         # the levels this system type takes (app/systems/<type>/schema.py)
+            key = self.system.refinement_key
+            other = "size_factors" if key == "levels" else "levels"
+            if getattr(ref, key) is None or getattr(ref, other) is not None:
+                raise PathError(f"refinement.{key}", getattr(ref, key), f"this system's levels are '{key}' "
+                                f"({self.system.refinement_help}), not '{other}'")
+            problem = self.system.refinement_problem()
+            if problem is not None:
+                raise PathError("system.file", pathlib.Path(self.system.file).name, problem)
         return self
 
     @property

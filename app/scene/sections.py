@@ -307,10 +307,13 @@ def annotation_types(tp: Any) -> list:
 
 
 class Refinement(Strict):
-    """A mesh-refinement study of a block scene (app/study/refinement.py): the scene at every mesh level
-    (nx cells along AB, ny = nx * height / length), every degree and every plane model."""
+    """A mesh-refinement study (app/study/refinement.py): the scene at every mesh level, every degree
+    and every plane model. The block's levels are ``levels`` (nx cells along AB, ny = nx * height /
+    length); a Gmsh body's are ``size_factors`` (its .geo's characteristic lengths times each factor,
+    ``system.mesh_size_factor``)."""
 
-    levels: Annotated[list[Annotated[int, Field(ge=1, le=4096)]], Field(min_length=2, max_length=50)]
+    levels: Optional[Annotated[list[Annotated[int, Field(ge=1, le=4096)]], Field(min_length=2, max_length=50)]] = None
+    size_factors: Optional[Annotated[list[PosFloat], Field(min_length=2, max_length=50)]] = None
     degrees: Annotated[list[Literal[1, 2]], Field(min_length=1, max_length=2)] = [1]
     planes: Annotated[list[Literal["stress", "strain"]], Field(min_length=1, max_length=2)] = ["stress"]
     mu_fixed: Optional[NonNegFloat] = None     # mu of the sufficient condition at the final state
@@ -318,9 +321,17 @@ class Refinement(Strict):
     first_solution: Literal["scan", "none"] = "scan"    # none: skip the search for the first solution
     max_contact_nodes: Optional[Annotated[int, Field(ge=2)]] = None   # skip levels with more (degree * nx + 1)
 
-    @field_validator("levels", "degrees", "planes")
+    @field_validator("levels", "size_factors", "degrees", "planes")
     @classmethod
-    def _distinct(cls, v: list) -> list:
+    def _distinct(cls, v: list | None, info) -> list | None:
+        if v is None:
+            return v
         if len(set(v)) != len(v):
             raise ValueError("each value may be listed once")
+        if info.field_name == "size_factors":       # coarse to fine
+            return sorted(v, reverse=True)
         return sorted(v) if v and isinstance(v[0], int) else v
+
+    def steps(self) -> list:
+        """The mesh levels in order, coarse to fine (nx, or size factors)."""
+        return list(self.levels if self.levels is not None else self.size_factors or [])

@@ -1,9 +1,12 @@
-"""Mesh-refinement study of a block scene: what accuracy costs (scene section ``refinement``).
+"""Mesh-refinement study of a meshed body: what accuracy costs (scene section ``refinement``).
 
-The scene's block study runs at every mesh level (``nx`` cells along AB, ``ny = nx * height /
-length`` so the cells stay square), every element degree and every plane model asked for. At
-each level the quantities a user of a contact-stability study cares about are recorded with the
-wall time of every stage:
+The scene's study runs at every mesh level, every element degree and every plane model asked
+for. The block's levels are ``levels`` (``nx`` cells along AB, ``ny = nx * height / length`` so
+the cells stay square); a Gmsh body's are ``size_factors``, its .geo's characteristic lengths
+times each factor (``system.mesh_size_factor``; each level's scene is validated again, so the
+body is meshed, checked and limited as any scene's), and its cell size is measured relative to
+the .geo's (h = the factor). At each level the quantities a user of a contact-stability study
+cares about are recorded with the wall time of every stage:
 
 - ``final_mu``: the smallest MCEIP-mu (21)-(23) at the final state of the path;
 - ``first_mu_ux``: the CD displacement u_x of the first state (first distinct classification
@@ -12,7 +15,10 @@ wall time of every stage:
   state's classification with the friction coefficient ``mu_fixed``;
 - ``depth``: the CD normal displacement giving the requested normal force (the compliance);
 - ``tangential_resultant``: the tangential resultant on AB at CD u_x = -``resultant_at``;
-- ``sliding_ux``: the CD u_x at which gross sliding starts (end of the path).
+- ``sliding_ux``: the CD u_x at which gross sliding starts (end of the path);
+- for a loading program (a Gmsh body) instead of the block's CD quantities: ``first_mu_load``
+  and ``sliding_load``, the load of those two states as the plots' x-axis measures it (the
+  distance the program's load parameters travelled, app/io/select.py).
 
 For each series (degree, plane) the observed order of convergence is estimated from the three
 finest levels, ``p = log(|q3 - q2| / |q2 - q1|) / log(r)``, and, when the differences are
@@ -31,6 +37,7 @@ the paper's (a solution with one slip node appears at the first slip, then disap
 """
 from __future__ import annotations
 
+import json
 import pathlib
 import time
 
@@ -40,28 +47,44 @@ from app.analyses.outcomes import MceipMuOutcome, Outcome, SufficientOutcome
 from app.analyses.runner import analyse_state
 from app.common.progress import Progress
 from app.io.result import Stage, StudyResult
+from app.io.select import program_load
 from app.loading.classify import FREE, SLIP, classify
-from app.scene.schema import Scene
+from app.scene.schema import Scene, SceneError
 from app.study.refinement_report import (  # noqa: F401 - observed_order re-exported
     QOIS,
     STAGE_GROUPS,
     analyse_convergence,
     fmt,
     observed_order,
+    present,
     write_outputs,
 )
 from app.systems.units import CONTINUUM_UNITS
 
 
-def level_scene(scene: Scene, nx: int, degree: int, plane: str, **loading) -> Scene:
-    """The scene at one mesh level (square cells), with the refinement section removed."""
+def level_scene(scene: Scene, level, degree: int, plane: str, short: bool = False) -> Scene:
+    """The scene at one mesh level (the system's keys for it: the block's nx with square cells, a
+    Gmsh body's size factor), validated again (a Gmsh body is meshed and checked as any scene's;
+    its file path is absolute in the dump), with the refinement section removed; ``short``: one
+    loading step only (the forms' compilation)."""
+    from pydantic import ValidationError
+
+    from app.scene.schema import format_error, scene_context
     cfg = scene.system
-    ny = max(1, int(round(nx * cfg.height / cfg.length)))
-    system = cfg.model_copy(update={"nx": nx, "ny": ny, "degree": degree, "plane": plane})
-    update = {"system": system, "refinement": None, "name": f"{scene.name}-P{degree}-{plane}-nx{nx}"}
-    if loading:
-        update["loading"] = scene.loading.model_copy(update=loading)
-    return scene.model_copy(update=update)
+    data = json.loads(json.dumps(scene.model_dump(mode="json", exclude_unset=True, exclude={"refinement"})))
+    data["name"] = f"{scene.name}-P{degree}-{plane}-{cfg.level_names(level)[1]}"
+    data["system"].update(cfg.level_keys(level, degree, plane))
+    if short:
+        cfg.one_step(data)
+    try:
+        return Scene.model_validate(data, context=scene_context(data, None))
+    except ValidationError as err:
+        raise SceneError(f"refinement level {cfg.level_names(level)[0]}: {format_error(err)}") from None
+
+
+def _sizes(cfg) -> tuple[int, int]:
+    """(DOFs, contact nodes) of a level's system, as the pre-flight counts them (app/scene/limits.py)."""
+    return cfg.mesh_sizes() if hasattr(cfg, "mesh_sizes") else cfg.file_sizes()[:2]
 
 
 def _mu_values(a: Outcome | None) -> list[float]:
@@ -107,6 +130,10 @@ def _inspector(scene: Scene, ref):
         out["final_mu"] = vals[0] if vals else None
         out["final_mu_count"] = len(vals)
 
+        # a loading program's load (its parameters' travel), where the states have parameters
+        params = [st.load.get("parameters") for st in states]
+        program = (program_load(params, CONTINUUM_UNITS[scene.units]) if all(p is not None for p in params)
+                   else None)
         # First distinct classification along the path with an MCEIP-mu solution.
         first, checked = None, 0
         if ref.first_solution == "scan":
@@ -118,10 +145,13 @@ def _inspector(scene: Scene, ref):
         out["first_method"] = f"{ref.first_solution}: {checked} of {len(order)} classifications searched"
         if first is not None:
             st, cls = order[first]
-            out.update(first_mu_ux=float(st.load["u_x"]), first_mu=mu_solutions(cls)[0],
-                       first_mu_state=st.index, first_mu_label=cls.label())
+            out.update(first_mu=mu_solutions(cls)[0], first_mu_state=st.index, first_mu_label=cls.label())
+            if program is not None:
+                out["first_mu_load"] = float(program[0][states.index(st)])
+            elif st.load.get("u_x") is not None:
+                out["first_mu_ux"] = float(st.load["u_x"])
         else:
-            out.update(first_mu_ux=None, first_mu=None, first_mu_state=None, first_mu_label=None)
+            out.update(first_mu=None, first_mu_state=None, first_mu_label=None)
 
         # Sufficient condition at mu_fixed on the final state's classification.
         lam = None
@@ -132,20 +162,32 @@ def _inspector(scene: Scene, ref):
             lam = max(a.lambda2) if ok and a.lambda2 else None
         out["lambda2"] = lam
 
-        # Resultants at the fixed load and the load at gross sliding.
-        tang = [s for s in states if s.load.get("phase") == "tangential"]
-        out["tangential_resultant"] = None
-        if tang:
-            best = min(tang, key=lambda s: abs(abs(s.load["u_x"]) - ref.resultant_at))
-            if abs(abs(best.load["u_x"]) - ref.resultant_at) <= 0.5 * scene.loading.tangential_step + 1e-12:
-                out["tangential_resultant"] = float(best.load["tangential_resultant"])
-                out["normal_resultant"] = float(best.load["normal_resultant"])
-        contact = [s for s in fcls.status if s != FREE]
-        out["sliding_ux"] = (float(final.load["u_x"]) if final.load.get("phase") == "tangential" and contact
-                             and all(s == SLIP for s in contact) else None)
+        out.update(_load_quantities(scene, ref, states, fcls, program))
         return out
 
     return inspect
+
+
+def _load_quantities(scene: Scene, ref, states: list, fcls, program) -> dict:
+    """The resultants at the fixed load (the block's CD u_x = -``resultant_at``) and the load at
+    gross sliding (the block's CD u_x; a loading program's load, ``program``: its axis and label)."""
+    out: dict = {"tangential_resultant": None}
+    tang = [s for s in states if s.load.get("phase") == "tangential"]
+    if tang:
+        best = min(tang, key=lambda s: abs(abs(s.load["u_x"]) - ref.resultant_at))
+        if abs(abs(best.load["u_x"]) - ref.resultant_at) <= 0.5 * scene.loading.tangential_step + 1e-12:
+            out["tangential_resultant"] = float(best.load["tangential_resultant"])
+            out["normal_resultant"] = float(best.load["normal_resultant"])
+    contact = [s for s in fcls.status if s != FREE]
+    sliding = bool(contact) and all(s == SLIP for s in contact)
+    final = states[-1]
+    if program is not None:
+        out["load_label"] = program[1]
+        out["sliding_load"] = float(program[0][-1]) if sliding else None
+    else:
+        out["sliding_ux"] = (float(final.load["u_x"]) if final.load.get("phase") == "tangential" and sliding
+                             else None)
+    return out
 
 
 def _stage_times(stages: list[Stage]) -> dict:
@@ -162,22 +204,23 @@ def _stage_times(stages: list[Stage]) -> dict:
     return out
 
 
-def run_level(scene: Scene, nx: int, degree: int, plane: str, comm: MPI.Comm,
-              progress: Progress | None = None) -> tuple[dict, StudyResult]:
-    """One level: returns (the row of refinement.csv, the study's result)."""
+def run_level(scene: Scene, level, degree: int, plane: str, comm: MPI.Comm,
+              progress: Progress | None = None, lvl: Scene | None = None) -> tuple[dict, StudyResult]:
+    """One level (``level``: nx, or a Gmsh body's size factor; ``lvl``: its scene when already
+    made): returns (the row of refinement.csv, the study's result)."""
     from app.study.run import study
-    lvl = level_scene(scene, nx, degree, plane)
+    lvl = lvl if lvl is not None else level_scene(scene, level, degree, plane)
     t0 = time.perf_counter()
     res = study(lvl, comm, progress, inspect=_inspector(lvl, scene.refinement))
     wall = time.perf_counter() - t0
     q = res.inspection
     n_contact, n_dofs = q["contact_nodes"], q["dofs"]
-    row = {"degree": degree, "plane": plane, "pattern": lvl.system.pattern, "nx": nx, "ny": lvl.system.ny,
-           "h": lvl.system.length / nx, "contact_nodes": n_contact, "dofs": n_dofs,
-           "states": len(res.states), "distinct": res.distinct_classifications,
-           "depth": res.path.normal_displacement,
-           **{k: q.get(k) for k in ("final_mu", "first_mu_ux", "first_mu", "lambda2",
-                                    "tangential_resultant", "sliding_ux")},
+    row = {"degree": degree, "plane": plane, **lvl.system.level_row(level), "contact_nodes": n_contact,
+           "dofs": n_dofs, "states": len(res.states), "distinct": res.distinct_classifications,
+           # the block's compliance (a loading program has its own load quantities instead)
+           "depth": res.path.normal_displacement if q.get("load_label") is None else None,
+           **{k: q.get(k) for k in ("final_mu", "first_mu_ux", "first_mu", "lambda2", "tangential_resultant",
+                                    "sliding_ux", "first_mu_load", "sliding_load", "load_label")},
            "first_mu_label": q.get("first_mu_label"), "final_label": q.get("final_label"),
            "first_method": q.get("first_method"), "path_end": res.path.end,
            "wall_s": wall, **_stage_times(res.stages)}
@@ -191,9 +234,30 @@ def _warm_up(scene: Scene, comm: MPI.Comm) -> None:
     from app.study.run import study
     ref = scene.refinement
     for deg in ref.degrees:
-        lvl = level_scene(scene, ref.levels[0], deg, ref.planes[0],
-                          tangential_max=scene.loading.tangential_step)
+        lvl = level_scene(scene, ref.steps()[0], deg, ref.planes[0], short=True)
         study(lvl.model_copy(update={"analyses": ["sufficient"]}), comm)
+
+
+def _levels(scene: Scene) -> dict:
+    """Each level's scene per (degree, plane), validated up front (a Gmsh body is meshed at each
+    size), and refused when a level is not finer than the one before (a .geo whose curves fix
+    their node counts, ``Transfinite``, does not depend on its characteristic lengths)."""
+    ref = scene.refinement
+    out = {}
+    for plane in ref.planes:
+        for deg in ref.degrees:
+            scenes = [level_scene(scene, lv, deg, plane) for lv in ref.steps()]
+            sizes = [_sizes(s.system)[0] for s in scenes]
+            for (l1, n1), (l2, n2) in zip(zip(ref.steps(), sizes), zip(ref.steps()[1:], sizes[1:])):
+                if n2 <= n1:
+                    name = scene.system.level_names
+                    raise SceneError(
+                        f"refinement.{scene.system.refinement_key}: the mesh has {n1} DOFs at {name(l1)[0]} and "
+                        f"{n2} at {name(l2)[0]}: it does not get finer with the level (a .geo whose curves fix "
+                        "their node counts, Transfinite, or whose sizes come from a field: refine it in the .geo, "
+                        "or give a .geo that sets characteristic lengths)")
+            out[(deg, plane)] = scenes
+    return out
 
 
 def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = None,
@@ -202,39 +266,48 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
     from app.io.results import steps_csv
     ref = scene.refinement
     t0 = time.perf_counter()
+    scenes = _levels(scene)
     _warm_up(scene, comm)
     rows, failures, skipped = [], [], []
     for plane in ref.planes:
         for deg in ref.degrees:
-            for nx in ref.levels:
-                if ref.max_contact_nodes is not None and deg * nx + 1 > ref.max_contact_nodes:
+            for lv, lvl in zip(ref.steps(), scenes[(deg, plane)]):
+                name, tag = scene.system.level_names(lv)
+                n_contact = _sizes(lvl.system)[1]
+                if ref.max_contact_nodes is not None and n_contact > ref.max_contact_nodes:
                     if plane == ref.planes[0]:
-                        skipped.append(f"P{deg} nx={nx} ({deg * nx + 1} contact nodes > max_contact_nodes = "
+                        skipped.append(f"P{deg} {name} ({n_contact} contact nodes > max_contact_nodes = "
                                        f"{ref.max_contact_nodes})")
                     continue
-                row, res = run_level(scene, nx, deg, plane, comm, progress)
+                row, res = run_level(scene, lv, deg, plane, comm, progress, lvl=lvl)
                 rows.append(row)
-                failures += [{**f.to_dict(), "level": f"P{deg} {plane} nx={nx}"} for f in res.failures]
+                failures += [{**f.to_dict(), "level": f"P{deg} {plane} {name}"} for f in res.failures]
                 if comm.rank == 0:
-                    log(f"refinement: P{deg} {plane} nx={nx}: {row['dofs']} DOFs, {row['contact_nodes']} contact nodes, "
-                        f"final mu {fmt(row['final_mu'])}, first at u_x {fmt(row['first_mu_ux'], 4)}, "
-                        f"lambda^2 {fmt(row['lambda2'], 5)}, {row['wall_s']:.1f} s")
+                    first = (f"first at load {fmt(row['first_mu_load'], 4)}" if row.get("load_label")
+                             else f"first at u_x {fmt(row['first_mu_ux'], 4)}")
+                    log(f"refinement: P{deg} {plane} {name}: {row['dofs']} DOFs, {row['contact_nodes']} contact "
+                        f"nodes, final mu {fmt(row['final_mu'])}, {first}, lambda^2 {fmt(row['lambda2'], 5)}, "
+                        f"{row['wall_s']:.1f} s")
                     if outdir is not None:
-                        d = outdir / "levels" / f"P{deg}-{plane}-nx{nx}"
+                        d = outdir / "levels" / f"P{deg}-{plane}-{tag}"
                         d.mkdir(parents=True, exist_ok=True)
                         (d / "steps.csv").write_text(steps_csv(res))
     conv = analyse_convergence(rows)
-    cfg = scene.system
-    units = CONTINUUM_UNITS[scene.units]
+    units = dict(CONTINUUM_UNITS[scene.units])
+    labels = {r["load_label"] for r in rows if r.get("load_label")}
+    if len(labels) == 1:          # a program's load: its unit from the axis label ("... [mm]")
+        units["load"] = labels.pop().rsplit("[", 1)[-1].rstrip("]")
     summary = {"scene": scene.name, "mu": scene.mu,
                "mu_fixed": ref.mu_fixed if ref.mu_fixed is not None else scene.lambda2_mu,
-               "units": units,
-               "system": (f"block {cfg.length}x{cfg.height}x{cfg.thickness} {units['length']}, {cfg.pattern}, "
-                          f"E={cfg.E} {units['stress']}, "
-                          f"nu={cfg.nu}, loading {scene.loading.model_dump()}"),
-               "levels": ref.levels, "degrees": ref.degrees, "planes": ref.planes,
+               "units": units, "system": scene.system.describe(units)
+               + (f", loading {scene.loading.model_dump()}" if scene.loading is not None else ""),
+               "levels": ref.steps(), "degrees": ref.degrees, "planes": ref.planes,
                "mpi_ranks": comm.size, "rows": rows, "convergence": conv, "failures": failures, "skipped": skipped,
-               "wall_seconds": time.perf_counter() - t0, "quantities": {k: v[0] for k, v in QOIS.items()}}
+               "wall_seconds": time.perf_counter() - t0,
+               "quantities": {k: QOIS[k][0] for k in present(rows)}}
+    h_words, h_quantity = scene.system.refinement_h
+    h_unit = units.get(h_quantity) if h_quantity else None
+    summary.update(h_label=f"{h_words} [{h_unit}]" if h_unit else h_words, h_unit=h_unit or "1")
     if comm.rank == 0 and outdir is not None:
         summary["files"] = [str(p) for p in write_outputs(summary, outdir)]
     return summary

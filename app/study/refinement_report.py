@@ -22,6 +22,9 @@ QOIS = {  # key: (label, quantity: its unit is the scene's, app/systems/units.py
     "depth": ("CD depth for the normal force", "length"),
     "tangential_resultant": ("tangential resultant at the fixed load", "force"),
     "sliding_ux": ("CD u_x at gross sliding", "length"),
+    # a loading program (a Gmsh body): the load as the plots' x-axis measures it (app/io/select.py)
+    "first_mu_load": ("load at the first MCEIP-mu solution", "load"),
+    "sliding_load": ("load at gross sliding", "load"),
 }
 #: the quantity of the other refinement.csv columns with a unit (``h [mm]``: cell size along AB)
 UNIT_OF = {"h": "length", **{k: q for k, (_, q) in QOIS.items()}}
@@ -85,10 +88,23 @@ def observed_order(h: list[float], q: list[float | None]) -> dict:
 
 
 def _series(rows: list[dict]) -> dict:
+    """The rows per (degree, plane), coarse to fine."""
     out: dict = {}
     for r in rows:
         out.setdefault((r["degree"], r["plane"]), []).append(r)
-    return {k: sorted(v, key=lambda r: r["nx"]) for k, v in out.items()}
+    return {k: sorted(v, key=lambda r: -r["h"]) for k, v in out.items()}
+
+
+def level_label(r: dict, short: bool = False) -> str:
+    """A level of a row: the block's ``nx=20`` (``20``), a Gmsh body's ``size factor 0.5`` (``x0.5``)."""
+    if r.get("nx") is not None:
+        return str(r["nx"]) if short else f"nx={r['nx']}"
+    return f"x{r['size_factor']:g}" if short else f"size factor {r['size_factor']:g}"
+
+
+def present(rows: list[dict]) -> list[str]:
+    """The quantities of :data:`QOIS` that some level has a value of (the block's or a program's)."""
+    return [k for k in QOIS if any(r.get(k) is not None for r in rows)]
 
 
 def analyse_convergence(rows: list[dict]) -> dict:
@@ -119,7 +135,7 @@ def analyse_convergence(rows: list[dict]) -> dict:
                     vals = [r for r in series[(d, plane)] if r.get(key) is not None]
                     if vals:
                         fin = min(vals, key=lambda r: r["h"])
-                        ref = {"value": fin[key], "from": f"finest P{d} level (nx = {fin['nx']}; no trusted "
+                        ref = {"value": fin[key], "from": f"finest P{d} level ({level_label(fin)}; no trusted "
                                                             f"extrapolation)"}
                         break
             conv["reference"][plane][key] = ref or {"value": None, "from": "no value"}
@@ -143,9 +159,13 @@ def cheapest(rows: list[dict], key: str, plane: str, targets=(0.1, 0.01, 0.001))
 
 
 # -- outputs -------------------------------------------------------------------------------------
-CSV_COLUMNS = ["degree", "plane", "pattern", "nx", "ny", "h", "contact_nodes", "dofs", "states", "distinct",
-               *QOIS, "first_mu", "first_mu_label", "final_label",
-               *[f"err_{k}" for k in QOIS], "wall_s", *STAGE_GROUPS, "t_other", "first_method", "path_end"]
+def csv_columns(rows: list[dict]) -> list[str]:
+    """refinement.csv's columns: the level, its sizes, the quantities some level has, their errors, times."""
+    keys = present(rows)
+    level = ["pattern", "nx", "ny"] if any(r.get("nx") is not None for r in rows) else ["size_factor"]
+    return ["degree", "plane", *level, "h", "contact_nodes", "dofs", "states", "distinct",
+            *keys, "first_mu", "first_mu_label", "final_label",
+            *[f"err_{k}" for k in keys], "wall_s", *STAGE_GROUPS, "t_other", "first_method", "path_end"]
 
 
 def fmt(v, digits: int = 6) -> str:
@@ -163,25 +183,26 @@ def markdown(summary: dict) -> str:
     cheapest level reaching 10 %, 1 % and 0.1 %; why orders can be poor here; the levels skipped."""
     rows, conv = summary["rows"], summary["convergence"]
     units = summary["units"]
-    length = units["length"]
     lines = [f"# Refinement study: {summary['scene']}", "",
              f"{summary['system']}; mu = {summary['mu']}, sufficient condition at mu_fixed = {summary['mu_fixed']}; "
              f"{summary['mpi_ranks']} MPI rank(s); total {summary['wall_seconds']:.1f} s.", ""]
+    keys = present(rows)
     for (deg, plane), rs in _series(rows).items():
+        heads = [f"{QOIS[k][0]} [{units.get(QOIS[k][1], '?')}]" for k in keys]
         lines += [f"## P{deg}, plane {plane}", "",
-                  f"| nx x ny | contact nodes | DOFs | final MCEIP-mu | first solution at CD u_x [{length}] (mu) | "
-                  f"lambda^2 [{units['lambda2']}] | depth [{length}] | T at fixed load [{units['force']}] | "
-                  f"gross sliding u_x [{length}] | wall [s] | "
+                  "| mesh | contact nodes | DOFs | " + " | ".join(heads) + " | mu at the first solution | wall [s] | "
                   "MCEIP-mu [s] | factor K + W [s] | loading [s] |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "|" + "---|" * (len(keys) + 8)]
         for r in rs:
-            lines.append(f"| {r['nx']} x {r['ny']} | {r['contact_nodes']} | {r['dofs']} | {fmt(r['final_mu'])} | "
-                         f"{fmt(r['first_mu_ux'], 4)} ({fmt(r['first_mu'], 5)}) | {fmt(r['lambda2'], 5)} | "
-                         f"{fmt(r['depth'], 6)} | {fmt(r['tangential_resultant'], 6)} | {fmt(r['sliding_ux'], 4)} | "
-                         f"{r['wall_s']:.2f} | {r['t_mceip_mu']:.2f} | {r['t_factor_W']:.2f} | {r['t_loading']:.2f} |")
+            mesh = f"{r['nx']} x {r['ny']}" if r.get("nx") is not None else level_label(r)
+            lines.append(f"| {mesh} | {r['contact_nodes']} | {r['dofs']} | "
+                         + " | ".join(fmt(r.get(k), 6) for k in keys)
+                         + f" | {fmt(r.get('first_mu'), 5)} | {r['wall_s']:.2f} | {r['t_mceip_mu']:.2f} | "
+                         f"{r['t_factor_W']:.2f} | {r['t_loading']:.2f} |")
         lines += ["", "| quantity | observed order p (3 finest) | fitted slope | reference | note |",
                   "|---|---|---|---|---|"]
-        for key, (label, quantity) in QOIS.items():
+        for key in keys:
+            label, quantity = QOIS[key]
             unit = units.get(quantity, "?")
             e = conv["series"][f"P{deg} {plane}"][key]
             lines.append(f"| {label} [{unit}] | {fmt(e['p'], 3)} | {fmt(e['fitted'], 3)} | "
@@ -192,23 +213,24 @@ def markdown(summary: dict) -> str:
                   "Relative errors are measured against one reference per quantity (below); the cheapest level "
                   "is the one with the smallest wall time whose error is at most the target.", "",
                   "| quantity | reference | from | 10 % | 1 % | 0.1 % |", "|---|---|---|---|---|---|"]
-        for key, (label, quantity) in QOIS.items():
+        for key in keys:
+            label, quantity = QOIS[key]
             unit = units.get(quantity, "?")
             ch = cheapest(rows, key, plane)
-            cells = [f"P{r['degree']} nx={r['nx']} ({r['wall_s']:.1f} s)" if r else "not reached"
+            cells = [f"P{r['degree']} {level_label(r)} ({r['wall_s']:.1f} s)" if r else "not reached"
                      for r in ch.values()]
             lines.append(f"| {label} [{unit}] | {fmt(refs[key]['value'], 7)} | {refs[key]['from']} | "
                          + " | ".join(cells) + " |")
         lines.append("")
     lines += ["## Why orders can be poor here", "",
-              "- The contact zone ends at the corners A and B (and at the moving lift-off point), where the "
-              "contact pressure is singular: reactions, compliance and eigenvalues converge below the "
+              "- The contact zone ends at corners (the block's A and B) and at moving lift-off points, where "
+              "the contact pressure is singular: reactions, compliance and eigenvalues converge below the "
               "smooth-problem orders (p ~ 1-1.5 instead of 2).",
-              "- The final state is the state at gross sliding (or at tangential_max), which itself moves with "
+              "- The final state is the state at gross sliding (or at the end of the loading), which itself moves with "
               "the mesh (later gross sliding, more nodes lifted off): its critical mu mixes discretisation "
               "error with a change of state, so it may oscillate at the 1e-3 level.",
               "- The first state with an MCEIP-mu solution is a discrete event of the path (which node slips "
-              "next, resolved to one tangential step): path dependence, not a convergent quantity.",
+              "next, resolved to one load step): path dependence, not a convergent quantity.",
               "- Plane strain with nu near 0.5: P1 triangles lock (too stiff) and P2 converges slowly; values "
               "from these meshes may be far from the limit.", ""]
     if summary.get("skipped"):
@@ -221,6 +243,7 @@ PLOT_TITLES = {
     "final_mu": "final-state smallest MCEIP-\u03bc",
     "first_mu_ux": "CD u_x at the first MCEIP-\u03bc solution",
     "lambda2": "sufficient-condition \u03bb\u00b2 at \u03bc_fixed (final state)",
+    "first_mu_load": "load at the first MCEIP-\u03bc solution",
 }
 
 
@@ -230,9 +253,10 @@ def plot(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     slope, the observed order, in its legend: ``refinement.png`` and ``.svg``) and against the wall
     time of its level (``refinement_cost.png`` and ``.svg``, what accuracy costs). Returns the paths."""
     length = (summary.get("units") or {}).get("length", "")
+    h_label = summary.get("h_label") or f"cell size h along the contact side [{length}]"
     paths = []
     for stem, x_key, xlabel, slopes in (
-            ("refinement", "h", f"cell size h along the contact side [{length}]", True),
+            ("refinement", "h", h_label, True),
             ("refinement_cost", "wall_s", "wall time of the level [s]", False)):
         paths += _error_figure(summary, outdir / stem, x_key, xlabel, slopes)
     return paths
@@ -245,10 +269,15 @@ def _error_figure(summary: dict, path: pathlib.Path, x_key: str, xlabel: str, sl
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
     rows = summary["rows"]
     series = summary.get("convergence", {}).get("series", {})
-    fig, axes = plt.subplots(2, 3, figsize=(14, 8.6))
-    for ax, key in zip(axes.ravel(), QOIS):
+    keys = present(rows)
+    ncol = min(3, max(len(keys), 1))
+    nrow = max(1, -(-len(keys) // ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.7 * ncol, 4.3 * nrow), squeeze=False)
+    for ax in list(axes.ravel())[len(keys):]:
+        ax.set_visible(False)
+    for ax, key in zip(axes.ravel(), keys):
         for k, ((deg, plane), rs) in enumerate(_series(rows).items()):
-            pts = [(r[x_key], r[f"err_{key}"], r["nx"]) for r in rs
+            pts = [(r[x_key], r[f"err_{key}"], level_label(r, short=True)) for r in rs
                    if r.get(f"err_{key}") is not None and r[f"err_{key}"] > 0 and r.get(x_key)]
             if not pts:
                 continue
@@ -276,7 +305,8 @@ def _error_figure(summary: dict, path: pathlib.Path, x_key: str, xlabel: str, sl
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
     what = "the cell size (slopes: observed orders)" if slopes else "the wall time of the level (what accuracy costs)"
-    fig.suptitle(f"{summary['scene']}: relative error against {what}; points labelled with nx")
+    by = "nx" if any(r.get("nx") is not None for r in rows) else "the size factor"
+    fig.suptitle(f"{summary['scene']}: relative error against {what}\n(points labelled with {by})", fontsize=11)
     fig.tight_layout()
     out = [path.with_suffix(".png"), path.with_suffix(".svg")]
     for p in out:
@@ -291,8 +321,10 @@ def write_outputs(summary: dict, outdir: pathlib.Path) -> list[pathlib.Path]:
     outdir.mkdir(parents=True, exist_ok=True)
     buf = io.StringIO()
     w = csv.writer(buf)
-    w.writerow([csv_header(c, UNIT_OF.get(c), summary["units"]) for c in CSV_COLUMNS])
-    w.writerows([row.get(c, "") for c in CSV_COLUMNS] for row in summary["rows"])
+    columns = csv_columns(summary["rows"])
+    units = {**summary["units"], "h": summary.get("h_unit", summary["units"].get("length"))}
+    w.writerow([csv_header(c, "h" if c == "h" else UNIT_OF.get(c), units) for c in columns])
+    w.writerows([row.get(c, "") for c in columns] for row in summary["rows"])
     (outdir / "refinement.csv").write_text(buf.getvalue())
     (outdir / "refinement.md").write_text(markdown(summary))
     paths = [outdir / "refinement.csv", outdir / "refinement.md", *plot(summary, outdir)]

@@ -79,6 +79,41 @@ class Block(Strict):
         """A copy of the block with ``nx`` cells along AB and ``ny`` scaled to keep the cells' aspect."""
         return self.model_copy(update={"nx": nx, "ny": max(1, round(nx * self.height / self.length))})
 
+    # ---- a mesh-refinement study (app/study/refinement.py) ----
+    #: the key of the ``refinement`` section that lists the block's levels, and what they are
+    refinement_key: ClassVar[str] = "levels"
+    refinement_help: ClassVar[str] = "nx, the cells along AB, e.g. [10, 20, 40]"
+    #: the cell size of a level, its label and its unit's quantity (a key of the units block)
+    refinement_h: ClassVar[tuple[str, Optional[str]]] = ("cell size h along the contact side", "length")
+
+    def refinement_problem(self) -> Optional[str]:
+        """Why this block cannot be refined (never: every block has a mesh of nx cells)."""
+        return None
+
+    def level_keys(self, nx: int, degree: int, plane: str) -> dict:
+        """The system keys of the refinement level ``nx`` (square cells)."""
+        return {"nx": int(nx), "ny": self.refined(int(nx)).ny, "degree": degree, "plane": plane}
+
+    def level_row(self, nx: int) -> dict:
+        """The level's columns of refinement.csv."""
+        return {"pattern": self.pattern, "nx": int(nx), "ny": self.refined(int(nx)).ny, "h": self.length / int(nx)}
+
+    @staticmethod
+    def level_names(nx: int) -> tuple[str, str]:
+        """The level in words and as a folder tag: ``nx=20``, ``nx20``."""
+        return f"nx={int(nx)}", f"nx{int(nx)}"
+
+    @staticmethod
+    def one_step(data: dict) -> None:
+        """Shorten the scene document ``data`` to one tangential step (the forms' compilation)."""
+        loading = data.setdefault("loading", {})
+        loading["tangential_max"] = loading.get("tangential_step", Loading().tangential_step)
+
+    def describe(self, units: dict) -> str:
+        """The block in one line (refinement.md)."""
+        return (f"block {self.length}x{self.height}x{self.thickness} {units['length']}, {self.pattern}, "
+                f"E={self.E} {units['stress']}, nu={self.nu}")
+
     def table_columns(self) -> dict[str, float]:
         """Extra columns of a sweep's table (app/study/sweep.py): the aspect ratio L/H."""
         return {"L_over_H": float(f"{self.length / self.height:.12g}")}

@@ -49,9 +49,12 @@ def _body_size(gmsh) -> float:
     return ext if np.isfinite(ext) and ext > 0 else 1.0
 
 
-def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_dofs: int) -> tuple[dict, dict]:
+def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_dofs: int,
+               size_factor: float = 1.0) -> tuple[dict, dict]:
     """Load ``path`` into a new gmsh model, sample and remove its free physical curves, mesh a
-    ``.geo`` in 2D within the limits; renumber nodes and elements 1..N (model_to_mesh needs it).
+    ``.geo`` in 2D within the limits, its characteristic lengths times ``size_factor`` (Gmsh's
+    ``Mesh.CharacteristicLengthFactor``, times the file's own); renumber
+    nodes and elements 1..N (model_to_mesh needs it).
     Returns the curves' ``(info, arrays)`` (app/systems/gmsh/child_curves.py)."""
     from child_curves import remove_curves, sample_curves
     gmsh.model.add("user")
@@ -64,6 +67,9 @@ def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_
     if is_geo:
         remove_curves(gmsh, {k: v["entities"] for k, v in curves[0].items()})
     if is_geo:
+        if size_factor != 1.0:     # on top of the file's own factor, if it sets one
+            factor = gmsh.option.getNumber("Mesh.CharacteristicLengthFactor")
+            gmsh.option.setNumber("Mesh.CharacteristicLengthFactor", factor * size_factor)
         types, _, _ = gmsh.model.mesh.getElements(2)
         if len(types) == 0:
             try:
@@ -228,17 +234,18 @@ def extract(gmsh) -> dict:
 
 def main(argv: list[str]) -> int:
     """Read FILE into OUTDIR as the module docstring says (``argv``: FILE OUTDIR MAX_NODES
-    MAX_ELEMENTS MAX_DOFS). Returns 0 when written, :data:`EXIT_MODEL_ERROR` with the one-line error
-    in ``info.json`` when the checks or gmsh refuse the model; a MemoryError is not caught."""
+    MAX_ELEMENTS MAX_DOFS SIZE_FACTOR). Returns 0 when written, :data:`EXIT_MODEL_ERROR` with the
+    one-line error in ``info.json`` when the checks or gmsh refuse the model; a MemoryError is not caught."""
     path, out = pathlib.Path(argv[0]), pathlib.Path(argv[1])
     max_nodes, max_elements, max_dofs = int(argv[2]), int(argv[3]), int(argv[4])
+    size_factor = float(argv[5]) if len(argv) > 5 else 1.0
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))     # child_curves.py (python -I drops it)
     import gmsh
     gmsh.initialize([], readConfigFiles=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("General.NumThreads", 1)
     try:
-        curve_info, curve_arrays = open_model(gmsh, path, max_nodes, max_elements, max_dofs)
+        curve_info, curve_arrays = open_model(gmsh, path, max_nodes, max_elements, max_dofs, size_factor)
         info = check_model(gmsh)
         arrays = extract(gmsh)
         info["obstacle_curves"] = curve_info

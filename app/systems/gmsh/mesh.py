@@ -22,7 +22,7 @@ from app.common.runtime import import_gmsh
 from app.systems.schema import SystemPathError, file_version
 
 GMSH_LINE, GMSH_TRIANGLE = 1, 2
-_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()     # file version -> (info, arrays, limits)
+_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()     # (file version, size factor) -> (info, arrays, limits)
 _CACHE_SIZE = 4
 
 
@@ -78,11 +78,12 @@ def _limits(limits):
     return SandboxLimits.from_limits(limits if limits is not None else Limits())
 
 
-def _read(path: pathlib.Path, value: str, limits, roots) -> tuple[ModelInfo, dict]:
-    """Check and read ``path`` in the sandbox (cached per file version and limits)."""
+def _read(path: pathlib.Path, value: str, limits, roots, size_factor: float = 1.0) -> tuple[ModelInfo, dict]:
+    """Check and read ``path`` in the sandbox (cached per file version, size factor and limits);
+    a ``.geo`` is meshed with its characteristic lengths times ``size_factor``."""
     lim = _limits(limits)
     try:
-        key = file_version(path)
+        key = (file_version(path), float(size_factor))
     except OSError as err:
         raise SystemPathError("file", value, f"cannot read {path.name}: {err.strerror or err}") from None
     if key in _CACHE and (limits is None or _CACHE[key][2] == lim):     # None: as validated
@@ -92,7 +93,7 @@ def _read(path: pathlib.Path, value: str, limits, roots) -> tuple[ModelInfo, dic
             raise _refusal(value, found[0].msg, found[0].resource)
         return found[:2]
     try:
-        info, arrays = _read_uncached(path, value, lim, roots)
+        info, arrays = _read_uncached(path, value, lim, roots, size_factor)
     except SystemPathError as err:
         _remember(key, (err, None, lim))
         raise
@@ -113,7 +114,7 @@ def _refusal(value: str, msg: str, resource: bool = False) -> SystemPathError:
     return err
 
 
-def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInfo, dict]:
+def _read_uncached(path: pathlib.Path, value: str, lim, roots, size_factor: float = 1.0) -> tuple[ModelInfo, dict]:
     from app.systems.gmsh import geo_allowlist, msh_header
     from app.systems.gmsh import sandbox as gmsh_sandbox
     suffix = path.suffix.lower()
@@ -124,7 +125,7 @@ def _read_uncached(path: pathlib.Path, value: str, lim, roots) -> tuple[ModelInf
             geo_allowlist.check_file(path, roots)
         else:
             msh_header.check(path, path.name, lim.max_nodes, lim.max_elements, lim.max_dofs)
-        raw, arrays = gmsh_sandbox.read(path, lim)
+        raw, arrays = gmsh_sandbox.read(path, lim, size_factor)
     except (geo_allowlist.GeoRefused, msh_header.MshRefused) as err:
         raise _refusal(value, str(err)) from None
     except gmsh_sandbox.SandboxError as err:
@@ -161,24 +162,26 @@ def _check_arrays(arrays: dict, raw: dict, value: str) -> None:
         raise SystemPathError("file", value, "gmsh returned inconsistent samples of the free curves")
 
 
-def obstacle_samples(path: pathlib.Path, name: str) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
+def obstacle_samples(path: pathlib.Path, name: str, size_factor: float = 1.0
+                     ) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
     """``(entities, params, xy, entity_of_panel)`` of the free physical curve ``name`` as the child
     sampled it (app/systems/gmsh/child_curves.py), from the model read at validation."""
-    info, arrays = _read(path, path.name, None, None)
+    info, arrays = _read(path, path.name, None, None, size_factor)
     c = info.obstacle_curves[name]
     a, b = c["panels"]
     return list(c["entities"]), arrays["curve_params"][a:b], arrays["curve_xy"][a:b], arrays["curve_entity"][a:b]
 
 
-def model_info(path: pathlib.Path, value: str, limits=None, roots=None) -> ModelInfo:
+def model_info(path: pathlib.Path, value: str, limits=None, roots=None, size_factor: float = 1.0) -> ModelInfo:
     """Check and read a model file (cached per file version); raises :class:`SystemPathError`.
 
     ``limits``: the scene's ``settings.limits`` (defaults if None); ``roots``: folders a .geo may
-    include files from (default: the .geo's own folder)."""
-    return _read(path, value, limits, roots)[0]
+    include files from (default: the .geo's own folder); ``size_factor``: a .geo's characteristic
+    lengths are multiplied by it (``system.mesh_size_factor``)."""
+    return _read(path, value, limits, roots, size_factor)[0]
 
 
-def read_mesh(path: pathlib.Path, comm, limits=None):
+def read_mesh(path: pathlib.Path, comm, limits=None, size_factor: float = 1.0):
     """Distributed DOLFINx mesh with cell and facet tags from the model file (MPI collective).
 
     Rank 0 reads the file in the sandbox (or takes the arrays cached by the validation);
@@ -189,7 +192,7 @@ def read_mesh(path: pathlib.Path, comm, limits=None):
     error, names, arrays = None, None, None
     if comm.rank == 0:
         try:
-            info, raw = _read(path, str(path), limits, None)
+            info, raw = _read(path, str(path), limits, None, size_factor)
             names = dict(info.names)
             arrays = mesh_arrays.MeshArrays(
                 x=raw["x"], cells=raw["cells"], cell_values=raw["cell_values"], gmsh_cell=int(raw["gmsh_cell"]),
@@ -204,12 +207,13 @@ def read_mesh(path: pathlib.Path, comm, limits=None):
     return mesh, cell_tags, facet_tags, names
 
 
-def mesh_sizes(path: pathlib.Path, degree: int, prescribed: dict[str, str], contact: str) -> tuple[int, int]:
+def mesh_sizes(path: pathlib.Path, degree: int, prescribed: dict[str, str], contact: str,
+               size_factor: float = 1.0) -> tuple[int, int]:
     """(DOFs after the Dirichlet reduction, contact nodes) of a body on the file's mesh, counted from
     the arrays read at validation (no assembly): a node of a prescribed curve loses the prescribed
     components, P2 adds a node per triangle edge; contact nodes with a prescribed component are
     left out of the contact set (app/systems/gmsh/operators.py)."""
-    info, arrays = _read(path, path.name, None, None)
+    info, arrays = _read(path, path.name, None, None, size_factor)
     facets, values = arrays["facets"], arrays["facet_values"]
     p2 = degree == 2
 
@@ -227,7 +231,7 @@ def mesh_sizes(path: pathlib.Path, degree: int, prescribed: dict[str, str], cont
     return dofs, len(cnodes - fixed_nodes) + (c_facets if p2 else 0)
 
 
-def obstacle_curve(path: pathlib.Path, shown: str, info: ModelInfo, obstacle, contact: str):
+def obstacle_curve(path: pathlib.Path, shown: str, info: ModelInfo, obstacle, contact: str, size_factor: float = 1.0):
     """The :class:`app.loading.curve.SmoothCurve` of ``obstacle.physical``; one-line
     :class:`SystemPathError` on ``obstacle.physical`` for a curve that is missing, part of the
     body, from a ``.msh`` file, not smooth or too long to sample."""
@@ -243,7 +247,7 @@ def obstacle_curve(path: pathlib.Path, shown: str, info: ModelInfo, obstacle, co
     entry = info.obstacle_curves[name]
     if entry.get("error"):
         raise SystemPathError(key, name, str(entry["error"]))
-    entities, params, xy, ent_of = obstacle_samples(path, name)
+    entities, params, xy, ent_of = obstacle_samples(path, name, size_factor)
     bbox = info.bbox
     size = max(bbox[2] - bbox[0], bbox[3] - bbox[1], 1e-300)
     try:

@@ -103,7 +103,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     from app.systems.gmsh.mesh import read_mesh
     from app.systems.stress import strain, stress
     with stages("mesh (gmsh)"):
-        mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm)
+        mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm, size_factor=cfg.mesh_size_factor)
     sp = _Space(comm, mesh, facet_tags, dolfinx.fem.FunctionSpace(mesh, ufl.VectorElement("CG", mesh.ufl_cell(), cfg.degree), **jit.params()),
                 {nm: t for (d, nm), t in names.items() if d == 1}, {nm: t for (d, nm), t in names.items() if d == 2})
     mu_f, lam_f, rho_f = _materials(cfg, sp, cell_tags)

@@ -124,21 +124,22 @@ def _signal_name(code: int) -> str:
         return f"signal {-code}"
 
 
-def read(path: pathlib.Path, limits: SandboxLimits) -> tuple[dict, dict]:
-    """``(info, arrays)`` of a Gmsh file read by the sandboxed child; raises :class:`SandboxError`."""
+def read(path: pathlib.Path, limits: SandboxLimits, size_factor: float = 1.0) -> tuple[dict, dict]:
+    """``(info, arrays)`` of a Gmsh file read by the sandboxed child (a ``.geo`` meshed with its
+    characteristic lengths times ``size_factor``); raises :class:`SandboxError`."""
     tmp = pathlib.Path(tempfile.mkdtemp(prefix="app-gmsh-"))
     try:
-        return _run(path, limits, tmp)
+        return _run(path, limits, tmp, size_factor)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)        # the folder this call created, with what the child wrote
 
 
-def _run(path: pathlib.Path, limits: SandboxLimits, tmp: pathlib.Path) -> tuple[dict, dict]:
+def _run(path: pathlib.Path, limits: SandboxLimits, tmp: pathlib.Path, size_factor: float) -> tuple[dict, dict]:
     name = path.name
     # bytes the child may write: the arrays (about 100 bytes per element) and gmsh's messages
     file_bytes = 64 * 2**20 + 200 * (limits.max_elements + limits.max_nodes)
     cmd = [sys.executable, "-I", str(CHILD), str(path), str(tmp), str(limits.max_nodes), str(limits.max_elements),
-           str(limits.max_dofs)]
+           str(limits.max_dofs), repr(float(size_factor))]
     if bwrap_usable():
         cmd = _bwrap_command(tmp) + ["--"] + cmd
     rlimits, notes = child_limits(limits, file_bytes)

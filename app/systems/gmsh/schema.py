@@ -198,7 +198,11 @@ class GmshBody(StrictModel):
 
     type: Literal["gmsh"]
     has_fields: ClassVar[bool] = True       # ParaView files and screenshots (app/io/fields.py)
+    refinable: ClassVar[bool] = True        # a .geo's mesh: refinement by its size factor (app/study/refinement.py)
     file: str = Field(description="Gmsh .geo or .msh file, relative to the scene file")
+    mesh_size_factor: PosFloat = Field(1.0, description="a .geo's characteristic lengths are multiplied by it "
+                                       "(Gmsh's Mesh.CharacteristicLengthFactor: 0.5 halves the element size); "
+                                       "a .msh file's mesh is used as it is")
     contact: str = Field(description="physical curve that may touch the obstacle")
     prescribed: dict[str, Literal["x", "y", "xy"]] = Field(
         {}, description="physical curves whose displacement components the program prescribes")
@@ -218,12 +222,55 @@ class GmshBody(StrictModel):
         """(equilibrium states of the program, the key that sets them) for the pre-flight (app/scene/limits.py)."""
         return 1 + sum(ph.steps for ph in self.program), "system.program[].steps"
 
+    # ---- a mesh-refinement study (app/study/refinement.py) ----
+    #: the key of the ``refinement`` section that lists the body's levels, and what they are
+    refinement_key: ClassVar[str] = "size_factors"
+    refinement_help: ClassVar[str] = "the .geo's characteristic lengths times each factor, e.g. [2, 1, 0.5]"
+    #: the cell size of a level (relative to the .geo's), its label and its unit's quantity (none)
+    refinement_h: ClassVar[tuple[str, Optional[str]]] = ("mesh-size factor (the .geo's characteristic lengths "
+                                                         "times it)", None)
+
+    def refinement_problem(self) -> Optional[str]:
+        """Why this body cannot be refined: a ``.msh`` holds one fixed mesh."""
+        if not str(self.file).lower().endswith(".geo"):
+            return "a refinement remeshes the body: it needs a .geo (a .msh holds one fixed mesh)"
+        return None
+
+    def level_keys(self, factor: float, degree: int, plane: str) -> dict:
+        """The system keys of the refinement level ``factor``."""
+        return {"mesh_size_factor": float(factor), "degree": degree, "plane": plane}
+
+    @staticmethod
+    def level_row(factor: float) -> dict:
+        """The level's columns of refinement.csv (h: the factor, the cell size relative to the .geo's)."""
+        return {"size_factor": float(factor), "h": float(factor)}
+
+    @staticmethod
+    def level_names(factor: float) -> tuple[str, str]:
+        """The level in words and as a folder tag: ``size factor 0.5``, ``f0.5``."""
+        return f"size factor {float(factor):g}", f"f{float(factor):g}"
+
+    @staticmethod
+    def one_step(data: dict) -> None:
+        """Shorten the scene document ``data`` to the program's first phase in one step."""
+        program = data["system"]["program"]
+        data["system"]["program"] = [{**program[0], "steps": 1}]
+
+    def describe(self, units: dict) -> str:
+        """The body in one line (refinement.md)."""
+        import pathlib
+        mat = self.material
+        what = f"E={mat.E} {units['stress']}, nu={mat.nu}" if mat is not None else "a material per surface"
+        return (f"Gmsh body {pathlib.Path(self.file).name} ({self.thickness} {units['length']} thick), {what}, "
+                f"a loading program of {len(self.program)} phase(s)")
+
     def file_sizes(self) -> tuple[int, int, str]:
         """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/scene/limits.py)."""
         import pathlib
 
         from app.systems.gmsh.mesh import mesh_sizes
-        dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, dict(self.prescribed), self.contact)
+        dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, dict(self.prescribed), self.contact,
+                                   self.mesh_size_factor)
         return dofs, contact, "system.file"
 
     @model_validator(mode="before")
@@ -237,7 +284,8 @@ class GmshBody(StrictModel):
         try:
             from app.systems.gmsh.mesh import model_info
             path = resolve_file("", data.get("file"), info)
-            mi = model_info(path, path.name, context_limits(info), (base_dir(info), path.parent))
+            mi = model_info(path, path.name, context_limits(info), (base_dir(info), path.parent),
+                            float(data.get("mesh_size_factor", 1.0)))
             for dim, groups in ((1, mi.curves), (2, mi.surfaces)):
                 alias[dim] = {str(tag): name for name, (tag, _) in groups.items() if str(tag) not in groups}
         except Exception:     # noqa: BLE001 - a bad file is reported by the file validator
@@ -272,7 +320,12 @@ class GmshBody(StrictModel):
         path = pathlib.Path(self.file)
         shown = path.name
         try:
-            info = model_info(path, shown, context_limits(vinfo), (base_dir(vinfo), path.parent))
+            if self.mesh_size_factor != 1.0 and path.suffix.lower() != ".geo":
+                raise SystemPathError("mesh_size_factor", self.mesh_size_factor,
+                                      f"{shown} holds its mesh: a size factor applies to a .geo's characteristic "
+                                      "lengths only (give the .geo, or leave mesh_size_factor at 1)")
+            info = model_info(path, shown, context_limits(vinfo), (base_dir(vinfo), path.parent),
+                              self.mesh_size_factor)
         except SystemPathError as err:
             # a time or memory limit stopped Gmsh: exit status 4 (app/scene/schema.py)
             cls = ResourcePathError if getattr(err, "resource", False) else SystemPathError
@@ -289,7 +342,8 @@ class GmshBody(StrictModel):
         curve("contact", self.contact)
         if self.obstacle.type == "curve":
             from app.systems.gmsh.mesh import obstacle_curve
-            self.obstacle._curve = obstacle_curve(path, shown, info, self.obstacle, self.contact)
+            self.obstacle._curve = obstacle_curve(path, shown, info, self.obstacle, self.contact,
+                                                  self.mesh_size_factor)
         inner = info.inner_segments.get(self.contact, 0)
         if inner:
             raise SystemPathError("contact", self.contact, f"{inner} of the {curves[self.contact][1]} segments of the "
