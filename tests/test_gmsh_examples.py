@@ -126,7 +126,7 @@ def test_block_on_incline_slides_when_tan_exceeds_mu(tmp_path, alpha, mu, step, 
     p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "out" / "results.json").read_text())
-    assert res["path"]["end"].startswith(f"gross sliding in phase 1 ('tilt gravity downhill') at step {step}:")
+    assert res["path"]["end"].startswith(f"gross sliding in the 'tilt gravity downhill' phase at step {step}:")
     weight = 1.2e-9 * g * 40 * 20 * 10
     for st in res["states"]:
         k = st["load"]["step"] if st["load"]["phase"] == 1 else 0

@@ -166,13 +166,13 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
                         cls = classified(st, mu, classify_rtol)
                         contact = [s for s in cls.status if s != FREE]
                         if contact and all(s == SLIP for s in contact):
-                            stop = (f"gross sliding in phase {i} ('{ph.name}') at step {k}: all {len(contact)} "
+                            stop = (f"gross sliding in {_phase(i, ph)} at step {k}: all {len(contact)} "
                                     "nodes in contact slip")
                             break
                     if k == ph.steps:
                         a = ak
             except ContactSolveError as err:
-                end = f"contact solve failed in phase {i} ('{ph.name}'): {err}"
+                end = f"contact solve failed in {_phase(i, ph)}: {err}"
                 info["failure"] = {"state": len(states), "analysis": "contact increment", "reason": end}
                 info["phases"].append(rec)
                 break
@@ -185,3 +185,9 @@ def run_program(phases: list[ProgramPhase], U0: np.ndarray, gaps: np.ndarray, Kc
         solver.destroy()
     info["end"] = end
     return states, info
+
+
+def _phase(i: int, ph) -> str:
+    """A phase in words: its name where it has one (``the 'drag' phase``), else its number as
+    results.json's ``load.phase`` counts it (``phase 1``)."""
+    return f"the '{ph.name}' phase" if ph.name else f"phase {i}"

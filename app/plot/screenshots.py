@@ -51,10 +51,12 @@ def _unit(value: str | None, default: str) -> str:
     return default if value is None else value
 
 
-def _where(load: Load, length: str) -> str:
+def _where(load: Load, units: Units | dict) -> str:
     """Where a state is on the loading path, for a picture's title: the block's CD displacement,
-    or a loading program's phase, step and load parameters (``name``, the phase's name, is a key
-    of the program's own, in ``model_extra``); empty for a single state."""
+    or a loading program's phase, step and load parameters with their units (``name``, the
+    phase's name, is a key of the program's own, in ``model_extra``); empty for a single state."""
+    from app.io.select import parameter_unit
+    length = units.get("length") if isinstance(units, dict) else units.length
     if load.u_x is not None:
         return f"CD moved by u_x = {load.u_x:.4g} {length}, u_y = {load.u_y:.4g} {length}"
     if load.parameters is not None:
@@ -62,7 +64,8 @@ def _where(load: Load, length: str) -> str:
         phase = extra["name"] if "name" in extra else "" if load.phase is None else load.phase
         step = "" if load.step is None else load.step
         return (f"phase '{phase}', step {step}: "
-                + ", ".join(f"{k} = {v:.4g}" for k, v in load.parameters.items()))
+                + ", ".join(f"{k} = {v:.4g}{' ' + u if (u := parameter_unit(k, units)) else ''}"
+                            for k, v in load.parameters.items()))
     return ""
 
 
@@ -90,7 +93,7 @@ def state_picture(fd: FieldData, state: StateResult, field: str, res, scale: flo
     c = state.classification
     title = [f"{scene}: state {state.index}, {c.stick} stick / {c.slip} slip / {c.free} free"
              + (f" / {c.zero} zero" if c.zero else ""),
-             _where(state.load, units.length) + ("" if scale == 1.0 else f"; displacements drawn x{scale:g}")]
+             _where(state.load, units) + ("" if scale == 1.0 else f"; displacements drawn x{scale:g}")]
     return finish(pl, fd, pts, title, legend, path, res)
 
 

@@ -149,9 +149,13 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
              f"at {point_text(where, body)}): only the contact curve '{cfg.contact}' is kept out of the obstacle")
         log.warning("%s", w)
         stages.warnings.append(w)
-    mats = {"material": cfg.material.model_dump()} if cfg.material else {"materials": {k: m.model_dump() for k, m in cfg.materials.items()}}
     _check_materials(cfg, units, stages)
     u = UNITS[units]
+
+    def material(m) -> str:
+        return f"E = {m.E:g} {u['stress']}, nu = {m.nu:g}, density = {m.density:g} {u['density']}"
+    mats = (material(cfg.material) if cfg.material else
+            "; ".join(f"{name}: {material(m)}" for name, m in cfg.materials.items()))
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
                     build_contact_schur=lambda: flex.schur,
                     description=(f"gmsh body {pathlib.Path(cfg.file).name}, P{cfg.degree}, plane {cfg.plane}, "
