@@ -374,3 +374,12 @@ def test_fuzz_seeds_are_meaningful():
     """The unmutated bases are valid, so the fuzz explores around real scenes."""
     for base in BASES:
         assert isinstance(parse_scene(copy.deepcopy(base)), Scene)
+
+
+def test_the_top_level_help_names_every_system_type():
+    """``python -m app --help`` lists every registered system type (it named only the block and the
+    two particles while Gmsh bodies and matrix files were the users' own problems)."""
+    from app.cli.main import _parser
+    from app.systems import SYSTEM_TYPES
+    text = _parser().format_help()
+    assert all(f"\n  {name} " in text for name in SYSTEM_TYPES), text

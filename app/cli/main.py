@@ -21,15 +21,21 @@ from app.common.errors import fail as _fail
 DESCRIPTION = """\
 Divergence instabilities of elastic bodies in frictional contact.
 
-A scene file (YAML) describes a system (the paper's two-particle system or a finite element
-block pressed and dragged on a rigid flat obstacle), the friction coefficient mu and the
-analyses wanted at every equilibrium state:
+A scene file (YAML) describes a system, the friction coefficient mu and the analyses wanted at
+every equilibrium state of its quasi-static loading. Systems (system.type):
+  gmsh           your own 2D body from a Gmsh .geo or .msh file (plane stress or strain, P1/P2,
+                 materials per surface) on a rigid line, circle or curve of the file, loaded by a
+                 program of phases (prescribed motions, tractions, forces, gravity)
+  block          the paper's elastic block, pressed and dragged on a rigid flat obstacle
+  matrices       a discrete system given as K and M matrix files with its contact DOF pairs
+  two_particles  the paper's two-particle system (Table 1)
+Analyses:
   necessary      eq. (19): smallest eigenvalues of the symmetric parts of K*(mu), M*(mu)
   sufficient     eqs. (17)-(18): real eigenpairs lambda^2 > 0 with x_Ts >= 0 (SLEPc)
   mceip_mu       eqs. (21)-(23): critical friction coefficients and modes (proven up to mu_cap)
-  mceip_lambda2  eqs. (12)-(14): divergence rates lambda^2 and modes (SNES VI MCP search)
+  mceip_lambda2  eqs. (12)-(14): divergence rates lambda^2 and modes (shown absent or found)
   enumerate      eqs. (24)-(26): exhaustive stick/slip enumeration (exact, small problems)
-Units: mm, N, MPa, tonne, s (so lambda^2 is in 1/s^2).
+Units: mm, N, MPa, tonne, s by default (lambda^2 in 1/s^2), or m, N, Pa, kg, s (units: m-N-Pa-kg-s).
 """
 
 EPILOG = """\
