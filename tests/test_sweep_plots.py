@@ -47,6 +47,12 @@ def test_a_gmsh_body_sweep_has_load_columns_and_plots_in_words(tmp_path, monkeyp
     assert ends[0] != ends[-1], ends                      # the sweep has a case that ended otherwise
     figs = [f for f in kept if f is not None and f._suptitle is not None]
     assert len(figs) == 1
+    # the comparison: one curve per case, each case's smallest MCEIP-mu against its load
+    (compare,) = [f for f in kept if f is not None and f._suptitle is None]
+    ax = compare.axes[0]
+    assert ax.get_xlabel() == "prescribed motion of CD, travelled along the program [mm]"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [c.name for c in cases]
+    assert (out / "plots" / "mceip_mu_along_the_loading.png").is_file()
     fig = figs[0]
     assert "friction coefficient \u03bc" in fig._suptitle.get_text()
     axes = [a for a in fig.axes if a.get_visible()]

@@ -48,7 +48,7 @@ from app.io.result import StudyResult
 from app.io.results import append_line
 from app.scene.schema import Scene, SceneError
 from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.study.sweep.expand)
-from app.study.sweep_table import case_row, error_row, summary_table, write_plots, write_tables
+from app.study.sweep_table import case_row, error_row, summary_table, write_comparison, write_plots, write_tables
 from app.study.taskfarm import run_farm, sleep_until
 from app.systems.units import CONTINUUM_UNITS
 
@@ -272,6 +272,7 @@ def run_sweep(scene: Scene, cases: list[Case], comm, outdir: pathlib.Path, ranks
                                ran_this_time=len(todo))
         write_tables(outdir, scene, cases, dispatcher.rows, dispatcher.info)
         plots = write_plots(outdir, scene.sweep.mode, cases, dispatcher.rows, CONTINUUM_UNITS[scene.units])
+        plots += write_comparison(outdir, scene.name, [(c.name, completed_results(outdir, c)) for c in cases])
         dispatcher.log("end", None, f"{len(todo)} case(s) run in {time.perf_counter() - t0:.1f} s")
         bad = [r for r in dispatcher.rows.values() if r["status"] != "ok"]
         status[0] = 3 if bad or len(dispatcher.rows) < len(cases) else 0

@@ -315,6 +315,52 @@ def write_plots(outdir: pathlib.Path, mode: str, cases: list[Case], rows: dict[i
     return out
 
 
+def write_comparison(outdir: pathlib.Path, scene_name: str, studies: list[tuple[str, StudyResult | None]],
+                     units: dict | None = None) -> list[pathlib.Path]:
+    """``plots/mceip_mu_along_the_loading.png``: each case's smallest MCEIP-\u03bc against its load
+    (the plots' load axis, app/io/select.py), one curve per case, to compare where and how low the
+    critical friction coefficient falls across the sweep; none when no case has an MCEIP-\u03bc
+    value. ``studies``: (case name, its results, None when it has none)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    curves, labels = [], set()
+    for name, study in studies:
+        if study is None or not study.states or "mceip_mu" not in study.analyses_requested:
+            continue
+        x, label, _ = load_axis(study.states, study.units)
+        y = [_min_mu(s) for s in study.states]
+        y = [math.nan if v is None else v for v in y]
+        if any(math.isfinite(v) for v in y):
+            curves.append((name, x, y))
+            labels.add(label)
+    if not curves:
+        return []
+    fig, ax = plt.subplots(figsize=(10, 5))
+    cmap = plt.get_cmap("viridis" if len(curves) > 10 else "tab10")
+    for k, (name, x, y) in enumerate(curves):
+        colour = cmap(k / max(len(curves) - 1, 1)) if len(curves) > 10 else cmap(k % 10)
+        ax.plot(x, y, "-", drawstyle="steps-mid", color=colour, lw=1.4, label=name)
+        lone = [i for i, v in enumerate(y) if math.isfinite(v)
+                and not (i > 0 and math.isfinite(y[i - 1])) and not (i + 1 < len(y) and math.isfinite(y[i + 1]))]
+        ax.plot([x[i] for i in lone], [y[i] for i in lone], "o", color=colour, ms=4)
+    values = [v for _, _, y in curves for v in y if math.isfinite(v) and v > 0]
+    if values and max(values) / min(values) > 10:
+        ax.set_yscale("log")
+    ax.set_xlabel(labels.pop() if len(labels) == 1 else "load (each case's own axis: see its plots)")
+    ax.set_ylabel("critical friction coefficient \u03bc (smallest MCEIP-\u03bc)")
+    ax.grid(alpha=0.3)
+    if len(curves) <= 12:
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, title="case")
+    ax.set_title(f"{scene_name}: the critical \u03bc along the loading, one curve per case")
+    path = outdir / "plots" / "mceip_mu_along_the_loading.png"
+    path.parent.mkdir(exist_ok=True)
+    fig.tight_layout()
+    _save_png(fig, path)
+    plt.close(fig)
+    return [path]
+
+
 def _panel(ax, q: str, series: dict[str, list], key: str, numeric: bool, categories: list[str],
            usual: str | None, odd: dict[str, list[str]]) -> None:
     """One quantity ``q`` against the swept ``key``: a line per series, open markers for the cases
