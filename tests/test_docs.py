@@ -193,3 +193,13 @@ def test_paper_block_example_runs(capsys):
     runpy.run_path(str(ROOT / "examples" / "paper_block.py"), run_name="__main__")
     out = capsys.readouterr().out
     assert "critical mu: 1.7048" in out
+
+
+def test_every_thumbnail_is_shown_and_every_shown_one_exists():
+    """docs/img/ holds the thumbnails of docs/outputs.md (scripts/doc_thumbnails.py): each one is
+    shown there, and each one shown is there."""
+    import re
+    text = (ROOT / "docs" / "outputs.md").read_text()
+    shown = set(re.findall(r"\]\((img/[^)]+\.png)\)", text))
+    present = {f"img/{p.name}" for p in (ROOT / "docs" / "img").glob("*.png")}
+    assert shown and shown == present, (shown ^ present)

@@ -64,3 +64,21 @@ def test_a_gmsh_body_sweep_has_load_columns_and_plots_in_words(tmp_path, monkeyp
     hollow = [ln for a in axes for ln in a.get_lines() if ln.get_markerfacecolor() == "white"]
     assert hollow, "the case whose path ended otherwise has open markers"
     assert any("open markers" in t.get_text() for t in fig.texts)
+
+
+def test_counts_spanning_a_decade_are_drawn_on_a_log_axis(tmp_path):
+    """A count (states, slip nodes) spanning more than a decade goes on a log axis (whole-number
+    ticks only on a linear one: asking a log axis for them failed the whole sweep's plots)."""
+    import matplotlib
+    matplotlib.use("Agg")
+
+    from app.scene.schema import parse_scene
+    from app.scene.sweep import expand
+    from app.study.sweep_table import write_plots
+    scene = parse_scene({"name": "s", "mu": 1.1, "system": {"type": "block", "nx": 4, "ny": 2},
+                         "sweep": {"parameters": {"mu": [0.5, 1.0, 1.5]}}})
+    cases = expand(scene)
+    rows = {c.index: {"status": "ok", "path_end": "gross sliding", "n_states": n, "final_n_slip": s}
+            for c, n, s in zip(cases, (12, 60, 400), (1, 5, 30))}
+    (path,) = write_plots(tmp_path, "product", cases, rows, {"length": "mm"})
+    assert path.stat().st_size > 0

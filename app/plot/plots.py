@@ -263,6 +263,10 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     lone = _isolated(best)
     if lone.any() and len(idx) > 3:
         ax.plot(idx[lone], best[lone], "o", color="C0", ms=4)
+    if len(idx) > 3 and np.isfinite(best[-1]):       # the final state's value, marked and written
+        ax.plot(idx[-1], best[-1], "o", color="C0", ms=5)
+        ax.annotate(f"final {best[-1]:.4g}", (idx[-1], best[-1]), xytext=(-6, 6), textcoords="offset points",
+                    ha="right", va="bottom", fontsize=8, color="C0")
     mu = _num(study.mu)
     if np.isfinite(mu):
         ax.axhline(mu, color="C3", ls="--", lw=1.2, label=f"scene \u03bc = {mu:g}")

@@ -385,8 +385,8 @@ def _panel(ax, q: str, series: dict[str, list], key: str, numeric: bool, categor
             for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
                 axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.tick_params(which="both", labelsize=7)
-    if q.endswith(("_n_slip", "_n_stick", "n_states")):
-        ax.yaxis.get_major_locator().set_params(integer=True)
+    if q.endswith(("_n_slip", "_n_stick", "n_states")) and ax.get_yscale() == "linear":
+        ax.yaxis.get_major_locator().set_params(integer=True)      # a count: whole numbers
     if not numeric:
         ax.set_xticks(range(len(categories)), categories, rotation=30, ha="right")
     ax.grid(alpha=0.3)
