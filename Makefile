@@ -3,7 +3,7 @@ PY := .venv/bin/python
 SCENE ?=
 MPI ?= 1
 
-.PHONY: setup run test bench clean sweep lock docs
+.PHONY: setup run test bench clean sweep lock docs instances
 setup:
 	@bash scripts/setup.sh
 
@@ -26,6 +26,10 @@ docs: setup
 bench: setup
 	@bash scripts/setup_bench.sh
 	@$(PY) benchmarks/run_all.py $(BENCH_ARGS)
+
+# The library of certified MCEIP-mu instances (docs/instances.md) into output/instances/
+instances: setup
+	@$(PY) scripts/instance_library.py -o output/instances
 
 # Parameter sweep as an MPI task farm (app/study/sweep.py): make sweep [SWEEP=file.yaml] [SWEEP_MPI=n]
 SWEEP ?= app/scenes/sweep_aspect_ratio.yaml

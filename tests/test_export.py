@@ -151,3 +151,32 @@ def test_a_results_folder_from_someone_else_is_data(exported, tmp_path):
                          "--scene", str(ROOT / "app/scenes/gmsh/l_shape.yaml"))
     assert other.returncode == 2 and "system.type = 'gmsh', but the results are of a 'block' system" in other.stderr
     assert not (tmp_path / "c").exists()
+
+
+def test_chosen_states_and_pencils_only(exported, tmp_path):
+    """``--states final --states first_mceip_mu --pencils-only``: the two classifications only (the
+    first state of each), their condensed pencils and answers, none of the system-sized matrices;
+    the same pencils as the full export's. A selector naming no state is one line."""
+    res, full, _ = exported
+    out = tmp_path / "few"
+    p = run_cli_here("export", str(res), "--matrices", "-o", str(out), "--states", "final",
+                     "--states", "first_mceip_mu", "--pencils-only")
+    assert p.returncode == 0, p.stderr
+    results = json.loads((res / "results.json").read_text())
+    states = {s["index"]: s for s in results["states"]}
+
+    def first_of(i):
+        return states[i]["analyses_shared_with"] if states[i]["analyses_shared_with"] is not None else i
+    final = first_of(results["states"][-1]["index"])
+    first = first_of(next(s["index"] for s in results["states"] if s["analyses"]["mceip_mu"]["solutions"]))
+    index = json.loads((out / "index.json").read_text())
+    assert sorted(c["state"] for c in index["classifications"]) == sorted({final, first})
+    assert not list(out.glob("*.mtx")) and not list(out.rglob("Kstar.mtx"))
+    for c in index["classifications"]:
+        for name in ("A0", "A1"):
+            a = scipy.io.mmread(out / c["folder"] / f"{name}.mtx")
+            b = scipy.io.mmread(full / c["folder"] / f"{name}.mtx")
+            assert np.array_equal(np.asarray(a), np.asarray(b))
+    p = run_cli_here("export", str(res), "--matrices", "-o", str(tmp_path / "none"), "--states", "100000")
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "--states" in p.stderr, p.stderr
+    assert not (tmp_path / "none").exists()

@@ -140,6 +140,12 @@ def _parser() -> argparse.ArgumentParser:
     exp.add_argument("-o", "--output", help="a new folder (default: RESULTS-export beside the results folder)")
     exp.add_argument("--scene", help="the scene file to build the system from (needed when the scene names "
                                      "files, e.g. a Gmsh body's .geo: a path stored in results.json is never opened)")
+    exp.add_argument("--states", action="append", metavar="SEL",
+                     help="only the classifications of these states (repeatable): a state index, final, "
+                          "first_mceip_mu or all_distinct (default: every distinct classification)")
+    exp.add_argument("--pencils-only", action="store_true",
+                     help="only the condensed MCEIP-mu pencils and their answers: no K, M, K*(mu), M*(mu) "
+                          "(whose size is the system's: a 10^5-DOF study's are large)")
     return p
 
 
@@ -259,7 +265,8 @@ def _export(args) -> int:
         return _fail(f"{folder}: not a folder (give the results folder a run wrote)")
     out = pathlib.Path(args.output) if args.output else folder.parent / f"{folder.resolve().name}-export"
     try:
-        files = export_matrices(folder, out, MPI.COMM_WORLD, pathlib.Path(args.scene) if args.scene else None)
+        files = export_matrices(folder, out, MPI.COMM_WORLD, pathlib.Path(args.scene) if args.scene else None,
+                                states=args.states, pencils_only=args.pencils_only)
     except FileNotFoundError as err:
         return _fail(f"{folder}: {err.strerror or 'not found'}: {err.filename or 'results.json'}")
     except (UntrustedFile, MalformedResults, ExportError) as err:
@@ -269,7 +276,8 @@ def _export(args) -> int:
                      f"{folder}: the scene results.json stores cannot be rebuilt: {err}")
     except OSError as err:
         return _fail(f"{out}: cannot be written: {err.strerror or err}", EXIT_WRITE)
-    print(f"{out}: {len(files)} files (K, M and {sum(f.endswith('answers.json') for f in files)} classifications)")
+    n = sum(f.endswith("answers.json") for f in files)
+    print(f"{out}: {len(files)} files ({'' if args.pencils_only else 'K, M and '}{n} classifications)")
     return 0
 
 

@@ -20,6 +20,10 @@ contact nodes and DOFs. Then, in a new folder:
     (solutions, the proven onset and list, the certificate), the state's classification and mu;
 - ``index.json``: the scene, the units, mu and the classifications exported.
 
+``--states SEL`` exports only the classifications of the chosen states (the selectors of
+``outputs.states``) and ``--pencils-only`` only their condensed pencils and answers (no
+system-sized matrix): scripts/instance_library.py builds the library of docs/instances.md so.
+
 ``app.mceip_mu(A0, A1, cap)`` on the exported pencil re-proves the stored answers
 (tests/test_export.py). The folder is written under a temporary name and renamed at the end:
 nothing half-written is left, and an existing folder is never replaced. One process only.
@@ -53,10 +57,14 @@ class ExportError(Exception):
     """A results folder that cannot be exported (one line)."""
 
 
-def export_matrices(results: pathlib.Path, out: pathlib.Path, comm, scene_file: pathlib.Path | None = None) -> list[str]:
+def export_matrices(results: pathlib.Path, out: pathlib.Path, comm, scene_file: pathlib.Path | None = None,
+                    states: list[str] | None = None, pencils_only: bool = False) -> list[str]:
     """Write the matrices of the results folder ``results`` into the new folder ``out`` (see the
     module's docstring); ``scene_file``: the scene to build the system from instead of the stored
-    one. Returns the files written, relative to ``out``."""
+    one; ``states``: only the classifications of the states these selectors choose (those of
+    ``outputs.states``: an index, ``final``, ``first_mceip_mu``, ``all_distinct``); ``pencils_only``:
+    only the condensed pencils and answers (no K, M, K*, M*). Returns the files written, relative
+    to ``out``."""
     if comm.size != 1:
         raise ExportError("export runs on one process (without mpirun)")
     if os.path.lexists(out):
@@ -69,10 +77,11 @@ def export_matrices(results: pathlib.Path, out: pathlib.Path, comm, scene_file: 
         stored, given = (study.scene_config.get("system") or {}).get("type"), SYSTEM_TYPES[scene.system.type].name
         if given != stored:
             raise ExportError(f"{scene_file}: system.type = {given!r}, but the results are of a {stored!r} system")
+    firsts = _chosen(study, states)
     staging = out.parent / f".{out.name}.partial-{os.getpid()}"
     staging.mkdir(parents=False)
     try:
-        files = _write(study, scene, staging, comm)
+        files = _write(study, scene, staging, comm, firsts, pencils_only)
         os.rename(staging, out)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
@@ -80,7 +89,29 @@ def export_matrices(results: pathlib.Path, out: pathlib.Path, comm, scene_file: 
     return files
 
 
-def _write(study: StudyResult, scene, folder: pathlib.Path, comm) -> list[str]:
+def _chosen(study: StudyResult, selectors: list[str] | None) -> set[int] | None:
+    """The first states of the classifications the selectors choose (None: all of them)."""
+    if not selectors:
+        return None
+    from pydantic import ValidationError
+
+    from app.io.select import analyses_of, select_states
+    from app.scene.sections import Outputs
+    sel = [int(x) if x.strip().lstrip("-").isdigit() else x.strip() for x in selectors]
+    try:
+        sel = Outputs.model_validate({"states": sel}).states
+    except ValidationError as err:
+        first = err.errors()[0]
+        raise ExportError(f"--states {first.get('input')!r}: {first.get('msg')} (a state index, final, "
+                          "first_mceip_mu or all_distinct)") from None
+    found, notes = select_states(study.states, sel)
+    if notes:
+        raise ExportError(notes[0].replace("outputs.states", "--states"))
+    return {analyses_of(study.states, i)[1] for i in found}
+
+
+def _write(study: StudyResult, scene, folder: pathlib.Path, comm, firsts: set[int] | None = None,
+           pencils_only: bool = False) -> list[str]:
     files: list[str] = []
     kind = SYSTEM_TYPES[scene.system.type]
     with kind.build(scene.system, comm, Stages()) as system:
@@ -88,15 +119,16 @@ def _write(study: StudyResult, scene, folder: pathlib.Path, comm) -> list[str]:
         if len(system.nodes) != nodes:
             raise ExportError(f"the scene's system has {len(system.nodes)} contact nodes, the results' {nodes}: "
                               "not the system of these results")
-        _mtx(folder / "K.mtx", _sparse(system.K), "the stiffness matrix K", files, folder)
-        try:
-            M = system.mass()
-        except RuntimeError:             # a system given as matrices without M
-            M = None
-        if M is not None:
-            _mtx(folder / "M.mtx", _sparse(M), "the mass matrix M", files, folder)
-        exported = [_classification(study, st, system, folder, files) for st in study.states
-                    if st.analyses_shared_with is None]
+        if not pencils_only:
+            _mtx(folder / "K.mtx", _sparse(system.K), "the stiffness matrix K", files, folder)
+            try:
+                M = system.mass()
+            except RuntimeError:             # a system given as matrices without M
+                M = None
+            if M is not None:
+                _mtx(folder / "M.mtx", _sparse(M), "the mass matrix M", files, folder)
+        exported = [_classification(study, st, system, folder, files, pencils_only) for st in study.states
+                    if st.analyses_shared_with is None and (firsts is None or st.index in firsts)]
         dofs = int(system.n_dofs)
     (folder / "index.json").write_text(json.dumps(json_clean({
         "scene": study.scene, "units": study.units.to_dict(), "mu": study.mu, "system": study.system,
@@ -105,7 +137,8 @@ def _write(study: StudyResult, scene, folder: pathlib.Path, comm) -> list[str]:
     return files
 
 
-def _classification(study: StudyResult, st: StateResult, system, folder: pathlib.Path, files: list[str]) -> dict:
+def _classification(study: StudyResult, st: StateResult, system, folder: pathlib.Path, files: list[str],
+                    pencils_only: bool = False) -> dict:
     """The files of one distinct classification (first state ``st``); its line of index.json."""
     cls = attach_curvature(Classification(tuple(n.status for n in st.nodes), tuple(int(n.sign) for n in st.nodes)),
                            _state(st), system)
@@ -113,9 +146,10 @@ def _classification(study: StudyResult, st: StateResult, system, folder: pathlib
     sub.mkdir()
     p = StatePencils(system, cls)
     try:
-        Ks, Ms = p.star(study.mu)
-        _mtx(sub / "Kstar.mtx", _sparse(Ks), f"K*(mu) of eq. (15) at mu = {study.mu}", files, folder)
-        _mtx(sub / "Mstar.mtx", _sparse(Ms), f"M*(mu) of eq. (15) at mu = {study.mu}", files, folder)
+        if not pencils_only:
+            Ks, Ms = p.star(study.mu)
+            _mtx(sub / "Kstar.mtx", _sparse(Ks), f"K*(mu) of eq. (15) at mu = {study.mu}", files, folder)
+            _mtx(sub / "Mstar.mtx", _sparse(Ms), f"M*(mu) of eq. (15) at mu = {study.mu}", files, folder)
         s = len(cls.slip)
         if s:
             pencil = p.condensed_mu_quadratic() if is_curved(cls) else p.condensed_mu()
