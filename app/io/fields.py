@@ -22,11 +22,14 @@ system's DOFs, i.e. in the node frames (T, N) at contact nodes, and are rotated 
 Everything is gathered on rank 0 in a canonical node and cell order (sorted by coordinates), so
 the files do not depend on the number of MPI ranks, and rank 0 writes:
 
-* ``paraview/states.xdmf`` (+ ``states.h5``, and ``states.1.h5`` ... past 64 MiB of data): one mesh, time = state index, fields ``displacement``
+* ``paraview/states.xdmf`` (+ ``states.h5``, and ``states.1.h5`` ... past 64 MiB of data): one mesh,
+  time = the load (app/io/select.py ``load_axis``: the plots' x-axis), fields ``displacement``
   [length], ``von_mises`` [stress, cell data], ``contact_status`` (-1 not a contact node, 0 free,
   1 zero, 2 stick, 3 slip), ``reaction`` (nodal contact force on the body, global x/y) [force],
   ``slip_direction`` (unit vector of impending slip along the node's tangent, global x/y; 0 elsewhere);
 * ``paraview/modes.vtu``: one point field per mode, named ``s<state>_<problem>_<k>_<value>``;
+  with ``screenshots.animate``, ``paraview/mode_<name>.xdmf`` for each mode of a pictured state:
+  the mode growing in time as the GIF shows it (:func:`_mode_series`);
 * ``fields/fields.npz``: the mesh, the contact nodes and their frames, the obstacle line, the
   pictured states' fields and their modes, for the screenshots and ``python -m app render``.
 
@@ -245,6 +248,8 @@ def _compute_fields(scene, system, out_states: Sequence[StateResult], stages, pr
                                          point_data={n: _pad3(v) for n, v in modes.items()}))
                 record["files"] += (["paraview/states.xdmf"] + [f"paraview/{p.name}" for p in series.parts]
                                     + ["paraview/modes.vtu"])
+                if shots is not None and shots.animate:
+                    record["files"] += _mode_series(paraview_dir, g, modes, meta, pictured, out_states, kept_u)
             if shots is not None:
                 _write_screenshot_data(outdir / "fields", maker, contact, kept_u, kept_vm, modes, meta)
                 record["files"].append("fields/fields.npz")
@@ -286,6 +291,36 @@ def _state_fields(maker: "_FieldMaker", entries: list[StateResult], pictured, co
     if series is not None:
         series.__exit__(None, None, None)
     return kept_u, kept_vm, worst
+
+
+def _mode_series(paraview_dir: pathlib.Path, g, modes: dict, meta: list[dict], pictured: list[int],
+                 out_states: Sequence[StateResult], kept_u: dict) -> list[str]:
+    """``paraview/mode_<name>.xdmf`` for each mode of a pictured state (those the screenshots
+    animate): the mode growing as the divergence it predicts, the frames of the GIF
+    (:func:`app.io.select.mode_growth`), time = ``t`` in the time unit where ``lambda^2 > 0`` and
+    the amplitude's fraction for MCEIP-mu's static mode; point fields ``state_displacement`` (the
+    state's, constant) and ``mode`` (``a(t) v``, largest 1 at the last frame): warp by
+    ``state_displacement + scale * mode`` (rank 0). Returns the files, relative to the folder."""
+    from app.io.select import mode_growth
+    files = []
+    for i in pictured:
+        first = analyses_of(out_states, i)[1]
+        u0 = _pad3(kept_u[i])
+        for m in (m for m in meta if m["state"] == first):
+            v = _pad3(modes[m["name"]])
+            series = XdmfSeries(paraview_dir / f"mode_{m['name']}.xdmf")
+            writer = series.__enter__()
+            try:
+                writer.write_points_cells(g.points, [(g.cell_type, g.cells)])
+                for t, a in mode_growth(m["problem"], m["value"]):
+                    writer.write_data(float(a if t is None else t), point_data={"state_displacement": u0,
+                                                                                "mode": a * v})
+            except BaseException as err:
+                series.__exit__(type(err), err, err.__traceback__)
+                raise
+            series.__exit__(None, None, None)
+            files += [f"paraview/mode_{m['name']}.xdmf"] + [f"paraview/{p.name}" for p in series.parts]
+    return files
 
 
 def _mode_fields(maker: "_FieldMaker", entries: list[StateResult]) -> tuple[dict, list[dict]]:

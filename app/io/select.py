@@ -159,3 +159,28 @@ def load_axis(states: Sequence[StateResult], units) -> tuple[np.ndarray, str, bo
     if program is not None:
         return program[0], program[1], True
     return np.array([s.index for s in states], dtype=float), "load step (state index)", False
+
+
+#: frames of a mode's animation (GIF and ParaView series), and the amplitude its growth starts from
+#: (a fraction of the largest one)
+FRAMES = 16
+START = 0.05
+
+
+def mode_growth(problem: str, value: float) -> list[tuple[float | None, float]]:
+    """The frames of a mode growing as the divergence it predicts, ``u0 + a(t) v``: ``(t, a)`` with
+    ``a(t) = a0 exp(lambda t)`` for a mode with ``lambda^2 = value > 0`` (MCEIP-lambda^2, the
+    sufficient condition; the paper's eq. (8)), from :data:`START` of the largest amplitude to all
+    of it over ``t = ln(1 / START) / lambda`` (``t`` in the time unit); for MCEIP-mu's static mode
+    (``lambda = 0``, the transition) ``t`` is None and ``a`` grows linearly."""
+    lam2 = float(value) if problem != "mceip_mu" else 0.0
+    lam = float(np.sqrt(lam2)) if lam2 > 0 else 0.0
+    out: list[tuple[float | None, float]] = []
+    for k in range(FRAMES):
+        f = k / (FRAMES - 1)
+        if lam > 0:
+            t = f * float(np.log(1.0 / START)) / lam
+            out.append((t, START * float(np.exp(lam * t))))
+        else:
+            out.append((None, max(f, START)))
+    return out

@@ -147,11 +147,6 @@ def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathl
     return finish(pl, fd, pts, title, legend, path, res, extent=fd.points + full * v)
 
 
-#: frames of a mode animation, and the amplitude its exponential growth starts from (of the drawn one)
-FRAMES = 16
-START = 0.05
-
-
 def mode_animation(fd: FieldData, meta: dict, state: StateResult, res, path: pathlib.Path, scene: str,
                    units: Units | None = None) -> pathlib.Path:
     """An animated GIF of the mode ``meta`` growing, as the divergence it predicts: ``u0 + a(t) v``
@@ -162,19 +157,18 @@ def mode_animation(fd: FieldData, meta: dict, state: StateResult, res, path: pat
     import tempfile
 
     from PIL import Image
+
+    from app.io.select import mode_growth
     lam2 = float(meta["value"]) if meta["problem"] != "mceip_mu" else 0.0
     lam = float(np.sqrt(lam2)) if lam2 > 0 else 0.0
     time_unit = "s" if units is None or not units.time else units.time
     frames = []
     with tempfile.TemporaryDirectory() as tmp:
-        for k in range(FRAMES):
-            f = k / (FRAMES - 1)
-            if lam > 0:
-                t = f * np.log(1.0 / START) / lam
-                grow = START * np.exp(lam * t)
+        for k, (t, grow) in enumerate(mode_growth(meta["problem"], meta["value"])):
+            if t is not None:
                 when = f"growing as a0 exp(lambda t), lambda = {lam:.4g} 1/{time_unit}: t = {1e3 * t:.3g} m{time_unit}"
             else:
-                grow, when = max(f, START), "static mode (lambda = 0): the amplitude drawn growing linearly"
+                when = "static mode (lambda = 0): the amplitude drawn growing linearly"
             frame = mode_picture(fd, meta, state, res, pathlib.Path(tmp) / f"{k:03d}.png", scene, units, grow, when)
             with Image.open(frame) as im:
                 frames.append(im.convert("P", palette=Image.ADAPTIVE, colors=255))
