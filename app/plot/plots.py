@@ -100,6 +100,11 @@ def _isolated(y: np.ndarray) -> np.ndarray:
     return f & ~prev & ~nxt
 
 
+def _along(study: StudyResult) -> str:
+    """"along the loading", or "at its only state" for a study of one state (two particles, matrices)."""
+    return "at its only state" if len(study.states) == 1 else "along the loading"
+
+
 def _title(study: StudyResult, what: str) -> str:
     return f"{study.scene}: {what}"
 
@@ -185,7 +190,7 @@ def status_map(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     present = sorted({s for row in codes for s in row})
     ax.legend(handles=[Patch(color=STATUS_COLOURS[STATUS_ORDER[k]], label=STATUS_ORDER[k]) for k in present],
               loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    ax.set_title(_title(study, f"contact status of the {n} contact nodes along the loading"), pad=TITLE_PAD)
+    ax.set_title(_title(study, f"contact status of the {n} contact nodes {_along(study)}"), pad=TITLE_PAD)
     return _save(fig, outdir / "status_map")
 
 
@@ -201,6 +206,10 @@ def reactions(study: StudyResult, pictured: list[int], outdir: pathlib.Path) -> 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     many = len(ids) > 8
     cmap = plt.get_cmap("viridis")
+    # each pictured state's load, where the loading has one (the plots' x-axis, its unit)
+    x_load, load_label, is_load = load_axis(study.states, study.units)
+    load_of = dict(zip((s.index for s in study.states), x_load)) if is_load else {}
+    load_unit = load_label.rsplit("[", 1)[-1].rstrip("]") if is_load and "[" in load_label else ""
     for k, i in enumerate(ids):
         s = by_index[i]
         x = np.array([nd.x for nd in s.nodes])
@@ -208,7 +217,8 @@ def reactions(study: StudyResult, pictured: list[int], outdir: pathlib.Path) -> 
         rt = np.array([nd.r_T for nd in s.nodes])
         c = cmap(k / max(len(ids) - 1, 1)) if many else f"C{k % 10}"
         cl = s.classification
-        label = None if many else f"state {i} ({cl.stick} stick / {cl.slip} slip / {cl.free} free)"
+        at = f" at load {load_of[i]:.3g} {load_unit}" if i in load_of else ""
+        label = None if many else f"state {i}{at} ({cl.stick} stick / {cl.slip} slip / {cl.free} free)"
         a1.plot(x, rn, "-o", color=c, ms=3.5, lw=1.2, label=label)
         a2.plot(x, rt, "-o", color=c, ms=3.5, lw=1.2)
         if np.isfinite(mu):
@@ -289,7 +299,7 @@ def mceip_mu(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     if not np.isfinite(best).any():
         ax.text(0.5, 0.5, "no MCEIP-\u03bc solution at any state", transform=ax.transAxes, ha="center", color="0.3")
     ax.grid(alpha=0.3)
-    ax.set_title(_title(study, "MCEIP-\u03bc (transition to divergence) along the loading"), pad=TITLE_PAD)
+    ax.set_title(_title(study, f"MCEIP-\u03bc (transition to divergence) {_along(study)}"), pad=TITLE_PAD)
     return _save(fig, outdir / "mceip_mu")
 
 
