@@ -135,13 +135,16 @@ class FrictionalContact:
             snes.solve(None, X)
             return X.getArray().copy(), snes.getConvergedReason(), snes.getIterationNumber()
 
-    def violation(self, z: np.ndarray, scale: float) -> float:
-        """Largest violation of g >= 0, p >= 0, g p = 0, |r_T| <= mu p and of the slip rule."""
+    def violation(self, z: np.ndarray, scale: float, u_scale: float = 0.0) -> float:
+        """Largest violation of g >= 0, p >= 0, g p = 0, |r_T| <= mu p and of the slip rule. A
+        slip increment counts as sliding above 1e-12 of the largest one and above 1e-13 of the
+        contact displacements' scale ``u_scale`` (below that it is the rounding of the
+        displacements themselves: the tiny increments of a perturbed state's dynamics)."""
         n, mu = self.n, self.mu
         r = self._reactions(z)
         rT, p = r[0::2], -r[1::2]
         g, d = z[:n], z[n:]
-        dscale = max(float(np.max(np.abs(d), initial=0.0)), 1e-300)
+        dscale = max(float(np.max(np.abs(d), initial=0.0)), 1e-300, 10.0 * u_scale)
         v = [-np.min(g) / max(np.max(np.abs(g)), 1e-300) if np.min(g) < 0 else 0.0,
              -np.min(p) / scale, np.max(np.abs(g * p)) / (scale * max(np.max(np.abs(g)), 1e-300)),
              np.max(np.abs(rT) - mu * p) / scale,
@@ -169,11 +172,12 @@ class FrictionalContact:
         u_fixed[0::2] = u_T_prev
         self.base = self.Kc @ (u_fixed - u0)
         scale = max(float(np.max(np.abs(self.base))), 1e-300)
+        u_scale = max(float(np.max(np.abs(u0), initial=0.0)), float(np.max(np.abs(u_T_prev), initial=0.0)))
         z0 = np.concatenate([g_prev, np.zeros(n) if d_prev is None else d_prev])
         best = None
         for method, linesearch in ATTEMPTS:
             z, reason, its = self._snes(method, z0, 1e-14 * scale, linesearch)
-            viol = self.violation(z, scale) if np.all(np.isfinite(z)) else np.inf
+            viol = self.violation(z, scale, u_scale) if np.all(np.isfinite(z)) else np.inf
             if best is None or viol < best[1]:
                 best = (z, viol, its, method if linesearch == "bt" else f"{method} ({linesearch} line search)")
             if viol <= 1e-9:
