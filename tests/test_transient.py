@@ -116,3 +116,39 @@ def test_the_block_held_above_its_onset_diverges_at_the_predicted_rate():
     E = below.extra["energy"]
     assert E.max() <= 1.5 * E[0] and np.abs(below.amplitude).max() < 5 * 1e-7
     assert np.bincount(below.status[-1], minlength=3)[2] == 0                  # no node slides at the end
+
+
+def test_a_scene_asks_for_the_dynamics_and_results_json_holds_them(tmp_path):
+    """``transient:`` in a scene: results.json's ``transient`` records (strictly valid), one line in
+    the summary, a plot whose axes name their quantities; without MCEIP-lambda^2 the scene is
+    refused in one line."""
+    import json
+
+    import yaml
+    from conftest import run_cli_here
+
+    from app.io.result import validate
+    scene = {"name": "dyn", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": ["mceip_lambda2"],
+             "system": {"type": "block", "nx": 8, "ny": 4},
+             "loading": {"normal_steps": 4, "tangential_step": 0.5, "tangential_max": 20.0},
+             "transient": {"states": ["final"], "mu": 2.0, "steps": [0.04, 0.02]}, "outputs": {"plots": True}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(scene))
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"))
+    assert p.returncode == 0, p.stderr
+    text = (tmp_path / "out" / "results.json").read_text()
+    validate(text)
+    (rec,) = json.loads(text)["transient"]
+    final = json.loads(text)["states"][-1]
+    assert rec["state"] == final["index"] and rec["mu"] == 2.0
+    sols = final["analyses"]["mceip_lambda2"]["solutions"]
+    assert sols                  # a divergence mode at mu = 2 (gross sliding, onset below 2): its rate measured
+    assert rec["predicted_rate"] == pytest.approx(math.sqrt(max(s["value"] for s in sols)), rel=1e-12)
+    errs = [r["relative_error"] for r in rec["runs"]]
+    assert errs[-1] < 0.03 and 1.6 < errs[0] / errs[1] < 2.4
+    assert f"dynamics from state {rec['state']} at mu = 2: the divergence mode grows at" in p.stdout
+    assert all(r["total_energy_rise"] <= 1e-9 * abs(r["total_energy_change"]) + 1e-300 for r in rec["runs"])
+    assert (tmp_path / "out" / "plots" / f"transient_s{rec['state']:04d}.png").is_file()
+    bad = {**scene, "analyses": ["mceip_mu"]}
+    (tmp_path / "b.yaml").write_text(yaml.safe_dump(bad))
+    p = run_cli_here("validate", str(tmp_path / "b.yaml"))
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "mceip_lambda2" in p.stderr, p.stderr

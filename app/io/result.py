@@ -478,6 +478,48 @@ class OutputsRecord(Record):
     fields_not_applicable: Optional[str] = Field(None, description="why the system has no fields (no mesh)")
 
 
+class TransientRun(Record):
+    """One run of the dt study of a :class:`TransientRecord`."""
+
+    dt: Number = Field(description="time step [time]")
+    steps: int
+    measured_rate: Number = Field(None, description="fitted growth rate of the mode's amplitude [1/time] "
+                                                    "(null: it does not grow)")
+    relative_error: Number = Field(None, description="|measured / predicted - 1| (null without a prediction)")
+    energy_max_ratio: Number = Field(None, description="largest kinetic + elastic energy of the deviation / "
+                                                       "its start")
+    amplitude_max_ratio: Number = Field(None, description="largest |amplitude| / eps over the run")
+    total_energy_change: Number = Field(None, description="the total mechanical energy at the end minus at the "
+                                                          "start (kinetic + elastic + the held loads' work) "
+                                                          "[force x length]: <= 0, friction and impacts dissipate")
+    total_energy_rise: Number = Field(None, description="its largest rise above the start (0 up to rounding: the "
+                                                        "scheme adds no energy)")
+    final_status: dict[str, int] = Field(description="contact nodes free, stick, slip at the end of the run")
+    status_changes: int = Field(description="steps at which some node changed its status")
+    violation: Number = Field(description="largest violation of the contact laws over the steps (relative)")
+    series: dict[str, list[Number]] = Field(description="t [time] and the mode's amplitude [length], subsampled")
+
+
+class TransientRecord(Record):
+    """The dynamics from one state (the scene's ``transient`` section, docs/validation.md)."""
+
+    state: int
+    mu: Number = Field(description="the friction coefficient of the dynamics")
+    eps: Number = Field(description="the start's largest displacement [length]")
+    predicted_rate: Number = Field(None, description="sqrt(lambda^2) of MCEIP-lambda^2's largest solution at mu "
+                                                     "[1/time]; null: no divergence mode there")
+    lambda2: Number = Field(None, description="that lambda^2 [1/time^2]")
+    measured_rate: Number = Field(None, description="the finest run's fitted growth rate [1/time]")
+    observed_order: Number = Field(None, description="of the rate's error, from the two finest runs")
+    mode_singular: Number = Field(None, description="the mode's smallest singular value (relative): near 0 "
+                                                    "when lambda^2 and the slip pattern fit")
+    start: Optional[str] = None
+    t_end: Number = Field(None, description="run length [time]")
+    lowest_frequency: Number = Field(None, description="without a mode: the lowest circular frequency [1/time]")
+    runs: Annotated[tuple[TransientRun, ...], AsList] = ()
+    skipped: Optional[str] = Field(None, description="why this state was not run")
+
+
 class StudyResult(Record):
     """A whole study (results.json, format 3, docs/outputs.md): the loading path's states and
     their analyses, with the run's evidence.
@@ -508,6 +550,8 @@ class StudyResult(Record):
     library_warnings: Optional[list[Any]] = Field(None, description="warnings of libraries, each kind once")
     sweep_case: Optional[dict[str, Any]] = Field(None, description="a case of a sweep: its name, values and hash")
     inspection: Optional[dict[str, Any]] = Field(None, description="a refinement level's own measurements")
+    transient: Optional[Annotated[tuple[TransientRecord, ...], AsList]] = Field(
+        None, description="the dynamics from the scene's transient states (docs/validation.md)")
     non_finite: Optional[NonFinite] = Field(None, exclude=True, description=(
         "the numbers written as null because they are not finite (written by to_json, not kept)"))
     states: Annotated[tuple[StateResult, ...], AsList]

@@ -70,6 +70,9 @@ def summary(study: StudyResult, outdir: pathlib.Path) -> str:
     if last.mceip_lambda2 is not None:
         m = last.mceip_lambda2
         lines.append(f"    MCEIP-lambda^2 at mu = {m.mu}: {_patterns(m)} [{proof_word(m, last.classification.slip)}]")
+    time_unit = study.units.time or "s"
+    for tr in study.transient or ():
+        lines.append("  " + transient_line(tr, time_unit))
     for w in study.warnings:
         lines.append(f"  WARNING: {w}")
     if study.failures:
@@ -89,3 +92,26 @@ def summary(study: StudyResult, outdir: pathlib.Path) -> str:
     for note in [] if study.outputs is None else study.outputs.notes:
         lines.append(f"  note: {note}")
     return "\n".join(lines)
+
+
+def transient_line(tr, time_unit: str = "s") -> str:
+    """One line for the dynamics from a state (results.json ``transient``)."""
+    head = f"dynamics from state {tr.state} at mu = {tr.mu:g}: "
+    if tr.skipped:
+        return head + f"not run ({tr.skipped})"
+    last = tr.runs[-1] if tr.runs else None
+    if tr.predicted_rate is not None:
+        measured = "no growth" if tr.measured_rate is None else f"{tr.measured_rate:.6g} 1/{time_unit}"
+        err = "" if last is None or last.relative_error is None else f" ({100 * last.relative_error:.2g} % off"
+        order = "" if tr.observed_order is None else f", observed order {tr.observed_order:.2f}"
+        return (head + f"the divergence mode grows at {measured}, predicted lambda = "
+                f"{tr.predicted_rate:.6g} 1/{time_unit}{err}{order}{')' if err else ''} at dt = {last.dt:.3g} "
+                f"{time_unit}; {last.status_changes} status change(s)")
+    if last is None:
+        return head + "no divergence mode (MCEIP-lambda^2: none at this mu)"
+    fs = last.final_status
+    return (head + f"no divergence mode (MCEIP-lambda^2: none at this mu); from a push of the slip nodes over "
+            f"{tr.t_end:.3g} {time_unit}: amplitude at most {last.amplitude_max_ratio:.3g} x the start, at the end "
+            f"{fs.get('free', 0)} free / {fs.get('stick', 0)} stick / {fs.get('slip', 0)} slip, total energy "
+            f"change {last.total_energy_change:.3g} (never above its start by more than "
+            f"{last.total_energy_rise:.2g})")

@@ -341,6 +341,33 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     return _save(fig, outdir / "necessary")
 
 
+def transient(study: StudyResult, record, outdir: pathlib.Path) -> list[pathlib.Path]:
+    """The dynamics from one state (results.json ``transient``): the mode's amplitude over its start,
+    ``|a(t)| / eps``, on a log axis for each step of the dt study, with ``exp(lambda t)`` of the
+    prediction dashed; ``transient_s<state>.png`` and ``.svg`` in ``outdir``."""
+    plt = _plt()
+    time_unit = study.units.time or "s"
+    fig, ax = plt.subplots(figsize=(9, 4.6))
+    for k, run in enumerate(record.runs):
+        t = np.asarray(run.series["t"], dtype=float)
+        a = np.abs(np.asarray(run.series["amplitude"], dtype=float)) / float(record.eps)
+        rate = "" if run.measured_rate is None else f", fitted {run.measured_rate:.5g} 1/{time_unit}"
+        ax.semilogy(t, np.maximum(a, 1e-300), "-", color=f"C{k}", lw=1.4,
+                    label=f"dt = {run.dt:.3g} {time_unit}{rate}")
+    if record.predicted_rate is not None and record.runs:
+        t = np.asarray(record.runs[-1].series["t"], dtype=float)
+        ax.semilogy(t, np.exp(float(record.predicted_rate) * t), "k--", lw=1.0,
+                    label=f"exp(\u03bb t), \u03bb = {float(record.predicted_rate):.5g} 1/{time_unit} (MCEIP-\u03bb\u00b2)")
+    ax.set_xlabel(f"time t [{time_unit}]")
+    ax.set_ylabel("mode amplitude |a(t)| / its start")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    what = ("the divergence mode" if record.predicted_rate is not None
+            else "a push of the slip nodes (no divergence mode at this \u03bc)")
+    ax.set_title(_title(study, f"dynamics from state {record.state} at \u03bc = {float(record.mu):g}: {what}"))
+    return _save(fig, outdir / f"transient_s{record.state:04d}")
+
+
 def draw_plots(study: StudyResult, pictured: list[int],
                outdir: pathlib.Path) -> tuple[list[pathlib.Path], list[str]]:
     """Every plot the study allows and the scene asked for; returns (files, notes for the report)."""
@@ -352,6 +379,9 @@ def draw_plots(study: StudyResult, pictured: list[int],
         files += mceip_mu(study, outdir)   # (no warning otherwise: that was the user's choice)
     if "necessary" in asked:
         files += necessary(study, outdir)
+    for record in study.transient or ():
+        if record.runs:
+            files += transient(study, record, outdir)
     return files, notes
 
 

@@ -26,6 +26,7 @@ from app.scene.sections import (  # noqa: F401 - re-exported: app.scene.schema i
     Settings,
     StateCounts,
     Sweep,
+    Transient,
     annotation_types,
 )
 from app.systems import SYSTEM_TYPES
@@ -81,6 +82,7 @@ class Scene(Strict):
     sweep: Optional[Sweep] = None   # a batch of cases (app/study/sweep.py); None: one study
     outputs: Outputs = Outputs()    # files and pictures (app/io/, app/plot/); all off by default
     refinement: Optional[Refinement] = None   # a mesh-refinement study (app/study/refinement.py)
+    transient: Optional[Transient] = None     # nonsmooth dynamics from chosen states (app/analyses/transient/)
 
     @field_validator("name")
     @classmethod
@@ -117,6 +119,13 @@ class Scene(Strict):
     def _sweep_keys_exist(self) -> "Scene":
         if self.sweep is not None:
             _check_sweep_keys(self)
+        return self
+
+    @model_validator(mode="after")
+    def _transient_needs_lambda2(self) -> "Scene":
+        if self.transient is not None and "mceip_lambda2" not in self.analyses:
+            raise PathError("transient", self.transient.model_dump(), "needs 'mceip_lambda2' in analyses (its "
+                            "divergence modes start the dynamics and predict their growth)")
         return self
 
     @model_validator(mode="after")

@@ -306,6 +306,27 @@ def annotation_types(tp: Any) -> list:
     return [tp] if not args else [t for a in args for t in annotation_types(a)]
 
 
+class Transient(Strict):
+    """Nonsmooth dynamics from chosen states (app/analyses/transient/, docs/validation.md): does the
+    divergence MCEIP-lambda^2 predicts happen? Each state, its applied loads held, is started on
+    its divergence mode at the friction coefficient ``mu`` (default: MCEIP-lambda^2's) and
+    integrated with the contact laws solved exactly at every step; with ``mu`` other than the
+    scene's, the state is held on that mu's Coulomb cone (its slip nodes' ``r_T = S mu |r_N|``)."""
+
+    states: list[Union[Annotated[int, Field(ge=0, strict=True)], Literal["final", "first_mceip_mu"]]] = Field(
+        ["final"], min_length=1, max_length=10, description="the states started from (as outputs.states)")
+    mu: Optional[NonNegFloat] = Field(None, description="friction coefficient of the dynamics (default: "
+                                      "mceip_lambda2_mu, else mu)")
+    eps: PosFloat = Field(1e-7, description="the start's largest displacement [length]: small enough that "
+                          "the statuses hold while the mode grows 'growth' times")
+    growth: Annotated[float, Field(gt=1.0, le=1e8)] = Field(1000.0, description="how many times the mode grows "
+                                                           "over a run (its length: ln(growth) / lambda)")
+    steps: Annotated[list[Annotated[float, Field(gt=0.0, le=1.0)]], Field(min_length=1, max_length=6)] = Field(
+        [0.04, 0.02, 0.01], description="time steps, as fractions of 1 / lambda (the dt study, coarse to fine)")
+    t_end: Optional[PosFloat] = Field(None, description="run length [time] at a state with no divergence mode "
+                                      "(default: that of the other states, else 20 periods of the lowest mode)")
+
+
 class Refinement(Strict):
     """A mesh-refinement study (app/study/refinement.py): the scene at every mesh level, every degree
     and every plane model. The block's levels are ``levels`` (nx cells along AB, ny = nx * height /

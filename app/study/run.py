@@ -214,6 +214,11 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
             "certify_seconds, certify_seconds_large, certify_all_seconds): those statuses depend on the machine's "
             "speed; the budgets themselves count proof-tree nodes")
     typed = _typed_states(out_states, per_state.typed_nodes, outcomes)
+    transient = None
+    if scene.transient is not None:        # the dynamics from chosen states (app/analyses/transient/)
+        from app.analyses.transient.study import run_transients
+        with stages("transient (nonsmooth dynamics)"):
+            transient = run_transients(scene, system, typed, comm)          # MPI collective
     outputs_record = None
     from app.io.fields import wants_fields
     if wants_fields(scene):   # only when the scene asks for ParaView files or screenshots
@@ -226,7 +231,8 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
         "distinct_classifications": len(per_state.cache), "stages": stages.as_list(), "failures": failures,
         "warnings": stages.warnings, "mpi_ranks": comm.size, "wall_seconds": time.perf_counter() - t_start,
         "scene_config": scene.model_dump(mode="json", exclude_none=True),
-        **({"outputs": outputs_record} if outputs_record is not None else {}), "states": typed})
+        **({"outputs": outputs_record} if outputs_record is not None else {}),
+        **({"transient": transient} if transient is not None else {}), "states": typed})
 
 
 def stopped_by_time(out_states: list[dict]) -> list[int]:

@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from app.analyses.transient.mode import contact_operator
 from app.loading.contact import FrictionalContact
@@ -44,7 +45,9 @@ class Transient:
     ``fit_fraction`` of the run (None when the amplitude does not grow), the ``predicted_rate``
     ``sqrt(lambda^2)`` (None without a divergence mode), the step ``dt``, the largest relative
     violation of the contact laws over the steps; ``extra["energy"]``: the deviation's kinetic
-    plus elastic energy ``(U'^T M U' + U^T K U) / 2`` at every step."""
+    plus elastic energy ``(U'^T M U' + U^T K U) / 2`` at every step; ``extra["total_energy"]``:
+    that plus the work the held loads did, ``+ r0^T B U`` (the total mechanical energy's change:
+    the contact laws make it non-increasing, friction and impacts dissipate)."""
 
     t: np.ndarray
     amplitude: np.ndarray
@@ -78,7 +81,8 @@ def simulate(K: np.ndarray, M: np.ndarray, nodes, state_u_T: np.ndarray, state_u
     B = contact_operator(nodes, n)
     h = float(dt)
     A = K + M / h**2
-    AinvBt = np.linalg.solve(A, B.T)
+    factor = scipy.linalg.cho_factor(A)            # SPD: K SPD (the body held), M SPD
+    AinvBt = scipy.linalg.cho_solve(factor, B.T)
     W = B @ AinvBt
     lam = float(rate or 0.0)
     U = eps * v
@@ -93,11 +97,12 @@ def simulate(K: np.ndarray, M: np.ndarray, nodes, state_u_T: np.ndarray, state_u
     vMv = float(v @ Mv)
     times, amps, stats = [0.0], [float(Mv @ U) / vMv], []
     energy = [0.5 * float(Ud @ M @ Ud) + 0.5 * float(U @ K @ U)]
+    total = [energy[0] + float(r0 @ (B @ U))]
     worst = 0.0
     with FrictionalContact(np.linalg.inv(W), mu) as contact:
         for k in range(steps):
             rhs = M @ ((U + h * Ud) / h**2) - B.T @ r0
-            U_free = np.linalg.solve(A, rhs)
+            U_free = scipy.linalg.cho_solve(factor, rhs)
             # started from no slip: the previous step's slip increments, of the size of the
             # perturbation, can sit below the solver's force tolerance and stop it at once
             inc = contact.solve(u_c0 + B @ U_free, u_T_prev, g_prev, None)
@@ -106,6 +111,7 @@ def simulate(K: np.ndarray, M: np.ndarray, nodes, state_u_T: np.ndarray, state_u
             U_new = U_free + AinvBt @ r
             Ud, U = (U_new - U) / h, U_new
             energy.append(0.5 * float(Ud @ M @ Ud) + 0.5 * float(U @ K @ U))
+            total.append(energy[-1] + float(r0 @ (B @ U)))
             u_T_prev, g_prev = inc.u_T, -inc.u_N
             worst = max(worst, inc.violation)
             times.append((k + 1) * h)
@@ -114,7 +120,7 @@ def simulate(K: np.ndarray, M: np.ndarray, nodes, state_u_T: np.ndarray, state_u
     t, a = np.array(times), np.array(amps)
     return Transient(t=t, amplitude=a, status=np.array(stats, dtype=np.int8), dt=h,
                      predicted_rate=None if not lam else lam, measured_rate=growth_rate(t, a, fit_fraction),
-                     violation=worst, extra={"energy": np.array(energy)})
+                     violation=worst, extra={"energy": np.array(energy), "total_energy": np.array(total)})
 
 
 def _statuses(inc, mu: float) -> list[int]:
