@@ -48,3 +48,27 @@ def test_render_a_sweep_redraws_every_case(tmp_path):
     assert p.returncode == 0, p.stderr
     assert all(f.is_file() for f in plots)
     assert p.stdout.count("redrew") == 2
+
+
+def test_render_a_sweep_never_follows_a_link_among_its_cases(tmp_path):
+    """A sweep folder from someone else whose cases/ holds a symbolic link to another results
+    folder (a user's own): the link is skipped with one line, nothing is written through it."""
+    import os
+    import shutil
+    scene = {**BLOCK, "outputs": {"plots": True}, "sweep": {"parameters": {"mu": [0.8]}}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(scene))
+    out = tmp_path / "out"
+    p = run_cli("run", str(tmp_path / "s.yaml"), "-o", str(out), "-q")
+    assert p.returncode == 0, p.stderr
+    (case,) = [d for d in (out / "cases").iterdir() if d.is_dir()]
+    mine = tmp_path / "mine"
+    shutil.copytree(case, mine)                 # a results folder of the user's, elsewhere
+    for f in (mine / "plots").iterdir():
+        f.unlink()
+    os.symlink(mine, out / "cases" / "linked")
+    p = run_cli("render", str(out))
+    assert p.returncode == 2
+    assert [ln for ln in p.stderr.splitlines() if "linked" in ln] == [
+        f"error: {out / 'cases' / 'linked'}: not a case folder this app wrote (skipped)"]
+    assert not any((mine / "plots").iterdir())  # nothing drawn through the link
+    assert (case / "plots" / "mceip_mu.png").is_file()
