@@ -10,6 +10,7 @@ debs=(python3-dolfinx-real python3-petsc4py-real python3-slepc4py-real python3-g
       python3-mpi4py openmpi-bin python3-venv python3-pip python3-scipy python3-yaml
       python3-h5py libopenblas0-pthread make git
       bubblewrap                                      # the sandbox of a user's Gmsh files (app/systems/gmsh/sandbox.py)
+      python3-siconos                                 # the reference for nonsmooth dynamics (tests/test_transient.py)
       libegl1 libegl-mesa0 libgl1-mesa-dri)   # off-screen pyvista (EGL, no X server) for the screenshots
 missing=()
 for p in "${debs[@]}"; do

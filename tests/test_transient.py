@@ -152,3 +152,85 @@ def test_a_scene_asks_for_the_dynamics_and_results_json_holds_them(tmp_path):
     (tmp_path / "b.yaml").write_text(yaml.safe_dump(bad))
     p = run_cli_here("validate", str(tmp_path / "b.yaml"))
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "mceip_lambda2" in p.stderr, p.stderr
+
+
+def _siconos_rate(K, M, nodes, gaps, r0, mu, v, lam, eps, h, t_end):
+    """The same motion computed by Siconos (the reference library for nonsmooth contact dynamics):
+    a linear Lagrangian system for the deviation U, its held loads ``-B^T r0`` as the external
+    force, each contact node a 2D Newton impact-friction law (e = 0) on its gap ``g0 - u_N`` and
+    tangential displacement, Moreau-Jean with theta = 1 and Lemke's method for each step's
+    friction-contact problem; the fitted growth rate of ``v^T M U``."""
+    import siconos.kernel as sk
+    import siconos.numerics as sn
+
+    from app.analyses.transient.engine import growth_rate
+    from app.analyses.transient.mode import contact_operator
+    B = contact_operator(nodes, K.shape[0])
+    ds = sk.LagrangianLinearTIDS(eps * v, eps * lam * v, M)
+    ds.setKPtr(K)
+    ds.setFExtPtr(-B.T @ r0)
+    nsds = sk.NonSmoothDynamicalSystem(0.0, t_end)
+    nsds.insertDynamicalSystem(ds)
+    for i, g in enumerate(gaps):
+        H = np.vstack([-B[2 * i + 1], B[2 * i]])              # (normal gap, tangential displacement)
+        rel = sk.LagrangianLinearTIR(H, np.array([g, 0.0]))
+        nsds.link(sk.Interaction(sk.NewtonImpactFrictionNSL(0.0, 0.0, mu, 2), rel), ds)
+    osi = sk.MoreauJeanOSI(1.0)
+    osi.setConstraintActivationThreshold(1e-10)    # a closed contact's rounding-level gap keeps it active
+    sim = sk.TimeStepping(nsds, sk.TimeDiscretisation(0.0, h), osi,
+                          sk.FrictionContact(2, sn.SICONOS_FRICTION_2D_LEMKE))
+    Mv = M @ v
+    t, a = [0.0], [eps]
+    while sim.hasNextEvent():
+        sim.computeOneStep()
+        t.append(sim.nextTime())
+        a.append(float(Mv @ ds.q()) / float(v @ Mv))
+        sim.nextStep()
+    return growth_rate(np.array(t), np.array(a))
+
+
+def test_siconos_measures_the_same_growth():
+    """Siconos, set up independently on the same two particles (mu = 4), measures the rates this
+    app's integrator measures at every step of the dt study, to 1e-8: the same Moreau scheme
+    (backward Euler) in an established library, its contact laws at velocity level."""
+    mu = 4.0
+    st, r = _two_particle_state(mu)
+    sol = next(s for s in st.analyses.mceip_lambda2.solutions if list(s.pattern) == ["slip", "stick"])
+    mode = divergence_mode(K2, M2, NODES2, [n.status for n in st.nodes], [n.sign for n in st.nodes],
+                           sol.pattern, mu, sol.value)
+    lam = math.sqrt(sol.value)
+    for f in (0.04, 0.02, 0.01):
+        ours = simulate(K2, M2, NODES2, np.zeros(2), np.zeros(2), r, mu, mode.v, lam, 1e-8, f / lam,
+                        math.log(1e3) / lam).measured_rate
+        ref = _siconos_rate(K2, M2, NODES2, [0.0, 0.0], r, mu, mode.v, lam, 1e-8, f / lam, math.log(1e3) / lam)
+        print(f"dt = {f} / lambda: this app {ours!r}, Siconos {ref!r}")
+        assert ours == pytest.approx(ref, rel=1e-8)
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="dense matrices of a one-process build")
+def test_siconos_and_this_app_on_the_block():
+    """The paper's block (8 x 4), final state held on the cone of mu = 2, its free nodes above the
+    obstacle: Siconos's velocity-level contact and this app's position-level one both measure
+    MCEIP-lambda^2's rate to 2 % at dt = 0.02 / lambda, within 0.5 % of each other (the schemes
+    differ in how a node near the obstacle is activated)."""
+    from app.common.stages import Stages
+    from app.systems import SYSTEM_TYPES
+    scene = app.load_scene({"name": "b", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": ["mceip_lambda2"],
+                            "system": {"type": "block", "nx": 8, "ny": 4},
+                            "loading": {"normal_steps": 4, "tangential_step": 0.5, "tangential_max": 20.0}})
+    st = app.run_study(scene).states[-1]
+    (sol,) = st.analyses.mceip_lambda2.solutions
+    with SYSTEM_TYPES["block"].build(scene.system, MPI.COMM_WORLD, Stages()) as system:
+        K = system.K.convert("dense").getDenseArray().copy()
+        M = system.mass().convert("dense").getDenseArray().copy()
+        nodes = system.nodes
+    r = np.array([[n.sign * 2.0 * abs(n.r_N) if n.status == "slip" else n.r_T, n.r_N] for n in st.nodes]).ravel()
+    mode = divergence_mode(K, M, nodes, [n.status for n in st.nodes], [n.sign for n in st.nodes], sol.pattern,
+                           2.0, sol.value)
+    lam = math.sqrt(sol.value)
+    uT, uN = np.array([n.u_T for n in st.nodes]), np.array([n.u_N for n in st.nodes])
+    h, T = 0.02 / lam, math.log(1e3) / lam
+    ours = simulate(K, M, nodes, uT, uN, r, 2.0, mode.v, lam, 1e-7, h, T).measured_rate
+    ref = _siconos_rate(K, M, nodes, list(-uN), r, 2.0, mode.v, lam, 1e-7, h, T)
+    print(f"block: lambda {lam:.6g}, this app {ours:.6g}, Siconos {ref:.6g}")
+    assert abs(ours / lam - 1) < 0.02 and abs(ref / lam - 1) < 0.02 and abs(ours / ref - 1) < 0.005
