@@ -234,3 +234,24 @@ def test_siconos_and_this_app_on_the_block():
     ref = _siconos_rate(K, M, nodes, list(-uN), r, 2.0, mode.v, lam, 1e-7, h, T)
     print(f"block: lambda {lam:.6g}, this app {ours:.6g}, Siconos {ref:.6g}")
     assert abs(ours / lam - 1) < 0.02 and abs(ref / lam - 1) < 0.02 and abs(ours / ref - 1) < 0.005
+
+
+def test_the_shipped_scene_below_the_onset_is_arrested(tmp_path):
+    """app/scenes/transient_block_below.yaml: no divergence mode at mu = 1.5, the run starts from
+    the state's mu = 2 mode (``mode_mu``) at rest: every node sticks at the end, the amplitude
+    stays within a few times its start and the total energy never rises, at every step."""
+    import json
+
+    from conftest import ROOT, run_cli_here
+    for name in ("transient_block.yaml", "transient_two_particles.yaml"):
+        assert run_cli_here("validate", str(ROOT / "app" / "scenes" / name)).returncode == 0
+    p = run_cli_here("run", str(ROOT / "app" / "scenes" / "transient_block_below.yaml"), "-o", str(tmp_path / "o"),
+                     "--set", "outputs={}")
+    assert p.returncode == 0, p.stderr
+    (rec,) = json.loads((tmp_path / "o" / "results.json").read_text())["transient"]
+    assert rec["predicted_rate"] is None and rec["start"].startswith("its divergence mode at mu = 2")
+    assert rec["mode_singular"] < 1e-12
+    for run in rec["runs"]:
+        assert run["final_status"]["slip"] == 0 and run["final_status"]["stick"] == 17
+        assert run["amplitude_max_ratio"] < 5 and run["total_energy_rise"] <= 1e-12 * abs(run["total_energy_change"])
+    assert "no divergence mode" in p.stdout and "17 stick / 0 slip" in p.stdout

@@ -110,7 +110,8 @@ def transient_line(tr, time_unit: str = "s") -> str:
     if last is None:
         return head + "no divergence mode (MCEIP-lambda^2: none at this mu)"
     fs = last.final_status
-    return (head + f"no divergence mode (MCEIP-lambda^2: none at this mu); from a push of the slip nodes over "
+    start = "a push of the slip nodes" if tr.start is None or tr.start.startswith("a static") else tr.start
+    return (head + f"no divergence mode (MCEIP-lambda^2: none at this mu); from {start} over "
             f"{tr.t_end:.3g} {time_unit}: amplitude at most {last.amplitude_max_ratio:.3g} x the start, at the end "
             f"{fs.get('free', 0)} free / {fs.get('stick', 0)} stick / {fs.get('slip', 0)} slip, total energy "
             f"change {last.total_energy_change:.3g} (never above its start by more than "

@@ -325,6 +325,10 @@ class Transient(Strict):
         [0.04, 0.02, 0.01], description="time steps, as fractions of 1 / lambda (the dt study, coarse to fine)")
     t_end: Optional[PosFloat] = Field(None, description="run length [time] at a state with no divergence mode "
                                       "(default: that of the other states, else 20 periods of the lowest mode)")
+    mode_mu: Optional[NonNegFloat] = Field(None, description="at a state with no divergence mode at mu: start "
+                                           "from its mode at this friction coefficient (the same classification "
+                                           "above its onset), at rest, for as long as that mode takes to grow "
+                                           "'growth' times (default: a static push of the slip nodes)")
 
 
 class Refinement(Strict):

@@ -28,22 +28,38 @@ def run_transients(scene, system, states, comm) -> list[dict] | None:
     from app.analyses.pencils.state import sequential_km
     from app.io.select import select_states
     pair = sequential_km(system)                                         # MPI collective
+    chosen, _ = select_states(states, cfg.states)
+    by_index = {s.index: s for s in states}
+    # the modes at mode_mu of the states with none at mu (MCEIP-lambda^2 again; MPI collective)
+    starts = {i: _mode_at(system, scene, by_index[i], cfg.mode_mu) for i in chosen} if cfg.mode_mu is not None else {}
     records = None
     if comm.rank == 0:
         K, M = (np.asarray(X.convert("dense").getDenseArray()).copy() for X in pair) \
             if system.n_dofs <= MAX_DENSE else (None, None)
-        chosen, _ = select_states(states, cfg.states)
-        by_index = {s.index: s for s in states}
-        records = [_one(scene, system, K, M, by_index[i]) for i in chosen]
+        records = [_one(scene, system, K, M, by_index[i], start=starts.get(i)) for i in chosen]
         # a state with no divergence mode runs as long as the states with one (unless t_end is given)
         lengths = [r["t_end"] for r in records if r.get("predicted_rate") is not None]
         if lengths and cfg.t_end is None:
-            records = [_one(scene, system, K, M, by_index[r["state"]], t_end=max(lengths))
+            records = [_one(scene, system, K, M, by_index[r["state"]], t_end=max(lengths), start=starts.get(r["state"]))
                        if r.get("predicted_rate") is None and "skipped" not in r else r for r in records]
     return comm.bcast(records, root=0)                                   # MPI collective
 
 
-def _one(scene, system, K, M, st, t_end: float | None = None) -> dict:
+def _mode_at(system, scene, st, mu: float) -> tuple[float, list[str]] | None:
+    """``(lambda^2, pattern)`` of MCEIP-lambda^2's largest solution at ``mu`` on the state's
+    classification (MPI collective), None when it has none."""
+    from app.analyses.runner import analyse_state
+    from app.loading.classify import Classification
+    cls = Classification(tuple(n.status for n in st.nodes), tuple(int(n.sign) for n in st.nodes))
+    out = analyse_state(system, cls, scene.model_copy(update={"analyses": ["mceip_lambda2"], "mceip_lambda2_mu": mu}))
+    sols = [s for s in (getattr(out.get("mceip_lambda2"), "solutions", None) or []) if s.value > 0]
+    if not sols:
+        return None
+    best = max(sols, key=lambda s: s.value)
+    return float(best.value), list(best.pattern)
+
+
+def _one(scene, system, K, M, st, t_end: float | None = None, start: tuple | None = None) -> dict:
     cfg = scene.transient
     mu = cfg.mu if cfg.mu is not None else scene.lambda2_mu
     rec: dict = {"state": st.index, "mu": mu, "eps": cfg.eps, "predicted_rate": None, "lambda2": None}
@@ -73,6 +89,15 @@ def _one(scene, system, K, M, st, t_end: float | None = None) -> dict:
         dts = [f / lam for f in cfg.steps]
         rec.update(predicted_rate=lam, lambda2=float(sol.value), mode_singular=mode.singular,
                    start="the divergence mode (largest lambda^2), velocity eps lambda v")
+    elif start is not None:              # the same classification's mode above its onset, at rest
+        lam2, pattern = start
+        mode = divergence_mode(K, M, system.nodes, status, signs, pattern, cfg.mode_mu, lam2)
+        v, rate = mode.v, None
+        lam_start = math.sqrt(lam2)
+        T = t_end or cfg.t_end or math.log(cfg.growth) / lam_start
+        dts = [f / lam_start for f in cfg.steps]
+        rec.update(start=f"its divergence mode at mu = {cfg.mode_mu:g} (lambda^2 = {lam2:.6g}), at rest",
+                   mode_singular=mode.singular)
     else:
         v, rate = _static_push(K, system.nodes, status, signs), None
         omega = _lowest_frequency(K, M)
