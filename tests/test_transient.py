@@ -255,3 +255,33 @@ def test_the_shipped_scene_below_the_onset_is_arrested(tmp_path):
         assert run["final_status"]["slip"] == 0 and run["final_status"]["stick"] == 17
         assert run["amplitude_max_ratio"] < 5 and run["total_energy_rise"] <= 1e-12 * abs(run["total_energy_change"])
     assert "no divergence mode" in p.stdout and "17 stick / 0 slip" in p.stdout
+
+
+def test_the_dynamics_are_animated_with_the_simulated_statuses(tmp_path):
+    """``screenshots: {animate: true}`` with a ``transient`` state pictured: transient_s<state>.gif,
+    16 frames of the simulated motion, the nodes coloured by the statuses the run found (here all
+    slipping: red), the body's K left as the study built it (the fields after it use it)."""
+    import json
+
+    import yaml
+    from conftest import run_cli_here
+    from PIL import Image
+
+    from app.io.select import FRAMES
+    scene = {"name": "dyn", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": ["mceip_lambda2"],
+             "system": {"type": "block", "nx": 8, "ny": 4},
+             "loading": {"normal_steps": 4, "tangential_step": 0.5, "tangential_max": 20.0},
+             "transient": {"states": ["final"], "mu": 2.0, "steps": [0.04]},
+             "outputs": {"states": ["final"], "screenshots": {"animate": True, "resolution": [360, 240]}}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(scene))
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "out"), "-q")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    gif = f"screenshots/transient_s{res['transient'][0]['state']:04d}.gif"
+    assert gif in res["outputs"]["files"]
+    with Image.open(tmp_path / "out" / gif) as im:
+        assert im.n_frames == FRAMES
+        im.seek(FRAMES - 1)
+        rgb = np.asarray(im.convert("RGB"), dtype=int)
+    red = (rgb[..., 0] > 180) & (rgb[..., 1] < 80) & (rgb[..., 2] < 80)        # the slip markers
+    assert red.sum() > 20

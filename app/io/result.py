@@ -497,7 +497,8 @@ class TransientRun(Record):
     final_status: dict[str, int] = Field(description="contact nodes free, stick, slip at the end of the run")
     status_changes: int = Field(description="steps at which some node changed its status")
     violation: Number = Field(description="largest violation of the contact laws over the steps (relative)")
-    series: dict[str, list[Number]] = Field(description="t [time] and the mode's amplitude [length], subsampled")
+    series: dict[str, list[Any]] = Field(description="t [time], the mode's amplitude [length] and the nodes' "
+                                                     "statuses (0 free, 1 stick, 2 slip), subsampled")
 
 
 class TransientRecord(Record):

@@ -98,7 +98,8 @@ def state_picture(fd: FieldData, state: StateResult, field: str, res, scale: flo
 
 
 def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathlib.Path, scene: str,
-                 units: Units | None = None, grow: float = 1.0, when: str | None = None) -> pathlib.Path:
+                 units: Units | None = None, grow: float = 1.0, when: str | None = None,
+                 statuses: list[int] | None = None) -> pathlib.Path:
     """Screenshot of the mode ``meta`` (an MCEIP solution at ``state``: its entry in fields.npz's
     ``modes_json``, with ``name``, ``state``, ``problem``, ``value`` and ``pattern``), drawn with
     its largest displacement as large as the mesh allows without folding (at most 12 % of the
@@ -129,6 +130,9 @@ def mode_picture(fd: FieldData, meta: dict, state: StateResult, res, path: pathl
                 stuck_nodes.append(pos + 1)
         else:
             groups[st].append(int(j))
+    if statuses is not None:      # a frame of the dynamics: the nodes as the simulation found them
+        groups = {key: [int(j) for j, c in zip(fd.contact, statuses) if c == code]
+                  for key, code in (("free", 0), ("stick", 1), ("slip", 2))}
     legend = markers(pl, pts, groups, size=max(9.0, res[0] / 100))
     c = state.classification
     what = PROBLEM_TITLE.get(meta["problem"], meta["problem"])
@@ -178,6 +182,40 @@ def mode_animation(fd: FieldData, meta: dict, state: StateResult, res, path: pat
     return path
 
 
+def transient_animation(fd: FieldData, meta: dict, state: StateResult, record, res, path: pathlib.Path,
+                        scene: str, units: Units | None = None) -> pathlib.Path:
+    """An animated GIF of the simulated dynamics from ``state`` (a results.json ``transient``
+    record whose divergence mode is ``meta``): the mode drawn at the amplitude the finest run
+    reached at each of :data:`app.io.select.FRAMES` times (the last at the full drawn amplitude),
+    the contact nodes coloured by the statuses the simulation found then, the time and the
+    amplitude in the title."""
+    import tempfile
+
+    from PIL import Image
+
+    from app.io.select import FRAMES
+    run = record.runs[-1]
+    t = np.asarray(run.series["t"], dtype=float)
+    a = np.abs(np.asarray(run.series["amplitude"], dtype=float))
+    stat = run.series.get("status") or []
+    time_unit = "s" if units is None or not units.time else units.time
+    picks = np.unique(np.linspace(0, len(t) - 1, FRAMES).astype(int))
+    frames = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for k, j in enumerate(picks):
+            when = (f"the simulated motion at mu = {float(record.mu):g}: t = {1e3 * t[j]:.3g} m{time_unit}, "
+                    f"amplitude {a[j] / float(record.eps):.3g} x its start (drawn scaled)")
+            frame = mode_picture(fd, meta, state, res, pathlib.Path(tmp) / f"{k:03d}.png", scene, units,
+                                 float(a[j] / max(a[-1], 1e-300)), when,
+                                 statuses=stat[j] if j < len(stat) else None)
+            with Image.open(frame) as im:
+                frames.append(im.convert("P", palette=Image.ADAPTIVE, colors=255))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=90, loop=0,
+                   optimize=False)
+    return path
+
+
 def draw_screenshots(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path,
                      fields_path: pathlib.Path, progress=None) -> tuple[list[pathlib.Path], list[str]]:
     """Every screenshot the scene asks for (``cfg``: its ``outputs.screenshots``), of the states
@@ -204,6 +242,17 @@ def resolution_arg(cfg: dict) -> str:
     """The pictures' resolution as the drawing process's argument ``WxH``."""
     w, h = cfg.get("resolution") or (1200, 800)
     return f"{int(w)}x{int(h)}"
+
+
+def _lambda2_mode(fd: FieldData, study: StudyResult, index: int, record) -> dict | None:
+    """The fields.npz entry of the MCEIP-lambda^2 mode a transient record started from (the largest
+    lambda^2 of the state's classification), None when the run saved none."""
+    from app.io.select import analyses_of
+    first = analyses_of(study.states, index)[1]
+    cands = [m for m in fd.modes if m["state"] == first and m["problem"] == "mceip_lambda2"]
+    if not cands or record.lambda2 is None:
+        return None
+    return min(cands, key=lambda m: abs(float(m["value"]) - float(record.lambda2)))
 
 
 def _draw(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path,
@@ -233,12 +282,24 @@ def _draw(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Pa
                 if cfg.get("animate"):
                     jobs.append(("animation", i, name))
     known = {m["name"]: m for m in fd.modes}
+    if cfg.get("animate"):         # the simulated dynamics, where the study ran them from a pictured state
+        for record in study.transient or ():
+            if record.runs and record.predicted_rate is not None and record.state in pictured:
+                jobs.append(("transient", record.state, record))
     bar = progress.bar(len(jobs), "screenshots", unit="picture") if progress is not None else None
     try:
         for kind, i, name in jobs:
             if kind == "state":
                 files.append(state_picture(fd, by_index[i], field, res, scale,
                                            outdir / f"state_{i:04d}_{field}.png", study.units, study.scene))
+            elif kind == "transient":
+                meta = _lambda2_mode(fd, study, i, name)
+                if meta is None:
+                    notes.append(f"animation of the dynamics from state {i} left out: its MCEIP-lambda^2 mode is "
+                                 f"not in {fields_path.name}")
+                else:
+                    files.append(transient_animation(fd, meta, by_index[i], name, res,
+                                                     outdir / f"transient_s{i:04d}.gif", study.scene, study.units))
             elif name in known and kind == "animation":
                 meta = known[name]
                 files.append(mode_animation(fd, meta, by_index[meta["state"]], res, outdir / f"mode_{name}.gif",

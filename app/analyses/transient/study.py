@@ -34,8 +34,7 @@ def run_transients(scene, system, states, comm) -> list[dict] | None:
     starts = {i: _mode_at(system, scene, by_index[i], cfg.mode_mu) for i in chosen} if cfg.mode_mu is not None else {}
     records = None
     if comm.rank == 0:
-        K, M = (np.asarray(X.convert("dense").getDenseArray()).copy() for X in pair) \
-            if system.n_dofs <= MAX_DENSE else (None, None)
+        K, M = (_dense(X) for X in pair) if system.n_dofs <= MAX_DENSE else (None, None)
         records = [_one(scene, system, K, M, by_index[i], start=starts.get(i)) for i in chosen]
         # a state with no divergence mode runs as long as the states with one (unless t_end is given)
         lengths = [r["t_end"] for r in records if r.get("predicted_rate") is not None]
@@ -43,6 +42,14 @@ def run_transients(scene, system, states, comm) -> list[dict] | None:
             records = [_one(scene, system, K, M, by_index[r["state"]], t_end=max(lengths), start=starts.get(r["state"]))
                        if r.get("predicted_rate") is None and "skipped" not in r else r for r in records]
     return comm.bcast(records, root=0)                                   # MPI collective
+
+
+def _dense(X) -> np.ndarray:
+    """A sequential PETSc matrix as a dense numpy array (a copy: the system's own matrix stays as it
+    is; petsc4py's ``convert`` without a target would convert it in place)."""
+    import scipy.sparse
+    ai, aj, av = X.getValuesCSR()
+    return scipy.sparse.csr_matrix((av, aj, ai), shape=X.getSize()).toarray()
 
 
 def _mode_at(system, scene, st, mu: float) -> tuple[float, list[str]] | None:
@@ -121,7 +128,10 @@ def _one(scene, system, K, M, st, t_end: float | None = None, start: tuple | Non
                      "total_energy_change": float(L[-1] - L[0]), "total_energy_rise": float(L.max() - L[0]),
                      "final_status": {k: int(last[c]) for k, c in STATUS_CODE.items()},
                      "status_changes": changes, "violation": tr.violation,
-                     "series": {"t": tr.t[keep].tolist(), "amplitude": tr.amplitude[keep].tolist()}})
+                     "series": {"t": tr.t[keep].tolist(), "amplitude": tr.amplitude[keep].tolist(),
+                                # each kept time's node statuses (0 free, 1 stick, 2 slip; the start's: the state's)
+                                "status": [[STATUS_CODE.get(x, 1) for x in status] if j == 0
+                                           else tr.status[j - 1].tolist() for j in keep]}})
     rec["runs"] = runs
     rec["measured_rate"] = runs[-1]["measured_rate"]
     errors = [r["relative_error"] for r in runs]
