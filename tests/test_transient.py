@@ -15,6 +15,7 @@ from mpi4py import MPI
 
 import app
 from app.analyses.transient import divergence_mode, simulate
+from app.analyses.transient.study import dense_copy
 from app.systems.base import ContactNode
 from app.systems.particles.path import particle_matrices
 
@@ -95,8 +96,8 @@ def test_the_block_held_above_its_onset_diverges_at_the_predicted_rate():
     st = app.run_study(scene).states[-1]
     (sol,) = st.analyses.mceip_lambda2.solutions
     with SYSTEM_TYPES["block"].build(scene.system, MPI.COMM_WORLD, Stages()) as system:
-        K = system.K.convert("dense").getDenseArray().copy()
-        M = system.mass().convert("dense").getDenseArray().copy()
+        K = dense_copy(system.K)
+        M = dense_copy(system.mass())
         nodes = system.nodes
 
     def held(mu):          # the state's reactions with its slip nodes on the cone of mu
@@ -221,8 +222,8 @@ def test_siconos_and_this_app_on_the_block():
     st = app.run_study(scene).states[-1]
     (sol,) = st.analyses.mceip_lambda2.solutions
     with SYSTEM_TYPES["block"].build(scene.system, MPI.COMM_WORLD, Stages()) as system:
-        K = system.K.convert("dense").getDenseArray().copy()
-        M = system.mass().convert("dense").getDenseArray().copy()
+        K = dense_copy(system.K)
+        M = dense_copy(system.mass())
         nodes = system.nodes
     r = np.array([[n.sign * 2.0 * abs(n.r_N) if n.status == "slip" else n.r_T, n.r_N] for n in st.nodes]).ravel()
     mode = divergence_mode(K, M, nodes, [n.status for n in st.nodes], [n.sign for n in st.nodes], sol.pattern,

@@ -34,7 +34,7 @@ def run_transients(scene, system, states, comm) -> list[dict] | None:
     starts = {i: _mode_at(system, scene, by_index[i], cfg.mode_mu) for i in chosen} if cfg.mode_mu is not None else {}
     records = None
     if comm.rank == 0:
-        K, M = (_dense(X) for X in pair) if system.n_dofs <= MAX_DENSE else (None, None)
+        K, M = (dense_copy(X) for X in pair) if system.n_dofs <= MAX_DENSE else (None, None)
         records = [_one(scene, system, K, M, by_index[i], start=starts.get(i)) for i in chosen]
         # a state with no divergence mode runs as long as the states with one (unless t_end is given)
         lengths = [r["t_end"] for r in records if r.get("predicted_rate") is not None]
@@ -44,7 +44,7 @@ def run_transients(scene, system, states, comm) -> list[dict] | None:
     return comm.bcast(records, root=0)                                   # MPI collective
 
 
-def _dense(X) -> np.ndarray:
+def dense_copy(X) -> np.ndarray:
     """A sequential PETSc matrix as a dense numpy array (a copy: the system's own matrix stays as it
     is; petsc4py's ``convert`` without a target would convert it in place)."""
     import scipy.sparse
