@@ -83,37 +83,43 @@ def test_two_particles_below_the_onset_are_arrested():
     assert np.abs(tr.amplitude).max() < 5e-8 and E.max() <= 1.5 * E[0]
 
 
+def _block_final(nx: int, ny: int, **loading):
+    """The paper's block's final state (path at mu = 1.1, MCEIP-lambda^2 at mu = 2), its one
+    MCEIP-lambda^2 solution, and the system's dense K, M and contact nodes."""
+    from app.common.stages import Stages
+    from app.systems import SYSTEM_TYPES
+    scene = app.load_scene({"name": "b", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": ["mceip_lambda2"],
+                            "system": {"type": "block", "nx": nx, "ny": ny},
+                            **({"loading": loading} if loading else {})})
+    st = app.run_study(scene).states[-1]
+    (sol,) = st.analyses.mceip_lambda2.solutions
+    with SYSTEM_TYPES["block"].build(scene.system, MPI.COMM_WORLD, Stages()) as system:
+        return st, sol, dense_copy(system.K), dense_copy(system.mass()), system.nodes
+
+
+def held(st, mu: float) -> np.ndarray:
+    """The state's reactions with its slip nodes on the Coulomb cone of ``mu`` (paper axes)."""
+    return np.array([[n.sign * mu * abs(n.r_N) if n.status == "slip" else n.r_T, n.r_N] for n in st.nodes]).ravel()
+
+
 @pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="dense matrices of a one-process build")
 def test_the_block_held_above_its_onset_diverges_at_the_predicted_rate():
     """The paper's block, final state of its path (17 slip nodes), held on the Coulomb cone of
     mu = 2 (above the onset 1.70): MCEIP-lambda^2's rate is measured to 1 % at dt = 0.0125 /
     lambda, the error halving with dt; held on the cone of mu = 1.5 (below the onset) the same
     start is arrested by friction (every node sticks, the energy bounded)."""
-    from app.common.stages import Stages
-    from app.systems import SYSTEM_TYPES
-    scene = app.load_scene({"name": "b", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": ["mceip_lambda2"],
-                            "system": {"type": "block", "nx": 20, "ny": 10}})
-    st = app.run_study(scene).states[-1]
-    (sol,) = st.analyses.mceip_lambda2.solutions
-    with SYSTEM_TYPES["block"].build(scene.system, MPI.COMM_WORLD, Stages()) as system:
-        K = dense_copy(system.K)
-        M = dense_copy(system.mass())
-        nodes = system.nodes
-
-    def held(mu):          # the state's reactions with its slip nodes on the cone of mu
-        return np.array([[n.sign * mu * abs(n.r_N) if n.status == "slip" else n.r_T, n.r_N]
-                         for n in st.nodes]).ravel()
+    st, sol, K, M, nodes = _block_final(20, 10)
     mode = divergence_mode(K, M, nodes, [n.status for n in st.nodes], [n.sign for n in st.nodes], sol.pattern,
                            2.0, sol.value)
     assert mode.singular < 1e-12
     lam = math.sqrt(sol.value)
-    runs = _dt_study(K, M, nodes, st, held(2.0), 2.0, mode, lam, (0.05, 0.025, 0.0125), 1e-7)
+    runs = _dt_study(K, M, nodes, st, held(st, 2.0), 2.0, mode, lam, (0.05, 0.025, 0.0125), 1e-7)
     errors = [abs(rate / lam - 1.0) for _, rate, _ in runs]
     print("block: lambda", lam, "errors", [f"{e:.2e}" for e in errors])
     assert errors[-1] < 0.01 and 1.7 < errors[0] / errors[1] < 2.3 and 1.7 < errors[1] / errors[2] < 2.3
     assert all(np.bincount(tr.status[-1], minlength=3)[2] == 17 for _, _, tr in runs)
     below = simulate(K, M, nodes, np.array([n.u_T for n in st.nodes]), np.array([n.u_N for n in st.nodes]),
-                     held(1.5), 1.5, mode.v, None, 1e-7, 0.05 / lam, math.log(1e3) / lam)
+                     held(st, 1.5), 1.5, mode.v, None, 1e-7, 0.05 / lam, math.log(1e3) / lam)
     E = below.extra["energy"]
     assert E.max() <= 1.5 * E[0] and np.abs(below.amplitude).max() < 5 * 1e-7
     assert np.bincount(below.status[-1], minlength=3)[2] == 0                  # no node slides at the end
@@ -214,18 +220,8 @@ def test_siconos_and_this_app_on_the_block():
     obstacle: Siconos's velocity-level contact and this app's position-level one both measure
     MCEIP-lambda^2's rate to 2 % at dt = 0.02 / lambda, within 0.5 % of each other (the schemes
     differ in how a node near the obstacle is activated)."""
-    from app.common.stages import Stages
-    from app.systems import SYSTEM_TYPES
-    scene = app.load_scene({"name": "b", "mu": 1.1, "mceip_lambda2_mu": 2.0, "analyses": ["mceip_lambda2"],
-                            "system": {"type": "block", "nx": 8, "ny": 4},
-                            "loading": {"normal_steps": 4, "tangential_step": 0.5, "tangential_max": 20.0}})
-    st = app.run_study(scene).states[-1]
-    (sol,) = st.analyses.mceip_lambda2.solutions
-    with SYSTEM_TYPES["block"].build(scene.system, MPI.COMM_WORLD, Stages()) as system:
-        K = dense_copy(system.K)
-        M = dense_copy(system.mass())
-        nodes = system.nodes
-    r = np.array([[n.sign * 2.0 * abs(n.r_N) if n.status == "slip" else n.r_T, n.r_N] for n in st.nodes]).ravel()
+    st, sol, K, M, nodes = _block_final(8, 4, normal_steps=4, tangential_step=0.5, tangential_max=20.0)
+    r = held(st, 2.0)
     mode = divergence_mode(K, M, nodes, [n.status for n in st.nodes], [n.sign for n in st.nodes], sol.pattern,
                            2.0, sol.value)
     lam = math.sqrt(sol.value)

@@ -158,23 +158,29 @@ def mode_animation(fd: FieldData, meta: dict, state: StateResult, res, path: pat
     sufficient condition; the paper's eq. (8)), from 5 % of the drawn amplitude to all of it over
     ``t = ln(20) / lambda``, each frame titled with its time; linear growth for the static mode of
     MCEIP-mu (``lambda = 0``, the transition). Written to ``path``, which is returned."""
-    import tempfile
-
-    from PIL import Image
-
     from app.io.select import mode_growth
     lam2 = float(meta["value"]) if meta["problem"] != "mceip_mu" else 0.0
     lam = float(np.sqrt(lam2)) if lam2 > 0 else 0.0
     time_unit = "s" if units is None or not units.time else units.time
+
+    def frame(item, png: pathlib.Path) -> pathlib.Path:
+        t, grow = item
+        when = (f"growing as a0 exp(lambda t), lambda = {lam:.4g} 1/{time_unit}: t = {1e3 * t:.3g} m{time_unit}"
+                if t is not None else "static mode (lambda = 0): the amplitude drawn growing linearly")
+        return mode_picture(fd, meta, state, res, png, scene, units, grow, when)
+    return _animate(path, mode_growth(meta["problem"], meta["value"]), frame)
+
+
+def _animate(path: pathlib.Path, items, draw) -> pathlib.Path:
+    """An animated GIF at ``path``: one frame per item, drawn by ``draw(item, png_path)`` into a
+    temporary PNG (255 colours each, 90 ms a frame, looping)."""
+    import tempfile
+
+    from PIL import Image
     frames = []
     with tempfile.TemporaryDirectory() as tmp:
-        for k, (t, grow) in enumerate(mode_growth(meta["problem"], meta["value"])):
-            if t is not None:
-                when = f"growing as a0 exp(lambda t), lambda = {lam:.4g} 1/{time_unit}: t = {1e3 * t:.3g} m{time_unit}"
-            else:
-                when = "static mode (lambda = 0): the amplitude drawn growing linearly"
-            frame = mode_picture(fd, meta, state, res, pathlib.Path(tmp) / f"{k:03d}.png", scene, units, grow, when)
-            with Image.open(frame) as im:
+        for k, item in enumerate(items):
+            with Image.open(draw(item, pathlib.Path(tmp) / f"{k:03d}.png")) as im:
                 frames.append(im.convert("P", palette=Image.ADAPTIVE, colors=255))
     path.parent.mkdir(parents=True, exist_ok=True)
     frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=90, loop=0,
@@ -189,10 +195,6 @@ def transient_animation(fd: FieldData, meta: dict, state: StateResult, record, r
     reached at each of :data:`app.io.select.FRAMES` times (the last at the full drawn amplitude),
     the contact nodes coloured by the statuses the simulation found then, the time and the
     amplitude in the title."""
-    import tempfile
-
-    from PIL import Image
-
     from app.io.select import FRAMES
     run = record.runs[-1]
     t = np.asarray(run.series["t"], dtype=float)
@@ -200,20 +202,13 @@ def transient_animation(fd: FieldData, meta: dict, state: StateResult, record, r
     stat = run.series.get("status") or []
     time_unit = "s" if units is None or not units.time else units.time
     picks = np.unique(np.linspace(0, len(t) - 1, FRAMES).astype(int))
-    frames = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for k, j in enumerate(picks):
-            when = (f"the simulated motion at mu = {float(record.mu):g}: t = {1e3 * t[j]:.3g} m{time_unit}, "
-                    f"amplitude {a[j] / float(record.eps):.3g} x its start (drawn scaled)")
-            frame = mode_picture(fd, meta, state, res, pathlib.Path(tmp) / f"{k:03d}.png", scene, units,
-                                 float(a[j] / max(a[-1], 1e-300)), when,
-                                 statuses=stat[j] if j < len(stat) else None)
-            with Image.open(frame) as im:
-                frames.append(im.convert("P", palette=Image.ADAPTIVE, colors=255))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=90, loop=0,
-                   optimize=False)
-    return path
+
+    def frame(j, png: pathlib.Path) -> pathlib.Path:
+        when = (f"the simulated motion at mu = {float(record.mu):g}: t = {1e3 * t[j]:.3g} m{time_unit}, "
+                f"amplitude {a[j] / float(record.eps):.3g} x its start (drawn scaled)")
+        return mode_picture(fd, meta, state, res, png, scene, units, float(a[j] / max(a[-1], 1e-300)), when,
+                            statuses=stat[j] if j < len(stat) else None)
+    return _animate(path, picks, frame)
 
 
 def draw_screenshots(study: StudyResult, pictured: list[int], cfg: dict, outdir: pathlib.Path,
