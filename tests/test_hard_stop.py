@@ -95,3 +95,17 @@ def test_a_signal_the_handler_takes_goes_the_normal_way(tmp_path):
             proc.kill()
     assert proc.returncode == 7 and out.strip() == "normal" and err == "", (out, err)
     assert (tmp_path / "staging").is_dir()
+
+
+def test_one_line_when_the_watchdog_and_the_normal_way_out_race():
+    """A signal that lands as a released call returns can reach the watchdog and the handler at
+    once: whoever claims the stop first writes the line; the other writes nothing (the watchdog
+    returns, the command line's way out waits for the watchdog's exit)."""
+    script = ("from app.common import hard_stop\n"
+              "assert hard_stop.claim()\n"                       # the normal way out claimed it
+              "hard_stop.Watchdog(0, lambda s: True).stop(2)\n"  # the watchdog then does nothing
+              "assert not hard_stop.claim()\n"
+              "print('alive')\n")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=60)
+    assert p.returncode == 0 and p.stdout.strip() == "alive" and p.stderr == "", (p.stdout, p.stderr)

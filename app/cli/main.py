@@ -233,9 +233,14 @@ def _interrupted(signum: int, left: str | None = None) -> int:
     line; a signal that reaches one rank only still ends the job, as mpirun ends a job when a
     rank exits with a non-zero status."""
     from mpi4py import MPI
+
+    from app.common import hard_stop
     runtime.quiet_after_interrupt()                   # a signal sent again, a destructor failing: no output
     interrupt.clear()
     code = 128 + signum
+    if not hard_stop.claim():          # the watchdog is stopping the process: its line, its exit
+        while True:
+            time.sleep(1.0)
     if MPI.COMM_WORLD.rank == 0:
         print(interrupt.message(signum, left), file=sys.stderr, flush=True)
     if MPI.COMM_WORLD.size > 1 and left is not None:

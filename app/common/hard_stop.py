@@ -81,7 +81,10 @@ class Watchdog:
             time.sleep(0.05)
 
     def stop(self, signum: int) -> None:
-        """Undo what the run registered, write the one line, end the process."""
+        """Undo what the run registered, write the one line, end the process (unless the run's
+        own way out has claimed the stop first: then it writes the line)."""
+        if not claim():
+            return
         left = next((kept for _, kept in reversed(interrupt.CLEANUPS) if kept), None)
         for cleanup, _ in reversed(list(interrupt.CLEANUPS)):
             try:
@@ -95,6 +98,14 @@ class Watchdog:
             except Exception:                   # noqa: BLE001 - a closed stderr: the status says it
                 pass
         os._exit(128 + signum)
+
+
+def claim() -> bool:
+    """Claim the stop of the process: True for the first caller (the watchdog, or the command
+    line's way out after a KeyboardInterrupt), False for the other, which must then write nothing:
+    a signal that lands as a released call returns can reach both at once, and the user gets one
+    line, not two."""
+    return _CLAIM.acquire(blocking=False)
 
 
 @contextlib.contextmanager
@@ -125,3 +136,5 @@ def watchdog(rank: int, armed: Callable[[int], bool]) -> Watchdog:
 _STARTED: list[Watchdog] = []
 #: one entry per released C call the main thread is inside (:func:`released`)
 _INSIDE: list[bool] = []
+#: held by whoever stops the process (:func:`claim`)
+_CLAIM = threading.Lock()

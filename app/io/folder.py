@@ -153,14 +153,17 @@ class FolderLock:
     def release(self) -> None:
         """Unlock: close the lock file, and remove it first if this run created it (a no-op when not
         held)."""
-        if self._fd is not None:
+        fd, self._fd = self._fd, None
+        if fd is not None:
             if self._created:
                 try:
                     os.unlink(self.path)
                 except OSError:
                     pass
-            os.close(self._fd)
-            self._fd = None
+            try:
+                os.close(fd)
+            except OSError:       # closed already (a hard stop's cleanup in another thread)
+                pass
 
 
 class ResultsFolder:
