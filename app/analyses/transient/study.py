@@ -3,8 +3,9 @@
 At each chosen state (``transient.states``, the selectors of ``outputs.states``) with MCEIP-lambda^2
 solutions at the dynamics' ``mu``, the fastest one's mode starts the run (``u0 + eps v``, velocity
 ``eps lambda v``) and the measured growth rate is compared with ``lambda`` at every step of the
-dt study; at a state without one (``predicted_rate`` null) a static push of the slip nodes the
-way friction lets them slide starts it, at rest, and the run shows whether anything grows. MPI
+dt study; at a state without one (``predicted_rate`` null) its mode at ``mode_mu`` (when given)
+or a static push of the slip nodes the way friction lets them slide starts it, at rest, and the
+run shows whether anything grows. MPI
 collective (the matrices gathered on rank 0, which integrates; the records broadcast).
 """
 from __future__ import annotations
@@ -30,18 +31,30 @@ def run_transients(scene, system, states, comm) -> list[dict] | None:
     pair = sequential_km(system)                                         # MPI collective
     chosen, _ = select_states(states, cfg.states)
     by_index = {s.index: s for s in states}
+    mu = cfg.mu if cfg.mu is not None else scene.lambda2_mu
+    with_mode = [i for i in chosen if _lambda2_solutions(by_index[i], mu)]
     # the modes at mode_mu of the states with none at mu (MCEIP-lambda^2 again; MPI collective)
-    starts = {i: _mode_at(system, scene, by_index[i], cfg.mode_mu) for i in chosen} if cfg.mode_mu is not None else {}
+    starts = ({i: _mode_at(system, scene, by_index[i], cfg.mode_mu) for i in chosen if i not in with_mode}
+              if cfg.mode_mu is not None else {})
     records = None
     if comm.rank == 0:
         K, M = (dense_copy(X) for X in pair) if system.n_dofs <= MAX_DENSE else (None, None)
-        records = [_one(scene, system, K, M, by_index[i], start=starts.get(i)) for i in chosen]
+        done = {i: _one(scene, system, K, M, by_index[i]) for i in with_mode}
         # a state with no divergence mode runs as long as the states with one (unless t_end is given)
-        lengths = [r["t_end"] for r in records if r.get("predicted_rate") is not None]
-        if lengths and cfg.t_end is None:
-            records = [_one(scene, system, K, M, by_index[r["state"]], t_end=max(lengths), start=starts.get(r["state"]))
-                       if r.get("predicted_rate") is None and "skipped" not in r else r for r in records]
+        lengths = [r["t_end"] for r in done.values() if r.get("t_end")]
+        t_end = max(lengths) if lengths and cfg.t_end is None else None
+        done.update({i: _one(scene, system, K, M, by_index[i], t_end=t_end, start=starts.get(i))
+                     for i in chosen if i not in done})
+        records = [done[i] for i in chosen]
     return comm.bcast(records, root=0)                                   # MPI collective
+
+
+def _lambda2_solutions(st, mu: float) -> list:
+    """MCEIP-lambda^2's solutions with lambda^2 > 0 at the state, if it was solved at ``mu``."""
+    a = st.analyses.mceip_lambda2
+    if a is None or not a.answered or (a.mu is not None and abs(float(a.mu) - mu) > 1e-12 * max(1.0, mu)):
+        return []
+    return [s for s in a.solutions if s.value > 0]
 
 
 def dense_copy(X) -> np.ndarray:
@@ -83,10 +96,7 @@ def _one(scene, system, K, M, st, t_end: float | None = None, start: tuple | Non
     uN = np.array([n.u_N for n in st.nodes])
     # the state held on the Coulomb cone of mu: its slip nodes' r_T = S mu |r_N|
     r0 = np.array([[n.sign * mu * abs(n.r_N) if n.status == "slip" else n.r_T, n.r_N] for n in st.nodes]).ravel()
-    a = st.analyses.mceip_lambda2
-    sols = [s for s in (a.solutions if a is not None and a.answered else []) if s.value > 0]
-    if a is not None and a.mu is not None and abs(float(a.mu) - mu) > 1e-12 * max(1.0, mu):
-        sols = []                      # MCEIP-lambda^2 was solved at another mu: no prediction here
+    sols = _lambda2_solutions(st, mu)        # none when MCEIP-lambda^2 was solved at another mu
     if sols:
         sol = max(sols, key=lambda s: s.value)
         mode = divergence_mode(K, M, system.nodes, status, signs, sol.pattern, mu, float(sol.value))
