@@ -164,7 +164,7 @@ def eps_solve(eps) -> None:
 def _released(obj, verb: str) -> None:
     fn = _c_function(type(obj).__name__, verb)
     try:
-        with hard_stop.released():
+        with hard_stop.released(calls_back=verb == "Solve"):      # a solve's monitors take signals
             err = fn(ctypes.c_void_p(obj.handle))
     except SystemError as exc:
         # a monitor raised: the C function returned with that exception set, which Python reports

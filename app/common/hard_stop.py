@@ -65,7 +65,7 @@ class Watchdog:
                 return
             for signum in set(data):
                 if signum in STOPPING and self.armed(signum) and not self._taken_within(
-                        signum, 0.0 if _INSIDE else GRACE):
+                        signum, 0.0 if (_INSIDE and _INSIDE[-1]) else GRACE):
                     self.stop(signum)
 
     @staticmethod
@@ -100,6 +100,12 @@ class Watchdog:
         os._exit(128 + signum)
 
 
+def stopping() -> bool:
+    """Whether the process is being stopped (:func:`claim` taken): progress lines are no longer
+    written, so that the stop's one line is the last."""
+    return _CLAIM.locked()
+
+
 def claim() -> bool:
     """Claim the stop of the process: True for the first caller (the watchdog, or the command
     line's way out after a KeyboardInterrupt), False for the other, which must then write nothing:
@@ -109,10 +115,12 @@ def claim() -> bool:
 
 
 @contextlib.contextmanager
-def released() -> Iterator[None]:
+def released(calls_back: bool = False) -> Iterator[None]:
     """Mark a C call made with the interpreter released (app/linalg.py): a signal arriving during
-    it stops the run at once (the main thread could take it only when the call returns)."""
-    _INSIDE.append(True)
+    it stops the run at once, as the main thread can take it only when the call returns; with
+    ``calls_back`` (an eigensolve, whose monitors take the interpreter at every iteration and the
+    signal with it) the watchdog gives the main thread its grace first."""
+    _INSIDE.append(not calls_back)
     try:
         yield
     finally:
@@ -134,7 +142,8 @@ def watchdog(rank: int, armed: Callable[[int], bool]) -> Watchdog:
 
 #: the process's watchdog once started (one per process: the wakeup descriptor is process-wide)
 _STARTED: list[Watchdog] = []
-#: one entry per released C call the main thread is inside (:func:`released`)
+#: one entry per released C call the main thread is inside (:func:`released`): True when the main
+#: thread cannot take a signal before the call returns
 _INSIDE: list[bool] = []
 #: held by whoever stops the process (:func:`claim`)
 _CLAIM = threading.Lock()

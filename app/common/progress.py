@@ -16,6 +16,8 @@ import sys
 import threading
 import time
 
+from app.common import hard_stop
+
 
 class _Null:
     def update(self, n: int = 1) -> None:
@@ -52,6 +54,8 @@ class _Lines:
         self.closed = False
 
     def _line(self, end: str = "") -> None:
+        if hard_stop.stopping():         # the process is being stopped: its one line is the last
+            return
         pct = f" ({100.0 * self.n / self.total:.0f}%)" if self.total else ""
         print(f"{self.desc}: {self.n}/{self.total} {self.unit}s{pct}, {time.perf_counter() - self.t0:.1f} s{end}",
               file=self.stream, flush=True)
@@ -205,6 +209,8 @@ class Progress:
         tty = stream.isatty()
 
         def write(text: str, final: bool) -> None:
+            if hard_stop.stopping():     # the process is being stopped: its one line is the last
+                return
             if tty:
                 stream.write("\r\033[K" + text + ("\n" if final else ""))
             else:
