@@ -283,6 +283,14 @@ def _libm():
     return lib
 
 
+def to_scipy(A: PETSc.Mat):
+    """A sequential PETSc AIJ matrix as a SciPy CSR matrix (a copy: ``A`` is left as it is, where
+    petsc4py's ``convert`` without a target would convert it in place)."""
+    import scipy.sparse
+    ai, aj, av = A.getValuesCSR()
+    return scipy.sparse.csr_matrix((av, aj, ai), shape=A.getSize())
+
+
 @contextmanager
 def lu(A: PETSc.Mat, **kwargs) -> Iterator[PETSc.KSP]:
     """``with lu(A) as ksp:`` -- :func:`lu_solver` whose KSP is destroyed on leaving the block."""

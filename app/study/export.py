@@ -38,7 +38,6 @@ import shutil
 import numpy as np
 import scipy.io
 import scipy.sparse
-from petsc4py import PETSc
 
 from app.analyses.pencils.curvature import attach as attach_curvature
 from app.analyses.pencils.curvature import is_curved
@@ -47,6 +46,7 @@ from app.common.stages import Stages
 from app.io.claims import read_results
 from app.io.document import json_clean
 from app.io.result import StateResult, StudyResult
+from app.linalg import to_scipy
 from app.loading.classify import Classification
 from app.loading.state import EquilibriumState
 from app.scene.schema import load_scene, parse_scene
@@ -120,13 +120,13 @@ def _write(study: StudyResult, scene, folder: pathlib.Path, comm, firsts: set[in
             raise ExportError(f"the scene's system has {len(system.nodes)} contact nodes, the results' {nodes}: "
                               "not the system of these results")
         if not pencils_only:
-            _mtx(folder / "K.mtx", _sparse(system.K), "the stiffness matrix K", files, folder)
+            _mtx(folder / "K.mtx", to_scipy(system.K), "the stiffness matrix K", files, folder)
             try:
                 M = system.mass()
             except RuntimeError:             # a system given as matrices without M
                 M = None
             if M is not None:
-                _mtx(folder / "M.mtx", _sparse(M), "the mass matrix M", files, folder)
+                _mtx(folder / "M.mtx", to_scipy(M), "the mass matrix M", files, folder)
         exported = [_classification(study, st, system, folder, files, pencils_only) for st in study.states
                     if st.analyses_shared_with is None and (firsts is None or st.index in firsts)]
         dofs = int(system.n_dofs)
@@ -148,8 +148,8 @@ def _classification(study: StudyResult, st: StateResult, system, folder: pathlib
     try:
         if not pencils_only:
             Ks, Ms = p.star(study.mu)
-            _mtx(sub / "Kstar.mtx", _sparse(Ks), f"K*(mu) of eq. (15) at mu = {study.mu}", files, folder)
-            _mtx(sub / "Mstar.mtx", _sparse(Ms), f"M*(mu) of eq. (15) at mu = {study.mu}", files, folder)
+            _mtx(sub / "Kstar.mtx", to_scipy(Ks), f"K*(mu) of eq. (15) at mu = {study.mu}", files, folder)
+            _mtx(sub / "Mstar.mtx", to_scipy(Ms), f"M*(mu) of eq. (15) at mu = {study.mu}", files, folder)
         s = len(cls.slip)
         if s:
             pencil = p.condensed_mu_quadratic() if is_curved(cls) else p.condensed_mu()
@@ -178,12 +178,6 @@ def _state(st: StateResult) -> EquilibriumState:
         return np.array([getattr(n, name) for n in st.nodes], dtype=float)
     return EquilibriumState(index=st.index, load=st.load.to_dict(), u_T=values("u_T"), u_N=values("u_N"),
                             r_T=values("r_T"), r_N=values("r_N"), extra=dict(st.model_extra or {}))
-
-
-def _sparse(A: PETSc.Mat) -> scipy.sparse.csr_matrix:
-    """A sequential PETSc matrix as a SciPy CSR matrix."""
-    ai, aj, av = A.getValuesCSR()
-    return scipy.sparse.csr_matrix((av, aj, ai), shape=A.getSize())
 
 
 def _mtx(path: pathlib.Path, A, comment: str, files: list[str], folder: pathlib.Path) -> None:

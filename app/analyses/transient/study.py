@@ -58,11 +58,9 @@ def _lambda2_solutions(st, mu: float) -> list:
 
 
 def dense_copy(X) -> np.ndarray:
-    """A sequential PETSc matrix as a dense numpy array (a copy: the system's own matrix stays as it
-    is; petsc4py's ``convert`` without a target would convert it in place)."""
-    import scipy.sparse
-    ai, aj, av = X.getValuesCSR()
-    return scipy.sparse.csr_matrix((av, aj, ai), shape=X.getSize()).toarray()
+    """A sequential PETSc matrix as a dense numpy array (a copy: the system's own matrix stays as it is)."""
+    from app.linalg import to_scipy
+    return to_scipy(X).toarray()
 
 
 def _mode_at(system, scene, st, mu: float) -> tuple[float, list[str]] | None:
