@@ -186,9 +186,10 @@ def test_two_concurrent_runs_to_one_folder_one_is_refused(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     first = subprocess.Popen([PY, "-m", "app", "run", str(scene), "-o", str(out), "-q"], cwd=ROOT, env=env,
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    lock = tmp_path / ".out.lock"
+    # the staging folder appears only once the lock is held: the lock file alone is created a moment
+    # before it is locked, and a run stopped in that moment lets the second one take the lock
     t0 = time.time()
-    while not lock.exists() and first.poll() is None and time.time() - t0 < 60:
+    while not list(tmp_path.glob(".out.partial-*")) and first.poll() is None and time.time() - t0 < 60:
         time.sleep(0.01)
     # the first run is held while the second starts (its start-up alone can outlast a small study)
     os.kill(first.pid, signal.SIGSTOP)
