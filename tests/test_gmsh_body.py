@@ -64,8 +64,9 @@ def _mu_values(state):
     return sorted(s["value"] for s in state["analyses"]["mceip_mu"]["solutions"])
 
 
-def assert_same_path(ref, got, first=0, rtol=1e-8):
-    """Identical classifications and slip signs, reactions to 1e-8 of the state's scale, MCEIP-mu to rtol."""
+def assert_same_path(ref, got, first=0, rtol=1e-8, reactions=1e-8):
+    """Identical classifications and slip signs, reactions to ``reactions`` of the state's scale,
+    MCEIP-mu to rtol."""
     a_states, b_states = ref["states"][first:], got["states"][first:]
     assert len(a_states) == len(b_states)
     for a, b in zip(a_states, b_states):
@@ -73,8 +74,8 @@ def assert_same_path(ref, got, first=0, rtol=1e-8):
         assert [n["sign"] for n in a["nodes"]] == [n["sign"] for n in b["nodes"]], a["index"]
         scale = max(abs(n["r_N"]) for n in a["nodes"])
         for na, nb in zip(a["nodes"], b["nodes"]):
-            assert nb["r_N"] == pytest.approx(na["r_N"], abs=1e-8 * scale)
-            assert nb["r_T"] == pytest.approx(na["r_T"], abs=1e-8 * scale)
+            assert nb["r_N"] == pytest.approx(na["r_N"], abs=reactions * scale)
+            assert nb["r_T"] == pytest.approx(na["r_T"], abs=reactions * scale)
         assert _mu_values(b) == pytest.approx(_mu_values(a), rel=rtol)
 
 

@@ -31,14 +31,43 @@ def check_circle_keys(model: Any, circle_keys: tuple[str, ...], line_keys: tuple
             raise PathError(key, None, f"missing: a circle needs {key} (allowed: {allowed})")
 
 
+BODY_KEYS = ("surface", "contact", "held", "material", "pairing")
+
+
+def check_body_keys(model: Any) -> None:
+    """A ``type: body`` obstacle (gmsh bodies) has ``surface``, ``contact`` and ``material`` (and
+    ``held``, ``pairing``), and no key of the other types; the other types have none of these."""
+    given = given_keys(model)
+    if model.type != "body":
+        for key in BODY_KEYS:
+            if key in given:
+                raise PathError(key, _shown(getattr(model, key)), f"allowed only with type: body (this obstacle is "
+                                f"type: {model.type})")
+        return
+    for key in ("point", "normal", "angle_deg", "centre", "radius", "side", "physical"):
+        if key in given:
+            raise PathError(key, getattr(model, key), "not allowed with type: body (allowed keys: type, "
+                            + ", ".join(BODY_KEYS) + ")")
+    for key, what in (("surface", "the name of the obstacle body's physical surface"),
+                      ("contact", "the name of its physical curve facing the body's contact curve"),
+                      ("material", "{E, nu, density}: the obstacle body's material")):
+        if getattr(model, key) is None:
+            raise PathError(key, None, f"missing: an obstacle body needs {key} ({what})")
+
+
+def _shown(v: Any) -> Any:
+    return v.model_dump() if hasattr(v, "model_dump") else v
+
+
 def check_curve_keys(model: Any) -> None:
     """A ``type: curve`` obstacle (gmsh bodies) has ``physical`` and ``side: left|right`` only."""
     given = given_keys(model)
     if model.type != "curve":
         raise PathError("physical", model.physical, f"allowed only with type: curve (this obstacle is type: {model.type})")
-    for key in ("point", "normal", "angle_deg", "centre", "radius"):
+    for key in ("point", "normal", "angle_deg", "centre", "radius", *BODY_KEYS):
         if key in given:
-            raise PathError(key, getattr(model, key), "not allowed with type: curve (allowed keys: type, physical, side)")
+            raise PathError(key, _shown(getattr(model, key)), "not allowed with type: curve (allowed keys: type, "
+                            "physical, side)")
     if model.physical is None:
         raise PathError("physical", None, "missing: a curve obstacle needs physical (the name of a physical curve "
                         "of the .geo file, a curve of its own)")

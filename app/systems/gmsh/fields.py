@@ -54,6 +54,8 @@ class BodyFields:
         if cfg.obstacle.type == "circle":
             self.obstacle = {"centre": [float(v) for v in cfg.obstacle.centre], "radius": float(cfg.obstacle.radius),
                              "side": cfg.obstacle.side}
+        elif cfg.obstacle.type == "body":         # drawn as the mesh it is, deformed with the body
+            self.obstacle = None
         elif cfg.obstacle.type == "curve":
             self.obstacle = {"polyline": cfg.obstacle.geometry().polyline().tolist(), "side": cfg.obstacle.side}
         else:

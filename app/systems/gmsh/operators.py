@@ -127,10 +127,15 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     K_full.destroy()
 
     edges = _contact_edges(mesh, sp.facets(cfg.contact), comm)                    # MPI collective
+    obstacle_blocks = np.zeros(0, dtype=np.int64)
+    if cfg.obstacle.type == "body":            # its contact line first: the frame and the gaps need it
+        obstacle_blocks = _surface_blocks(sp, cell_tags, cfg.obstacle.surface)
+        _body_line(cfg, sp, dof_x, obstacle_blocks, (K, kept))                    # MPI collective
     tvec, nvec = cfg.obstacle.frame()
-    deepest = _clearance(cfg, sp, dof_x)
+    deepest = _clearance(cfg, sp, dof_x, obstacle_blocks)
     left_out, xy, dx_, dy_ = _contact_nodes(cfg, sp, dof_x, reduced, (K, kept))
-    R = _rotation(K, dx_, dy_, tvec, nvec, comm)
+    links = _links(cfg, sp, dof_x, reduced, xy, deepest[2], (K, kept)) if cfg.obstacle.type == "body" else None
+    R = _rotation(K, dx_, dy_, tvec, nvec, comm, links)
     Kr = K.PtAP(R)
     K.destroy()
     loads = []
@@ -193,7 +198,7 @@ def _prescribed(cfg: GmshBody, sp: _Space, K_full: PETSc.Mat):
     presc: dict[str, dict[int, np.ndarray]] = {}
     is_d = np.zeros(n_owned, dtype=bool)
     owner = {}
-    for name, comps in cfg.prescribed.items():
+    for name, comps in cfg.all_prescribed().items():
         blocks = dolfinx.fem.locate_dofs_topological(sp.V, fdim, sp.facets(name))
         presc[name] = {}
         for c in (0, 1):
@@ -287,11 +292,61 @@ def _applied_loads(cfg: GmshBody, sp: _Space, v, rho_f, t, kept_local: np.ndarra
             raw.append(assemble(rho_f * t * ufl.inner(e, v) * ufl.dx))
 
 
-def _clearance(cfg: GmshBody, sp: _Space, dof_x: np.ndarray) -> tuple:
+def _surface_blocks(sp: _Space, cell_tags, surface: str) -> np.ndarray:
+    """The local DOF blocks (ghosts included) of the cells of a physical surface."""
+    cells = cell_tags.indices[cell_tags.values == sp.tag_of_surface[surface]]
+    per_cell = sp.V.dofmap.dof_layout.num_dofs
+    return np.unique(sp.V.dofmap.list.array.reshape(-1, per_cell)[cells].ravel()).astype(np.int64)
+
+
+def _body_line(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, obstacle_blocks: np.ndarray, owned: tuple) -> None:
+    """Set an obstacle body's contact line (app/systems/gmsh/interface.py) on ``cfg.obstacle``
+    (MPI collective). Destroys the PETSc objects ``owned`` before raising :class:`BodyError`."""
+    from app.systems.gmsh.interface import InterfaceError, contact_line
+    comm = sp.comm
+    ends = _contact_edges(sp.mesh, sp.facets(cfg.obstacle.contact), comm)       # MPI collective
+    mine = obstacle_blocks[obstacle_blocks < sp.im.size_local]
+    total = np.array(comm.allreduce([*dof_x[mine].sum(axis=0), len(mine)], op=MPI.SUM), dtype=float)  # MPI collective
+    box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
+                                  else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
+    size = float(np.max(box[:, 2:].max(axis=0) - box[:, :2].min(axis=0)))
+    try:
+        cfg.obstacle._line = contact_line(ends, total[:2] / max(total[2], 1.0), size, cfg.obstacle.contact)
+    except InterfaceError as err:
+        for obj in owned:                                          # the error path owns nothing
+            obj.destroy()
+        raise BodyError(str(err)) from None
+
+
+def _links(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, reduced: np.ndarray, contact_xy: np.ndarray, size: float,
+           owned: tuple) -> list:
+    """Each contact node's obstacle nodes and weights (app/systems/gmsh/interface.py ``pair``; MPI
+    collective). Destroys the PETSc objects ``owned`` before raising :class:`BodyError`."""
+    import dolfinx.fem
+
+    from app.systems.gmsh.interface import InterfaceError, masters, pair
+    ob, bs = cfg.obstacle, sp.bs
+    ends = _contact_edges(sp.mesh, sp.facets(ob.contact), sp.comm)             # MPI collective
+    blocks = dolfinx.fem.locate_dofs_topological(sp.V, 1, sp.facets(ob.contact))
+    blocks = blocks[blocks < sp.im.size_local]
+    m_xy, m_dofs = masters(sp.comm, dof_x[blocks],
+                           np.column_stack([reduced[blocks * bs], reduced[blocks * bs + 1]]))   # MPI collective
+    point, normal = ob.body_line()
+    try:
+        return pair(contact_xy, m_xy, m_dofs, ends, point, normal, cfg.degree, ob.pairing, size, ob.contact)
+    except InterfaceError as err:
+        for obj in owned:                                          # the error path owns nothing
+            obj.destroy()
+        raise BodyError(str(err)) from None
+
+
+def _clearance(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, obstacle_blocks: np.ndarray) -> tuple:
     """The whole body must start on its side of the obstacle line (not only the contact curve):
-    (smallest clearance, its node, the body's size, the fraction of nodes beyond the line)."""
+    (smallest clearance, its node, the body's size, the fraction of nodes beyond the line); an
+    obstacle body's own nodes (``obstacle_blocks``) are not the body's."""
     comm = sp.comm
     clear = cfg.obstacle.clearance(dof_x) if len(dof_x) else np.zeros(0)
+    clear[obstacle_blocks] = np.inf
     i = int(np.argmin(clear)) if len(clear) else 0
     mine = (float(clear[i]), tuple(float(v) for v in dof_x[i])) if len(clear) else (np.inf, (0.0, 0.0))
     deepest = min(comm.allgather(mine), key=lambda c: c[0])                     # MPI collective
@@ -301,7 +356,7 @@ def _clearance(cfg: GmshBody, sp: _Space, dof_x: np.ndarray) -> tuple:
     body = float(np.max(hi - lo))
     owned_clear = clear[:sp.im.size_local]
     beyond = comm.allreduce(int(np.sum(owned_clear < -1e-10 * body)), op=MPI.SUM)    # MPI collective
-    total = comm.allreduce(int(owned_clear.size), op=MPI.SUM)                        # MPI collective
+    total = comm.allreduce(int(np.sum(np.isfinite(owned_clear))), op=MPI.SUM)         # MPI collective
     return (*deepest, body, beyond / max(total, 1))
 
 
@@ -331,20 +386,27 @@ def _contact_nodes(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, reduced: np.nda
     return left_out, xy[order], dx_[order], dy_[order]
 
 
-def _rotation(K: PETSc.Mat, dx_: np.ndarray, dy_: np.ndarray, tvec, nvec, comm: MPI.Comm) -> PETSc.Mat:
-    """Rotation R: u_old = R u_new, identity except [[t_x, n_x], [t_y, n_y]] at contact nodes."""
-    R = PETSc.Mat().createAIJ(K.getSizes(), nnz=(2, 0), comm=comm)
+def _rotation(K: PETSc.Mat, dx_: np.ndarray, dy_: np.ndarray, tvec, nvec, comm: MPI.Comm,
+              links: list | None = None) -> PETSc.Mat:
+    """Change of variables R: u_old = R u_new, identity except [[t_x, n_x], [t_y, n_y]] at contact
+    nodes (the obstacle frame); with an obstacle body's ``links`` (per contact node its obstacle
+    nodes' weights and DOFs) also ``+ w`` in the columns of those nodes: the contact DOFs become
+    relative (app/systems/gmsh/interface.py)."""
+    R = PETSc.Mat().createAIJ(K.getSizes(), nnz=(2, 0) if links is None else (5, 3), comm=comm)
     R.setUp()
     r0, r1 = R.getOwnershipRange()
     contact_rows = {}
-    for ix, iy in zip(dx_, dy_):
+    for a, (ix, iy) in enumerate(zip(dx_, dy_)):
         if r0 <= ix < r1:
-            contact_rows[int(ix)] = int(iy)
+            contact_rows[int(ix)] = (int(iy), a)
     for i in range(r0, r1):
         if i in contact_rows:
-            iy = contact_rows[i]
+            iy, a = contact_rows[i]
             R.setValues([i, iy], [i, iy], [[tvec[0], nvec[0]], [tvec[1], nvec[1]]])
-    cy = set(contact_rows.values())
+            for w, mx, my in (links[a] if links is not None else ()):
+                R.setValue(i, mx, w)
+                R.setValue(iy, my, w)
+    cy = {iy for iy, _ in contact_rows.values()}
     for i in range(r0, r1):
         if i not in contact_rows and i not in cy:
             R.setValue(i, i, 1.0)

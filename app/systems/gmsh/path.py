@@ -69,6 +69,8 @@ def _check_left_out(cfg: GmshBody, ops, stages: Stages) -> None:
 def _check_materials(cfg: GmshBody, units: str, stages: Stages) -> None:
     """A warning for each material whose E or density no real solid has in the scene's units."""
     named = {"system.material": cfg.material} if cfg.material else {f"system.materials.{k}": m for k, m in cfg.materials.items()}
+    if cfg.obstacle.type == "body":
+        named["system.obstacle.material"] = cfg.obstacle.material
     for key, m in named.items():
         for w in implausible_material(key, m.E, m.density, units):
             log.warning("%s", w)
@@ -144,7 +146,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
         raise BodyError(f"system.obstacle: the contact node at {point_text(ops.contact_xy[i], body)} "
                         f"starts {-gaps[i]:.3g} inside the obstacle: move the obstacle's point or the body")
     if depth < -1e-10 * body:
-        what = "line" if cfg.obstacle.type == "line" else cfg.obstacle.type
+        what = cfg.obstacle.type if cfg.obstacle.curved else "line"
         w = (f"part of the body starts beyond the obstacle {what} ({100 * frac:.2g} % of its nodes, up to {-depth:.3g} "
              f"at {point_text(where, body)}): only the contact curve '{cfg.contact}' is kept out of the obstacle")
         log.warning("%s", w)
@@ -165,7 +167,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     system.flexibility = flex
     system.own(ops.R, ops.kept, *ops.loads, zero)
     geometry = None
-    if cfg.obstacle.type != "line":      # the curvature terms of the pencils (app/analyses/pencils/curvature.py)
+    if cfg.obstacle.curved:      # the curvature terms of the pencils (app/analyses/pencils/curvature.py)
         geometry = cfg.obstacle.geometry(np.mean(ops.contact_xy, axis=0))
         # at the initial contact points; each state records its own (curved_contact.curvature)
         system.curvature = geometry.curvatures(ops.contact_xy)
@@ -241,7 +243,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     with stages("quasi-static loading"):
         try:
             solver, gaps = None, given.gaps
-            if cfg.obstacle.type != "line":      # exact gaps and frames (app/loading/curved.py)
+            if cfg.obstacle.curved:      # exact gaps and frames (app/loading/curved.py)
                 from app.loading.curved import CurvedContact
                 tvec, nvec = cfg.obstacle.frame()
                 solver = CurvedContact(flex.schur, scene.mu, given.obstacle, given.contact_xy, tvec, nvec)
@@ -257,7 +259,7 @@ def path(scene, comm: MPI.Comm, stages: Stages, progress):
     tvec, nvec = cfg.obstacle.frame()
     # on a circle a state's u_N is minus its exact gap (app/loading/curved.py): no initial gap to add
     for w in check_body_path(states, system.fields.ops.size, tvec, nvec,
-                             given.gaps if cfg.obstacle.type == "line" else None,
+                             given.gaps if not cfg.obstacle.curved else None,
                              UNITS[scene.units]["length"]):
         log.warning("%s", w)
         stages.warnings.append(w)

@@ -77,8 +77,9 @@ class Obstacle(StrictModel):
     interpolated to 1e-11 of the body's size for a curve (app/loading/curve.py; docs/method.md
     section 8); the contact DOFs stay in the global axes (t = +x, n = -y)."""
 
-    type: Literal["line", "circle", "curve"] = Field("line", description="line (straight), circle or curve (a "
-                                                     "physical curve of the .geo file)")
+    type: Literal["line", "circle", "curve", "body"] = Field(
+        "line", description="line (straight), circle, curve (a physical curve of the .geo file) or body (a "
+        "second, deformable body of the .geo file)")
     point: Vec2 = Field((0.0, 0.0), description="a point of the obstacle line [length] (type line)")
     normal: Vec2 = Field((0.0, -1.0), description="the body's outward normal at contact (into the obstacle) (type line)")
     angle_deg: Optional[Finite] = Field(None, description="or: the line's slope, the normal (0, -1) rotated by it [deg] "
@@ -90,11 +91,24 @@ class Obstacle(StrictModel):
     side: Optional[Literal["outside", "inside", "left", "right"]] = Field(
         None, description="where the body is: outside (convex cylinder) or inside (concave bore) (type circle); "
         "left or right of the curve's direction (type curve)")
+    surface: Optional[str] = Field(None, description="the obstacle body's physical surface (type body)")
+    contact: Optional[str] = Field(None, description="the obstacle body's physical curve facing the body's contact "
+                                   "curve, straight (type body)")
+    held: list[str] = Field([], description="the obstacle body's physical curves held (fixed, or moved by the "
+                            "program's displacement as prescribed xy curves) (type body)")
+    material: Optional[Material] = Field(None, description="the obstacle body's material (type body)")
+    pairing: Literal["segment", "node"] = Field(
+        "segment", description="node-to-segment: each contact node faces a point of a segment of the obstacle's "
+        "contact curve (any meshes); node: each faces a node of it at the same place (conforming meshes) (type body)")
     _curve: Any = PrivateAttr(None)          # the SmoothCurve, set by GmshBody once the file is read
+    _line: Any = PrivateAttr(None)           # a body's contact line (point, outward normal), set when meshed
 
     @model_validator(mode="after")
     def _one_way(self) -> "Obstacle":
-        from app.systems.obstacle_schema import check_circle_keys, check_curve_keys, given_keys
+        from app.systems.obstacle_schema import check_body_keys, check_circle_keys, check_curve_keys, given_keys
+        check_body_keys(self)
+        if self.type == "body":
+            return self
         if self.type == "curve" or "physical" in self.model_fields_set:
             check_curve_keys(self)
             return self
@@ -113,10 +127,19 @@ class Obstacle(StrictModel):
             raise ValueError("the normal must be a non-zero vector [nx, ny] (components up to 1e-100 count as 0)")
         return v
 
+    @property
+    def curved(self) -> bool:
+        """A circle or a curve: exact or interpolated gaps, frames per node and curvature terms
+        (a line and an obstacle body's straight contact curve are not)."""
+        return self.type in ("circle", "curve")
+
     def frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit tangent t and outward normal n of the contact DOFs, with t = (-n_y, n_x) (for
         n = -y, t = +x); for a circle or a curve the global axes (each node's contact frame is
         then its own, app/loading/curved.py)."""
+        if self.type == "body":
+            n = np.array(self.body_line()[1], dtype=float)
+            return np.array([-n[1], n[0]]), n
         if self.type != "line":
             return np.array([1.0, 0.0]), np.array([0.0, -1.0])
         if self.angle_deg is not None:
@@ -136,28 +159,44 @@ class Obstacle(StrictModel):
             import copy
             return self._curve if ref is None else copy.copy(self._curve).set_reference(ref)   # arrays shared
         if self.type != "circle":
-            return None
+            return None          # a line, or a body's straight contact curve
         from app.loading.curved import Circle
         return Circle(self.centre, self.radius, self.side, ref)
 
     def clearance(self, xy: np.ndarray) -> np.ndarray:
         """Gaps of the points ``xy`` (n, 2): ``(p - x) . n`` for a line, exact for a circle."""
-        if self.type != "line":
+        if self.curved:
             xy = np.atleast_2d(xy)
             return self.geometry(np.mean(xy, axis=0)).gap(xy)
-        return (np.array(self.point) - np.asarray(xy)) @ self.frame()[1]
+        return (np.array(self.line_point()) - np.asarray(xy)) @ self.frame()[1]
 
     def coordinate(self, xy: np.ndarray) -> np.ndarray:
         """Tangential coordinate of the points ``xy`` along the obstacle: ``(x - p) . t`` for a
         line, on a circle or a curve the arc coordinate from the direction (closest point) of their mean."""
-        if self.type != "line":
+        if self.curved:
             xy = np.atleast_2d(xy)
             return self.geometry(np.mean(xy, axis=0)).arc(xy)
-        return (np.asarray(xy) - np.array(self.point)) @ self.frame()[0]
+        return (np.asarray(xy) - np.array(self.line_point())) @ self.frame()[0]
+
+    def line_point(self) -> tuple[float, float]:
+        """A point of the straight obstacle: the line's ``point``, or a point of a body's contact curve."""
+        return tuple(self.body_line()[0]) if self.type == "body" else self.point
+
+    def body_line(self) -> tuple:
+        """A body obstacle's contact line ``(point, unit outward normal of the body)``: known once the
+        file is meshed (app/systems/gmsh/interface.py)."""
+        if self._line is None:
+            raise RuntimeError("the obstacle body's contact line is known once the mesh is read")
+        return self._line
 
     def describe(self) -> str:
         """The obstacle in words for messages: the line's point and outward normal of the body, or the
         circle or curve as its geometry describes itself."""
+        if self.type == "body":
+            m = self.material
+            n = tuple(float(v) for v in np.round(self.frame()[1], 12)) if self._line is not None else None
+            return (f"obstacle body '{self.surface}' (E = {m.E:g}, nu = {m.nu:g}; contact curve '{self.contact}'"
+                    + (f", outward normal of the body {n}" if n else "") + f", node-to-{self.pairing})")
         if self.type != "line":
             return "obstacle " + self.geometry().describe()
         return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
@@ -269,7 +308,7 @@ class GmshBody(StrictModel):
         import pathlib
 
         from app.systems.gmsh.mesh import mesh_sizes
-        dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, dict(self.prescribed), self.contact,
+        dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, self.all_prescribed(), self.contact,
                                    self.mesh_size_factor)
         return dofs, contact, "system.file"
 
@@ -300,6 +339,12 @@ class GmshBody(StrictModel):
         data = dict(data)
         if "contact" in data:
             data["contact"] = one(data["contact"])
+        ob = data.get("obstacle")
+        if isinstance(ob, dict) and ob.get("type") == "body":
+            ob = dict(ob, **{k: one(ob[k], dim) for k, dim in (("surface", 2), ("contact", 1)) if k in ob})
+            if isinstance(ob.get("held"), list):
+                ob["held"] = [one(v) for v in ob["held"]]
+            data["obstacle"] = ob
         for key, dim in (("prescribed", 1), ("materials", 2)):
             data[key] = names(data[key], dim) if key in data else data.get(key, {})
         if isinstance(data.get("program"), list):
@@ -354,32 +399,39 @@ class GmshBody(StrictModel):
             if name == self.contact:
                 raise SystemPathError(f"prescribed.{name}", self.prescribed[name],
                                       "the contact curve cannot also be prescribed")
+        body_surfaces = set(surfaces)
+        if self.obstacle.type == "body":
+            self._obstacle_body(curve, surfaces, shown)
+            body_surfaces.discard(self.obstacle.surface)
         if (self.material is None) == (not self.materials):
             raise SystemPathError("material", None, "give either 'material' (one material for the whole body) or "
-                                  f"'materials' (one per physical surface: {', '.join(sorted(surfaces))})")
+                                  f"'materials' (one per physical surface: {', '.join(sorted(body_surfaces))})")
         if self.materials:
             for name in self.materials:
                 if name not in surfaces:
                     raise SystemPathError(f"materials.{name}", None, f"no physical surface '{name}' in {shown}; "
                                           f"physical surfaces: {', '.join(sorted(surfaces))}")
-            missing = sorted(set(surfaces) - set(self.materials))
+                if name not in body_surfaces:
+                    raise SystemPathError(f"materials.{name}", None, f"'{name}' is the obstacle body: give its "
+                                          "material as obstacle.material")
+            missing = sorted(body_surfaces - set(self.materials))
             if missing:
                 raise SystemPathError("materials", sorted(self.materials), f"no material for the physical surface "
                                       f"'{missing[0]}': give one for each of {', '.join(sorted(surfaces))}")
         for i, ph in enumerate(self.program):
             for name, m in ph.displacement.items():
                 key = f"program.{i}.displacement.{name}"
-                if name not in self.prescribed:
+                if name not in self.all_prescribed():
                     raise SystemPathError(key, None, f"'{name}' is not a prescribed curve: list it under "
                                           f"prescribed (with its components x, y or xy)")
-                comp = self.prescribed[name]
+                comp = self.all_prescribed()[name]
                 if comp != "xy" and (m.rotation_deg != 0 or m.translation[1 if comp == "x" else 0] != 0):
                     raise SystemPathError(key, m.model_dump(), f"only the {comp} component of '{name}' is prescribed: "
                                           "rotations and the other translation component need xy")
             for kind in ("traction", "force"):
                 for name in getattr(ph, kind):
                     curve(f"program.{i}.{kind}.{name}", name)
-                    if name in self.prescribed:
+                    if name in self.all_prescribed():
                         raise SystemPathError(f"program.{i}.{kind}.{name}", None,
                                               f"'{name}' is prescribed (displacement control): load another curve")
             if ph.until is not None and not ph.displacement:
@@ -387,9 +439,37 @@ class GmshBody(StrictModel):
                                       "same phase (it scales the phase's prescribed motion)")
         return self
 
+    def _obstacle_body(self, curve, surfaces: dict, shown: str) -> None:
+        """The keys of a ``type: body`` obstacle name the file's groups, apart from the body's."""
+        ob = self.obstacle
+        if ob.surface not in surfaces:
+            raise SystemPathError("obstacle.surface", ob.surface, f"no physical surface '{ob.surface}' in {shown}; "
+                                  f"physical surfaces: {', '.join(sorted(surfaces))}")
+        if len(surfaces) < 2:
+            raise SystemPathError("obstacle.surface", ob.surface, f"{shown} has one physical surface: the body and "
+                                  "the obstacle body need one each")
+        curve("obstacle.contact", ob.contact)
+        if ob.contact == self.contact:
+            raise SystemPathError("obstacle.contact", ob.contact, "the body's own contact curve: give the obstacle "
+                                  "body's curve facing it (a curve of its own, not shared with the body)")
+        for name in ob.held:
+            curve("obstacle.held", name)
+            if name in (self.contact, ob.contact):
+                raise SystemPathError("obstacle.held", name, "a contact curve cannot be held")
+            if name in self.prescribed:
+                raise SystemPathError("obstacle.held", name, f"'{name}' is also under prescribed: list it once")
+
+    def all_prescribed(self) -> dict[str, str]:
+        """The curves whose displacement the program prescribes: ``prescribed`` and an obstacle
+        body's ``held`` curves (both components)."""
+        held = {name: "xy" for name in self.obstacle.held} if self.obstacle.type == "body" else {}
+        return {**self.prescribed, **held}
+
     def material_of(self, surface: str) -> Material:
-        """The material of the physical surface ``surface``: the one ``material``, or that surface's
-        entry of ``materials``."""
+        """The material of the physical surface ``surface``: an obstacle body's own, the one
+        ``material``, or that surface's entry of ``materials``."""
+        if self.obstacle.type == "body" and surface == self.obstacle.surface:
+            return self.obstacle.material
         return self.material if self.material is not None else self.materials[surface]
 
     @classmethod

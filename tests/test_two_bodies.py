@@ -1,0 +1,189 @@
+"""Two deformable bodies (``obstacle: {type: body}``, app/systems/gmsh/interface.py): the block on a
+plate of its own material and mesh.
+
+- Rigid limit: a plate 1e8 times stiffer than the block gives the rigid line's path and MCEIP-mu
+  to 1e-6; the difference falls as 1/E_plate (observed order printed).
+- A conforming interface run node-to-node and node-to-segment gives the same results (1e-10).
+- Invariance: the whole scene rotated, in m-N-Pa, on 2 ranks.
+- Non-matching meshes: the body finer than the plate and the plate finer than the body converge to
+  one onset under refinement.
+- One-line errors for the keys of an obstacle body.
+"""
+import math
+import pathlib
+
+import numpy as np
+import pytest
+import yaml
+from conftest import results_on_ranks, run_cli_here, run_scene
+
+from test_gmsh_body import assert_same_path
+
+
+def pair_geo(path: pathlib.Path, nx: int = 8, ny: int = 4, plate_n: int | None = None, angle_deg: float = 0.0,
+             scale: float = 1.0, plate: bool = True) -> str:
+    """The paper's block (80 x 40 mm, nx x ny cells, one diagonal each) on a plate 10 mm thick as wide
+    as the block (plate_n cells along the interface, 2 across), both structured; coordinates rotated
+    by ``angle_deg`` about the origin and multiplied by ``scale``. ``plate=False``: the block alone."""
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+
+    def pt(i, x, y):
+        return f"Point({i}) = {{{scale * (c * x - s * y)!r}, {scale * (s * x + c * y)!r}, 0}};\n"
+    text = "".join(pt(i, x, y) for i, (x, y) in enumerate([(0, 0), (80, 0), (80, 40), (0, 40)], 1))
+    text += ("Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1};\n"
+             "Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};\n"
+             f"Transfinite Curve {{1, 3}} = {nx + 1}; Transfinite Curve {{2, 4}} = {ny + 1};\n"
+             "Transfinite Surface {1} = {1, 2, 3, 4} Right;\n"
+             'Physical Curve("AB") = {1}; Physical Curve("CD") = {3}; Physical Surface("block") = {1};\n')
+    if plate:
+        n = plate_n or nx
+        text += "".join(pt(i, x, y) for i, (x, y) in zip(range(11, 15), [(0, -10), (80, -10), (80, 0), (0, 0)]))
+        text += ("Line(11) = {11, 12}; Line(12) = {12, 13}; Line(13) = {13, 14}; Line(14) = {14, 11};\n"
+                 "Curve Loop(2) = {11, 12, 13, 14}; Plane Surface(2) = {2};\n"
+                 f"Transfinite Curve {{11, 13}} = {n + 1}; Transfinite Curve {{12, 14}} = 3;\n"
+                 "Transfinite Surface {2} = {11, 12, 13, 14} Right;\n"
+                 'Physical Curve("top") = {13}; Physical Curve("bottom") = {11}; Physical Surface("plate") = {2};\n')
+    path.write_text(text)
+    return str(path)
+
+
+def pair_scene(file, E_plate=3000.0, pairing="segment", angle_deg=0.0, units=None, rigid=False, steps=100,
+               analyses=("mceip_mu",)):
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    k = 1e-3 if units == "m-N-Pa-kg-s" else 1.0          # lengths in m
+    e = 1e6 if units == "m-N-Pa-kg-s" else 1.0           # stresses in Pa
+    rot = lambda v: [k * (c * v[0] - s * v[1]), k * (s * v[0] + c * v[1])]   # noqa: E731
+    mat = {"E": 5.0 * e, "nu": 0.48, "density": 1.2e-9 / (k ** 3 * 1e-3 if units else 1.0)}
+    obstacle = ({"point": [0.0, 0.0], "normal": rot([0.0, -1.0])} if rigid else
+                {"type": "body", "surface": "plate", "contact": "top", "held": ["bottom"], "pairing": pairing,
+                 "material": {"E": E_plate * e, "nu": 0.35, "density": mat["density"]}})
+    system = {"type": "gmsh", "file": str(file), "contact": "AB", "prescribed": {"CD": "xy"}, "material": mat,
+              "thickness": 9.6 * k, "obstacle": obstacle,
+              "program": [{"name": "press", "steps": 10, "displacement": {"CD": {"translation": rot([0.0, -1.0])}},
+                           "until": {"normal_force": 55.0}},
+                          {"name": "drag", "steps": steps, "displacement": {"CD": {"translation": rot([-10.0, 0.0])}}}]}
+    out = {"name": "pair", "system": system, "mu": 1.1, "analyses": list(analyses)}
+    if units:
+        out["units"] = units
+    return out
+
+
+def final_mu(res) -> float:
+    return min(s["value"] for s in res["states"][-1]["analyses"]["mceip_mu"]["solutions"])
+
+
+@pytest.fixture(scope="module")
+def geo(tmp_path_factory):
+    d = tmp_path_factory.mktemp("pair")
+    return {"pair": pair_geo(d / "pair.geo"), "block": pair_geo(d / "block.geo", plate=False), "dir": d}
+
+
+@pytest.fixture(scope="module")
+def rigid(geo):
+    return run_scene(pair_scene(geo["block"], rigid=True))
+
+
+def test_a_plate_1e8_times_stiffer_is_the_rigid_line(geo, rigid):
+    got = run_scene(pair_scene(geo["pair"], E_plate=5e8))
+    assert_same_path(rigid, got, rtol=1e-6, reactions=1e-6)
+    assert final_mu(got) == pytest.approx(final_mu(rigid), rel=1e-6)
+    for a, b in zip(rigid["states"], got["states"]):
+        assert [n["u_T"] for n in b["nodes"]] == pytest.approx([n["u_T"] for n in a["nodes"]], abs=1e-6)
+
+
+def test_the_rigid_limit_converges_as_one_over_the_plates_modulus(geo, rigid):
+    """The final onset and the press's reactions differ from the rigid line's by O(E_body / E_plate):
+    observed order 1 over two decades (same classifications once the plate is stiff enough)."""
+    ref_r = np.array([n["r_N"] for n in rigid["states"][9]["nodes"]])
+    errs_mu, errs_r = [], []
+    for E in (5e3, 5e4, 5e5):
+        got = run_scene(pair_scene(geo["pair"], E_plate=E))
+        errs_mu.append(abs(final_mu(got) - final_mu(rigid)))
+        errs_r.append(np.abs(np.array([n["r_N"] for n in got["states"][9]["nodes"]]) - ref_r).max())
+    order_mu = [math.log10(errs_mu[i] / errs_mu[i + 1]) for i in range(2)]
+    order_r = [math.log10(errs_r[i] / errs_r[i + 1]) for i in range(2)]
+    print(f"rigid limit: |mu - mu_rigid| = {errs_mu}, observed orders {order_mu}; press reactions {errs_r}, "
+          f"orders {order_r}")
+    assert all(0.9 < o < 1.1 for o in order_mu + order_r), (order_mu, order_r)
+
+
+def test_node_to_node_equals_node_to_segment_on_a_conforming_interface(geo):
+    a = run_scene(pair_scene(geo["pair"], pairing="node"))
+    b = run_scene(pair_scene(geo["pair"], pairing="segment"))
+    assert_same_path(a, b, rtol=1e-10, reactions=1e-10)
+    assert final_mu(a) == pytest.approx(final_mu(b), rel=1e-10)
+    assert "node-to-node" in a["system"] and "node-to-segment" in b["system"]
+
+
+@pytest.mark.parametrize("angle", [30.0, -90.0])
+def test_rotating_the_whole_scene_changes_nothing(geo, angle):
+    ref = run_scene(pair_scene(geo["pair"]))
+    f = pair_geo(geo["dir"] / f"rot{angle:g}.geo", angle_deg=angle)
+    got = run_scene(pair_scene(f, angle_deg=angle))
+    assert_same_path(ref, got, rtol=1e-10, reactions=1e-10)
+
+
+def test_metres_newtons_pascals_give_the_same_onsets(geo):
+    ref = run_scene(pair_scene(geo["pair"]))
+    f = pair_geo(geo["dir"] / "metres.geo", scale=1e-3)
+    got = run_scene(pair_scene(f, units="m-N-Pa-kg-s"))
+    assert_same_path(ref, got, rtol=1e-10, reactions=1e-10)
+
+
+def test_two_ranks_give_the_one_rank_numbers(tmp_path):
+    f = pair_geo(tmp_path / "p.geo", nx=10, ny=5, plate_n=7, angle_deg=20.0)
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(pair_scene("p.geo", angle_deg=20.0, steps=50,
+                                                               analyses=["necessary", "mceip_mu"])))
+    out = results_on_ranks(tmp_path / "s.yaml", tmp_path)
+    assert f
+    assert_same_path(out[1], out[2], rtol=1e-10, reactions=1e-10)
+
+
+def test_non_matching_meshes_converge_to_one_onset_whichever_is_finer(tmp_path):
+    """Block n x n/2 on a plate of 3n/2 cells, and the block 3n/2 x 3n/4 on a plate of n: the two
+    onsets approach each other as n doubles."""
+    gaps = []
+    for n in (8, 16, 32):
+        m = 3 * n // 2
+        a = run_scene(pair_scene(pair_geo(tmp_path / f"a{n}.geo", nx=n, ny=n // 2, plate_n=m), steps=50))
+        b = run_scene(pair_scene(pair_geo(tmp_path / f"b{n}.geo", nx=m, ny=m // 2, plate_n=n), steps=50))
+        gaps.append(abs(final_mu(a) - final_mu(b)))
+    print(f"non-matching: |mu(body finer) - mu(plate finer)| = {gaps}")
+    assert gaps[2] < gaps[1] < gaps[0]
+
+
+@pytest.mark.parametrize("obstacle, key, words", [
+    ({"surface": "nowhere"}, "system.obstacle.surface", "no physical surface 'nowhere'"),
+    ({"contact": "AB"}, "system.obstacle.contact", "the body's own contact curve"),
+    ({"held": ["top"]}, "system.obstacle.held", "a contact curve cannot be held"),
+    ({"held": ["CD"]}, "system.obstacle.held", "also under prescribed"),
+    ({"material": None}, "system.obstacle.material", "missing"),
+    ({"point": [1, 0]}, "system.obstacle.point", "not allowed with type: body"),
+])
+def test_an_obstacle_body_s_keys_are_checked_in_one_line(geo, tmp_path, obstacle, key, words):
+    s = pair_scene(geo["pair"])
+    s["system"]["obstacle"].update(obstacle)
+    if obstacle.get("material", 0) is None:
+        del s["system"]["obstacle"]["material"]
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"))
+    assert p.returncode == 2
+    line = p.stderr.strip()
+    assert len(line.splitlines()) == 1 and key in line and words in line, line
+
+
+def test_a_kinked_obstacle_contact_curve_is_refused_in_one_line(tmp_path):
+    """Only straight obstacle-body curves are modelled: a plate whose top bends by 0.5 mm is refused."""
+    text = pathlib.Path(pair_geo(tmp_path / "p.geo", plate=False)).read_text()
+    text += ("Point(11) = {0, -10, 0}; Point(12) = {80, -10, 0}; Point(13) = {80, 0, 0}; Point(14) = {0, 0, 0};\n"
+             "Point(15) = {40, -0.5, 0};\n"
+             "Line(11) = {11, 12}; Line(12) = {12, 13}; Line(13) = {13, 15}; Line(15) = {15, 14}; Line(14) = {14, 11};\n"
+             "Curve Loop(2) = {11, 12, 13, 15, 14}; Plane Surface(2) = {2};\n"
+             'Physical Curve("top") = {13, 15}; Physical Curve("bottom") = {11}; Physical Surface("plate") = {2};\n')
+    (tmp_path / "p.geo").write_text(text)
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(pair_scene("p.geo")))
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "o"), "-q")
+    line = p.stderr.strip()
+    assert p.returncode == 2 and len(line.splitlines()) == 1, p.stderr
+    assert "system.obstacle.contact = 'top'" in line and "must be straight" in line, line
+    assert not (tmp_path / "o").exists()
