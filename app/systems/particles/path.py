@@ -25,6 +25,23 @@ def particle_matrices(k: float, m: float, phi_deg: float) -> tuple[np.ndarray, n
     return K, m * np.eye(4)
 
 
+def supported_matrices(K: np.ndarray, M: np.ndarray, k_T: float, k_N: float, m_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """K' and M' of the two particles resting on a third particle held by springs ``k_T``, ``k_N``
+    to the ground, in the DOFs ``(q_1, q_2, v)``: ``q_i = u_i - v`` the particles' displacements
+    relative to the support (their contact DOFs) and ``v`` the support's (an interior node):
+    ``u = P (q, v)`` with ``P = [[I, E], [0, I]]``, ``E = [I; I]``, unimodular, ``K' = P^T K P``
+    (docs/method.md section 10)."""
+    K6 = np.zeros((6, 6))
+    K6[:4, :4] = K
+    K6[4:, 4:] = np.diag([k_T, k_N])
+    M6 = np.zeros((6, 6))
+    M6[:4, :4] = M
+    M6[4:, 4:] = m_s * np.eye(2)
+    P = np.eye(6)
+    P[0:2, 4:6] = P[2:4, 4:6] = np.eye(2)
+    return P.T @ K6 @ P, P.T @ M6 @ P
+
+
 def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-tonne-s") -> System:
     """System of the two-particle scene: both particles are contact nodes, no interior DOFs.
 
@@ -34,6 +51,11 @@ def build(cfg: TwoParticles, comm: MPI.Comm, stages: Stages, units: str = "mm-N-
     nodes = [ContactNode(id=0, x=0.0, dof_T=0, dof_N=1), ContactNode(id=1, x=1.0, dof_T=2, dof_N=3)]
     ob = cfg.obstacle
     where = "" if ob.type == "line" else f", on a circle of radius {ob.radius} {u['length']} ({ob.side})"
+    sup = cfg.support
+    if sup is not None:
+        K, M = supported_matrices(K, M, sup.k_T, sup.k_N, sup.m)
+        where = (f", on a supported particle (k_T={sup.k_T} {u['stiffness']}, k_N={sup.k_N} {u['stiffness']}, "
+                 f"m={sup.m} {u['mass']})")
     system = discrete_system(K, M, nodes, comm, stages, u,
                              f"two particles, k={cfg.k} {u['stiffness']}, m={cfg.m} {u['mass']}, "
                              f"phi={cfg.phi_deg} deg{where}")

@@ -2,6 +2,7 @@
 
     system: {type: two_particles, k: 1.0, m: 1.0, phi_deg: 30, signs: [1, 1]}
     system: {..., obstacle: {type: circle, radius: 50, side: outside}, normal_reaction: 2.0}
+    system: {..., support: {k_T: 500, k_N: 800, m: 1.0}}   # on a third, elastically supported particle
 
 A single equilibrium state (both particles in impending slip with the signs given): no
 ``loading`` section, and no mesh for ParaView files or screenshots.
@@ -40,6 +41,16 @@ class ParticleObstacle(Strict):
         return (-1.0 if self.side == "outside" else 1.0) / self.radius
 
 
+class Support(Strict):
+    """A deformable obstacle for the two particles: a third particle (the obstacle body) of mass ``m``
+    held by springs ``k_T`` (tangential) and ``k_N`` (normal) to the ground; both particles touch it
+    (docs/method.md section 10: the contact DOFs are relative to it)."""
+
+    k_T: PosFloat = Field(description="tangential spring of the support particle to the ground [N/mm]")
+    k_N: PosFloat = Field(description="normal spring of the support particle to the ground [N/mm]")
+    m: PosFloat = Field(description="mass of the support particle [tonne]")
+
+
 class TwoParticles(Strict):
     """The two-particle system of the paper, section 5, Fig. 1 (docs/method.md section 4)."""
 
@@ -53,6 +64,8 @@ class TwoParticles(Strict):
     signs: tuple[Literal[-1, 1], Literal[-1, 1]] = Field(
         description="S1, S2: signs of the static tangential reactions (both particles in impending slip)")
     obstacle: ParticleObstacle = Field(ParticleObstacle(), description="the rigid obstacle: line (default) or circle")
+    support: Optional[Support] = Field(None, description="a deformable obstacle: the particles rest on a third, "
+                                       "elastically supported particle (straight obstacle only)")
     normal_reaction: PosFloat = Field(1.0, description="P = -r_N of each particle [N] (enters the pencils "
                                       "only on a curved obstacle, through kappa P)")
 
@@ -63,6 +76,13 @@ class TwoParticles(Strict):
                 or any(isinstance(s, bool) or not isinstance(s, int) or s not in (-1, 1) for s in v)):
             raise ValueError("allowed: a list of two signs [S1, S2], each the integer -1 or 1")
         return v
+
+    @model_validator(mode="after")
+    def _support_on_a_line(self) -> "TwoParticles":
+        if self.support is not None and self.obstacle.type != "line":
+            raise PathError("support", self.support.model_dump(), "a supported particle is a straight obstacle: "
+                            "not allowed with obstacle type circle")
+        return self
 
     @classmethod
     def check_scene(cls, scene: Any) -> None:
