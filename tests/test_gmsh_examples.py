@@ -94,7 +94,7 @@ def test_l_shape_example_runs_with_outputs(tmp_path):
 
 @pytest.mark.parametrize("scene", ["block.yaml", "half_disk.yaml", "l_shape.yaml", "incline.yaml",
                                    "half_disk_cylinder.yaml", "half_disk_seat.yaml", "half_disk_cylinder_curve.yaml",
-                                   "half_disk_ellipse.yaml"])
+                                   "half_disk_ellipse.yaml", "block_on_epoxy.yaml", "rubber_on_rubber.yaml"])
 def test_shipped_scenes_validate_from_any_folder(scene):
     p = run_cli_here("validate", str(EX / scene), cwd="/")
     assert p.returncode == 0, p.stderr

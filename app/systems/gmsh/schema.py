@@ -194,7 +194,7 @@ class Obstacle(StrictModel):
         circle or curve as its geometry describes itself."""
         if self.type == "body":
             m = self.material
-            n = tuple(float(v) for v in np.round(self.frame()[1], 12)) if self._line is not None else None
+            n = tuple(float(v) + 0.0 for v in np.round(self.frame()[1], 12)) if self._line is not None else None
             return (f"obstacle body '{self.surface}' (E = {m.E:g}, nu = {m.nu:g}; contact curve '{self.contact}'"
                     + (f", outward normal of the body {n}" if n else "") + f", node-to-{self.pairing})")
         if self.type != "line":
