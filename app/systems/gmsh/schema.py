@@ -30,8 +30,10 @@ phase's increments so that the normal resultant on the contact curve is F at its
 rescaling when the phase starts from the unloaded, touching state: the incremental problems are
 then positively homogeneous; otherwise bracketing and regula falsi). A circle obstacle has exact gaps
 and frames, a curve of the .geo file interpolated ones (docs/method.md section 8, docs/curved.md); their
-increments are never homogeneous. Not modelled: a curve from a .msh file, two
-deformable bodies, large rotations (rotations are linearised), contact of nodes outside the
+increments are never homogeneous. A second, deformable body of the file may be the obstacle:
+``obstacle: {type: body, surface: plate, contact: top, held: [bottom], material: {...}}``
+(app/systems/gmsh/interface.py; docs/method.md section 9). Not modelled: a curve from a .msh
+file, a curved obstacle body, large rotations (rotations are linearised), contact of nodes outside the
 ``contact`` curve.
 """
 from __future__ import annotations
@@ -65,7 +67,7 @@ class Material(StrictModel):
 
 
 class Obstacle(StrictModel):
-    """The rigid obstacle. ``type: line`` (the default): a straight line through ``point``;
+    """The obstacle. ``type: line`` (the default): a straight line through ``point``;
     ``normal`` is the body's outward normal at contact (pointing into the obstacle; need not be a
     unit vector), or ``angle_deg``: the line's slope, i.e. the normal (0, -1) rotated
     counter-clockwise by that angle (exact for any angle). ``type: circle``: a circle of centre
@@ -75,7 +77,12 @@ class Obstacle(StrictModel):
     ``right`` looking along the curve's direction (its first entity's orientation); it must have a
     continuous tangent. Gaps, frames and curvature at the contact points are exact for a circle and
     interpolated to 1e-11 of the body's size for a curve (app/loading/curve.py; docs/method.md
-    section 8); the contact DOFs stay in the global axes (t = +x, n = -y)."""
+    section 8); the contact DOFs stay in the global axes (t = +x, n = -y). ``type: body``: the
+    physical surface ``surface`` of the file is a second elastic body of material ``material``,
+    held on its curves ``held`` (fixed, or moved by the program as prescribed xy curves); the
+    body's contact nodes touch its straight curve ``contact``, each paired once with a point of it
+    (``pairing``: ``segment``, or ``node`` for conforming meshes), and the contact quantities are
+    relative (docs/method.md section 9)."""
 
     type: Literal["line", "circle", "curve", "body"] = Field(
         "line", description="line (straight), circle, curve (a physical curve of the .geo file) or body (a "
@@ -251,7 +258,8 @@ class GmshBody(StrictModel):
     plane: Literal["stress", "strain"] = "stress"
     thickness: PosFloat = 1.0
     mass: Literal["consistent", "lumped"] = "consistent"
-    obstacle: Obstacle = Field(Obstacle(), description="the rigid obstacle: a straight line (default) or a circle")
+    obstacle: Obstacle = Field(Obstacle(), description="the obstacle: a rigid straight line (default), circle or "
+                               "curve, or a second, deformable body")
     foundation: Optional[PosFloat] = Field(None, description="weak elastic foundation for a body nothing holds "
                                            "[stress/length]")
     program: Annotated[list[Phase], Field(min_length=1, max_length=1000)] = Field(
