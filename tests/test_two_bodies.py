@@ -209,3 +209,50 @@ def test_shipped_two_body_scenes_prove_every_onset_and_check_re_verifies_them(tm
     c = run_cli_here("check", str(out))
     assert c.returncode == 0, c.stdout + c.stderr
     assert "re-verified from the stored pencils" in c.stdout
+
+
+def test_the_flexibility_is_b_k_inverse_b_transposed_of_the_two_bodies(tmp_path):
+    """W of the change of variables equals B K^-1 B^T computed here from the two bodies' stiffness
+    in their own DOFs (the same file run with the plate as a second surface of one body on a rigid
+    line, the plate's bottom prescribed), B the relative displacements with this test's own
+    pairing (linear interpolation on the plate's top): a non-matching interface, 1e-10."""
+    import scipy.sparse.linalg
+    from mpi4py import MPI
+
+    from app.common.stages import Stages
+    from app.linalg import to_scipy
+    from app.scene.schema import parse_scene
+    from app.systems.gmsh.path import build
+    f = pair_geo(tmp_path / "p.geo", nx=6, ny=3, plate_n=4)
+    two = pair_scene(f)
+    one = pair_scene(f, rigid=True)
+    one["system"]["prescribed"]["bottom"] = "xy"
+    one["system"]["materials"] = {"block": one["system"].pop("material"),
+                                  "plate": two["system"]["obstacle"]["material"]}
+    with build(parse_scene(two).system, MPI.COMM_WORLD, Stages()) as a, \
+            build(parse_scene(one).system, MPI.COMM_WORLD, Stages()) as b:
+        W_app = a.flexibility.W
+        ops = b.fields.ops
+        K = to_scipy(b.K).tocsc()
+        d = ops.field_data
+        reduced = {int(loc): i for i, loc in enumerate(d.kept_local)}       # local unrolled DOF -> reduced
+        contact = {tuple(p) for p in ops.contact_dofs.tolist()}
+        # the plate's top: the nodes on y = 0 that are not the block's contact nodes (both are there)
+        top = sorted((float(x[0]), reduced[2 * blk], reduced[2 * blk + 1]) for blk, x in enumerate(d.dof_x)
+                     if abs(x[1]) < 1e-12 and 2 * blk in reduced
+                     and (reduced[2 * blk], reduced[2 * blk + 1]) not in contact)
+        assert len(top) == 5
+        n = len(ops.contact_xy)
+        B = np.zeros((2 * n, K.shape[0]))
+        xs = [t[0] for t in top]
+        for a_, (x, (dT, dN)) in enumerate(zip(ops.contact_xy[:, 0], ops.contact_dofs)):
+            B[2 * a_, dT] = 1.0                   # the rigid line's frame: T = +x, N = -y
+            B[2 * a_ + 1, dN] = 1.0
+            j = min(max(int(np.searchsorted(xs, x)) - 1, 0), len(xs) - 2)
+            xi = (x - xs[j]) / (xs[j + 1] - xs[j])
+            for w, (_, mx, my) in ((1 - xi, top[j]), (xi, top[j + 1])):
+                B[2 * a_, mx] -= w
+                B[2 * a_ + 1, my] += w            # N = -y: minus the obstacle point's -u_y
+        W = B @ scipy.sparse.linalg.splu(K).solve(B.T)
+    assert W_app.shape == W.shape
+    assert np.max(np.abs(W_app - W)) <= 1e-10 * np.max(np.abs(W))
