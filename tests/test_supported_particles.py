@@ -23,7 +23,6 @@ import math
 import numpy as np
 import pytest
 from conftest import run_scene
-
 from test_two_particles import analytic_mu
 
 PHI = 35.0

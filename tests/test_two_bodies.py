@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 import yaml
 from conftest import results_on_ranks, run_cli_here, run_scene
-
 from test_gmsh_body import assert_same_path
 
 

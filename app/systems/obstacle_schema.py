@@ -81,7 +81,11 @@ def given_keys(model: Any) -> set[str]:
     default value changes nothing, and a stored scene (results.json ``scene_config``, which lists
     every default) validates again."""
     fields = type(model).model_fields
-    return {k for k in model.model_fields_set if k not in fields or getattr(model, k) != _default(fields[k])}
+
+    def value(k: str) -> Any:
+        v = getattr(model, k)
+        return tuple(v) if isinstance(v, list) else v
+    return {k for k in model.model_fields_set if k not in fields or value(k) != _default(fields[k])}
 
 
 def _default(field) -> Any:
