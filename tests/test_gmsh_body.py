@@ -60,13 +60,13 @@ def block_scene(nx, ny, pattern, analyses=("mceip_mu",)):
             "analyses": list(analyses)}
 
 
-def _mu_values(state):
-    return sorted(s["value"] for s in state["analyses"]["mceip_mu"]["solutions"])
+def _mu_values(state, below=np.inf):
+    return sorted(s["value"] for s in state["analyses"]["mceip_mu"]["solutions"] if s["value"] <= below)
 
 
-def assert_same_path(ref, got, first=0, rtol=1e-8, reactions=1e-8):
+def assert_same_path(ref, got, first=0, rtol=1e-8, reactions=1e-8, below=np.inf):
     """Identical classifications and slip signs, reactions to ``reactions`` of the state's scale,
-    MCEIP-mu to rtol."""
+    MCEIP-mu to rtol (the values up to ``below``: the others found, unproven and ill-conditioned)."""
     a_states, b_states = ref["states"][first:], got["states"][first:]
     assert len(a_states) == len(b_states)
     for a, b in zip(a_states, b_states):
@@ -76,7 +76,7 @@ def assert_same_path(ref, got, first=0, rtol=1e-8, reactions=1e-8):
         for na, nb in zip(a["nodes"], b["nodes"]):
             assert nb["r_N"] == pytest.approx(na["r_N"], abs=reactions * scale)
             assert nb["r_T"] == pytest.approx(na["r_T"], abs=reactions * scale)
-        assert _mu_values(b) == pytest.approx(_mu_values(a), rel=rtol)
+        assert _mu_values(b, below) == pytest.approx(_mu_values(a, below), rel=rtol)
 
 
 @pytest.fixture(scope="module")

@@ -65,7 +65,7 @@ def open_model(gmsh, path: pathlib.Path, max_nodes: int, max_elements: int, max_
     is_geo = path.suffix.lower() == ".geo"
     curves = sample_curves(gmsh, _body_size(gmsh), is_geo)
     if is_geo:
-        remove_curves(gmsh, {k: v["entities"] for k, v in curves[0].items()})
+        remove_curves(gmsh, {k: v["entities"] for k, v in curves[0][0].items()})
     if is_geo:
         if size_factor != 1.0:     # on top of the file's own factor, if it sets one
             factor = gmsh.option.getNumber("Mesh.CharacteristicLengthFactor")
@@ -248,7 +248,7 @@ def main(argv: list[str]) -> int:
         curve_info, curve_arrays = open_model(gmsh, path, max_nodes, max_elements, max_dofs, size_factor)
         info = check_model(gmsh)
         arrays = extract(gmsh)
-        info["obstacle_curves"] = curve_info
+        info["obstacle_curves"], info["boundary_curves"] = curve_info
         arrays.update(curve_arrays)
     except ModelError as err:
         (out / "info.json").write_text(json.dumps({"error": str(err)}))

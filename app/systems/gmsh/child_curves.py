@@ -1,4 +1,4 @@
-"""Samples of the free physical curves of a ``.geo`` model, taken in the sandboxed child
+"""Samples of the physical curves of a ``.geo`` model, taken in the sandboxed child
 (app/systems/gmsh/child.py) while the gmsh model exists; imports only numpy.
 
 A physical curve none of whose entities bounds a surface or is embedded in one is not part of
@@ -99,34 +99,52 @@ def sample_entity(gmsh, ent: int, name: str, body_size: float, budget: _Budget) 
     return np.array([[d[0], d[1]] for d in done]), np.array([d[2] for d in done])
 
 
-def sample_curves(gmsh, body_size: float, is_geo: bool) -> tuple[dict, dict]:
-    """``(info, arrays)`` of every free physical curve: ``info[name] = {"entities": [...],
-    "panels": [first, end), "error": None or a one-line reason}``, ``arrays["curve_params"]``
+def bounding_curves(gmsh, free: dict) -> dict[str, list[int]]:
+    """The other physical curves (they bound or lie in a surface): name -> entity tags. A body's
+    curve may face the body as a deformable obstacle (``obstacle: {type: body}``)."""
+    out = {}
+    for dim, tag in gmsh.model.getPhysicalGroups(1):
+        name = gmsh.model.getPhysicalName(dim, tag) or str(tag)
+        ents = [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag)]
+        if ents and name not in free:
+            out[name] = ents
+    return out
+
+
+def sample_curves(gmsh, body_size: float, is_geo: bool) -> tuple[tuple[dict, dict], dict]:
+    """``((free, bounding), arrays)``: the samples of every free physical curve (possible rigid
+    obstacles) and of every other physical curve (possible contact curves of an obstacle body),
+    each with its own budget of :data:`MAX_SAMPLES`. ``free[name] = {"entities": [...], "panels":
+    [first, end), "error": None or a one-line reason}`` (``bounding`` alike), ``arrays["curve_params"]``
     (m, 2), ``arrays["curve_xy"]`` (m, DEGREE + 1, 2), ``arrays["curve_entity"]`` (m,)."""
-    info, params, xys, ents = {}, [], [], []
-    budget, count = _Budget(MAX_SAMPLES), 0
-    for name, tags in free_curves(gmsh).items():
-        entry = {"entities": tags, "panels": [count, count], "error": None}
-        info[name] = entry
-        if not is_geo:
-            entry["error"] = (f"the physical curve '{name}' of a .msh file has only its mesh (straight segments, a "
-                              "corner at every node), not a smooth geometry: give the .geo file")
-            continue
-        try:
-            got = [sample_entity(gmsh, e, name, body_size, budget) for e in tags]
-        except SampleError as err:
-            entry["error"] = str(err)
-            continue
-        for e, (pr, xy) in zip(tags, got):
-            params.append(pr)
-            xys.append(xy)
-            ents.append(np.full(len(pr), e, dtype=np.int64))
-            count += len(pr)
-        entry["panels"] = [entry["panels"][0], count]
+    params, xys, ents = [], [], []
+    free = free_curves(gmsh)
+    infos = []
+    for group in (free, bounding_curves(gmsh, free)):
+        info, budget = {}, _Budget(MAX_SAMPLES)
+        for name, tags in group.items():
+            count = sum(len(p) for p in params)
+            entry = {"entities": tags, "panels": [count, count], "error": None}
+            info[name] = entry
+            if not is_geo:
+                entry["error"] = (f"the physical curve '{name}' of a .msh file has only its mesh (straight segments, "
+                                  "a corner at every node), not a smooth geometry: give the .geo file")
+                continue
+            try:
+                got = [sample_entity(gmsh, e, name, body_size, budget) for e in tags]
+            except SampleError as err:
+                entry["error"] = str(err)
+                continue
+            for e, (pr, xy) in zip(tags, got):
+                params.append(pr)
+                xys.append(xy)
+                ents.append(np.full(len(pr), e, dtype=np.int64))
+            entry["panels"] = [count, sum(len(p) for p in params)]
+        infos.append(info)
     arrays = {"curve_params": np.concatenate(params) if params else np.zeros((0, 2)),
               "curve_xy": np.concatenate(xys) if xys else np.zeros((0, DEGREE + 1, 2)),
               "curve_entity": np.concatenate(ents) if ents else np.zeros(0, dtype=np.int64)}
-    return info, arrays
+    return (infos[0], infos[1]), arrays
 
 
 def remove_curves(gmsh, curves: dict) -> None:

@@ -1,11 +1,13 @@
 """An obstacle body (``system.obstacle.type: body``): the interface between the body's contact
-curve and the obstacle body's straight contact curve, and the change of variables to relative
-contact DOFs (docs/method.md section 10).
+curve and the obstacle body's contact curve, and the change of variables to relative contact DOFs
+(docs/method.md section 9).
 
 Each contact node ``a`` of the body faces a point of the obstacle's contact curve: a node of it
 (``pairing: node``, conforming meshes) or a point of a segment (``pairing: segment``, any meshes),
 found once in the reference configuration (small sliding, as the rest of the app) with the
-interpolation weights ``w`` of the segment's nodes (P1: linear, P2: quadratic along the edge).
+interpolation weights ``w`` of the segment's nodes (P1: linear, P2: quadratic along the edge). A
+straight curve gives one frame (t, n) for every node; a curved one keeps the global axes and its
+smooth geometry (gaps, frames and curvature of a ``curve`` obstacle, app/loading/curve.py).
 The contact DOFs become the relative displacement in the obstacle frame,
 
     q_a = R_a^T (u_a - sum_m w_m u_m),   i.e.   u_a = R_a q_a + sum_m w_m u_m,
@@ -45,10 +47,12 @@ class Interface:
     n_masters: int                          # nodes of the obstacle's contact curve
 
 
-def contact_line(ends: np.ndarray, obstacle_mean: np.ndarray, size: float, curve: str) -> tuple[np.ndarray, np.ndarray]:
+def contact_line(ends: np.ndarray, obstacle_mean: np.ndarray, size: float, curve: str
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
     """``(point, unit outward normal of the body)`` of a straight obstacle contact curve from its
     segments' ends ``(m, 2, 2)`` (every rank the same), the normal pointing towards the obstacle
-    body's nodes' mean ``obstacle_mean``."""
+    body's nodes' mean ``obstacle_mean``; None when the curve is not straight (to 1e-9 of the
+    body's size)."""
     pts = ends.reshape(-1, 2)
     p0 = pts[0]
     far = pts[int(np.argmax(np.linalg.norm(pts - p0, axis=1)))]
@@ -58,11 +62,8 @@ def contact_line(ends: np.ndarray, obstacle_mean: np.ndarray, size: float, curve
         raise InterfaceError(f"system.obstacle.contact = '{curve}': the curve has no length")
     d = d / length
     n = np.array([-d[1], d[0]])
-    off = np.abs((pts - p0) @ n)
-    if off.max() > 1e-9 * size:
-        i = int(np.argmax(off))
-        raise InterfaceError(f"system.obstacle.contact = '{curve}': an obstacle body's contact curve must be straight "
-                             f"(the point {point_text(pts[i], size)} is {off[i]:.3g} off the line of its ends)")
+    if np.abs((pts - p0) @ n).max() > 1e-9 * size:
+        return None
     if (obstacle_mean - p0) @ n < 0:
         n = -n
     return p0, n
@@ -76,19 +77,15 @@ def masters(comm: MPI.Comm, xy: np.ndarray, dof_xy: np.ndarray) -> tuple[np.ndar
             np.concatenate([g[1] for g in gathered]).reshape(-1, 2).astype(np.int64))
 
 
-def pair(contact_xy: np.ndarray, m_xy: np.ndarray, m_dofs: np.ndarray, ends: np.ndarray, point: np.ndarray,
-         normal: np.ndarray, degree: int, pairing: str, size: float, curve: str) -> list[list[tuple[float, int, int]]]:
+def pair(contact_xy: np.ndarray, m_xy: np.ndarray, m_dofs: np.ndarray, ends: np.ndarray, degree: int, pairing: str,
+         size: float, curve: str) -> list[list[tuple[float, int, int]]]:
     """Each contact node's obstacle nodes and weights (every rank the same): a node at the same
-    place (``node``) or the interpolation on the segment it faces (``segment``)."""
-    t = np.array([-normal[1], normal[0]])
-    s_m = (m_xy - point) @ t
-    order = np.argsort(s_m, kind="stable")
-    s_sorted = s_m[order]
+    place (``node``), or the foot of the node on the closest segment of the curve and the
+    interpolation there (``segment``; a straight curve or the chords of a curved one)."""
     tol = SNAP * size
-    segments = _segments(ends, point, t, s_sorted, degree, tol, curve)
+    seg_nodes = _segment_nodes(ends, m_xy, degree, tol, curve)
     links = []
-    for a, x in enumerate(contact_xy):
-        s = float((x - point) @ t)
+    for x in contact_xy:
         if pairing == "node":
             dist = np.linalg.norm(m_xy - x, axis=1)
             j = int(np.argmin(dist)) if len(dist) else -1
@@ -99,7 +96,7 @@ def pair(contact_xy: np.ndarray, m_xy: np.ndarray, m_dofs: np.ndarray, ends: np.
                                      "pairing: segment")
             nodes = [(1.0, j)]
         else:
-            nodes = _on_segment(s, segments, s_sorted, order, degree, tol)
+            nodes = _foot(x, ends, seg_nodes, m_xy, degree, tol)
             if nodes is None:
                 raise InterfaceError(f"system.obstacle.contact = '{curve}': the contact node at {point_text(x, size)} "
                                      f"faces no segment of it: the obstacle's contact curve must extend past the "
@@ -115,37 +112,42 @@ def pair(contact_xy: np.ndarray, m_xy: np.ndarray, m_dofs: np.ndarray, ends: np.
     return links
 
 
-def _segments(ends: np.ndarray, point: np.ndarray, t: np.ndarray, s_sorted: np.ndarray, degree: int, tol: float,
-              curve: str) -> np.ndarray:
-    """The curve's segments as ``(s_lo, s_hi, first node)`` in the sorted node order (the nodes of
-    a segment are consecutive there: 2 for P1, 3 for P2)."""
-    s_ends = np.sort((ends - point) @ t, axis=1)
-    s_ends = s_ends[np.argsort(s_ends[:, 0])]
+def _segment_nodes(ends: np.ndarray, m_xy: np.ndarray, degree: int, tol: float, curve: str) -> np.ndarray:
+    """The curve's nodes of each segment ``(m, degree + 1)``: its first end, (P2) its mid-side
+    node, its second end (the node at each place, within ``tol``)."""
+    places = [ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1]), ends[:, 1]] if degree == 2 else [ends[:, 0], ends[:, 1]]
     out = []
-    for lo, hi in s_ends:
-        i = int(np.searchsorted(s_sorted, lo - tol))
-        if i + degree >= len(s_sorted) or abs(s_sorted[i] - lo) > tol or abs(s_sorted[i + degree] - hi) > tol:
-            raise InterfaceError(f"system.obstacle.contact = '{curve}': its nodes and segments do not match (a "
-                                 "segment overlaps another, or its nodes are held in part)")
-        out.append((lo, hi, i))
-    return np.array(out).reshape(-1, 3)
+    for p in places:
+        d = np.linalg.norm(m_xy[None, :, :] - p[:, None, :], axis=2) if len(m_xy) else np.full((len(p), 1), np.inf)
+        j = np.argmin(d, axis=1)
+        if np.any(d[np.arange(len(p)), j] > tol):
+            raise InterfaceError(f"system.obstacle.contact = '{curve}': its nodes and segments do not match")
+        out.append(j)
+    return np.column_stack(out)
 
 
-def _on_segment(s: float, segments: np.ndarray, s_sorted: np.ndarray, order: np.ndarray, degree: int,
-                tol: float) -> list[tuple[float, int]] | None:
-    """The nodes (original indices) and weights of the point at ``s`` of the first segment holding
-    it; None when none does. A point within ``tol`` of a node is that node (weight 1)."""
-    inside = np.flatnonzero((segments[:, 0] - tol <= s) & (s <= segments[:, 1] + tol))
-    if not len(inside):
-        return None
-    lo, hi, i = segments[inside[0]]
-    i = int(i)
-    for k in range(degree + 1):
-        if abs(s - s_sorted[i + k]) <= tol:
-            return [(1.0, int(order[i + k]))]
-    xi = min(max((s - lo) / (hi - lo), 0.0), 1.0)
+def _foot(x: np.ndarray, ends: np.ndarray, seg_nodes: np.ndarray, m_xy: np.ndarray, degree: int,
+          tol: float) -> list[tuple[float, int]] | None:
+    """The nodes (indices) and weights of the foot of ``x`` on the closest segment; a foot within
+    ``tol`` of a node is that node (weight 1). A node whose closest point is a vertex shared by two
+    segments (outside a kink of the chords) faces that vertex; None when it lies beyond an end of
+    the curve."""
+    a, b = ends[:, 0], ends[:, 1]
+    d = b - a
+    length2 = np.einsum("ij,ij->i", d, d)
+    xi_raw = np.einsum("ij,ij->i", x - a, d) / length2
+    xi = np.clip(xi_raw, 0.0, 1.0)
+    foot = a + xi[:, None] * d
+    k = int(np.argmin(np.linalg.norm(foot - x, axis=1)))
+    for j in seg_nodes[k]:
+        if np.linalg.norm(m_xy[j] - foot[k]) <= tol:
+            beyond = (xi_raw[k] - xi[k]) * np.sqrt(length2[k])
+            if abs(beyond) > tol and np.count_nonzero(seg_nodes[:, [0, -1]] == j) < 2:
+                return None                 # beyond an end of the curve
+            return [(1.0, int(j))]
+    t = float(xi[k])
     if degree == 1:
-        w = (1.0 - xi, xi)
+        w = (1.0 - t, t)
     else:        # quadratic along the (straight, affine) edge: ends at 0 and 1, the mid-side node at 1/2
-        w = ((1.0 - xi) * (1.0 - 2.0 * xi), 4.0 * xi * (1.0 - xi), xi * (2.0 * xi - 1.0))
-    return [(float(wk), int(order[i + k])) for k, wk in enumerate(w)]
+        w = ((1.0 - t) * (1.0 - 2.0 * t), 4.0 * t * (1.0 - t), t * (2.0 * t - 1.0))
+    return [(float(wk), int(j)) for wk, j in zip(w, seg_nodes[k])]

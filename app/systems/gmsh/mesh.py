@@ -41,6 +41,8 @@ class ModelInfo:
     inner_segments: dict[str, int] = field(default_factory=dict)   # physical curve -> line elements off the boundary
     # free physical curves (bounding no surface; not the body's): name -> {"entities", "panels", "error"}
     obstacle_curves: dict[str, dict] = field(default_factory=dict)
+    # the other physical curves (a body's), sampled alike: an obstacle body's contact curve
+    boundary_curves: dict[str, dict] = field(default_factory=dict)
 
     def dofs(self, degree: int) -> int:
         """DOFs of the whole body (2 per node; P2 adds a node per edge) before any is prescribed."""
@@ -137,7 +139,8 @@ def _read_uncached(path: pathlib.Path, value: str, lim, roots, size_factor: floa
                      n_edges=int(raw["n_edges"]), curve_nodes={k: int(v) for k, v in raw["curve_nodes"].items()},
                      names={(int(d), str(n)): int(t) for d, n, t in raw["names"]},
                      inner_segments={k: int(v) for k, v in raw["inner_segments"].items()},
-                     obstacle_curves=dict(raw.get("obstacle_curves") or {}))
+                     obstacle_curves=dict(raw.get("obstacle_curves") or {}),
+                     boundary_curves=dict(raw.get("boundary_curves") or {}))
     return info, arrays
 
 
@@ -154,7 +157,7 @@ def _check_arrays(arrays: dict, raw: dict, value: str) -> None:
         raise SystemPathError("file", value, "gmsh returned an inconsistent mesh (node numbers out of range)")
     cp, cxy = arrays.get("curve_params"), arrays.get("curve_xy")
     m = 0 if cp is None else len(cp)
-    curves = raw.get("obstacle_curves") or {}
+    curves = {**(raw.get("obstacle_curves") or {}), **(raw.get("boundary_curves") or {})}
     if cp is not None and not (cp.ndim == 2 and cp.shape[1] == 2 and cxy is not None and cxy.ndim == 3
                                and cxy.shape[0] == m and cxy.shape[2] == 2 and np.all(np.isfinite(cp))
                                and np.all(np.isfinite(cxy)) and all(0 <= c["panels"][0] <= c["panels"][1] <= m
@@ -162,12 +165,13 @@ def _check_arrays(arrays: dict, raw: dict, value: str) -> None:
         raise SystemPathError("file", value, "gmsh returned inconsistent samples of the free curves")
 
 
-def obstacle_samples(path: pathlib.Path, name: str, size_factor: float = 1.0
+def obstacle_samples(path: pathlib.Path, name: str, size_factor: float = 1.0, bounding: bool = False
                      ) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
-    """``(entities, params, xy, entity_of_panel)`` of the free physical curve ``name`` as the child
-    sampled it (app/systems/gmsh/child_curves.py), from the model read at validation."""
+    """``(entities, params, xy, entity_of_panel)`` of the free physical curve ``name`` (``bounding``:
+    of a curve of a surface) as the child sampled it (app/systems/gmsh/child_curves.py), from the
+    model read at validation."""
     info, arrays = _read(path, path.name, None, None, size_factor)
-    c = info.obstacle_curves[name]
+    c = (info.boundary_curves if bounding else info.obstacle_curves)[name]
     a, b = c["panels"]
     return list(c["entities"]), arrays["curve_params"][a:b], arrays["curve_xy"][a:b], arrays["curve_entity"][a:b]
 

@@ -300,8 +300,10 @@ def _surface_blocks(sp: _Space, cell_tags, surface: str) -> np.ndarray:
 
 
 def _body_line(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, obstacle_blocks: np.ndarray, owned: tuple) -> None:
-    """Set an obstacle body's contact line (app/systems/gmsh/interface.py) on ``cfg.obstacle``
-    (MPI collective). Destroys the PETSc objects ``owned`` before raising :class:`BodyError`."""
+    """Set an obstacle body's contact geometry on ``cfg.obstacle`` (MPI collective): its line
+    (app/systems/gmsh/interface.py ``contact_line``), or for a curved contact curve the smooth curve
+    of the .geo with the body on the side away from the obstacle's cells. Destroys the PETSc
+    objects ``owned`` before raising :class:`BodyError`."""
     from app.systems.gmsh.interface import InterfaceError, contact_line
     comm = sp.comm
     ends = _contact_edges(sp.mesh, sp.facets(cfg.obstacle.contact), comm)       # MPI collective
@@ -311,11 +313,43 @@ def _body_line(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, obstacle_blocks: np
                                   else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
     size = float(np.max(box[:, 2:].max(axis=0) - box[:, :2].min(axis=0)))
     try:
-        cfg.obstacle._line = contact_line(ends, total[:2] / max(total[2], 1.0), size, cfg.obstacle.contact)
-    except InterfaceError as err:
+        line = contact_line(ends, total[:2] / max(total[2], 1.0), size, cfg.obstacle.contact)
+        curve = None if line is not None else _body_curve(cfg, sp, size)                  # MPI collective
+    except (InterfaceError, BodyError) as err:
         for obj in owned:                                          # the error path owns nothing
             obj.destroy()
         raise BodyError(str(err)) from None
+    cfg.obstacle._line, cfg.obstacle._curve = line, curve
+
+
+def _body_curve(cfg: GmshBody, sp: _Space, size: float):
+    """The smooth curve (app/loading/curve.py) of an obstacle body's curved contact curve, sampled
+    from the .geo (app/systems/gmsh/child_curves.py), the body on the side away from the obstacle:
+    the cells of the obstacle along the curve lie beyond it (MPI collective)."""
+    from app.loading.curve import CurveError, SmoothCurve
+    from app.systems.gmsh.mesh import model_info, obstacle_samples
+    ob, path = cfg.obstacle, pathlib.Path(cfg.file)
+    entry = model_info(path, path.name, None, None, cfg.mesh_size_factor).boundary_curves.get(ob.contact, {})
+    if entry.get("error") or not entry:
+        raise BodyError(f"system.obstacle.contact = '{ob.contact}': the curve is not straight, and its smooth "
+                        f"geometry is not known: {entry.get('error') or 'not sampled'}")
+    entities, params, xy, ent_of = obstacle_samples(path, ob.contact, cfg.mesh_size_factor, bounding=True)
+    try:
+        curve = SmoothCurve(ob.contact, entities, params, xy, ent_of, "left", size)
+    except CurveError as err:
+        raise BodyError(f"system.obstacle.contact = '{ob.contact}': {err}") from None
+    top = sp.mesh.topology
+    top.create_connectivity(1, 2)
+    top.create_connectivity(2, 0)
+    f2c, c2v = top.connectivity(1, 2), top.connectivity(2, 0).array.reshape(-1, 3)
+    geo = sp.mesh.geometry.dofmap.array.reshape(-1, 3)
+    cells = np.array([c for f in sp.facets(ob.contact) for c in f2c.links(f) if c < len(c2v)], dtype=np.int64)
+    centroids = sp.mesh.geometry.x[geo[cells], :2].mean(axis=1) if len(cells) else np.zeros((0, 2))
+    votes = sp.comm.allreduce(float(np.sum(np.sign(curve.gap(centroids)))) if len(cells) else 0.0,
+                              op=MPI.SUM)                                        # MPI collective
+    if votes > 0:            # the obstacle's cells on the left: the body is on the right
+        curve = SmoothCurve(ob.contact, entities, params, xy, ent_of, "right", size)
+    return curve
 
 
 def _links(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, reduced: np.ndarray, contact_xy: np.ndarray, size: float,
@@ -331,9 +365,8 @@ def _links(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, reduced: np.ndarray, co
     blocks = blocks[blocks < sp.im.size_local]
     m_xy, m_dofs = masters(sp.comm, dof_x[blocks],
                            np.column_stack([reduced[blocks * bs], reduced[blocks * bs + 1]]))   # MPI collective
-    point, normal = ob.body_line()
     try:
-        return pair(contact_xy, m_xy, m_dofs, ends, point, normal, cfg.degree, ob.pairing, size, ob.contact)
+        return pair(contact_xy, m_xy, m_dofs, ends, cfg.degree, ob.pairing, size, ob.contact)
     except InterfaceError as err:
         for obj in owned:                                          # the error path owns nothing
             obj.destroy()

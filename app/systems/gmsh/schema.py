@@ -33,7 +33,7 @@ and frames, a curve of the .geo file interpolated ones (docs/method.md section 8
 increments are never homogeneous. A second, deformable body of the file may be the obstacle:
 ``obstacle: {type: body, surface: plate, contact: top, held: [bottom], material: {...}}``
 (app/systems/gmsh/interface.py; docs/method.md section 9). Not modelled: a curve from a .msh
-file, a curved obstacle body, large rotations (rotations are linearised), contact of nodes outside the
+file, large rotations (rotations are linearised), contact of nodes outside the
 ``contact`` curve.
 """
 from __future__ import annotations
@@ -80,9 +80,10 @@ class Obstacle(StrictModel):
     section 8); the contact DOFs stay in the global axes (t = +x, n = -y). ``type: body``: the
     physical surface ``surface`` of the file is a second elastic body of material ``material``,
     held on its curves ``held`` (fixed, or moved by the program as prescribed xy curves); the
-    body's contact nodes touch its straight curve ``contact``, each paired once with a point of it
-    (``pairing``: ``segment``, or ``node`` for conforming meshes), and the contact quantities are
-    relative (docs/method.md section 9)."""
+    body's contact nodes touch its curve ``contact`` (straight, or smooth: then treated as a ``curve``
+    obstacle, its geometry sampled from the .geo), each paired once with a point of it (``pairing``:
+    ``segment``, or ``node`` for conforming meshes), and the contact quantities are relative
+    (docs/method.md section 9)."""
 
     type: Literal["line", "circle", "curve", "body"] = Field(
         "line", description="line (straight), circle, curve (a physical curve of the .geo file) or body (a "
@@ -100,7 +101,7 @@ class Obstacle(StrictModel):
         "left or right of the curve's direction (type curve)")
     surface: Optional[str] = Field(None, description="the obstacle body's physical surface (type body)")
     contact: Optional[str] = Field(None, description="the obstacle body's physical curve facing the body's contact "
-                                   "curve, straight (type body)")
+                                   "curve: straight, or smooth (a curve of a .geo) (type body)")
     held: list[str] = Field([], description="the obstacle body's physical curves held (fixed, or moved by the "
                             "program's displacement as prescribed xy curves) (type body)")
     material: Optional[Material] = Field(None, description="the obstacle body's material (type body)")
@@ -136,15 +137,15 @@ class Obstacle(StrictModel):
 
     @property
     def curved(self) -> bool:
-        """A circle or a curve: exact or interpolated gaps, frames per node and curvature terms
-        (a line and an obstacle body's straight contact curve are not)."""
-        return self.type in ("circle", "curve")
+        """A circle, a curve, or an obstacle body's curved contact curve: exact or interpolated gaps,
+        frames per node and curvature terms (a line and a straight contact curve are not)."""
+        return self.type in ("circle", "curve") or (self.type == "body" and self._curve is not None)
 
     def frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit tangent t and outward normal n of the contact DOFs, with t = (-n_y, n_x) (for
         n = -y, t = +x); for a circle or a curve the global axes (each node's contact frame is
         then its own, app/loading/curved.py)."""
-        if self.type == "body":
+        if self.type == "body" and not self.curved:
             n = np.array(self.body_line()[1], dtype=float)
             return np.array([-n[1], n[0]]), n
         if self.type != "line":
@@ -162,7 +163,7 @@ class Obstacle(StrictModel):
         """The curved obstacle's geometry (app/loading/curved.py ``Circle`` anchored in the
         direction of the point ``ref``, or the curve of app/loading/curve.py with its arc
         coordinate measured from ``ref``'s closest point), None for a line."""
-        if self.type == "curve":
+        if self.type == "curve" or self.curved and self.type == "body":
             import copy
             return self._curve if ref is None else copy.copy(self._curve).set_reference(ref)   # arrays shared
         if self.type != "circle":
@@ -202,8 +203,10 @@ class Obstacle(StrictModel):
         if self.type == "body":
             m = self.material
             n = tuple(float(v) + 0.0 for v in np.round(self.frame()[1], 12)) if self._line is not None else None
+            shape = (f", outward normal of the body {n}" if n else
+                     f", curved, the body on its {self._curve.side}" if self._curve is not None else "")
             return (f"obstacle body '{self.surface}' (E = {m.E:g}, nu = {m.nu:g}; contact curve '{self.contact}'"
-                    + (f", outward normal of the body {n}" if n else "") + f", node-to-{self.pairing})")
+                    + shape + f", node-to-{self.pairing})")
         if self.type != "line":
             return "obstacle " + self.geometry().describe()
         return f"obstacle through {tuple(self.point)} with outward normal {tuple(np.round(self.frame()[1], 12))}"
