@@ -28,6 +28,8 @@ from mpi4py import MPI
 
 from app.common.errors import point_text
 
+#: segments (nearest midpoints) searched for a contact node's foot
+CANDIDATES = 16
 #: a contact node facing a segment's end (or a node) within this fraction of the body's size faces
 #: exactly that node (weights 1 and 0: a conforming interface gives node-to-node's operators)
 SNAP = 1e-10
@@ -82,8 +84,12 @@ def pair(contact_xy: np.ndarray, m_xy: np.ndarray, m_dofs: np.ndarray, ends: np.
     """Each contact node's obstacle nodes and weights (every rank the same): a node at the same
     place (``node``), or the foot of the node on the closest segment of the curve and the
     interpolation there (``segment``; a straight curve or the chords of a curved one)."""
+    from scipy.spatial import cKDTree
     tol = SNAP * size
     seg_nodes = _segment_nodes(ends, m_xy, degree, tol, curve)
+    # the closest segment is among those whose midpoints are nearest (its neighbours' too)
+    near = cKDTree(0.5 * (ends[:, 0] + ends[:, 1]))
+    k = min(CANDIDATES, len(ends))
     links = []
     for x in contact_xy:
         if pairing == "node":
@@ -96,7 +102,8 @@ def pair(contact_xy: np.ndarray, m_xy: np.ndarray, m_dofs: np.ndarray, ends: np.
                                      "pairing: segment")
             nodes = [(1.0, j)]
         else:
-            nodes = _foot(x, ends, seg_nodes, m_xy, degree, tol)
+            cand = np.atleast_1d(near.query(x, k=k)[1])
+            nodes = _foot(x, ends[cand], seg_nodes[cand], m_xy, degree, tol, seg_nodes)
             if nodes is None:
                 raise InterfaceError(f"system.obstacle.contact = '{curve}': the contact node at {point_text(x, size)} "
                                      f"faces no segment of it: the obstacle's contact curve must extend past the "
@@ -115,20 +122,24 @@ def pair(contact_xy: np.ndarray, m_xy: np.ndarray, m_dofs: np.ndarray, ends: np.
 def _segment_nodes(ends: np.ndarray, m_xy: np.ndarray, degree: int, tol: float, curve: str) -> np.ndarray:
     """The curve's nodes of each segment ``(m, degree + 1)``: its first end, (P2) its mid-side
     node, its second end (the node at each place, within ``tol``)."""
+    from scipy.spatial import cKDTree
     places = [ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1]), ends[:, 1]] if degree == 2 else [ends[:, 0], ends[:, 1]]
+    if not len(m_xy):
+        raise InterfaceError(f"system.obstacle.contact = '{curve}': no node of it is free")
+    tree = cKDTree(m_xy)
     out = []
     for p in places:
-        d = np.linalg.norm(m_xy[None, :, :] - p[:, None, :], axis=2) if len(m_xy) else np.full((len(p), 1), np.inf)
-        j = np.argmin(d, axis=1)
-        if np.any(d[np.arange(len(p)), j] > tol):
+        d, j = tree.query(p)
+        if np.any(d > tol):
             raise InterfaceError(f"system.obstacle.contact = '{curve}': its nodes and segments do not match")
         out.append(j)
-    return np.column_stack(out)
+    return np.column_stack(out).astype(np.int64)
 
 
 def _foot(x: np.ndarray, ends: np.ndarray, seg_nodes: np.ndarray, m_xy: np.ndarray, degree: int,
-          tol: float) -> list[tuple[float, int]] | None:
-    """The nodes (indices) and weights of the foot of ``x`` on the closest segment; a foot within
+          tol: float, all_nodes: np.ndarray) -> list[tuple[float, int]] | None:
+    """The nodes (indices) and weights of the foot of ``x`` on the closest of the segments ``ends``
+    (their nodes ``seg_nodes``; ``all_nodes`` every segment's, to tell the curve's ends); a foot within
     ``tol`` of a node is that node (weight 1). A node whose closest point is a vertex shared by two
     segments (outside a kink of the chords) faces that vertex; None when it lies beyond an end of
     the curve."""
@@ -142,7 +153,7 @@ def _foot(x: np.ndarray, ends: np.ndarray, seg_nodes: np.ndarray, m_xy: np.ndarr
     for j in seg_nodes[k]:
         if np.linalg.norm(m_xy[j] - foot[k]) <= tol:
             beyond = (xi_raw[k] - xi[k]) * np.sqrt(length2[k])
-            if abs(beyond) > tol and np.count_nonzero(seg_nodes[:, [0, -1]] == j) < 2:
+            if abs(beyond) > tol and np.count_nonzero(all_nodes[:, [0, -1]] == j) < 2:
                 return None                 # beyond an end of the curve
             return [(1.0, int(j))]
     t = float(xi[k])
