@@ -106,9 +106,11 @@ def test_the_rigid_limit_converges_as_one_over_the_plates_modulus(geo, rigid):
     assert all(0.9 < o < 1.1 for o in order_mu + order_r), (order_mu, order_r)
 
 
-def test_node_to_node_equals_node_to_segment_on_a_conforming_interface(geo):
-    a = run_scene(pair_scene(geo["pair"], pairing="node"))
-    b = run_scene(pair_scene(geo["pair"], pairing="segment"))
+@pytest.mark.parametrize("degree", [1, 2])
+def test_node_to_node_equals_node_to_segment_on_a_conforming_interface(geo, degree):
+    a, b = pair_scene(geo["pair"], pairing="node"), pair_scene(geo["pair"], pairing="segment")
+    a["system"]["degree"] = b["system"]["degree"] = degree
+    a, b = run_scene(a), run_scene(b)
     assert_same_path(a, b, rtol=1e-10, reactions=1e-10)
     assert final_mu(a) == pytest.approx(final_mu(b), rel=1e-10)
     assert "node-to-node" in a["system"] and "node-to-segment" in b["system"]
@@ -211,11 +213,13 @@ def test_shipped_two_body_scenes_prove_every_onset_and_check_re_verifies_them(tm
     assert "re-verified from the stored pencils" in c.stdout
 
 
-def test_the_flexibility_is_b_k_inverse_b_transposed_of_the_two_bodies(tmp_path):
+@pytest.mark.parametrize("degree", [1, 2])
+def test_the_flexibility_is_b_k_inverse_b_transposed_of_the_two_bodies(tmp_path, degree):
     """W of the change of variables equals B K^-1 B^T computed here from the two bodies' stiffness
     in their own DOFs (the same file run with the plate as a second surface of one body on a rigid
     line, the plate's bottom prescribed), B the relative displacements with this test's own
-    pairing (linear interpolation on the plate's top): a non-matching interface, 1e-10."""
+    pairing (P1: linear, P2: quadratic interpolation on the plate's top): a non-matching interface,
+    1e-10."""
     import scipy.sparse.linalg
     from mpi4py import MPI
 
@@ -229,6 +233,7 @@ def test_the_flexibility_is_b_k_inverse_b_transposed_of_the_two_bodies(tmp_path)
     one["system"]["prescribed"]["bottom"] = "xy"
     one["system"]["materials"] = {"block": one["system"].pop("material"),
                                   "plate": two["system"]["obstacle"]["material"]}
+    one["system"]["degree"] = two["system"]["degree"] = degree
     with build(parse_scene(two).system, MPI.COMM_WORLD, Stages()) as a, \
             build(parse_scene(one).system, MPI.COMM_WORLD, Stages()) as b:
         W_app = a.flexibility.W
@@ -241,16 +246,17 @@ def test_the_flexibility_is_b_k_inverse_b_transposed_of_the_two_bodies(tmp_path)
         top = sorted((float(x[0]), reduced[2 * blk], reduced[2 * blk + 1]) for blk, x in enumerate(d.dof_x)
                      if abs(x[1]) < 1e-12 and 2 * blk in reduced
                      and (reduced[2 * blk], reduced[2 * blk + 1]) not in contact)
-        assert len(top) == 5
+        assert len(top) == 4 * degree + 1
         n = len(ops.contact_xy)
         B = np.zeros((2 * n, K.shape[0]))
-        xs = [t[0] for t in top]
+        xs = np.array([t[0] for t in top[::degree]])          # the segments' ends
         for a_, (x, (dT, dN)) in enumerate(zip(ops.contact_xy[:, 0], ops.contact_dofs)):
             B[2 * a_, dT] = 1.0                   # the rigid line's frame: T = +x, N = -y
             B[2 * a_ + 1, dN] = 1.0
             j = min(max(int(np.searchsorted(xs, x)) - 1, 0), len(xs) - 2)
             xi = (x - xs[j]) / (xs[j + 1] - xs[j])
-            for w, (_, mx, my) in ((1 - xi, top[j]), (xi, top[j + 1])):
+            ws = (1 - xi, xi) if degree == 1 else ((1 - xi) * (1 - 2 * xi), 4 * xi * (1 - xi), xi * (2 * xi - 1))
+            for w, (_, mx, my) in zip(ws, top[degree * j:degree * j + degree + 1]):
                 B[2 * a_, mx] -= w
                 B[2 * a_ + 1, my] += w            # N = -y: minus the obstacle point's -u_y
         W = B @ scipy.sparse.linalg.splu(K).solve(B.T)
@@ -348,3 +354,17 @@ def test_rotating_a_curved_pair_changes_nothing(tmp_path):
     ref = run_scene(seat_scene(seat_geo(tmp_path / "s0.geo")))
     got = run_scene(seat_scene(seat_geo(tmp_path / "s30.geo", angle_deg=30.0), angle_deg=30.0))
     assert_same_path(ref, got, rtol=1e-8, reactions=1e-8)
+
+
+def test_moving_the_obstacle_by_its_held_curve_is_moving_the_body_the_other_way(geo, rigid):
+    """CD held fixed and a stiff plate pushed up to 55 N and dragged right by its bottom: the same
+    relative motion as the rigid-line scene's CD pressed and dragged left, so the same states."""
+    s = pair_scene(geo["pair"], E_plate=5e8)
+    s["system"]["program"] = [
+        {"name": "press", "steps": 10, "displacement": {"bottom": {"translation": [0.0, 1.0]}},
+         "until": {"normal_force": 55.0}},
+        {"name": "drag", "steps": 100, "displacement": {"bottom": {"translation": [10.0, 0.0]}}}]
+    got = run_scene(s)
+    assert_same_path(rigid, got, rtol=1e-6, reactions=1e-6)
+    assert got["states"][-1]["load"]["parameters"]["motion.bottom.tx"] == pytest.approx(
+        -rigid["states"][-1]["load"]["parameters"]["motion.CD.tx"], rel=1e-12)
