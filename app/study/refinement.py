@@ -155,7 +155,9 @@ def _inspector(scene: Scene, ref):
 
         # Sufficient condition at mu_fixed on the final state's classification.
         lam = None
-        if len(fcls.slip):
+        if getattr(scene.system, "element", "displacement") == "mixed":     # (app/systems/schema.py MIXED_ANALYSES)
+            out["lambda2_eigensolver"] = "not available with the mixed element"
+        elif len(fcls.slip):
             a = analyse_state(system, fcls, scene_suff).get("sufficient")
             ok = isinstance(a, SufficientOutcome)
             out["lambda2_eigensolver"] = a.eigensolver if ok else getattr(a, "reason", None)
@@ -215,7 +217,8 @@ def run_level(scene: Scene, level, degree: int, plane: str, comm: MPI.Comm,
     wall = time.perf_counter() - t0
     q = res.inspection
     n_contact, n_dofs = q["contact_nodes"], q["dofs"]
-    row = {"degree": degree, "plane": plane, **lvl.system.level_row(level), "contact_nodes": n_contact,
+    row = {"degree": degree, "element": getattr(lvl.system, "element", "displacement"), "plane": plane,
+           **lvl.system.level_row(level), "contact_nodes": n_contact,
            "dofs": n_dofs, "states": len(res.states), "distinct": res.distinct_classifications,
            # the block's compliance (a loading program has its own load quantities instead)
            "depth": res.path.normal_displacement if q.get("load_label") is None else None,

@@ -95,6 +95,13 @@ def _series(rows: list[dict]) -> dict:
     return {k: sorted(v, key=lambda r: -r["h"]) for k, v in out.items()}
 
 
+def series_name(deg: int, rows: list[dict]) -> str:
+    """The element of a series in words: ``P1``, ``P2`` or ``P2-P1 mixed`` (every level of a study
+    has the scene's element, ``element`` in its row)."""
+    from app.systems.schema import element_name
+    return element_name(next((r.get("element") for r in rows if r.get("element")), "displacement"), deg)
+
+
 def level_label(r: dict, short: bool = False) -> str:
     """A level of a row: the block's ``nx=20`` (``20``), a Gmsh body's ``size factor 0.5`` (``x0.5``)."""
     if r.get("nx") is not None:
@@ -118,7 +125,7 @@ def analyse_convergence(rows: list[dict]) -> dict:
     conv: dict = {"series": {}, "reference": {}}
     series = _series(rows)
     for (deg, plane), rs in series.items():
-        conv["series"][f"P{deg} {plane}"] = {
+        conv["series"][f"{series_name(deg, rows)} {plane}"] = {
             key: observed_order([r["h"] for r in rs], [r.get(key) for r in rs]) for key in QOIS}
     for plane in dict.fromkeys(p for _, p in series):
         degs = sorted((d for d, p in series if p == plane), reverse=True)
@@ -126,16 +133,16 @@ def analyse_convergence(rows: list[dict]) -> dict:
         for key in QOIS:
             ref = None
             for d in degs:
-                e = conv["series"][f"P{d} {plane}"][key]
+                e = conv["series"][f"{series_name(d, rows)} {plane}"][key]
                 if e["richardson"] and e["p"] is not None and e["p"] >= 0.5:
-                    ref = {"value": e["reference"], "from": f"P{d} Richardson (p = {e['p']:.2f})"}
+                    ref = {"value": e["reference"], "from": f"{series_name(d, rows)} Richardson (p = {e['p']:.2f})"}
                     break
             if ref is None:
                 for d in degs:
                     vals = [r for r in series[(d, plane)] if r.get(key) is not None]
                     if vals:
                         fin = min(vals, key=lambda r: r["h"])
-                        ref = {"value": fin[key], "from": f"finest P{d} level ({level_label(fin)}; no trusted "
+                        ref = {"value": fin[key], "from": f"finest {series_name(d, rows)} level ({level_label(fin)}; no trusted "
                                                             f"extrapolation)"}
                         break
             conv["reference"][plane][key] = ref or {"value": None, "from": "no value"}
@@ -163,7 +170,7 @@ def csv_columns(rows: list[dict]) -> list[str]:
     """refinement.csv's columns: the level, its sizes, the quantities some level has, their errors, times."""
     keys = present(rows)
     level = ["pattern", "nx", "ny"] if any(r.get("nx") is not None for r in rows) else ["size_factor"]
-    return ["degree", "plane", *level, "h", "contact_nodes", "dofs", "states", "distinct",
+    return ["degree", "element", "plane", *level, "h", "contact_nodes", "dofs", "states", "distinct",
             *keys, "first_mu", "first_mu_label", "final_label",
             *[f"err_{k}" for k in keys], "wall_s", *STAGE_GROUPS, "t_other", "first_method", "path_end"]
 
@@ -189,7 +196,7 @@ def markdown(summary: dict) -> str:
     keys = present(rows)
     for (deg, plane), rs in _series(rows).items():
         heads = [f"{QOIS[k][0]} [{units.get(QOIS[k][1], '?')}]" for k in keys]
-        lines += [f"## P{deg}, plane {plane}", "",
+        lines += [f"## {series_name(deg, rows)}, plane {plane}", "",
                   "| mesh | contact nodes | DOFs | " + " | ".join(heads) + " | mu at the first solution | wall [s] | "
                   "MCEIP-mu [s] | factor K + W [s] | loading [s] |",
                   "|" + "---|" * (len(keys) + 8)]
@@ -204,7 +211,7 @@ def markdown(summary: dict) -> str:
         for key in keys:
             label, quantity = QOIS[key]
             unit = units.get(quantity, "?")
-            e = conv["series"][f"P{deg} {plane}"][key]
+            e = conv["series"][f"{series_name(deg, rows)} {plane}"][key]
             lines.append(f"| {label} [{unit}] | {fmt(e['p'], 3)} | {fmt(e['fitted'], 3)} | "
                          f"{fmt(e['reference'], 7)}{' (Richardson)' if e['richardson'] else ''} | {e['note']} |")
         lines.append("")
@@ -217,7 +224,7 @@ def markdown(summary: dict) -> str:
             label, quantity = QOIS[key]
             unit = units.get(quantity, "?")
             ch = cheapest(rows, key, plane)
-            cells = [f"P{r['degree']} {level_label(r)} ({r['wall_s']:.1f} s)" if r else "not reached"
+            cells = [f"{series_name(r['degree'], rows)} {level_label(r)} ({r['wall_s']:.1f} s)" if r else "not reached"
                      for r in ch.values()]
             lines.append(f"| {label} [{unit}] | {fmt(refs[key]['value'], 7)} | {refs[key]['from']} | "
                          + " | ".join(cells) + " |")
@@ -282,7 +289,7 @@ def _error_figure(summary: dict, path: pathlib.Path, x_key: str, xlabel: str, sl
             if not pts:
                 continue
             x, e, nx = zip(*pts)
-            label = f"P{deg} {plane}"
+            label = f"{series_name(deg, rows)} {plane}"
             fitted = (series.get(label) or {}).get(key, {}).get("fitted")
             if slopes and fitted is not None:
                 label += f", slope {fitted:.2f}"

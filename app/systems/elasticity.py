@@ -18,3 +18,15 @@ def lame_parameters(E: float, nu: float, plane: str = "stress") -> tuple[float, 
     if plane == "stress":
         lmbda = 2.0 * mu * lmbda / (lmbda + 2.0 * mu)
     return mu, lmbda
+
+
+def bulk_compliance(E: float, nu: float, plane: str = "stress") -> float:
+    """``1 / kappa`` of the 2D model, ``kappa = lambda + mu`` its in-plane bulk modulus (with
+    lambda* in plane stress): ``2 (1 + nu)(1 - 2 nu) / E`` in plane strain (0 for the
+    incompressible nu = 1/2), ``2 (1 - nu) / E`` in plane stress. The mixed element's pressure
+    block (app/systems/stress.py ``mixed_forms``)."""
+    if plane not in ("stress", "strain"):
+        raise ValueError(f"plane must be 'stress' or 'strain', got {plane!r}")
+    if not (E > 0 and -1.0 < nu <= 0.5):
+        raise ValueError(f"Need E > 0 and -1 < nu <= 0.5, got E={E}, nu={nu}")
+    return 2.0 * (1.0 + nu) * (1.0 - 2.0 * nu) / E if plane == "strain" else 2.0 * (1.0 - nu) / E

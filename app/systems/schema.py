@@ -106,3 +106,43 @@ def no_field_outputs(scene, why: str) -> None:
     for key in ("paraview", "screenshots"):
         if key in given and getattr(scene.outputs, key):
             raise SystemPathError(f"outputs.{key}", True, why)
+
+
+#: the finite elements of the meshed bodies (``system.element``)
+ELEMENT_HELP = ("displacement (P1 or P2 by degree), or mixed: Taylor-Hood P2-P1 displacement and pressure "
+                "(degree 2), free of volumetric locking up to the incompressible nu = 1/2")
+
+
+def check_element(element: str, degree: int, poisson: dict) -> None:
+    """The element's one-line refusals: the mixed element needs ``degree: 2``; a Poisson's ratio of
+    1/2 (``poisson``: key -> nu) needs the mixed element."""
+    if element == "mixed" and degree != 2:
+        raise PathError("element", element, "the mixed element is Taylor-Hood P2-P1: give degree: 2")
+    for key, nu in poisson.items():
+        if nu == 0.5 and element != "mixed":
+            raise PathError(key, nu, "an incompressible material (nu = 1/2) needs element: mixed (with degree: 2); "
+                            "the displacement element allows nu < 1/2")
+
+
+def element_name(element: str, degree: int) -> str:
+    """The element in words: ``P1``, ``P2``, ``P2-P1 mixed``."""
+    return "P2-P1 mixed" if element == "mixed" else f"P{degree}"
+
+
+#: the analyses the mixed element supports: those on the pencils' equalities and the contact
+#: flexibility, where the pressure is eliminated exactly (docs/method.md section 10)
+MIXED_ANALYSES = ("mceip_mu", "enumerate")
+
+
+def check_mixed_analyses(scene) -> None:
+    """The mixed element's analyses: the necessary and sufficient conditions and MCEIP-lambda^2 read
+    eigenvalues and inertias of matrices that hold the pressure block, not of the system with the
+    pressure eliminated, and are refused in one line."""
+    if getattr(scene.system, "element", "displacement") != "mixed":
+        return
+    other = [a for a in scene.analyses if a not in MIXED_ANALYSES]
+    if other:
+        raise PathError("analyses", list(scene.analyses), f"{other[0]} is not available with system.element: mixed "
+                        f"(it reads eigenvalues and inertias that the pressure block changes); allowed with the "
+                        f"mixed element: {', '.join(MIXED_ANALYSES)}")
+

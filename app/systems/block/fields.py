@@ -27,10 +27,15 @@ class BlockFields:
 
     def von_mises(self, u):
         """UFL expression of the von Mises stress of the displacement ``u`` (the block's E, nu and plane
-        model)."""
+        model); the mixed element's also reads the pressure of the field :meth:`to_function` made
+        last (``ops.pressure``)."""
+        cfg = self.cfg
+        if self.ops.pressure is not None:
+            from app.systems.stress import mixed_von_mises
+            return mixed_von_mises(u, self.ops.pressure, cfg.E / (2.0 * (1.0 + cfg.nu)), 2.0 * cfg.nu, cfg.plane)
         from app.systems.elasticity import lame_parameters
-        mu, lmbda = lame_parameters(self.cfg.E, self.cfg.nu, self.cfg.plane)
-        return von_mises(u, mu, lmbda, self.cfg.plane)
+        mu, lmbda = lame_parameters(cfg.E, cfg.nu, cfg.plane)
+        return von_mises(u, mu, lmbda, cfg.plane)
 
     @staticmethod
     def _cd(load: Optional[dict]) -> tuple[float, float]:

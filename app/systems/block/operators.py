@@ -78,6 +78,11 @@ class BlockOperators:
     contact_dof_x: npt.NDArray[np.int64]
     contact_dof_y: npt.NDArray[np.int64]
     mass_kind: str = "consistent"
+    #: the mixed element's pressure space (None: the displacement element); its owned DOFs follow
+    #: each rank's kept displacement DOFs in the reduced numbering, and :attr:`pressure` holds the
+    #: pressure of the last field :meth:`to_function` made
+    Q: dolfinx.fem.FunctionSpace | None = None
+    pressure: dolfinx.fem.Function | None = None
     # Local (unrolled) indices of the owned kept dofs, in reduced order
     _kept_local: npt.NDArray[np.int32] = field(default=None, repr=False)
     # Local (unrolled, owned and ghost) indices of the CD dofs, per component
@@ -107,7 +112,8 @@ class BlockOperators:
             The consistent or row-sum lumped mass matrix, according to :attr:`mass_kind`.
         """
         if self._M_full is None:
-            M_full = dolfinx.fem.petsc.assemble_matrix(self._mass_form)
+            M_full = (dolfinx.fem.petsc.assemble_matrix_block(self._mass_form) if isinstance(self._mass_form, list)
+                      else dolfinx.fem.petsc.assemble_matrix(self._mass_form))   # mixed: no mass on the pressure
             M_full.assemble()
             if self.mass_kind == "lumped":
                 # Row sums of the consistent matrix, on a diagonal matrix
@@ -142,7 +148,7 @@ class BlockOperators:
         dolfinx.fem.Function
             The displacement in ``V`` (ghosts updated).
         """
-        n_local = self._kept_local.size
+        n_local = self.kept.getLocalSize()
         if isinstance(u_reduced, PETSc.Vec):
             values = u_reduced.getArray(readonly=True)
             if values.size != n_local:
@@ -160,7 +166,10 @@ class BlockOperators:
 
         u = dolfinx.fem.Function(self.V, name="displacement")
         u.x.array[:] = 0.0
-        u.x.array[self._kept_local] = values
+        u.x.array[self._kept_local] = values[:self._kept_local.size]
+        if self.pressure is not None:               # then the rank's pressure DOFs (mixed element)
+            self.pressure.x.array[:values.size - self._kept_local.size] = values[self._kept_local.size:]
+            self.pressure.x.scatter_forward()
         u.x.array[self._cd_local_x] = gx
         u.x.array[self._cd_local_y] = gy
         u.x.scatter_forward()
@@ -209,7 +218,7 @@ def _snap_to_facet_points(x: npt.NDArray[np.float64], mesh: dolfinx.mesh.Mesh,
 
 def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: float, nu: float,
                     thickness: float, density: float, plane: str = "stress", degree: int = 1,
-                    mass_kind: str = "consistent") -> BlockOperators:
+                    mass_kind: str = "consistent", element: str = "displacement") -> BlockOperators:
     """Assemble the reduced elasticity operators of the block (collective).
 
     Parameters
@@ -233,6 +242,10 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     mass_kind
         "consistent" or "lumped" (row sums of the consistent
         matrix; singular for degree 2, whose vertex row sums vanish).
+    element
+        "displacement", or "mixed": Taylor-Hood, the displacement of ``degree`` 2 and a P1
+        pressure (app/systems/stress.py ``mixed_forms``), the pressure DOFs after each rank's
+        kept displacement DOFs.
 
     Returns
     -------
@@ -248,32 +261,49 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
                       stacklevel=2)
     if not (thickness > 0 and density > 0):
         raise ValueError(f"thickness and density must be positive, got {thickness}, {density}")
-    mu_value, lmbda_value = lame_parameters(E, nu, plane)
+    mixed = element == "mixed"
+    if mixed and degree != 2:
+        raise ValueError("the mixed element is Taylor-Hood P2-P1: degree must be 2")
 
     V = dolfinx.fem.FunctionSpace(mesh, ufl.VectorElement("CG", mesh.ufl_cell(), degree), **jit.params())
+    Q = dolfinx.fem.FunctionSpace(mesh, ("CG", 1), **jit.params()) if mixed else None
     bs = V.dofmap.index_map_bs
-    owned_start = V.dofmap.index_map.local_range[0] * bs  # global index of the first owned dof
 
     # Forms; parameters are Constants so that the generated code is reused
-    mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(mu_value))
-    lmbda = dolfinx.fem.Constant(mesh, PETSc.ScalarType(lmbda_value))
     t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(thickness))
     rho = dolfinx.fem.Constant(mesh, PETSc.ScalarType(density))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-
-    a = dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx, **jit.params())
-    m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params())
+    if mixed:
+        from app.systems.elasticity import bulk_compliance
+        from app.systems.stress import mixed_forms
+        mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(E / (2.0 * (1.0 + nu))))
+        inv_kappa = dolfinx.fem.Constant(mesh, PETSc.ScalarType(bulk_compliance(E, nu, plane)))
+        p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
+        a = [[dolfinx.fem.form(f, **jit.params()) for f in row] for row in mixed_forms(u, p, v, q, mu, inv_kappa, t)]
+        zero = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
+        m = [[dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params()), None],
+             [None, dolfinx.fem.form(zero * p * q * ufl.dx, **jit.params())]]
+        K_full = dolfinx.fem.petsc.assemble_matrix_block(a)
+    else:
+        mu_value, lmbda_value = lame_parameters(E, nu, plane)
+        mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(mu_value))
+        lmbda = dolfinx.fem.Constant(mesh, PETSc.ScalarType(lmbda_value))
+        a = dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx, **jit.params())
+        m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params())
+        K_full = dolfinx.fem.petsc.assemble_matrix(a)
+    K_full.assemble()
+    # each rank's rows: its owned displacement DOFs (unrolled), then (mixed) its owned pressure DOFs
+    row_start = K_full.getOwnershipRange()[0]
+    n_extra = Q.dofmap.index_map.size_local if mixed else 0
 
     cd_blocks, cd_owned = _cd_dofs(V, facet_tags)
     cd_local_x = (cd_blocks * bs).astype(np.int32)
     cd_local_y = (cd_blocks * bs + 1).astype(np.int32)
-    kept_local, reduced_index, kept = _kept_dofs(V, cd_owned)
+    kept_local, reduced_index, kept, rows = _kept_dofs(V, cd_owned, row_start, n_extra)
 
     # Stiffness: full assembly without bcs, then restriction
-    K_full = dolfinx.fem.petsc.assemble_matrix(a)
-    K_full.assemble()
     K = K_full.createSubMatrix(kept, kept)
-    loads = _cd_loads(K_full, K, cd_owned, owned_start, bs, kept_local)
+    loads = _cd_loads(K_full, K, cd_owned, row_start, bs, rows)
     K_full.destroy()
     cx, cdx, cdy, order = _contact_nodes(V, facet_tags, reduced_index)
 
@@ -281,6 +311,7 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
                           load_x=loads[0], load_y=loads[1],
                           contact_x=cx[order], contact_dof_x=cdx[order].astype(np.int64),
                           contact_dof_y=cdy[order].astype(np.int64), mass_kind=mass_kind,
+                          Q=Q, pressure=dolfinx.fem.Function(Q, name="pressure") if mixed else None,
                           _kept_local=kept_local, _cd_local_x=cd_local_x, _cd_local_y=cd_local_y,
                           _mass_form=m)
 
@@ -297,25 +328,28 @@ def _cd_dofs(V, facet_tags: MeshTags_int32) -> tuple[np.ndarray, np.ndarray]:
     return cd_blocks, cd_blocks[cd_blocks < V.dofmap.index_map.size_local]
 
 
-def _kept_dofs(V, cd_owned: np.ndarray) -> tuple[np.ndarray, np.ndarray, PETSc.IS]:
-    """Kept dofs: owned minus CD, ascending; reduced numbering by exscan offset. Returns the local
-    kept dofs, the reduced index of every owned dof (-1 on CD) and the kept dofs' global IS."""
+def _kept_dofs(V, cd_owned: np.ndarray, row_start: int, n_extra: int
+               ) -> tuple[np.ndarray, np.ndarray, PETSc.IS, np.ndarray]:
+    """Kept dofs: owned minus CD, ascending, then the ``n_extra`` pressure DOFs (mixed element);
+    reduced numbering by exscan offset. Returns the local kept displacement dofs, the reduced index
+    of every owned dof (-1 on CD), the kept rows' global IS (the assembled matrix's rows start at
+    ``row_start`` on this rank) and the kept rows' local indices."""
     comm = V.mesh.comm
     bs = V.dofmap.index_map_bs
     index_map = V.dofmap.index_map
     n_owned = index_map.size_local * bs
-    owned_start = index_map.local_range[0] * bs  # global index of the first owned dof
     is_dirichlet = np.zeros(n_owned, dtype=bool)
     is_dirichlet[cd_owned * bs] = True
     is_dirichlet[cd_owned * bs + 1] = True
     kept_local = np.flatnonzero(~is_dirichlet).astype(np.int32)
     n_kept = kept_local.size
-    offset = comm.exscan(n_kept, op=MPI.SUM)
+    offset = comm.exscan(n_kept + n_extra, op=MPI.SUM)
     offset = 0 if comm.rank == 0 else offset
     reduced_index = np.full(n_owned, -1, dtype=np.int64)
     reduced_index[kept_local] = offset + np.arange(n_kept, dtype=np.int64)
-    kept = PETSc.IS().createGeneral((owned_start + kept_local).astype(PETSc.IntType), comm=comm)
-    return kept_local, reduced_index, kept
+    rows = np.concatenate([kept_local, n_owned + np.arange(n_extra, dtype=np.int32)])
+    kept = PETSc.IS().createGeneral((row_start + rows).astype(PETSc.IntType), comm=comm)
+    return kept_local, reduced_index, kept, rows
 
 
 def _cd_loads(K_full: PETSc.Mat, K: PETSc.Mat, cd_owned: np.ndarray, owned_start: int, bs: int,
@@ -323,7 +357,8 @@ def _cd_loads(K_full: PETSc.Mat, K: PETSc.Mat, cd_owned: np.ndarray, owned_start
     """Loads -K_{kept,D} u_D of a unit displacement of CD in x, resp. y.
 
     Rows of K_full u_D on kept dofs are K_{kept,D} u_D (u_D vanishes off CD); kept dofs are
-    owned, so the restriction is local."""
+    owned, so the restriction is local. ``owned_start``: the assembled matrix's first row on this
+    rank; ``kept_local``: the kept rows' local indices (the mixed element's pressure rows too)."""
     u_D, Ku_D = K_full.createVecs()
     loads = []
     for component in range(bs):

@@ -40,11 +40,11 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
         mesh, facets = block_mesh(comm, cfg.length, cfg.height, cfg.nx, cfg.ny, cfg.pattern, cfg.mesh_size)
     with stages("assemble stiffness"):
         ops = block_operators(mesh, facets, cfg.E, cfg.nu, cfg.thickness, cfg.density, plane=cfg.plane,
-                              degree=cfg.degree, mass_kind=cfg.mass)
+                              degree=cfg.degree, mass_kind=cfg.mass, element=cfg.element)
     for w in implausible_material("system", cfg.E, cfg.density, units):
         log.warning("%s", w)
         stages.warnings.append(w)
-    if cfg.degree == 1 and cfg.plane == "strain" and cfg.nu >= 0.45:
+    if cfg.degree == 1 and cfg.plane == "strain" and cfg.nu >= 0.45 and cfg.element == "displacement":
         log.warning("P1 triangles lock in plane strain as nu -> 0.5 (nu = %s): displacements, reactions "
                     "and mode shapes are too stiff; use degree: 2", cfg.nu)
         stages.warnings.append(f"volumetric locking: P1 triangles in plane strain with nu = {cfg.nu} "
@@ -62,7 +62,7 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
     system = System(comm=comm, K=ops.K, nodes=nodes, units=UNITS[units], stages=stages,
                     build_mass=lambda: ops.mass().copy(), build_contact_schur=lambda: flex.schur,
                     description=(f"block {cfg.length}x{cfg.height}x{cfg.thickness} {UNITS[units]['length']}, {cfg.nx}x{cfg.ny} "
-                                 f"{cfg.pattern} P{cfg.degree}, plane {cfg.plane}, E={cfg.E} {UNITS[units]['stress']}, nu={cfg.nu}, "
+                                 f"{cfg.pattern} {cfg.element_name()}, plane {cfg.plane}, E={cfg.E} {UNITS[units]['stress']}, nu={cfg.nu}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     system.operators, system.flexibility = ops, flex
     from app.systems.block.fields import BlockFields

@@ -14,7 +14,7 @@ from typing import Annotated, Any, ClassVar, Literal, Optional
 from pydantic import Field, model_validator
 
 from app.common.validation import PathError, Strict
-from app.systems.schema import PosFloat
+from app.systems.schema import ELEMENT_HELP, PosFloat, check_element, check_mixed_analyses, element_name
 
 
 class Loading(Strict):
@@ -40,9 +40,11 @@ class Block(Strict):
     pattern: Literal["crossed", "right", "left", "alternate", "unstructured"] = "crossed"
     mesh_size: Optional[PosFloat] = None
     degree: Literal[1, 2] = 1
+    element: Literal["displacement", "mixed"] = Field("displacement", description=ELEMENT_HELP)
     plane: Literal["stress", "strain"] = "stress"
     E: PosFloat = 5.0
-    nu: Annotated[float, Field(gt=-1.0, lt=0.5, allow_inf_nan=False)] = 0.48
+    nu: Annotated[float, Field(gt=-1.0, le=0.5, allow_inf_nan=False)] = Field(
+        0.48, description="Poisson's ratio, -1 < nu < 1/2 (1/2, incompressible: element mixed only)")
     density: PosFloat = 1.2e-9
     mass: Literal["consistent", "lumped"] = "consistent"
 
@@ -52,9 +54,20 @@ class Block(Strict):
             raise PathError("mesh_size", None, "pattern 'unstructured' needs mesh_size (a positive length in mm)")
         return self
 
+    @model_validator(mode="after")
+    def _element(self) -> "Block":
+        check_element(self.element, self.degree, {"nu": self.nu})
+        return self
+
+    def element_name(self) -> str:
+        """The element in words (``P1``, ``P2``, ``P2-P1 mixed``)."""
+        return element_name(self.element, self.degree)
+
     @classmethod
     def check_scene(cls, scene: Any) -> None:
-        """Scene-level checks (called by :class:`app.scene.schema.Scene`): the loading defaults."""
+        """Scene-level checks (called by :class:`app.scene.schema.Scene`): the loading defaults; the
+        analyses of the mixed element."""
+        check_mixed_analyses(scene)
         if scene.loading is None:
             object.__setattr__(scene, "loading", Loading())
 
@@ -73,7 +86,7 @@ class Block(Strict):
             cells = nx * ny * (4 if self.pattern == "crossed" else 2)
         nodes = vertices if self.degree == 1 else vertices + (vertices + cells - 1)   # + edge midpoints (Euler)
         contact = self.degree * nx + 1
-        return 2 * nodes, contact
+        return 2 * nodes + (vertices if self.element == "mixed" else 0), contact      # + P1 pressure
 
     def refined(self, nx: int) -> "Block":
         """A copy of the block with ``nx`` cells along AB and ``ny`` scaled to keep the cells' aspect."""

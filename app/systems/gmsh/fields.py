@@ -19,8 +19,10 @@ class FieldData:
     prescribed: dict[str, dict[int, np.ndarray]]  # curve -> component -> local unrolled DOFs (incl. ghosts)
     kept_local: np.ndarray                        # local unrolled indices of the owned kept DOFs, reduced order
     dof_x: np.ndarray                             # (local DOF blocks, 2) coordinates
-    mu: object                                    # Lamé parameters per cell (DG0 functions)
-    lmbda: object
+    mu: object                                    # Lamé parameters per cell (DG0 functions; the mixed
+    lmbda: object                                 # element: mu and the bulk compliance 1/kappa)
+    Q: object = None                              # the mixed element's pressure space (P1), else None
+    two_nu: object = None                         # the mixed element's 2 nu per cell (DG0)
 
 
 def parameter_name(key: tuple) -> str:
@@ -41,8 +43,12 @@ class BodyFields:
     """
 
     def __init__(self, cfg: GmshBody, ops, flex, gaps: np.ndarray):
+        import dolfinx.fem
         self.cfg, self.ops, self.flex = cfg, ops, flex
         self.V = ops.field_data.V
+        # the mixed element: the pressure of the last field made (to_function), read by von_mises
+        Q = ops.field_data.Q
+        self.pressure = dolfinx.fem.Function(Q, name="pressure") if Q is not None else None
         self.length_scale = ops.size                  # the body's bounding-box size
         tvec, nvec = cfg.obstacle.frame()
         n = len(ops.contact_xy)
@@ -64,9 +70,13 @@ class BodyFields:
 
     def von_mises(self, u):
         """UFL expression of the von Mises stress of the displacement ``u`` (Lamé parameters per cell:
-        the material of each physical surface)."""
-        from app.systems.stress import von_mises
-        return von_mises(u, self.ops.field_data.mu, self.ops.field_data.lmbda, self.cfg.plane)
+        the material of each physical surface); the mixed element's also reads :attr:`pressure`,
+        the pressure of the field :meth:`to_function` made last."""
+        from app.systems.stress import mixed_von_mises, von_mises
+        d = self.ops.field_data
+        if self.pressure is not None:
+            return mixed_von_mises(u, self.pressure, d.mu, d.two_nu, self.cfg.plane)
+        return von_mises(u, d.mu, d.lmbda, self.cfg.plane)
 
     def _parameters(self, load: dict | None) -> np.ndarray:
         a = np.zeros(len(self._index))
@@ -92,7 +102,11 @@ class BodyFields:
             self.ops.R.mult(u, w)                     # node frames -> x/y
             f = dolfinx.fem.Function(self.V, name="displacement")
             f.x.array[:] = 0.0
-            f.x.array[d.kept_local] = w.getArray(readonly=True)
+            values = w.getArray(readonly=True)
+            f.x.array[d.kept_local] = values[:len(d.kept_local)]
+            if self.pressure is not None:            # then the rank's pressure DOFs (mixed element)
+                self.pressure.x.array[:len(values) - len(d.kept_local)] = values[len(d.kept_local):]
+                self.pressure.x.scatter_forward()
         finally:
             w.destroy()
         bs = self.V.dofmap.index_map_bs

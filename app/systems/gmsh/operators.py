@@ -65,7 +65,8 @@ class BodyOperators:
     def mass(self) -> PETSc.Mat:
         """Reduced, rotated mass matrix (assembled on first use; the caller owns the copy it gets)."""
         import dolfinx.fem.petsc
-        M_full = dolfinx.fem.petsc.assemble_matrix(self.mass_form)
+        M_full = (dolfinx.fem.petsc.assemble_matrix_block(self.mass_form) if isinstance(self.mass_form, list)
+                  else dolfinx.fem.petsc.assemble_matrix(self.mass_form))      # mixed: the pressure carries no mass
         try:
             M_full.assemble()
             if self.mass_kind == "lumped":
@@ -101,23 +102,38 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     import ufl
 
     from app.systems.gmsh.mesh import read_mesh
-    from app.systems.stress import strain, stress
+    from app.systems.stress import mixed_forms, strain, stress
     with stages("mesh (gmsh)"):
         mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm, size_factor=cfg.mesh_size_factor)
+    mixed = cfg.element == "mixed"
+    Q = dolfinx.fem.FunctionSpace(mesh, ("CG", 1), **jit.params()) if mixed else None
     sp = _Space(comm, mesh, facet_tags, dolfinx.fem.FunctionSpace(mesh, ufl.VectorElement("CG", mesh.ufl_cell(), cfg.degree), **jit.params()),
-                {nm: t for (d, nm), t in names.items() if d == 1}, {nm: t for (d, nm), t in names.items() if d == 2})
+                {nm: t for (d, nm), t in names.items() if d == 1}, {nm: t for (d, nm), t in names.items() if d == 2}, Q)
     mu_f, lam_f, rho_f = _materials(cfg, sp, cell_tags)
     t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.thickness))
     u, v = ufl.TrialFunction(sp.V), ufl.TestFunction(sp.V)
 
     with stages("assemble stiffness"):
-        stiff = t * ufl.inner(stress(u, mu_f, lam_f), strain(v)) * ufl.dx
-        if cfg.foundation is not None:       # weak elastic foundation (a floating body)
-            stiff = stiff + dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.foundation)) * t * ufl.inner(u, v) * ufl.dx
-        a = dolfinx.fem.form(stiff, **jit.params())
-        m = dolfinx.fem.form(rho_f * t * ufl.inner(u, v) * ufl.dx, **jit.params())
-        K_full = dolfinx.fem.petsc.assemble_matrix(a)
+        foundation = (dolfinx.fem.Constant(mesh, PETSc.ScalarType(cfg.foundation)) * t * ufl.inner(u, v) * ufl.dx
+                      if cfg.foundation is not None else None)      # weak elastic foundation (a floating body)
+        mass = rho_f * t * ufl.inner(u, v) * ufl.dx
+        if mixed:            # blocks [[u, p]]: each rank's rows are its u DOFs, then its p DOFs
+            p_, q_ = ufl.TrialFunction(Q), ufl.TestFunction(Q)
+            blocks = mixed_forms(u, p_, v, q_, mu_f, lam_f, t)      # lam_f holds 1/kappa here (_materials)
+            if foundation is not None:
+                blocks[0][0] = blocks[0][0] + foundation
+            a = [[dolfinx.fem.form(f, **jit.params()) for f in row] for row in blocks]
+            m = [[dolfinx.fem.form(mass, **jit.params()), None],
+                 [None, dolfinx.fem.form(dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0)) * p_ * q_ * ufl.dx,
+                                         **jit.params())]]
+            K_full = dolfinx.fem.petsc.assemble_matrix_block(a)
+        else:
+            stiff = t * ufl.inner(stress(u, mu_f, lam_f), strain(v)) * ufl.dx
+            a = dolfinx.fem.form(stiff if foundation is None else stiff + foundation, **jit.params())
+            m = dolfinx.fem.form(mass, **jit.params())
+            K_full = dolfinx.fem.petsc.assemble_matrix(a)
         K_full.assemble()
+    sp.set_rows(K_full.getOwnershipRange()[0])
 
     dof_x = sp.V.tabulate_dof_coordinates()[:, :2]
     presc, kept_local, reduced, kept = _prescribed(cfg, sp, K_full)
@@ -151,41 +167,69 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
                          deepest=deepest, left_out=left_out,
                          mass_form=m, mass_kind=cfg.mass, degree=cfg.degree,
                          field_data=FieldData(V=sp.V, prescribed=presc, kept_local=kept_local, dof_x=dof_x, mu=mu_f,
-                                              lmbda=lam_f))
+                                              lmbda=lam_f, Q=Q, two_nu=_two_nu(cfg, sp, cell_tags) if mixed else None))
 
 
 class _Space:
-    """The body's vector space and its numbering, shared by the steps of :func:`body_operators`."""
+    """The body's vector space and its numbering, shared by the steps of :func:`body_operators`.
 
-    def __init__(self, comm: MPI.Comm, mesh, facet_tags, V, tag_of_curve: dict, tag_of_surface: dict):
-        self.comm, self.mesh, self.facet_tags, self.V = comm, mesh, facet_tags, V
+    The assembled matrix has, on each rank, the rank's owned displacement DOFs (unrolled, in ``V``'s
+    local order) from row ``row_start`` on, then (mixed element) its owned pressure DOFs of ``Q``:
+    ``n_extra`` rows that are never prescribed."""
+
+    def __init__(self, comm: MPI.Comm, mesh, facet_tags, V, tag_of_curve: dict, tag_of_surface: dict, Q=None):
+        self.comm, self.mesh, self.facet_tags, self.V, self.Q = comm, mesh, facet_tags, V, Q
         self.tag_of_curve, self.tag_of_surface = tag_of_curve, tag_of_surface
         self.bs = V.dofmap.index_map_bs
         self.im = V.dofmap.index_map
         self.n_owned = self.im.size_local * self.bs
-        self.owned_start = self.im.local_range[0] * self.bs
+        self.n_extra = Q.dofmap.index_map.size_local if Q is not None else 0
+        self.row_start = self.im.local_range[0] * self.bs
+
+    def set_rows(self, first: int) -> None:
+        """The assembled matrix's first row on this rank."""
+        self.row_start = int(first)
+
+    def extra_rows(self) -> np.ndarray:
+        """Local rows (in the assembled layout) of the pressure DOFs."""
+        return self.n_owned + np.arange(self.n_extra, dtype=np.int32)
 
     def facets(self, curve: str) -> np.ndarray:
         return self.facet_tags.indices[self.facet_tags.values == self.tag_of_curve[curve]]
 
 
 def _materials(cfg: GmshBody, sp: _Space, cell_tags):
-    """The Lamé parameters and density of every physical surface, as DG0 functions."""
+    """The Lamé parameters and density of every physical surface, as DG0 functions (the mixed
+    element: mu, the bulk compliance 1/kappa and the density)."""
     import dolfinx.fem
 
-    from app.systems.elasticity import lame_parameters
+    from app.systems.elasticity import bulk_compliance, lame_parameters
     Q = dolfinx.fem.FunctionSpace(sp.mesh, ("DG", 0), **jit.params())
     mu_f, lam_f, rho_f = (dolfinx.fem.Function(Q) for _ in range(3))
     for name, tag in sp.tag_of_surface.items():
         cells = Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]   # the cells' DG0 DOFs
         mat = cfg.material_of(name)
-        mu_v, lam_v = lame_parameters(mat.E, mat.nu, cfg.plane)
+        if cfg.element == "mixed":      # mu and the bulk compliance 1/kappa (app/systems/stress.py mixed_forms)
+            mu_v, lam_v = mat.E / (2.0 * (1.0 + mat.nu)), bulk_compliance(mat.E, mat.nu, cfg.plane)
+        else:
+            mu_v, lam_v = lame_parameters(mat.E, mat.nu, cfg.plane)
         mu_f.x.array[cells] = mu_v
         lam_f.x.array[cells] = lam_v
         rho_f.x.array[cells] = mat.density
     for f in (mu_f, lam_f, rho_f):
         f.x.scatter_forward()
     return mu_f, lam_f, rho_f
+
+
+def _two_nu(cfg: GmshBody, sp: _Space, cell_tags):
+    """``2 nu`` per cell (DG0): the mixed element's out-of-plane stress ``s_zz = 2 nu p`` (plane strain)."""
+    import dolfinx.fem
+    Q = dolfinx.fem.FunctionSpace(sp.mesh, ("DG", 0), **jit.params())
+    f = dolfinx.fem.Function(Q)
+    for name, tag in sp.tag_of_surface.items():
+        f.x.array[Q.dofmap.list.array[cell_tags.indices[cell_tags.values == tag]]] = 2.0 * cfg.material_of(name).nu
+    f.x.scatter_forward()
+    return f
 
 
 def _prescribed(cfg: GmshBody, sp: _Space, K_full: PETSc.Mat):
@@ -214,10 +258,11 @@ def _prescribed(cfg: GmshBody, sp: _Space, K_full: PETSc.Mat):
                 owner.update({int(d): name for d in own})
                 is_d[own] = True
     kept_local = np.flatnonzero(~is_d).astype(np.int32)
-    offset = comm.exscan(kept_local.size) or 0                     # MPI collective
+    offset = comm.exscan(kept_local.size + sp.n_extra) or 0        # MPI collective
     reduced = np.full(n_owned, -1, dtype=np.int64)
     reduced[kept_local] = offset + np.arange(kept_local.size)
-    kept = PETSc.IS().createGeneral((sp.owned_start + kept_local).astype(PETSc.IntType), comm=comm)
+    rows = np.concatenate([kept_local, sp.extra_rows()])            # then the pressure DOFs, all kept
+    kept = PETSc.IS().createGeneral((sp.row_start + rows).astype(PETSc.IntType), comm=comm)
     return presc, kept_local, reduced, kept
 
 
@@ -248,7 +293,7 @@ def _motion_loads(sp: _Space, K_full: PETSc.Mat, presc: dict, kept_local: np.nda
                 del arr
                 K_full.mult(u_D, Ku_D)
                 params[("motion", name, kind)] = len(raw)
-                raw.append(-Ku_D.getArray(readonly=True)[kept_local].copy())
+                raw.append(-Ku_D.getArray(readonly=True)[np.concatenate([kept_local, sp.extra_rows()])].copy())
     finally:
         u_D.destroy()
         Ku_D.destroy()
@@ -270,7 +315,7 @@ def _applied_loads(cfg: GmshBody, sp: _Space, v, rho_f, t, kept_local: np.ndarra
         b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(expr, **jit.params()))
         try:
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            return b.getArray(readonly=True)[kept_local].copy()
+            return np.concatenate([b.getArray(readonly=True)[kept_local], np.zeros(sp.n_extra)])   # no load on p
         finally:
             b.destroy()
 

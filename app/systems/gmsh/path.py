@@ -160,7 +160,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
             "; ".join(f"{name}: {material(m)}" for name, m in cfg.materials.items()))
     system = System(comm=comm, K=ops.K, nodes=nodes, units=u, stages=stages, build_mass=ops.mass,
                     build_contact_schur=lambda: flex.schur,
-                    description=(f"gmsh body {pathlib.Path(cfg.file).name}, P{cfg.degree}, plane {cfg.plane}, "
+                    description=(f"gmsh body {pathlib.Path(cfg.file).name}, {cfg.element_name()}, plane {cfg.plane}, "
                                  f"thickness {cfg.thickness} {u['length']}, {mats}, {cfg.obstacle.describe()}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     _check_left_out(cfg, ops, stages)

@@ -45,13 +45,17 @@ import numpy as np
 from pydantic import Field, PrivateAttr, ValidationInfo, field_validator, model_validator
 
 from app.systems.schema import (
+    ELEMENT_HELP,
     Finite,
     PosFloat,
     ResourcePathError,
     StrictModel,
     SystemPathError,
     base_dir,
+    check_element,
+    check_mixed_analyses,
     context_limits,
+    element_name,
     resolve_file,
 )
 
@@ -62,7 +66,8 @@ class Material(StrictModel):
     """Isotropic linear elastic material (E [stress], nu, density [mass/length^3])."""
 
     E: PosFloat
-    nu: Annotated[float, Field(gt=-1.0, lt=0.5, allow_inf_nan=False)]
+    nu: Annotated[float, Field(gt=-1.0, le=0.5, allow_inf_nan=False)] = Field(
+        description="Poisson's ratio, -1 < nu < 1/2 (1/2, incompressible: element mixed only)")
     density: PosFloat = 1.2e-9
 
 
@@ -258,6 +263,7 @@ class GmshBody(StrictModel):
     material: Optional[Material] = Field(None, description="one material for the whole body")
     materials: dict[str, Material] = Field({}, description="or: a material per physical surface")
     degree: Literal[1, 2] = 1
+    element: Literal["displacement", "mixed"] = Field("displacement", description=ELEMENT_HELP)
     plane: Literal["stress", "strain"] = "stress"
     thickness: PosFloat = 1.0
     mass: Literal["consistent", "lumped"] = "consistent"
@@ -318,9 +324,12 @@ class GmshBody(StrictModel):
         """(DOFs, contact nodes, the key that sets them) from the mesh read at validation (app/scene/limits.py)."""
         import pathlib
 
-        from app.systems.gmsh.mesh import mesh_sizes
+        from app.systems.gmsh.mesh import mesh_sizes, model_info
         dofs, contact = mesh_sizes(pathlib.Path(self.file), self.degree, self.all_prescribed(), self.contact,
                                    self.mesh_size_factor)
+        if self.element == "mixed":          # + the P1 pressure, a DOF per vertex
+            dofs += model_info(pathlib.Path(self.file), pathlib.Path(self.file).name, None, None,
+                               self.mesh_size_factor).n_nodes
         return dofs, contact, "system.file"
 
     @model_validator(mode="before")
@@ -450,6 +459,19 @@ class GmshBody(StrictModel):
                                       "same phase (it scales the phase's prescribed motion)")
         return self
 
+    @model_validator(mode="after")
+    def _element(self) -> "GmshBody":
+        named = {"material.nu": self.material.nu} if self.material else {
+            f"materials.{k}.nu": m.nu for k, m in self.materials.items()}
+        if self.obstacle.type == "body" and self.obstacle.material is not None:
+            named["obstacle.material.nu"] = self.obstacle.material.nu
+        check_element(self.element, self.degree, named)
+        return self
+
+    def element_name(self) -> str:
+        """The element in words (``P1``, ``P2``, ``P2-P1 mixed``)."""
+        return element_name(self.element, self.degree)
+
     def _obstacle_body(self, curve, surfaces: dict, shown: str) -> None:
         """The keys of a ``type: body`` obstacle name the file's groups, apart from the body's."""
         ob = self.obstacle
@@ -485,7 +507,9 @@ class GmshBody(StrictModel):
 
     @classmethod
     def check_scene(cls, scene: Any) -> None:
-        """Scene-level checks: no block loading (ParaView files and screenshots work for any body)."""
+        """Scene-level checks: no block loading (ParaView files and screenshots work for any body); the
+        analyses of the mixed element."""
+        check_mixed_analyses(scene)
         if scene.loading is not None:
             raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a gmsh system: give "
                                   "system.program (the phases of the loading)")

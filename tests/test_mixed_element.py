@@ -1,0 +1,156 @@
+"""The mixed (Taylor-Hood P2-P1 displacement-pressure) element, ``system.element: mixed``.
+
+- Patch test of the mixed operator (app/systems/stress.py ``mixed_forms``): a linear displacement
+  and its constant pressure solve the discrete equations exactly on a distorted mesh, for a
+  compressible and the incompressible material.
+- Closed form through the whole app: a strip pressed on a frictionless rigid line, its top moved
+  down until the normal force is F, its left side held in x on its upper half; the uniform state
+  ``sigma_yy = -F / (L t)``, ``sigma_xx = 0`` gives the depth ``F H (1 - nu^2) / (E L t)`` (plane
+  strain), exactly (a linear field), nu = 1/2 included.
+- The compressible limit: at nu = 0.3 the mixed element and P2 displacements converge to the same
+  values; nu = 1/2 runs and converges; one-line refusals.
+"""
+import math
+import pathlib
+
+import numpy as np
+import pytest
+import yaml
+from conftest import run_cli_here, run_scene
+
+STRIP = """
+L = 40; H = 10;
+Point(1) = {0, 0, 0}; Point(2) = {L, 0, 0}; Point(3) = {L, H, 0}; Point(4) = {0, H, 0}; Point(5) = {0, H / 2, 0};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 5}; Line(5) = {5, 1};
+Curve Loop(1) = {1, 2, 3, 4, 5}; Plane Surface(1) = {1};
+Mesh.CharacteristicLengthMax = 2.5;
+Physical Curve("bottom") = {1}; Physical Curve("top") = {3}; Physical Curve("roller") = {4};
+Physical Surface("strip") = {1};
+"""
+
+
+def test_patch_test_of_the_mixed_operator():
+    """u = A x + b, p = kappa tr(A) (compressible) or any constant (incompressible, tr A = 0): the
+    mixed equations hold exactly with the boundary tractions of that uniform stress."""
+    import dolfinx.fem
+    import dolfinx.fem.petsc
+    import dolfinx.mesh
+    import ufl
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    from app.systems.elasticity import bulk_compliance
+    from app.systems.stress import mixed_forms, mixed_stress
+    mesh = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 5, 4, dolfinx.mesh.CellType.triangle)
+    x = mesh.geometry.x
+    x[:, :2] += 0.03 * np.sin(7.0 * x[:, [1, 0]])          # a distorted mesh (edges stay straight)
+    V = dolfinx.fem.FunctionSpace(mesh, ufl.VectorElement("CG", mesh.ufl_cell(), 2))
+    Q = dolfinx.fem.FunctionSpace(mesh, ("CG", 1))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
+    E, t = 5.0, 1.5
+    for nu, A in ((0.3, np.array([[0.02, 0.013], [-0.004, -0.011]])),
+                  (0.5, np.array([[0.02, 0.013], [-0.004, -0.02]]))):
+        mu = E / (2 * (1 + nu))
+        inv_kappa = bulk_compliance(E, nu, "strain")
+        p_exact = np.trace(A) / inv_kappa if inv_kappa > 0 else 0.37
+        const = lambda c: dolfinx.fem.Constant(mesh, PETSc.ScalarType(c))    # noqa: E731 - (0 stays a form)
+        a = [[dolfinx.fem.form(f) for f in row] for row in mixed_forms(u, p, v, q, const(mu), const(inv_kappa), t)]
+        K = dolfinx.fem.petsc.assemble_matrix_block(a)
+        K.assemble()
+        uex = dolfinx.fem.Function(V)
+        uex.interpolate(lambda X: np.vstack([A[0, 0] * X[0] + A[0, 1] * X[1] + 0.1, A[1, 0] * X[0] + A[1, 1] * X[1]]))
+        pex = dolfinx.fem.Function(Q)
+        pex.x.array[:] = p_exact
+        n = ufl.FacetNormal(mesh)
+        sigma = mixed_stress(uex, pex, mu)
+        L_u = dolfinx.fem.form(t * ufl.inner(sigma * n, v) * ufl.ds)      # the boundary tractions
+        L_p = dolfinx.fem.form(dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0)) * q * ufl.dx)
+        b = dolfinx.fem.petsc.assemble_vector_block([L_u, L_p], a)
+        x_exact = K.createVecRight()
+        nV = V.dofmap.index_map.size_local * 2
+        x_exact.getArray()[:nV] = uex.x.array[:nV]
+        x_exact.getArray()[nV:] = pex.x.array[:Q.dofmap.index_map.size_local]
+        r = b.duplicate()
+        K.mult(x_exact, r)
+        r.axpy(-1.0, b)
+        assert r.norm() <= 1e-12 * b.norm(), (nu, r.norm(), b.norm())
+        for obj in (K, b, r, x_exact):
+            obj.destroy()
+
+
+def _strip_scene(tmp_path: pathlib.Path, element: str, degree: int, nu: float) -> pathlib.Path:
+    (tmp_path / "strip.geo").write_text(STRIP)
+    scene = {"name": "strip", "mu": 0.0, "analyses": ["mceip_mu"],
+             "system": {"type": "gmsh", "file": "strip.geo", "contact": "bottom", "prescribed": {"top": "y", "roller": "x"},
+                        "material": {"E": 5.0, "nu": nu}, "degree": degree, "element": element, "plane": "strain",
+                        "thickness": 2.0,
+                        "program": [{"name": "press", "steps": 2, "until": {"normal_force": 30.0},
+                                     "displacement": {"top": {"translation": [0.0, -1.0]}}}]}}
+    (tmp_path / "strip.yaml").write_text(yaml.safe_dump(scene))
+    return tmp_path / "strip.yaml"
+
+
+@pytest.mark.parametrize("element, degree, nu", [("mixed", 2, 0.5), ("mixed", 2, 0.3), ("mixed", 2, 0.499),
+                                                 ("displacement", 2, 0.3), ("displacement", 1, 0.3)])
+def test_a_pressed_strip_has_the_closed_form_depth(tmp_path, element, degree, nu):
+    import json
+    f = _strip_scene(tmp_path, element, degree, nu)
+    p = run_cli_here("run", str(f), "-o", str(tmp_path / "o"), "-q")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "o" / "results.json").read_text())
+    final = res["states"][-1]
+    E, L, H, t, F = 5.0, 40.0, 10.0, 2.0, 30.0
+    depth = F * H * (1 - nu * nu) / (E * L * t)
+    assert -final["load"]["parameters"]["motion.top.ty"] == pytest.approx(depth, rel=1e-10)
+    assert sum(n["r_N"] for n in final["nodes"]) == pytest.approx(-F, rel=1e-12)
+    assert all(n["status"] != "free" for n in final["nodes"])
+    if element == "mixed":
+        assert "P2-P1 mixed" in res["system"]
+
+
+def _block(nx: int, element: str, nu: float, **extra) -> dict:
+    return {"name": "b", "mu": 1.1, "analyses": ["mceip_mu"],
+            "loading": {"normal_force": 55.0, "normal_steps": 10, "tangential_step": 0.05, "tangential_max": 10.0},
+            "system": {"type": "block", "nx": nx, "ny": nx // 2, "degree": 2, "element": element, "plane": "strain",
+                       "nu": nu, **extra}}
+
+
+def _final_mu(res) -> float:
+    return min(s["value"] for s in res["states"][-1]["analyses"]["mceip_mu"]["solutions"])
+
+
+def test_the_compressible_limit_agrees_with_p2_displacements():
+    """nu = 0.3, plane strain: the depth for 55 N and the last state's smallest critical mu of the
+    mixed element and of P2 displacements approach each other under refinement."""
+    gaps_depth, gaps_mu = [], []
+    for nx in (10, 20, 40):
+        a, b = run_scene(_block(nx, "mixed", 0.3)), run_scene(_block(nx, "displacement", 0.3))
+        gaps_depth.append(abs(a["states"][9]["load"]["u_y"] - b["states"][9]["load"]["u_y"]))
+        gaps_mu.append(abs(_final_mu(a) - _final_mu(b)))
+    print(f"nu = 0.3, mixed against P2: depth differences {gaps_depth}, final mu differences {gaps_mu}")
+    assert gaps_depth[2] < gaps_depth[1] < gaps_depth[0]
+    assert gaps_depth[2] < 1e-4 * 0.47
+    assert gaps_mu[2] < gaps_mu[0] and gaps_mu[2] < 2e-3
+
+
+def test_the_incompressible_block_runs_and_its_onset_converges():
+    """nu = 1/2 exactly, plane strain, mixed: a finite critical mu at the last state, and the
+    differences between successive meshes shrink."""
+    mus = [_final_mu(run_scene(_block(nx, "mixed", 0.5))) for nx in (10, 20, 40)]
+    print(f"nu = 1/2: final mu {mus}")
+    assert all(math.isfinite(m) and m > 0 for m in mus)
+    assert abs(mus[2] - mus[1]) < abs(mus[1] - mus[0])
+
+
+@pytest.mark.parametrize("system, key, words", [
+    ({"type": "block", "element": "mixed", "degree": 1}, "system.element", "give degree: 2"),
+    ({"type": "block", "nu": 0.5}, "system.nu", "needs element: mixed"),
+    ({"type": "block", "nu": 0.51, "element": "mixed", "degree": 2}, "system.nu", "0.5"),
+    ({"type": "block", "element": "hybrid"}, "system.element", "mixed"),
+])
+def test_element_keys_are_checked_in_one_line(tmp_path, system, key, words):
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump({"name": "e", "mu": 1.1, "analyses": ["mceip_mu"], "system": system}))
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"))
+    line = p.stderr.strip()
+    assert p.returncode == 2 and len(line.splitlines()) == 1 and key in line and words in line, line
