@@ -268,29 +268,8 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     V = dolfinx.fem.FunctionSpace(mesh, ufl.VectorElement("CG", mesh.ufl_cell(), degree), **jit.params())
     Q = dolfinx.fem.FunctionSpace(mesh, ("CG", 1), **jit.params()) if mixed else None
     bs = V.dofmap.index_map_bs
-
-    # Forms; parameters are Constants so that the generated code is reused
-    t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(thickness))
-    rho = dolfinx.fem.Constant(mesh, PETSc.ScalarType(density))
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    if mixed:
-        from app.systems.elasticity import bulk_compliance
-        from app.systems.stress import mixed_forms
-        mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(E / (2.0 * (1.0 + nu))))
-        inv_kappa = dolfinx.fem.Constant(mesh, PETSc.ScalarType(bulk_compliance(E, nu, plane)))
-        p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
-        a = [[dolfinx.fem.form(f, **jit.params()) for f in row] for row in mixed_forms(u, p, v, q, mu, inv_kappa, t)]
-        zero = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
-        m = [[dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params()), None],
-             [None, dolfinx.fem.form(zero * p * q * ufl.dx, **jit.params())]]
-        K_full = dolfinx.fem.petsc.assemble_matrix_block(a)
-    else:
-        mu_value, lmbda_value = lame_parameters(E, nu, plane)
-        mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(mu_value))
-        lmbda = dolfinx.fem.Constant(mesh, PETSc.ScalarType(lmbda_value))
-        a = dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx, **jit.params())
-        m = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params())
-        K_full = dolfinx.fem.petsc.assemble_matrix(a)
+    a, m = _forms(V, Q, E, nu, thickness, density, plane)
+    K_full = dolfinx.fem.petsc.assemble_matrix_block(a) if mixed else dolfinx.fem.petsc.assemble_matrix(a)
     K_full.assemble()
     # each rank's rows: its owned displacement DOFs (unrolled), then (mixed) its owned pressure DOFs
     row_start = K_full.getOwnershipRange()[0]
@@ -314,6 +293,30 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
                           Q=Q, pressure=dolfinx.fem.Function(Q, name="pressure") if mixed else None,
                           _kept_local=kept_local, _cd_local_x=cd_local_x, _cd_local_y=cd_local_y,
                           _mass_form=m)
+
+
+def _forms(V, Q, E: float, nu: float, thickness: float, density: float, plane: str):
+    """The compiled stiffness and mass forms ``(a, m)``: one form each, or with the mixed element's
+    pressure space ``Q`` the 2x2 blocks (app/systems/stress.py ``mixed_forms``; no mass on the
+    pressure). The parameters are Constants, so that the generated code is reused."""
+    mesh = V.mesh
+    t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(thickness))
+    rho = dolfinx.fem.Constant(mesh, PETSc.ScalarType(density))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    mass = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params())
+    if Q is None:
+        mu_value, lmbda_value = lame_parameters(E, nu, plane)
+        mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(mu_value))
+        lmbda = dolfinx.fem.Constant(mesh, PETSc.ScalarType(lmbda_value))
+        return dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx, **jit.params()), mass
+    from app.systems.elasticity import bulk_compliance
+    from app.systems.stress import mixed_forms
+    mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(E / (2.0 * (1.0 + nu))))
+    inv_kappa = dolfinx.fem.Constant(mesh, PETSc.ScalarType(bulk_compliance(E, nu, plane)))
+    p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
+    a = [[dolfinx.fem.form(f, **jit.params()) for f in row] for row in mixed_forms(u, p, v, q, mu, inv_kappa, t)]
+    zero = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
+    return a, [[mass, None], [None, dolfinx.fem.form(zero * p * q * ufl.dx, **jit.params())]]
 
 
 def _cd_dofs(V, facet_tags: MeshTags_int32) -> tuple[np.ndarray, np.ndarray]:

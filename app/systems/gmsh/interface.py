@@ -18,9 +18,14 @@ contact nodes' rows. P is unimodular (block triangular with the orthogonal R_a o
 paper's reduction applies to the relative DOFs unchanged; a reaction ``r`` on ``q_a`` acts with
 ``R_a r`` on the body's node and ``-w_m R_a r`` on the obstacle's (``P^-T``). For a rigid obstacle
 P is the rotation alone (app/systems/gmsh/operators.py).
+
+The pairing itself (:func:`pair`) is plain arithmetic on gathered coordinates; the functions after
+it read the interface from the DOLFINx mesh (``sp``: the body's space and numbering of
+app/systems/gmsh/operators.py).
 """
 from __future__ import annotations
 
+import pathlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -162,3 +167,87 @@ def _foot(x: np.ndarray, ends: np.ndarray, seg_nodes: np.ndarray, m_xy: np.ndarr
     else:        # quadratic along the (straight, affine) edge: ends at 0 and 1, the mid-side node at 1/2
         w = ((1.0 - t) * (1.0 - 2.0 * t), 4.0 * t * (1.0 - t), t * (2.0 * t - 1.0))
     return [(float(wk), int(j)) for wk, j in zip(w, seg_nodes[k])]
+
+
+# ---- from the mesh (DOLFINx) ----------------------------------------------------------------
+def surface_blocks(sp, cell_tags, surface: str) -> np.ndarray:
+    """The local DOF blocks (ghosts included) of the cells of a physical surface."""
+    cells = cell_tags.indices[cell_tags.values == sp.tag_of_surface[surface]]
+    per_cell = sp.V.dofmap.dof_layout.num_dofs
+    return np.unique(sp.V.dofmap.list.array.reshape(-1, per_cell)[cells].ravel()).astype(np.int64)
+
+
+def body_geometry(cfg, sp, dof_x: np.ndarray, obstacle_blocks: np.ndarray) -> tuple:
+    """An obstacle body's contact geometry ``(line, curve)``: its line (:func:`contact_line`), or for
+    a curved contact curve (``line`` None) the smooth curve of the .geo with the body on the side
+    away from the obstacle's cells (MPI collective). ``sp``: the body's space and numbering
+    (app/systems/gmsh/operators.py)."""
+    comm = sp.comm
+    ends = contact_edges(sp.mesh, sp.facets(cfg.obstacle.contact), comm)       # MPI collective
+    mine = obstacle_blocks[obstacle_blocks < sp.im.size_local]
+    total = np.array(comm.allreduce([*dof_x[mine].sum(axis=0), len(mine)], op=MPI.SUM), dtype=float)  # MPI collective
+    box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
+                                  else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
+    size = float(np.max(box[:, 2:].max(axis=0) - box[:, :2].min(axis=0)))
+    line = contact_line(ends, total[:2] / max(total[2], 1.0), size, cfg.obstacle.contact)
+    return line, (None if line is not None else body_curve(cfg, sp, size))               # MPI collective
+
+
+def body_curve(cfg, sp, size: float):
+    """The smooth curve (app/loading/curve.py) of an obstacle body's curved contact curve, sampled
+    from the .geo (app/systems/gmsh/child_curves.py), the body on the side away from the obstacle:
+    the cells of the obstacle along the curve lie beyond it (MPI collective)."""
+    from app.loading.curve import CurveError, SmoothCurve
+    from app.systems.gmsh.mesh import model_info, obstacle_samples
+    ob, path = cfg.obstacle, pathlib.Path(cfg.file)
+    entry = model_info(path, path.name, None, None, cfg.mesh_size_factor).boundary_curves.get(ob.contact, {})
+    if entry.get("error") or not entry:
+        raise InterfaceError(f"system.obstacle.contact = '{ob.contact}': the curve is not straight, and its smooth "
+                             f"geometry is not known: {entry.get('error') or 'not sampled'}")
+    entities, params, xy, ent_of = obstacle_samples(path, ob.contact, cfg.mesh_size_factor, bounding=True)
+    try:
+        curve = SmoothCurve(ob.contact, entities, params, xy, ent_of, "left", size)
+    except CurveError as err:
+        raise InterfaceError(f"system.obstacle.contact = '{ob.contact}': {err}") from None
+    top = sp.mesh.topology
+    top.create_connectivity(1, 2)
+    top.create_connectivity(2, 0)
+    f2c, c2v = top.connectivity(1, 2), top.connectivity(2, 0).array.reshape(-1, 3)
+    geo = sp.mesh.geometry.dofmap.array.reshape(-1, 3)
+    cells = np.array([c for f in sp.facets(ob.contact) for c in f2c.links(f) if c < len(c2v)], dtype=np.int64)
+    centroids = sp.mesh.geometry.x[geo[cells], :2].mean(axis=1) if len(cells) else np.zeros((0, 2))
+    votes = sp.comm.allreduce(float(np.sum(np.sign(curve.gap(centroids)))) if len(cells) else 0.0,
+                              op=MPI.SUM)                                        # MPI collective
+    if votes > 0:            # the obstacle's cells on the left: the body is on the right
+        curve = SmoothCurve(ob.contact, entities, params, xy, ent_of, "right", size)
+    return curve
+
+
+def links(cfg, sp, dof_x: np.ndarray, reduced: np.ndarray, contact_xy: np.ndarray, size: float) -> list:
+    """Each contact node's obstacle nodes and weights from the mesh (:func:`pair`; MPI collective)."""
+    import dolfinx.fem
+    ob, bs = cfg.obstacle, sp.bs
+    ends = contact_edges(sp.mesh, sp.facets(ob.contact), sp.comm)              # MPI collective
+    blocks = dolfinx.fem.locate_dofs_topological(sp.V, 1, sp.facets(ob.contact))
+    blocks = blocks[blocks < sp.im.size_local]
+    m_xy, m_dofs = masters(sp.comm, dof_x[blocks],
+                           np.column_stack([reduced[blocks * bs], reduced[blocks * bs + 1]]))   # MPI collective
+    return pair(contact_xy, m_xy, m_dofs, ends, cfg.degree, ob.pairing, size, ob.contact)
+
+
+def contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+    """End points of every facet of the contact curve, gathered on every rank, each once
+    (MPI collective). The mesh is affine, so a P2 mid-side node is the mean of its ends."""
+    top = mesh.topology
+    top.create_connectivity(1, 0)
+    top.create_connectivity(2, 0)
+    c2v = top.connectivity(2, 0).array.reshape(-1, 3)
+    geo_of_vertex = np.empty(int(c2v.max()) + 1 if c2v.size else 0, dtype=np.int64)
+    geo_of_vertex[c2v.ravel()] = mesh.geometry.dofmap.array.reshape(-1, 3)[:len(c2v)].ravel()   # affine P1 geometry
+    f2v = top.connectivity(1, 0)
+    verts = np.array([f2v.links(f) for f in facet_ids], dtype=np.int64).reshape(-1, 2)
+    ends = mesh.geometry.x[geo_of_vertex[verts.ravel()], :2].reshape(-1, 2, 2)
+    allends = np.concatenate([e.reshape(-1, 2, 2) for e in comm.allgather(ends)])      # MPI collective
+    key = np.round(np.sort(allends.reshape(-1, 4), axis=1), 12)
+    _, first = np.unique(key, axis=0, return_index=True)
+    return allends[np.sort(first)]

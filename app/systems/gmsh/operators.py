@@ -30,6 +30,7 @@ from petsc4py import PETSc
 from app.common.stages import Stages
 from app.systems import jit
 from app.systems.gmsh.fields import FieldData
+from app.systems.gmsh.interface import contact_edges
 from app.systems.gmsh.schema import GmshBody
 
 
@@ -142,11 +143,10 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     _applied_loads(cfg, sp, v, rho_f, t, kept_local, params, raw)
     K_full.destroy()
 
-    edges = _contact_edges(mesh, sp.facets(cfg.contact), comm)                    # MPI collective
+    edges = contact_edges(mesh, sp.facets(cfg.contact), comm)                     # MPI collective
     obstacle_blocks = np.zeros(0, dtype=np.int64)
-    if cfg.obstacle.type == "body":            # its contact line first: the frame and the gaps need it
-        obstacle_blocks = _surface_blocks(sp, cell_tags, cfg.obstacle.surface)
-        _body_line(cfg, sp, dof_x, obstacle_blocks, (K, kept))                    # MPI collective
+    if cfg.obstacle.type == "body":            # its contact geometry first: the frame and the gaps need it
+        obstacle_blocks = _obstacle_body(cfg, sp, cell_tags, dof_x, (K, kept))    # MPI collective
     tvec, nvec = cfg.obstacle.frame()
     deepest = _clearance(cfg, sp, dof_x, obstacle_blocks)
     left_out, xy, dx_, dy_ = _contact_nodes(cfg, sp, dof_x, reduced, (K, kept))
@@ -337,81 +337,28 @@ def _applied_loads(cfg: GmshBody, sp: _Space, v, rho_f, t, kept_local: np.ndarra
             raw.append(assemble(rho_f * t * ufl.inner(e, v) * ufl.dx))
 
 
-def _surface_blocks(sp: _Space, cell_tags, surface: str) -> np.ndarray:
-    """The local DOF blocks (ghosts included) of the cells of a physical surface."""
-    cells = cell_tags.indices[cell_tags.values == sp.tag_of_surface[surface]]
-    per_cell = sp.V.dofmap.dof_layout.num_dofs
-    return np.unique(sp.V.dofmap.list.array.reshape(-1, per_cell)[cells].ravel()).astype(np.int64)
-
-
-def _body_line(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, obstacle_blocks: np.ndarray, owned: tuple) -> None:
-    """Set an obstacle body's contact geometry on ``cfg.obstacle`` (MPI collective): its line
-    (app/systems/gmsh/interface.py ``contact_line``), or for a curved contact curve the smooth curve
-    of the .geo with the body on the side away from the obstacle's cells. Destroys the PETSc
-    objects ``owned`` before raising :class:`BodyError`."""
-    from app.systems.gmsh.interface import InterfaceError, contact_line
-    comm = sp.comm
-    ends = _contact_edges(sp.mesh, sp.facets(cfg.obstacle.contact), comm)       # MPI collective
-    mine = obstacle_blocks[obstacle_blocks < sp.im.size_local]
-    total = np.array(comm.allreduce([*dof_x[mine].sum(axis=0), len(mine)], op=MPI.SUM), dtype=float)  # MPI collective
-    box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
-                                  else np.array([np.inf, np.inf, -np.inf, -np.inf])))      # MPI collective
-    size = float(np.max(box[:, 2:].max(axis=0) - box[:, :2].min(axis=0)))
+def _obstacle_body(cfg: GmshBody, sp: _Space, cell_tags, dof_x: np.ndarray, owned: tuple) -> np.ndarray:
+    """An obstacle body's DOF blocks, its contact geometry set on ``cfg.obstacle``
+    (app/systems/gmsh/interface.py; MPI collective). Destroys the PETSc objects ``owned`` before
+    raising :class:`BodyError`."""
+    from app.systems.gmsh.interface import InterfaceError, body_geometry, surface_blocks
+    blocks = surface_blocks(sp, cell_tags, cfg.obstacle.surface)
     try:
-        line = contact_line(ends, total[:2] / max(total[2], 1.0), size, cfg.obstacle.contact)
-        curve = None if line is not None else _body_curve(cfg, sp, size)                  # MPI collective
-    except (InterfaceError, BodyError) as err:
+        cfg.obstacle._line, cfg.obstacle._curve = body_geometry(cfg, sp, dof_x, blocks)     # MPI collective
+    except InterfaceError as err:
         for obj in owned:                                          # the error path owns nothing
             obj.destroy()
         raise BodyError(str(err)) from None
-    cfg.obstacle._line, cfg.obstacle._curve = line, curve
-
-
-def _body_curve(cfg: GmshBody, sp: _Space, size: float):
-    """The smooth curve (app/loading/curve.py) of an obstacle body's curved contact curve, sampled
-    from the .geo (app/systems/gmsh/child_curves.py), the body on the side away from the obstacle:
-    the cells of the obstacle along the curve lie beyond it (MPI collective)."""
-    from app.loading.curve import CurveError, SmoothCurve
-    from app.systems.gmsh.mesh import model_info, obstacle_samples
-    ob, path = cfg.obstacle, pathlib.Path(cfg.file)
-    entry = model_info(path, path.name, None, None, cfg.mesh_size_factor).boundary_curves.get(ob.contact, {})
-    if entry.get("error") or not entry:
-        raise BodyError(f"system.obstacle.contact = '{ob.contact}': the curve is not straight, and its smooth "
-                        f"geometry is not known: {entry.get('error') or 'not sampled'}")
-    entities, params, xy, ent_of = obstacle_samples(path, ob.contact, cfg.mesh_size_factor, bounding=True)
-    try:
-        curve = SmoothCurve(ob.contact, entities, params, xy, ent_of, "left", size)
-    except CurveError as err:
-        raise BodyError(f"system.obstacle.contact = '{ob.contact}': {err}") from None
-    top = sp.mesh.topology
-    top.create_connectivity(1, 2)
-    top.create_connectivity(2, 0)
-    f2c, c2v = top.connectivity(1, 2), top.connectivity(2, 0).array.reshape(-1, 3)
-    geo = sp.mesh.geometry.dofmap.array.reshape(-1, 3)
-    cells = np.array([c for f in sp.facets(ob.contact) for c in f2c.links(f) if c < len(c2v)], dtype=np.int64)
-    centroids = sp.mesh.geometry.x[geo[cells], :2].mean(axis=1) if len(cells) else np.zeros((0, 2))
-    votes = sp.comm.allreduce(float(np.sum(np.sign(curve.gap(centroids)))) if len(cells) else 0.0,
-                              op=MPI.SUM)                                        # MPI collective
-    if votes > 0:            # the obstacle's cells on the left: the body is on the right
-        curve = SmoothCurve(ob.contact, entities, params, xy, ent_of, "right", size)
-    return curve
+    return blocks
 
 
 def _links(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, reduced: np.ndarray, contact_xy: np.ndarray, size: float,
            owned: tuple) -> list:
-    """Each contact node's obstacle nodes and weights (app/systems/gmsh/interface.py ``pair``; MPI
+    """Each contact node's obstacle nodes and weights (app/systems/gmsh/interface.py ``links``; MPI
     collective). Destroys the PETSc objects ``owned`` before raising :class:`BodyError`."""
-    import dolfinx.fem
-
-    from app.systems.gmsh.interface import InterfaceError, masters, pair
-    ob, bs = cfg.obstacle, sp.bs
-    ends = _contact_edges(sp.mesh, sp.facets(ob.contact), sp.comm)             # MPI collective
-    blocks = dolfinx.fem.locate_dofs_topological(sp.V, 1, sp.facets(ob.contact))
-    blocks = blocks[blocks < sp.im.size_local]
-    m_xy, m_dofs = masters(sp.comm, dof_x[blocks],
-                           np.column_stack([reduced[blocks * bs], reduced[blocks * bs + 1]]))   # MPI collective
+    from app.systems.gmsh.interface import InterfaceError, links
     try:
-        return pair(contact_xy, m_xy, m_dofs, ends, cfg.degree, ob.pairing, size, ob.contact)
+        return links(cfg, sp, dof_x, reduced, contact_xy, size)                        # MPI collective
     except InterfaceError as err:
         for obj in owned:                                          # the error path owns nothing
             obj.destroy()
@@ -490,21 +437,3 @@ def _rotation(K: PETSc.Mat, dx_: np.ndarray, dy_: np.ndarray, tvec, nvec, comm: 
             R.setValue(i, i, 1.0)
     R.assemble()
     return R
-
-
-def _contact_edges(mesh, facet_ids: np.ndarray, comm: MPI.Comm) -> np.ndarray:
-    """End points of every facet of the contact curve, gathered on every rank, each once
-    (MPI collective). The mesh is affine, so a P2 mid-side node is the mean of its ends."""
-    top = mesh.topology
-    top.create_connectivity(1, 0)
-    top.create_connectivity(2, 0)
-    c2v = top.connectivity(2, 0).array.reshape(-1, 3)
-    geo_of_vertex = np.empty(int(c2v.max()) + 1 if c2v.size else 0, dtype=np.int64)
-    geo_of_vertex[c2v.ravel()] = mesh.geometry.dofmap.array.reshape(-1, 3)[:len(c2v)].ravel()   # affine P1 geometry
-    f2v = top.connectivity(1, 0)
-    verts = np.array([f2v.links(f) for f in facet_ids], dtype=np.int64).reshape(-1, 2)
-    ends = mesh.geometry.x[geo_of_vertex[verts.ravel()], :2].reshape(-1, 2, 2)
-    allends = np.concatenate([e.reshape(-1, 2, 2) for e in comm.allgather(ends)])      # MPI collective
-    key = np.round(np.sort(allends.reshape(-1, 4), axis=1), 12)
-    _, first = np.unique(key, axis=0, return_index=True)
-    return allends[np.sort(first)]
