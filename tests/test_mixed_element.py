@@ -155,3 +155,10 @@ def test_element_keys_are_checked_in_one_line(tmp_path, system, key, words):
     p = run_cli_here("validate", str(tmp_path / "s.yaml"))
     line = p.stderr.strip()
     assert p.returncode == 2 and len(line.splitlines()) == 1 and key in line and words in line, line
+
+
+@pytest.mark.parametrize("name", ["block_incompressible.yaml", "refinement_mixed.yaml"])
+def test_the_shipped_mixed_scenes_validate(name):
+    root = pathlib.Path(__file__).resolve().parents[1]
+    p = run_cli_here("validate", str(root / "app" / "scenes" / name), cwd="/")
+    assert p.returncode == 0, p.stderr

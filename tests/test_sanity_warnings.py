@@ -98,7 +98,9 @@ def test_the_default_study_raises_none(tmp_path):
 @pytest.mark.parametrize("scene", sorted(p.name for p in EX.glob("*.yaml")) + ["../villechaise_block.yaml",
                                                                               "../sweep_mu.yaml",
                                                                               "../sweep_aspect_ratio.yaml",
-                                                                              "../refinement.yaml"])
+                                                                              "../refinement.yaml",
+                                                                              "../refinement_mixed.yaml",
+                                                                              "../block_incompressible.yaml"])
 def test_shipped_materials_are_real_solids(scene):
     s = yaml.safe_load((EX / scene).read_text())
     system, units = s["system"], s.get("units", "mm-N-MPa-tonne-s")
