@@ -368,3 +368,33 @@ def test_moving_the_obstacle_by_its_held_curve_is_moving_the_body_the_other_way(
     assert_same_path(rigid, got, rtol=1e-6, reactions=1e-6)
     assert got["states"][-1]["load"]["parameters"]["motion.bottom.tx"] == pytest.approx(
         -rigid["states"][-1]["load"]["parameters"]["motion.CD.tx"], rel=1e-12)
+
+
+WAVY_TOP = """Point(1) = {0, 0, 0, 4}; Point(2) = {80, 0, 0, 4};
+""" + "".join(f"Point({10 + i}) = {{{80 - 0.2 * i}, {40 + (0.25 if i % 2 else -0.25)}, 0, 4}};\n" for i in range(401)) + """
+Line(1) = {1, 2}; Line(2) = {2, 10}; BSpline(3) = {10:410}; Line(4) = {410, 1};
+Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};
+Physical Curve("AB") = {1}; Physical Curve("CD") = {3}; Physical Surface("block") = {1};
+"""
+
+
+def test_a_wavy_curve_of_the_body_is_sampled_within_its_budget_and_stops_nothing(tmp_path):
+    """Every physical curve of a .geo is sampled (a possible obstacle-body contact curve), within a
+    budget of gmsh evaluations of its own: a curve that exhausts it (a 400-wiggle spline, here the
+    body's own top) is recorded as not sampled and the scene validates and runs as before; only
+    naming it an obstacle body's contact curve would report it (one line)."""
+    import json
+    import time
+
+    from app.systems.gmsh.mesh import model_info
+    (tmp_path / "w.geo").write_text(WAVY_TOP)
+    t0 = time.perf_counter()
+    info = model_info(tmp_path / "w.geo", "w.geo")
+    assert time.perf_counter() - t0 < 120
+    assert "gmsh evaluations" in (info.boundary_curves["CD"]["error"] or "")
+    assert info.boundary_curves["AB"]["error"] is None
+    s = pair_scene("w.geo", rigid=True, steps=2)
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(s))
+    p = run_cli_here("run", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "o"), "-q")
+    assert p.returncode == 0, p.stderr
+    assert json.loads((tmp_path / "o" / "results.json").read_text())["states"]
