@@ -162,3 +162,62 @@ def test_the_shipped_mixed_scenes_validate(name):
     root = pathlib.Path(__file__).resolve().parents[1]
     p = run_cli_here("validate", str(root / "app" / "scenes" / name), cwd="/")
     assert p.returncode == 0, p.stderr
+
+
+@pytest.mark.parametrize("nu", [0.45, 0.499])
+def test_the_necessary_condition_is_that_of_the_system_with_the_pressure_eliminated(nu):
+    """(19) with the mixed element (app/analyses/conditions/contact_spectrum.py with the pressure
+    eliminated first) against LAPACK on the reduced pencils of the eliminated system built here:
+    K_e = K_uu - K_up K_pp^-1 K_pu and M_u as a discrete system with the same contact nodes (stick,
+    slip both ways, free and mixed classifications, three mu). Symmetrising and eliminating do not
+    commute once K*(mu) is not symmetric, so the all-slip cases tell the right order from the wrong."""
+    from mpi4py import MPI
+    from test_contact_spectrum import _cases
+
+    from app.analyses.conditions import contact_spectrum as cs
+    from app.analyses.pencils.reduced import combine, dense
+    from app.analyses.pencils.state import StatePencils
+    from app.common.stages import Stages
+    from app.scene.schema import parse_scene
+    from app.systems.base import ContactNode
+    from app.systems.block.path import build
+    from app.systems.discrete import discrete_system
+    scene = {"name": "m", "mu": 1.1, "analyses": ["necessary"],
+             "system": {"type": "block", "nx": 6, "ny": 3, "degree": 2, "element": "mixed", "plane": "strain", "nu": nu}}
+    with build(parse_scene(scene).system, MPI.COMM_WORLD, Stages()) as system:
+        K, M = dense(system.K), dense(system.mass())
+        st = system.static_dofs
+        keep = np.setdiff1d(np.arange(K.shape[0]), st)
+        assert len(st) > 0 and np.abs(M[np.ix_(st, st)]).max() == 0.0
+        Ke = K[np.ix_(keep, keep)] - K[np.ix_(keep, st)] @ np.linalg.solve(K[np.ix_(st, st)], K[np.ix_(st, keep)])
+        nodes = [ContactNode(id=nd.id, x=nd.x, dof_T=int(np.searchsorted(keep, nd.dof_T)),
+                             dof_N=int(np.searchsorted(keep, nd.dof_N)), sign_T=nd.sign_T, sign_N=nd.sign_N)
+                 for nd in system.nodes]
+        spectra = cs.contact_spectra(system)
+        assert spectra is not None
+        slip_cases = 0
+        with discrete_system(Ke, M[np.ix_(keep, keep)], nodes, MPI.COMM_SELF, Stages(), system.units, "eliminated") as ref:
+            for cls in _cases(len(nodes)):
+                for mu in (0.3, 1.1, 3.0):
+                    p = StatePencils(ref, cls)
+                    try:
+                        for sc, (A0, A1) in zip(spectra, (p.K(), p.M())):
+                            A = dense(combine(A0, A1, mu))
+                            A = 0.5 * (A + A.T)
+                            lam = np.linalg.eigvalsh(A)[0]
+                            v = cs.value(sc, cls, mu)
+                            assert v is not None, (cls.counts(), mu)
+                            assert abs(v.value - lam) <= 1e-9 * np.abs(np.diag(A)).max(), (cls.counts(), mu, v.value, lam)
+                    finally:
+                        p.destroy()
+                    slip_cases += len(cls.slip) > 0
+        assert slip_cases >= 9
+
+
+def test_the_necessary_condition_at_nu_one_half_is_refused_in_one_line(tmp_path):
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump({
+        "name": "e", "mu": 1.1, "analyses": ["necessary", "mceip_mu"],
+        "system": {"type": "block", "degree": 2, "element": "mixed", "plane": "strain", "nu": 0.5}}))
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"))
+    line = p.stderr.strip()
+    assert p.returncode == 2 and len(line.splitlines()) == 1 and "system.nu = 0.5" in line, line

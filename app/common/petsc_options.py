@@ -29,6 +29,8 @@ PREFIXES = {
                    "(MCEIP-lambda^2 on the contact DOFs)",
     "cd_shifted_": "KSP: MUMPS partial LDL^T factorisation of K - sigma I and M - sigma I, Schur complement "
                    "onto the contact DOFs (the values of condition (19))",
+    "cd_static_": "KSP: MUMPS partial LDL^T factorisation eliminating the mixed element's pressure from the "
+                  "contact block of K (the values of condition (19))",
     "cd_inertia_": "KSP: LDL^T inertia counts (proven bounds of MCEIP-lambda^2, shifts of condition (19))",
     "cd_mcp_": "SNES VI of the bordered MCP search of MCEIP-lambda^2 (12)-(14) (its KSP: cd_mcp_ksp_)",
     "cd_mcp_free_": "KSP: LU of the free block in the bordered MCP's Schur complement",

@@ -39,16 +39,18 @@ def _api():
 class SchurComplements:
     """Schur complements onto ``rows`` of sequential symmetric matrices that share one nonzero
     pattern (``A`` itself, whose values the caller changes between calls) and whose interior
-    block (the other rows) is positive definite: one MUMPS partial Cholesky factorisation each,
-    the ordering and symbolic analysis done once. Options prefix ``prefix``. :meth:`destroy` (or
+    block (the other rows) is positive definite (``spd=False``: nonsingular): one MUMPS partial
+    Cholesky (LDL^T) factorisation each, the ordering and symbolic analysis done once. Options prefix ``prefix``. :meth:`destroy` (or
     ``with``) frees the factorisation."""
 
-    def __init__(self, A: PETSc.Mat, rows: np.ndarray, prefix: str):
+    def __init__(self, A: PETSc.Mat, rows: np.ndarray, prefix: str, spd: bool = True):
         self.A = A
         # only the interior (every row but ``rows``) is factorised, and the callers keep it SPD
         # (a shift below its smallest eigenvalue, K + t M with t >= 0): flagged so, MUMPS factorises
-        # it without pivoting (SYM = 1), 13 % faster at 100k DOFs, the same Schur complement to 1e-15
-        A.setOption(PETSc.Mat.Option.SPD, True)
+        # it without pivoting (SYM = 1), 13 % faster at 100k DOFs, the same Schur complement to 1e-15.
+        # ``spd=False``: an interior with a saddle-point block (the mixed element's pressure), which
+        # MUMPS factorises as a symmetric indefinite matrix with pivoting (SYM = 2)
+        A.setOption(PETSc.Mat.Option.SPD, spd)
         self.order = np.argsort(rows)                     # MUMPS returns S in ascending row order
         self.m = len(rows)
         self.ksp = with_prefix(PETSc.KSP().create(A.getComm()), prefix)

@@ -98,6 +98,9 @@ class System:
     #: what the analyses keep between this system's classifications, made on first use and
     #: dropped with the system (:class:`app.analyses.pencils.state.SystemCache`)
     analysis_cache: Optional[Any] = None
+    #: DOFs without mass that the analyses eliminate statically (the mixed element's pressure,
+    #: docs/method.md section 10): global indices, ascending, replicated; None when there are none
+    static_dofs: Optional[np.ndarray] = None
     _M: Optional[PETSc.Mat] = field(default=None, repr=False)
     _Sc: Optional[np.ndarray] = field(default=None, repr=False)
 

@@ -130,14 +130,16 @@ def element_name(element: str, degree: int) -> str:
 
 
 #: the analyses the mixed element supports: those on the pencils' equalities and the contact
-#: flexibility, where the pressure is eliminated exactly (docs/method.md section 10)
-MIXED_ANALYSES = ("mceip_mu", "enumerate")
+#: flexibility, and (19) from the contact DOFs with the pressure eliminated first (docs/method.md
+#: section 10)
+MIXED_ANALYSES = ("necessary", "mceip_mu", "enumerate")
 
 
-def check_mixed_analyses(scene) -> None:
-    """The mixed element's analyses: the necessary and sufficient conditions and MCEIP-lambda^2 read
-    eigenvalues and inertias of matrices that hold the pressure block, not of the system with the
-    pressure eliminated, and are refused in one line."""
+def check_mixed_analyses(scene, poisson: dict) -> None:
+    """The mixed element's analyses: the sufficient condition and MCEIP-lambda^2 read eigenvalues
+    and inertias of matrices that hold the pressure block, and are refused in one line; so is the
+    necessary condition at nu = 1/2 (``poisson``: key -> nu), where the pressure is a constraint
+    that the contact-DOF values do not yet eliminate."""
     if getattr(scene.system, "element", "displacement") != "mixed":
         return
     other = [a for a in scene.analyses if a not in MIXED_ANALYSES]
@@ -145,4 +147,8 @@ def check_mixed_analyses(scene) -> None:
         raise PathError("analyses", list(scene.analyses), f"{other[0]} is not available with system.element: mixed "
                         f"(it reads eigenvalues and inertias that the pressure block changes); allowed with the "
                         f"mixed element: {', '.join(MIXED_ANALYSES)}")
-
+    half = [k for k, nu in poisson.items() if nu == 0.5]
+    if "necessary" in scene.analyses and half:
+        raise PathError("analyses", list(scene.analyses), f"necessary is not available with system.element: mixed "
+                        f"and {half[0]} = 0.5 (the incompressible pressure is a constraint, not yet eliminated "
+                        "in (19)); allowed: mceip_mu, enumerate")

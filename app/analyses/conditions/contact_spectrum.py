@@ -252,12 +252,20 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
 
 
 def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
-          own: Callable[..., None] | None = None) -> ShiftedContact:
+          own: Callable[..., None] | None = None, static: np.ndarray | None = None) -> ShiftedContact:
     """:class:`ShiftedContact` of the sequential symmetric positive definite ``X`` (kept alive by
     the caller): its interior eigenpairs (SLEPc), and a function giving ``Y(sigma)`` exactly from
     a factorisation of ``X - sigma I`` that keeps its symbolic analysis between shifts. The PETSc
     objects it creates are handed to ``own`` (:meth:`app.systems.base.System.own`: destroyed with
-    the system), else left to the garbage collector."""
+    the system), else left to the garbage collector.
+
+    ``static``: DOFs without mass (the mixed element's pressure, ``X`` then a saddle-point matrix
+    with an invertible pressure block) that are eliminated first: the result is that of
+    ``X_e = X / X_ss`` (docs/method.md section 10). Its contact block ``X_e,cc`` is the Schur
+    complement of the contact and static rows onto the contact DOFs, and ``Y`` comes from the
+    Schur complements of ``X - sigma D``, ``D = diag(1, 0 on static)`` (the quotient property:
+    eliminating the static DOFs first gives ``X_e - sigma I``), the interior eigenpairs from
+    ``X_ii x = k D_ii x``."""
     N = X.getSize()[0]
     interior = np.setdiff1d(np.arange(N), dofs).astype(PETSc.IntType)
     diag = X.getDiagonal()
@@ -274,9 +282,12 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
     finally:
         rows.destroy()
         inner.destroy()
+    Dii = _mass_indicator(Xii, interior, static) if static is not None and len(static) else None
     try:
         cc = signs[:, None] * Xcc.getValues(range(len(dofs)), range(len(dofs))) * signs[None, :]
-        k, Phi = interior_modes(Xii, GAP, MODE_TOL)
+        if Dii is not None:           # X_e,cc: the static DOFs eliminated from the contact block
+            cc, scale, interior_scale = _eliminated_contact(X, dofs, signs, static, interior, d)
+        k, Phi = interior_modes(Xii, GAP, MODE_TOL, Dii)
         p = 1 if Phi is not None and len(k) > 1 and (k[1] - k[0]) / k[1] >= GAP else 0
         W = np.zeros((len(dofs), p))
         if p:
@@ -287,17 +298,28 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
             v.destroy()
             x.destroy()
     finally:
-        for Y in (Xcc, Xii, Xci):
-            Y.destroy()
+        for Y in (Xcc, Xii, Xci, Dii):
+            if Y is not None:
+                Y.destroy()
     if not k[0] > TOL * scale:
         raise RuntimeError("the interior block is not positive definite (a body held only at its contact DOFs)")
     kappa = float(k[p]) if p else float(k[0])
     A = X.copy()
-    schur = SchurComplements(A, dofs, "cd_shifted_")
+    schur = SchurComplements(A, dofs, "cd_shifted_", spd=Dii is None)
+    massive = None
+    if Dii is not None:                          # -sigma D: nothing on the static DOFs' diagonal
+        massive = A.createVecLeft()
+        massive.setArray(np.where(np.isin(np.arange(N), static), 0.0, 1.0))
 
     def exact(sigma: float) -> np.ndarray:
         X.copy(A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        A.shift(-sigma)
+        if massive is None:
+            A.shift(-sigma)
+        else:
+            step = massive.copy()
+            step.scale(-sigma)
+            A.setDiagonal(step, addv=PETSc.InsertMode.ADD_VALUES)
+            step.destroy()
         Z = schur()
         if Z is None:
             raise RuntimeError("MUMPS gave no Schur complement of X - sigma I onto the contact DOFs")
@@ -306,8 +328,52 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
         return 0.5 * (Y + Y.T)
 
     if own is not None:
-        own(schur, A)
+        own(schur, A, *([massive] if massive is not None else []))
     return ShiftedContact(exact, cc, float(k[0]), k[:p].copy(), W[:, :p].copy(), kappa, scale, interior_scale)
+
+
+def _mass_indicator(Xii: PETSc.Mat, interior: np.ndarray, static: np.ndarray) -> PETSc.Mat:
+    """``D_ii``: the diagonal matrix with 1 on the interior's massive DOFs, 0 on its static ones."""
+    on = np.ones(len(interior))
+    on[np.isin(interior, static)] = 0.0
+    d = Xii.createVecLeft()
+    d.setArray(on)
+    D = PETSc.Mat().createAIJ(Xii.getSizes(), nnz=1, comm=PETSc.COMM_SELF)
+    D.setUp()
+    D.setDiagonal(d)
+    D.assemble()
+    d.destroy()
+    return D
+
+
+def _eliminated_contact(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray, static: np.ndarray,
+                       interior: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """``(X_e,cc, scale, interior scale)`` with the static DOFs eliminated (paper axes): the scales
+    the tolerances use are X's diagonal ``d`` on the interior's massive DOFs (the static DOFs' own
+    diagonal is no entry of X_e) and X_e,cc's."""
+    cc = signs[:, None] * _static_schur(X, dofs, static) * signs[None, :]
+    has_mass = ~np.isin(interior, static)
+    interior_scale = float(d[interior[has_mass]].max()) if has_mass.any() else 0.0
+    return cc, max(interior_scale, float(np.abs(np.diag(cc)).max())), interior_scale
+
+
+def _static_schur(X: PETSc.Mat, dofs: np.ndarray, static: np.ndarray) -> np.ndarray:
+    """``X_cc - X_cs X_ss^-1 X_sc`` (contact DOFs ``dofs`` in their order): the contact block with
+    the static DOFs eliminated, from the submatrix of those rows (one MUMPS LDL^T)."""
+    both = np.concatenate([np.asarray(dofs), np.asarray(static)]).astype(PETSc.IntType)
+    rows = PETSc.IS().createGeneral(both, comm=PETSc.COMM_SELF)
+    try:
+        (sub,) = X.createSubMatrices(rows, rows)
+    finally:
+        rows.destroy()
+    try:
+        with SchurComplements(sub, np.arange(len(dofs)), "cd_static_", spd=False) as schur:
+            S = schur()
+    finally:
+        sub.destroy()
+    if S is None:
+        raise RuntimeError("MUMPS gave no Schur complement of the static DOFs (is their block singular, nu = 1/2?)")
+    return S
 
 
 def contact_spectra(system) -> tuple[ShiftedContact, ShiftedContact] | None:
@@ -323,8 +389,21 @@ def _build_both(system) -> tuple[ShiftedContact, ShiftedContact] | None:
         return None
     dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
     signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
+    static = system.static_dofs
     try:
-        return tuple(build(X, dofs, signs, system.own) for X in pair)
+        if static is None or not len(static):
+            return tuple(build(X, dofs, signs, system.own) for X in pair)
+        # the static DOFs eliminated: K through them; M (nothing on them) without them
+        K, M = pair
+        keep = np.setdiff1d(np.arange(M.getSize()[0]), static).astype(PETSc.IntType)
+        rows = PETSc.IS().createGeneral(keep, comm=PETSc.COMM_SELF)
+        try:
+            (Mu,) = M.createSubMatrices(rows, rows)
+        finally:
+            rows.destroy()
+        system.own(Mu)
+        return (build(K, dofs, signs, system.own, static),
+                build(Mu, np.searchsorted(keep, dofs), signs, system.own))
     except (PETSc.Error, RuntimeError, np.linalg.LinAlgError):
         return None
 

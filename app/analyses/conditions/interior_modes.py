@@ -12,10 +12,12 @@ from app.linalg import configure_direct, eps_solve, flush_subnormals, owned, set
 from app.scene.schema import EigSettings
 
 
-def interior_modes(Xii: PETSc.Mat, gap: float, tol: float) -> tuple[np.ndarray, np.ndarray | None]:
+def interior_modes(Xii: PETSc.Mat, gap: float, tol: float, B: PETSc.Mat | None = None
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
     """The two smallest eigenvalues of the SPD ``X_ii`` and, where the first is separated from
     the second by ``gap`` (relative), their eigenvectors (columns; else None, and only the first
-    eigenvalue is accurate), to the SLEPc tolerance ``tol``.
+    eigenvalue is accurate), to the SLEPc tolerance ``tol``. ``B``: of the generalised
+    ``X_ii x = k B x`` (:func:`smallest_pairs`), both pairs to ``tol``.
 
     First a rough pair (tolerance 1e-2: one Krylov-Schur restart). Separated (a stiffness matrix):
     both pairs to ``tol``. Clustered (the consistent mass matrix, whose smallest
@@ -24,6 +26,10 @@ def interior_modes(Xii: PETSc.Mat, gap: float, tol: float) -> tuple[np.ndarray, 
     own inertia proves below the spectrum (:func:`app.analyses.conditions.full_size.smallest_above`), where
     it converges in a few iterations. Subnormals are flushed in the factorisations
     (:func:`app.linalg.flush_subnormals`: the mass matrix's factor underflows at 10^6 DOFs)."""
+    if B is not None:    # the pressure eliminated (generalised, B = diag(1, 0)): both pairs to tol
+        with flush_subnormals():
+            k, vecs = smallest_pairs(Xii, 2, tol, B)
+        return k, (vecs if len(k) > 1 and (k[1] - k[0]) / k[1] >= gap else None)
     with flush_subnormals():
         return _interior_modes(Xii, gap, tol)
 
@@ -42,15 +48,19 @@ def _interior_modes(Xii: PETSc.Mat, gap: float, tol: float) -> tuple[np.ndarray,
     return k, None
 
 
-def smallest_pairs(Xii: PETSc.Mat, nev: int, tol: float) -> tuple[np.ndarray, np.ndarray]:
+def smallest_pairs(Xii: PETSc.Mat, nev: int, tol: float, B: PETSc.Mat | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ``nev`` smallest eigenpairs of the SPD ``X_ii`` to ``tol`` (shift-and-invert
-    Krylov-Schur at 0, MUMPS Cholesky), eigenvalues ascending, orthonormal eigenvectors as columns."""
+    Krylov-Schur at 0, MUMPS Cholesky), eigenvalues ascending, orthonormal eigenvectors as columns.
+    ``B``: the generalised ``X_ii x = k B x`` with ``B`` positive semidefinite (1 on the massive
+    DOFs, 0 on the mixed element's pressure: the eigenvalues of the interior with the pressure
+    eliminated, docs/method.md section 10), ``B``-orthonormal eigenvectors; ``X_ii`` is then
+    indefinite and factorised as such (MUMPS LDL^T with pivoting)."""
     n = Xii.getSize()[0]
     nev = min(nev, n)
     eps = with_prefix(SLEPc.EPS().create(PETSc.COMM_SELF), "cd_necessary_")
     with owned(eps):
-        eps.setOperators(Xii)
-        eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
+        eps.setOperators(Xii, B)
+        eps.setProblemType(SLEPc.EPS.ProblemType.HEP if B is None else SLEPc.EPS.ProblemType.GHEP)
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
         eps.setDimensions(nev=nev, ncv=min(n, 32))
         eps.setTolerances(tol=tol, max_it=1000)

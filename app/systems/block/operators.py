@@ -83,6 +83,7 @@ class BlockOperators:
     #: pressure of the last field :meth:`to_function` made
     Q: dolfinx.fem.FunctionSpace | None = None
     pressure: dolfinx.fem.Function | None = None
+    static: npt.NDArray[np.int64] | None = None       # the pressure DOFs (reduced, all ranks'), else None
     # Local (unrolled) indices of the owned kept dofs, in reduced order
     _kept_local: npt.NDArray[np.int32] = field(default=None, repr=False)
     # Local (unrolled, owned and ghost) indices of the CD dofs, per component
@@ -278,7 +279,7 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
     cd_blocks, cd_owned = _cd_dofs(V, facet_tags)
     cd_local_x = (cd_blocks * bs).astype(np.int32)
     cd_local_y = (cd_blocks * bs + 1).astype(np.int32)
-    kept_local, reduced_index, kept, rows = _kept_dofs(V, cd_owned, row_start, n_extra)
+    kept_local, reduced_index, kept, rows, static = _kept_dofs(V, cd_owned, row_start, n_extra)
 
     # Stiffness: full assembly without bcs, then restriction
     K = K_full.createSubMatrix(kept, kept)
@@ -290,7 +291,7 @@ def block_operators(mesh: dolfinx.mesh.Mesh, facet_tags: MeshTags_int32, E: floa
                           load_x=loads[0], load_y=loads[1],
                           contact_x=cx[order], contact_dof_x=cdx[order].astype(np.int64),
                           contact_dof_y=cdy[order].astype(np.int64), mass_kind=mass_kind,
-                          Q=Q, pressure=dolfinx.fem.Function(Q, name="pressure") if mixed else None,
+                          Q=Q, pressure=dolfinx.fem.Function(Q, name="pressure") if mixed else None, static=static,
                           _kept_local=kept_local, _cd_local_x=cd_local_x, _cd_local_y=cd_local_y,
                           _mass_form=m)
 
@@ -332,11 +333,12 @@ def _cd_dofs(V, facet_tags: MeshTags_int32) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _kept_dofs(V, cd_owned: np.ndarray, row_start: int, n_extra: int
-               ) -> tuple[np.ndarray, np.ndarray, PETSc.IS, np.ndarray]:
+               ) -> tuple[np.ndarray, np.ndarray, PETSc.IS, np.ndarray, np.ndarray | None]:
     """Kept dofs: owned minus CD, ascending, then the ``n_extra`` pressure DOFs (mixed element);
     reduced numbering by exscan offset. Returns the local kept displacement dofs, the reduced index
     of every owned dof (-1 on CD), the kept rows' global IS (the assembled matrix's rows start at
-    ``row_start`` on this rank) and the kept rows' local indices."""
+    ``row_start`` on this rank), the kept rows' local indices and the pressure DOFs' reduced
+    indices (every rank's; None without a pressure). MPI collective."""
     comm = V.mesh.comm
     bs = V.dofmap.index_map_bs
     index_map = V.dofmap.index_map
@@ -352,7 +354,9 @@ def _kept_dofs(V, cd_owned: np.ndarray, row_start: int, n_extra: int
     reduced_index[kept_local] = offset + np.arange(n_kept, dtype=np.int64)
     rows = np.concatenate([kept_local, n_owned + np.arange(n_extra, dtype=np.int32)])
     kept = PETSc.IS().createGeneral((row_start + rows).astype(PETSc.IntType), comm=comm)
-    return kept_local, reduced_index, kept, rows
+    static = (np.concatenate(comm.allgather(offset + n_kept + np.arange(n_extra))).astype(np.int64)   # MPI collective
+              if comm.allreduce(n_extra, op=MPI.SUM) else None)
+    return kept_local, reduced_index, kept, rows, static
 
 
 def _cd_loads(K_full: PETSc.Mat, K: PETSc.Mat, cd_owned: np.ndarray, owned_start: int, bs: int,

@@ -65,6 +65,7 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
                                  f"{cfg.pattern} {cfg.element_name()}, plane {cfg.plane}, E={cfg.E} {UNITS[units]['stress']}, nu={cfg.nu}, "
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     system.operators, system.flexibility = ops, flex
+    system.static_dofs = ops.static
     from app.systems.block.fields import BlockFields
     system.fields = BlockFields(cfg, ops, flex, nodes)
     return system, ops, flex

@@ -67,7 +67,7 @@ class Block(Strict):
     def check_scene(cls, scene: Any) -> None:
         """Scene-level checks (called by :class:`app.scene.schema.Scene`): the loading defaults; the
         analyses of the mixed element."""
-        check_mixed_analyses(scene)
+        check_mixed_analyses(scene, {"system.nu": scene.system.nu})
         if scene.loading is None:
             object.__setattr__(scene, "loading", Loading())
 

@@ -57,6 +57,7 @@ class BodyOperators:
     mass_kind: str = "consistent"
     degree: int = 1
     field_data: FieldData | None = None       # what BodyFields needs (space, prescribed DOFs, materials)
+    static: np.ndarray | None = None          # the mixed element's pressure DOFs (reduced, all ranks'), else None
 
     @property
     def size(self) -> float:
@@ -167,7 +168,8 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
                          deepest=deepest, left_out=left_out,
                          mass_form=m, mass_kind=cfg.mass, degree=cfg.degree,
                          field_data=FieldData(V=sp.V, prescribed=presc, kept_local=kept_local, dof_x=dof_x, mu=mu_f,
-                                              lmbda=lam_f, Q=Q, two_nu=_two_nu(cfg, sp, cell_tags) if mixed else None))
+                                              lmbda=lam_f, Q=Q, two_nu=_two_nu(cfg, sp, cell_tags) if mixed else None),
+                         static=sp.static.astype(np.int64) if mixed else None)
 
 
 class _Space:
@@ -184,6 +186,7 @@ class _Space:
         self.im = V.dofmap.index_map
         self.n_owned = self.im.size_local * self.bs
         self.n_extra = Q.dofmap.index_map.size_local if Q is not None else 0
+        self.static = np.zeros(0, dtype=np.int64)      # the pressure DOFs' reduced indices (all ranks')
         self.row_start = self.im.local_range[0] * self.bs
 
     def set_rows(self, first: int) -> None:
@@ -263,6 +266,7 @@ def _prescribed(cfg: GmshBody, sp: _Space, K_full: PETSc.Mat):
     reduced[kept_local] = offset + np.arange(kept_local.size)
     rows = np.concatenate([kept_local, sp.extra_rows()])            # then the pressure DOFs, all kept
     kept = PETSc.IS().createGeneral((sp.row_start + rows).astype(PETSc.IntType), comm=comm)
+    sp.static = np.concatenate(comm.allgather(offset + kept_local.size + np.arange(sp.n_extra)))   # MPI collective
     return presc, kept_local, reduced, kept
 
 

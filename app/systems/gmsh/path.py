@@ -165,6 +165,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     _check_left_out(cfg, ops, stages)
     system.flexibility = flex
+    system.static_dofs = ops.static
     system.own(ops.R, ops.kept, *ops.loads, zero)
     geometry = None
     if cfg.obstacle.curved:      # the curvature terms of the pencils (app/analyses/pencils/curvature.py)

@@ -272,12 +272,17 @@ class GmshBody(StrictModel):
 
     @model_validator(mode="after")
     def _element(self) -> "GmshBody":
+        check_element(self.element, self.degree, self.poisson_ratios())
+        return self
+
+    def poisson_ratios(self) -> dict[str, float]:
+        """Every material's Poisson's ratio by its key (``material.nu``, ``materials.<surface>.nu``,
+        ``obstacle.material.nu``)."""
         named = {"material.nu": self.material.nu} if self.material else {
             f"materials.{k}.nu": m.nu for k, m in self.materials.items()}
         if self.obstacle.type == "body" and self.obstacle.material is not None:
             named["obstacle.material.nu"] = self.obstacle.material.nu
-        check_element(self.element, self.degree, named)
-        return self
+        return named
 
     def element_name(self) -> str:
         """The element in words (``P1``, ``P2``, ``P2-P1 mixed``)."""
@@ -320,7 +325,7 @@ class GmshBody(StrictModel):
     def check_scene(cls, scene: Any) -> None:
         """Scene-level checks: no block loading (ParaView files and screenshots work for any body); the
         analyses of the mixed element."""
-        check_mixed_analyses(scene)
+        check_mixed_analyses(scene, {f"system.{k}": v for k, v in scene.system.poisson_ratios().items()})
         if scene.loading is not None:
             raise SystemPathError("loading", scene.loading.model_dump(), "not allowed for a gmsh system: give "
                                   "system.program (the phases of the loading)")
