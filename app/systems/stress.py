@@ -60,6 +60,16 @@ def mixed_forms(u, p, v, q, mu, inv_kappa, thickness):
     return [[a_uu, a_up], [a_pu, a_pp]]
 
 
+def mixed_mass(mass, p, q):
+    """The mixed element's mass blocks ``[[mass, None], [None, 0 p q]]`` (UFL): the displacement's
+    ``mass`` form and an explicit zero pressure block (the pressure carries no mass; the block keeps
+    the pressure's diagonal in the matrix's pattern)."""
+    import dolfinx.fem
+    import ufl
+    zero = dolfinx.fem.Constant(p.ufl_function_space().mesh, 0.0)
+    return [[mass, None], [None, zero * p * q * ufl.dx]]
+
+
 def mixed_von_mises(u, p, mu, two_nu, plane: str):
     """UFL von Mises stress of the mixed element: the in-plane stress :func:`mixed_stress` and
     ``s_zz = 2 nu p`` in plane strain (``lambda tr eps`` with ``p = (lambda + mu) tr eps``), 0 in

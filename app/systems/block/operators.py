@@ -304,20 +304,20 @@ def _forms(V, Q, E: float, nu: float, thickness: float, density: float, plane: s
     t = dolfinx.fem.Constant(mesh, PETSc.ScalarType(thickness))
     rho = dolfinx.fem.Constant(mesh, PETSc.ScalarType(density))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    mass = dolfinx.fem.form(rho * t * ufl.inner(u, v) * ufl.dx, **jit.params())
+    mass = rho * t * ufl.inner(u, v) * ufl.dx
     if Q is None:
         mu_value, lmbda_value = lame_parameters(E, nu, plane)
         mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(mu_value))
         lmbda = dolfinx.fem.Constant(mesh, PETSc.ScalarType(lmbda_value))
-        return dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx, **jit.params()), mass
+        return (dolfinx.fem.form(t * ufl.inner(stress(u, mu, lmbda), strain(v)) * ufl.dx, **jit.params()),
+                dolfinx.fem.form(mass, **jit.params()))
     from app.systems.elasticity import bulk_compliance
-    from app.systems.stress import mixed_forms
+    from app.systems.stress import mixed_forms, mixed_mass
     mu = dolfinx.fem.Constant(mesh, PETSc.ScalarType(E / (2.0 * (1.0 + nu))))
     inv_kappa = dolfinx.fem.Constant(mesh, PETSc.ScalarType(bulk_compliance(E, nu, plane)))
     p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
     a = [[dolfinx.fem.form(f, **jit.params()) for f in row] for row in mixed_forms(u, p, v, q, mu, inv_kappa, t)]
-    zero = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
-    return a, [[mass, None], [None, dolfinx.fem.form(zero * p * q * ufl.dx, **jit.params())]]
+    return a, [[None if f is None else dolfinx.fem.form(f, **jit.params()) for f in row] for row in mixed_mass(mass, p, q)]
 
 
 def _cd_dofs(V, facet_tags: MeshTags_int32) -> tuple[np.ndarray, np.ndarray]:

@@ -119,11 +119,10 @@ def sample_curves(gmsh, body_size: float, is_geo: bool) -> tuple[tuple[dict, dic
     (m, 2), ``arrays["curve_xy"]`` (m, DEGREE + 1, 2), ``arrays["curve_entity"]`` (m,)."""
     params, xys, ents = [], [], []
     free = free_curves(gmsh)
-    infos = []
+    infos, count = [], 0                     # count: the panels sampled so far
     for group in (free, bounding_curves(gmsh, free)):
         info, budget = {}, _Budget(MAX_SAMPLES)
         for name, tags in group.items():
-            count = sum(len(p) for p in params)
             entry = {"entities": tags, "panels": [count, count], "error": None}
             info[name] = entry
             if not is_geo:
@@ -135,11 +134,13 @@ def sample_curves(gmsh, body_size: float, is_geo: bool) -> tuple[tuple[dict, dic
             except SampleError as err:
                 entry["error"] = str(err)
                 continue
+            first = count
             for e, (pr, xy) in zip(tags, got):
                 params.append(pr)
                 xys.append(xy)
                 ents.append(np.full(len(pr), e, dtype=np.int64))
-            entry["panels"] = [count, sum(len(p) for p in params)]
+                count += len(pr)
+            entry["panels"] = [first, count]
         infos.append(info)
     arrays = {"curve_params": np.concatenate(params) if params else np.zeros((0, 2)),
               "curve_xy": np.concatenate(xys) if xys else np.zeros((0, DEGREE + 1, 2)),

@@ -177,13 +177,12 @@ def surface_blocks(sp, cell_tags, surface: str) -> np.ndarray:
     return np.unique(sp.V.dofmap.list.array.reshape(-1, per_cell)[cells].ravel()).astype(np.int64)
 
 
-def body_geometry(cfg, sp, dof_x: np.ndarray, obstacle_blocks: np.ndarray) -> tuple:
-    """An obstacle body's contact geometry ``(line, curve)``: its line (:func:`contact_line`), or for
-    a curved contact curve (``line`` None) the smooth curve of the .geo with the body on the side
-    away from the obstacle's cells (MPI collective). ``sp``: the body's space and numbering
-    (app/systems/gmsh/operators.py)."""
+def body_geometry(cfg, sp, dof_x: np.ndarray, obstacle_blocks: np.ndarray, ends: np.ndarray) -> tuple:
+    """An obstacle body's contact geometry ``(line, curve)`` from its contact curve's segments
+    ``ends`` (:func:`contact_edges`): its line (:func:`contact_line`), or for a curved contact curve
+    (``line`` None) the smooth curve of the .geo with the body on the side away from the obstacle's
+    cells (MPI collective). ``sp``: the body's space and numbering (app/systems/gmsh/operators.py)."""
     comm = sp.comm
-    ends = contact_edges(sp.mesh, sp.facets(cfg.obstacle.contact), comm)       # MPI collective
     mine = obstacle_blocks[obstacle_blocks < sp.im.size_local]
     total = np.array(comm.allreduce([*dof_x[mine].sum(axis=0), len(mine)], op=MPI.SUM), dtype=float)  # MPI collective
     box = np.array(comm.allgather(np.concatenate([dof_x.min(axis=0), dof_x.max(axis=0)]) if len(dof_x)
@@ -223,11 +222,12 @@ def body_curve(cfg, sp, size: float):
     return curve
 
 
-def links(cfg, sp, dof_x: np.ndarray, reduced: np.ndarray, contact_xy: np.ndarray, size: float) -> list:
-    """Each contact node's obstacle nodes and weights from the mesh (:func:`pair`; MPI collective)."""
+def links(cfg, sp, dof_x: np.ndarray, reduced: np.ndarray, contact_xy: np.ndarray, size: float,
+          ends: np.ndarray) -> list:
+    """Each contact node's obstacle nodes and weights from the mesh (:func:`pair`, on the contact
+    curve's segments ``ends``; MPI collective)."""
     import dolfinx.fem
     ob, bs = cfg.obstacle, sp.bs
-    ends = contact_edges(sp.mesh, sp.facets(ob.contact), sp.comm)              # MPI collective
     blocks = dolfinx.fem.locate_dofs_topological(sp.V, 1, sp.facets(ob.contact))
     blocks = blocks[blocks < sp.im.size_local]
     m_xy, m_dofs = masters(sp.comm, dof_x[blocks],

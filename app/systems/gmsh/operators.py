@@ -104,7 +104,7 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     import ufl
 
     from app.systems.gmsh.mesh import read_mesh
-    from app.systems.stress import mixed_forms, strain, stress
+    from app.systems.stress import mixed_forms, mixed_mass, strain, stress
     with stages("mesh (gmsh)"):
         mesh, cell_tags, facet_tags, names = read_mesh(pathlib.Path(cfg.file), comm, size_factor=cfg.mesh_size_factor)
     mixed = cfg.element == "mixed"
@@ -125,9 +125,8 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
             if foundation is not None:
                 blocks[0][0] = blocks[0][0] + foundation
             a = [[dolfinx.fem.form(f, **jit.params()) for f in row] for row in blocks]
-            m = [[dolfinx.fem.form(mass, **jit.params()), None],
-                 [None, dolfinx.fem.form(dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0)) * p_ * q_ * ufl.dx,
-                                         **jit.params())]]
+            m = [[None if f is None else dolfinx.fem.form(f, **jit.params()) for f in row]
+                 for row in mixed_mass(mass, p_, q_)]
             K_full = dolfinx.fem.petsc.assemble_matrix_block(a)
         else:
             stiff = t * ufl.inner(stress(u, mu_f, lam_f), strain(v)) * ufl.dx
@@ -145,13 +144,16 @@ def body_operators(cfg: GmshBody, comm: MPI.Comm, stages: Stages) -> BodyOperato
     K_full.destroy()
 
     edges = contact_edges(mesh, sp.facets(cfg.contact), comm)                     # MPI collective
-    obstacle_blocks = np.zeros(0, dtype=np.int64)
+    obstacle_blocks, obstacle_ends = np.zeros(0, dtype=np.int64), None
     if cfg.obstacle.type == "body":            # its contact geometry first: the frame and the gaps need it
-        obstacle_blocks = _obstacle_body(cfg, sp, cell_tags, dof_x, (K, kept))    # MPI collective
+        obstacle_blocks, obstacle_ends = _obstacle_body(cfg, sp, cell_tags, dof_x, (K, kept))   # MPI collective
     tvec, nvec = cfg.obstacle.frame()
     deepest = _clearance(cfg, sp, dof_x, obstacle_blocks)
     left_out, xy, dx_, dy_ = _contact_nodes(cfg, sp, dof_x, reduced, (K, kept))
-    links = _links(cfg, sp, dof_x, reduced, xy, deepest[2], (K, kept)) if cfg.obstacle.type == "body" else None
+    links = None
+    if cfg.obstacle.type == "body":
+        from app.systems.gmsh.interface import links as pairing
+        links = _interface((K, kept), pairing, cfg, sp, dof_x, reduced, xy, deepest[2], obstacle_ends)  # MPI collective
     R = _rotation(K, dx_, dy_, tvec, nvec, comm, links)
     Kr = K.PtAP(R)
     K.destroy()
@@ -341,28 +343,24 @@ def _applied_loads(cfg: GmshBody, sp: _Space, v, rho_f, t, kept_local: np.ndarra
             raw.append(assemble(rho_f * t * ufl.inner(e, v) * ufl.dx))
 
 
-def _obstacle_body(cfg: GmshBody, sp: _Space, cell_tags, dof_x: np.ndarray, owned: tuple) -> np.ndarray:
-    """An obstacle body's DOF blocks, its contact geometry set on ``cfg.obstacle``
-    (app/systems/gmsh/interface.py; MPI collective). Destroys the PETSc objects ``owned`` before
-    raising :class:`BodyError`."""
-    from app.systems.gmsh.interface import InterfaceError, body_geometry, surface_blocks
+def _obstacle_body(cfg: GmshBody, sp: _Space, cell_tags, dof_x: np.ndarray,
+                   owned: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """An obstacle body's DOF blocks and its contact curve's segments, its contact geometry set on
+    ``cfg.obstacle`` (app/systems/gmsh/interface.py; MPI collective). Destroys the PETSc objects
+    ``owned`` before raising :class:`BodyError`."""
+    from app.systems.gmsh.interface import body_geometry, surface_blocks
     blocks = surface_blocks(sp, cell_tags, cfg.obstacle.surface)
-    try:
-        cfg.obstacle._line, cfg.obstacle._curve = body_geometry(cfg, sp, dof_x, blocks)     # MPI collective
-    except InterfaceError as err:
-        for obj in owned:                                          # the error path owns nothing
-            obj.destroy()
-        raise BodyError(str(err)) from None
-    return blocks
+    ends = contact_edges(sp.mesh, sp.facets(cfg.obstacle.contact), sp.comm)            # MPI collective
+    cfg.obstacle._line, cfg.obstacle._curve = _interface(owned, body_geometry, cfg, sp, dof_x, blocks, ends)
+    return blocks, ends
 
 
-def _links(cfg: GmshBody, sp: _Space, dof_x: np.ndarray, reduced: np.ndarray, contact_xy: np.ndarray, size: float,
-           owned: tuple) -> list:
-    """Each contact node's obstacle nodes and weights (app/systems/gmsh/interface.py ``links``; MPI
-    collective). Destroys the PETSc objects ``owned`` before raising :class:`BodyError`."""
-    from app.systems.gmsh.interface import InterfaceError, links
+def _interface(owned: tuple, fn, *args):
+    """``fn(*args)`` of app/systems/gmsh/interface.py (MPI collective); its one-line problem
+    becomes a :class:`BodyError`, after the PETSc objects ``owned`` are destroyed."""
+    from app.systems.gmsh.interface import InterfaceError
     try:
-        return links(cfg, sp, dof_x, reduced, contact_xy, size)                        # MPI collective
+        return fn(*args)
     except InterfaceError as err:
         for obj in owned:                                          # the error path owns nothing
             obj.destroy()
