@@ -9,6 +9,8 @@
   strain), exactly (a linear field), nu = 1/2 included.
 - The compressible limit: at nu = 0.3 the mixed element and P2 displacements converge to the same
   values; nu = 1/2 runs and converges; one-line refusals.
+- The analyses that read eigenvalues ((19), (17)-(18), MCEIP-lambda^2) equal those of the
+  displacement-only system built in the test by eliminating the pressure.
 """
 import math
 import pathlib
@@ -157,7 +159,7 @@ def test_element_keys_are_checked_in_one_line(tmp_path, system, key, words):
     assert p.returncode == 2 and len(line.splitlines()) == 1 and key in line and words in line, line
 
 
-@pytest.mark.parametrize("name", ["block_incompressible.yaml", "refinement_mixed.yaml"])
+@pytest.mark.parametrize("name", ["block_incompressible.yaml", "block_plane_strain_mixed.yaml", "refinement_mixed.yaml"])
 def test_the_shipped_mixed_scenes_validate(name):
     root = pathlib.Path(__file__).resolve().parents[1]
     p = run_cli_here("validate", str(root / "app" / "scenes" / name), cwd="/")
@@ -214,10 +216,112 @@ def test_the_necessary_condition_is_that_of_the_system_with_the_pressure_elimina
         assert slip_cases >= 9
 
 
-def test_the_necessary_condition_at_nu_one_half_is_refused_in_one_line(tmp_path):
+@pytest.mark.parametrize("analysis", ["necessary", "sufficient", "mceip_lambda2"])
+def test_the_eigenvalue_analyses_at_nu_one_half_are_refused_in_one_line(tmp_path, analysis):
     (tmp_path / "s.yaml").write_text(yaml.safe_dump({
-        "name": "e", "mu": 1.1, "analyses": ["necessary", "mceip_mu"],
+        "name": "e", "mu": 1.1, "analyses": [analysis, "mceip_mu"],
         "system": {"type": "block", "degree": 2, "element": "mixed", "plane": "strain", "nu": 0.5}}))
     p = run_cli_here("validate", str(tmp_path / "s.yaml"))
     line = p.stderr.strip()
-    assert p.returncode == 2 and len(line.splitlines()) == 1 and "system.nu = 0.5" in line, line
+    assert p.returncode == 2 and len(line.splitlines()) == 1 and "system.nu = 0.5" in line and analysis in line, line
+
+
+def test_the_transient_dynamics_with_the_mixed_element_is_refused_in_one_line(tmp_path):
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump({
+        "name": "e", "mu": 1.1, "analyses": ["mceip_lambda2", "mceip_mu"], "transient": {"states": ["final"]},
+        "system": {"type": "block", "degree": 2, "element": "mixed", "plane": "strain", "nu": 0.45}}))
+    p = run_cli_here("validate", str(tmp_path / "s.yaml"))
+    line = p.stderr.strip()
+    assert p.returncode == 2 and len(line.splitlines()) == 1 and "transient" in line and "mixed" in line, line
+
+
+def _eliminated_twin(system):
+    """The displacement-only system of a mixed one, built here by dense elimination: K_e = K_uu -
+    K_up K_pp^-1 K_pu, the mass M_u, the same contact nodes (DOFs renumbered)."""
+    from mpi4py import MPI
+
+    from app.analyses.pencils.reduced import dense
+    from app.common.stages import Stages
+    from app.systems.base import ContactNode
+    from app.systems.discrete import discrete_system
+    K, M = dense(system.K), dense(system.mass())
+    st = system.static_dofs
+    keep = np.setdiff1d(np.arange(K.shape[0]), st)
+    Ke = K[np.ix_(keep, keep)] - K[np.ix_(keep, st)] @ np.linalg.solve(K[np.ix_(st, st)], K[np.ix_(st, keep)])
+    nodes = [ContactNode(id=nd.id, x=nd.x, dof_T=int(np.searchsorted(keep, nd.dof_T)),
+                         dof_N=int(np.searchsorted(keep, nd.dof_N)), sign_T=nd.sign_T, sign_N=nd.sign_N)
+             for nd in system.nodes]
+    return discrete_system(0.5 * (Ke + Ke.T), M[np.ix_(keep, keep)], nodes, MPI.COMM_SELF, Stages(),
+                           system.units, "eliminated")
+
+
+@pytest.mark.parametrize("nx, exact_max_dofs, mus", [(6, 1500, (0.3, 1.1, 3.0)), (8, 0, (1.1, 3.0))])
+def test_the_conditions_and_mceip_lambda2_are_those_of_the_system_with_the_pressure_eliminated(
+        nx, exact_max_dofs, mus):
+    """The sufficient condition (17)-(18) and MCEIP-lambda^2 (12)-(14) with the mixed element (nu =
+    0.45) against the same analyses of the displacement-only system built here by eliminating the
+    pressure (:func:`_eliminated_twin`), classification by classification (stick, slip both ways,
+    free and mixed ones) at several mu. 6 x 3 (346 DOFs): the dense paths (the sufficient
+    condition by LAPACK on the eliminated pencil, MCEIP-lambda^2's reduction from the dense
+    eigen-decomposition); 8 x 4 (605 DOFs, ``lambda2_exact_max_dofs: 0``): SLEPc's shift-and-invert
+    on the pencil with the pressure and MUMPS's Schur complements of the saddle-point K + t M.
+    Proven statuses equal, eigenvalues and solutions to 1e-8; the two meshes between them have
+    each kind of answer (proven none, solutions found, the sufficient condition satisfied)."""
+    from mpi4py import MPI
+    from test_contact_spectrum import _cases
+
+    from app.analyses.outcomes import MceipLambda2Outcome, SufficientOutcome
+    from app.analyses.runner import analyse_state
+    from app.common.stages import Stages
+    from app.scene.schema import parse_scene
+    from app.systems.block.path import build
+    scene = parse_scene({"name": "m", "mu": 1.1, "analyses": ["necessary", "sufficient", "mceip_lambda2"],
+                         "settings": {"mcp": {"lambda2_exact_max_dofs": exact_max_dofs}},
+                         "system": {"type": "block", "nx": nx, "ny": nx // 2, "degree": 2, "element": "mixed",
+                                    "plane": "strain", "nu": 0.45}})
+    seen = set()
+    with build(scene.system, MPI.COMM_WORLD, Stages()) as system, _eliminated_twin(system) as ref:
+        for cls in _cases(len(system.nodes)):
+            for mu in mus:
+                at = scene.model_copy(update={"mu": mu})
+                got, want = analyse_state(system, cls, at), analyse_state(ref, cls, at)
+                where = (cls.counts(), mu)
+                a, b = got["sufficient"], want["sufficient"]
+                assert isinstance(a, SufficientOutcome) and isinstance(b, SufficientOutcome), where
+                assert a.satisfied == b.satisfied and len(a.lambda2) == len(b.lambda2), (where, a.lambda2, b.lambda2)
+                np.testing.assert_allclose(a.lambda2, b.lambda2, rtol=1e-8)
+                a, b = got["mceip_lambda2"], want["mceip_lambda2"]
+                assert isinstance(a, MceipLambda2Outcome) and isinstance(b, MceipLambda2Outcome), where
+                assert (a.certified, a.result) == (b.certified, b.result) or not (a.certified or b.certified), \
+                    (where, a.result, b.result)
+                np.testing.assert_allclose(sorted(x.value for x in a.solutions), sorted(x.value for x in b.solutions),
+                                           rtol=1e-8)
+                seen.add("proven none" if a.certified and not a.solutions and len(cls.slip) else
+                         "found" if a.solutions else "other")
+                seen.add("sufficient" if got["sufficient"].satisfied else "not sufficient")
+    print(nx, sorted(seen))
+    assert {"proven none", "found"} <= seen and (nx == 6 or "sufficient" in seen)
+
+
+def test_the_four_default_analyses_with_the_mixed_element_on_one_and_two_ranks(tmp_path):
+    """The default analyses (necessary, sufficient, MCEIP-mu, MCEIP-lambda^2) along a path of the
+    mixed block (nu = 0.48, plane strain): every analysis runs without a failure, every MCEIP-mu
+    onset is proven, and two ranks give the answers of one (``benchmarks/compare_results.py``)."""
+    import sys
+
+    from conftest import ROOT, results_on_ranks
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from compare_results import answers, compare
+    scene = {"name": "b", "mu": 1.1, "outputs": {"plots": False, "report": False, "screenshots": False},
+             "loading": {"normal_force": 55.0, "normal_steps": 5, "tangential_step": 0.1, "tangential_max": 10.0},
+             "system": {"type": "block", "nx": 8, "ny": 4, "degree": 2, "element": "mixed", "plane": "strain",
+                        "nu": 0.48}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(scene))
+    out = results_on_ranks(tmp_path / "s.yaml", tmp_path)
+    one = out[1]
+    assert not one["failures"] and set(one["analyses_requested"]) == {"necessary", "sufficient", "mceip_mu", "mceip_lambda2"}
+    onsets = [s["analyses"]["mceip_mu"]["onset"] for s in one["states"] if s["analyses"]["mceip_mu"].get("solutions")]
+    assert onsets and all(o["proven"] for o in onsets)
+    lam = [s["analyses"]["mceip_lambda2"] for s in one["states"]]
+    assert all(a["certified"] for a in lam), {a["result"] for a in lam}
+    assert not compare(answers(one), answers(out[2]), 1e-8)

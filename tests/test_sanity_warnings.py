@@ -100,7 +100,8 @@ def test_the_default_study_raises_none(tmp_path):
                                                                               "../sweep_aspect_ratio.yaml",
                                                                               "../refinement.yaml",
                                                                               "../refinement_mixed.yaml",
-                                                                              "../block_incompressible.yaml"])
+                                                                              "../block_incompressible.yaml",
+                                                                              "../block_plane_strain_mixed.yaml"])
 def test_shipped_materials_are_real_solids(scene):
     s = yaml.safe_load((EX / scene).read_text())
     system, units = s["system"], s.get("units", "mm-N-MPa-tonne-s")

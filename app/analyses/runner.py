@@ -45,16 +45,14 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> Neces
     and anything smaller, on the full pencils)."""
     hints = warm_hints(system, scene.mu)
     known = None
-    static = system.static_dofs is not None and len(system.static_dofs) > 0
-    if static or system.n_dofs >= scene.settings.eig.necessary_contact_min_dofs:
+    if system.static_dofs is not None and len(system.static_dofs):
+        with system.stages("necessary condition (19) on the contact DOFs"):
+            return contact_spectrum.eliminated_necessary(system, p.cls, scene.mu, scene.settings.eig, hints)
+    if system.n_dofs >= scene.settings.eig.necessary_contact_min_dofs:
         with system.stages("necessary condition (19) on the contact DOFs"):
             known = contact_spectrum.values(system, p.cls, scene.mu, hints)       # MPI collective
         if all(v is not None for v in known.values()):
             return full_size.necessary(None, None, None, None, scene.mu, scene.settings.eig, known=known)
-        if static:      # the full-size pencils hold the pressure: their symmetric parts are not (19)'s
-            raise RuntimeError("the necessary condition (19) with the mixed element is computed on the contact "
-                               "DOFs only, which declined this classification (a curved obstacle, or a root "
-                               "outside the interpolated pieces)")
     K0, K1 = p.K()
     M0, M1 = p.M()
     stars = p.star(scene.mu)
@@ -74,8 +72,10 @@ def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int,
             eigensolver="none: an admissible eigenpair would solve MCEIP-lambda^2 (12)-(14) with y = 0, and "
                         f"MCEIP-lambda^2 at this mu has none ({lambda2.result})")
     Ks, Ms = p.star(scene.mu)        # shared with the necessary condition, destroyed with p
+    static = system.static_dofs
     with system.stages("sufficient condition (17)-(18)"):
-        out = full_size.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene))
+        out = full_size.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene),
+                                   static=None if static is None else p.space.positions(static))  # MPI collective
     out.mu = scene.mu
     return out
 

@@ -114,3 +114,22 @@ class SchurComplements:
 
     def __exit__(self, *exc) -> None:
         self.destroy()
+
+
+def static_schur(X: PETSc.Mat, dofs: np.ndarray, static: np.ndarray) -> np.ndarray:
+    """``X_cc - X_cs X_ss^-1 X_sc`` (contact DOFs ``dofs`` in their order): the contact block with
+    the static DOFs eliminated, from the submatrix of those rows (one MUMPS LDL^T)."""
+    both = np.concatenate([np.asarray(dofs), np.asarray(static)]).astype(PETSc.IntType)
+    rows = PETSc.IS().createGeneral(both, comm=PETSc.COMM_SELF)
+    try:
+        (sub,) = X.createSubMatrices(rows, rows)
+    finally:
+        rows.destroy()
+    try:
+        with SchurComplements(sub, np.arange(len(dofs)), "cd_static_", spd=False) as schur:
+            S = schur()
+    finally:
+        sub.destroy()
+    if S is None:
+        raise RuntimeError("MUMPS gave no Schur complement of the static DOFs (is their block singular, nu = 1/2?)")
+    return S

@@ -155,8 +155,8 @@ def _inspector(scene: Scene, ref):
 
         # Sufficient condition at mu_fixed on the final state's classification.
         lam = None
-        if getattr(scene.system, "element", "displacement") == "mixed":     # (app/systems/schema.py MIXED_ANALYSES)
-            out["lambda2_eigensolver"] = "not available with the mixed element"
+        if getattr(scene.system, "element", "displacement") == "mixed" and 0.5 in scene.system.poisson_ratios().values():
+            out["lambda2_eigensolver"] = "not available with the mixed element at nu = 1/2"  # (app/systems/schema.py)
         elif len(fcls.slip):
             a = analyse_state(system, fcls, scene_suff).get("sufficient")
             ok = isinstance(a, SufficientOutcome)

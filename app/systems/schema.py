@@ -129,26 +129,24 @@ def element_name(element: str, degree: int) -> str:
     return "P2-P1 mixed" if element == "mixed" else f"P{degree}"
 
 
-#: the analyses the mixed element supports: those on the pencils' equalities and the contact
-#: flexibility, and (19) from the contact DOFs with the pressure eliminated first (docs/method.md
-#: section 10)
-MIXED_ANALYSES = ("necessary", "mceip_mu", "enumerate")
+#: the analyses that read eigenvalues or inertias of the pencils: with the mixed element they are
+#: computed on the system with the pressure eliminated first (docs/method.md section 10), which
+#: needs an invertible pressure block, nu < 1/2
+EIGEN_ANALYSES = ("necessary", "sufficient", "mceip_lambda2")
 
 
 def check_mixed_analyses(scene, poisson: dict) -> None:
-    """The mixed element's analyses: the sufficient condition and MCEIP-lambda^2 read eigenvalues
-    and inertias of matrices that hold the pressure block, and are refused in one line; so is the
-    necessary condition at nu = 1/2 (``poisson``: key -> nu), where the pressure is a constraint
-    that the contact-DOF values do not yet eliminate."""
+    """The mixed element's analyses: at nu = 1/2 (``poisson``: key -> nu) the pressure is a
+    constraint that the analyses reading eigenvalues (:data:`EIGEN_ANALYSES`) do not yet
+    eliminate, and the ``transient`` dynamics is not built for it; each is refused in one line."""
     if getattr(scene.system, "element", "displacement") != "mixed":
         return
-    other = [a for a in scene.analyses if a not in MIXED_ANALYSES]
-    if other:
-        raise PathError("analyses", list(scene.analyses), f"{other[0]} is not available with system.element: mixed "
-                        f"(it reads eigenvalues and inertias that the pressure block changes); allowed with the "
-                        f"mixed element: {', '.join(MIXED_ANALYSES)}")
+    if getattr(scene, "transient", None) is not None:
+        raise PathError("transient", scene.transient.model_dump(), "is not available with system.element: mixed "
+                        "(the dynamics and its divergence mode are built for the displacement element)")
     half = [k for k, nu in poisson.items() if nu == 0.5]
-    if "necessary" in scene.analyses and half:
-        raise PathError("analyses", list(scene.analyses), f"necessary is not available with system.element: mixed "
+    eigen = [a for a in scene.analyses if a in EIGEN_ANALYSES]
+    if eigen and half:
+        raise PathError("analyses", list(scene.analyses), f"{eigen[0]} is not available with system.element: mixed "
                         f"and {half[0]} = 0.5 (the incompressible pressure is a constraint, not yet eliminated "
-                        "in (19)); allowed: mceip_mu, enumerate")
+                        "in the eigenvalues of (17)-(19) and MCEIP-lambda^2); allowed: mceip_mu, enumerate")

@@ -41,12 +41,13 @@ import scipy.linalg
 import scipy.optimize
 from petsc4py import PETSc
 
+from app.analyses.conditions import full_size
 from app.analyses.conditions.interior_modes import interior_modes
 from app.analyses.pencils.curvature import is_curved
 from app.analyses.pencils.kept_contact import KeptContact
 from app.analyses.pencils.state import sequential_km, system_cache
 from app.loading.classify import Classification
-from app.loading.mumps_schur import SchurComplements
+from app.loading.mumps_schur import SchurComplements, static_schur
 
 #: length of one interpolation piece in u = log(kappa - sigma) (a factor e^2 in kappa - sigma)
 PIECE = 2.0
@@ -351,29 +352,10 @@ def _eliminated_contact(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray, stati
     """``(X_e,cc, scale, interior scale)`` with the static DOFs eliminated (paper axes): the scales
     the tolerances use are X's diagonal ``d`` on the interior's massive DOFs (the static DOFs' own
     diagonal is no entry of X_e) and X_e,cc's."""
-    cc = signs[:, None] * _static_schur(X, dofs, static) * signs[None, :]
+    cc = signs[:, None] * static_schur(X, dofs, static) * signs[None, :]
     has_mass = ~np.isin(interior, static)
     interior_scale = float(d[interior[has_mass]].max()) if has_mass.any() else 0.0
     return cc, max(interior_scale, float(np.abs(np.diag(cc)).max())), interior_scale
-
-
-def _static_schur(X: PETSc.Mat, dofs: np.ndarray, static: np.ndarray) -> np.ndarray:
-    """``X_cc - X_cs X_ss^-1 X_sc`` (contact DOFs ``dofs`` in their order): the contact block with
-    the static DOFs eliminated, from the submatrix of those rows (one MUMPS LDL^T)."""
-    both = np.concatenate([np.asarray(dofs), np.asarray(static)]).astype(PETSc.IntType)
-    rows = PETSc.IS().createGeneral(both, comm=PETSc.COMM_SELF)
-    try:
-        (sub,) = X.createSubMatrices(rows, rows)
-    finally:
-        rows.destroy()
-    try:
-        with SchurComplements(sub, np.arange(len(dofs)), "cd_static_", spd=False) as schur:
-            S = schur()
-    finally:
-        sub.destroy()
-    if S is None:
-        raise RuntimeError("MUMPS gave no Schur complement of the static DOFs (is their block singular, nu = 1/2?)")
-    return S
 
 
 def contact_spectra(system) -> tuple[ShiftedContact, ShiftedContact] | None:
@@ -431,3 +413,16 @@ def values(system, cls: Classification, mu: float, hints: dict) -> dict[str, tup
         if v is not None:
             hints[name] = v[0]
     return got
+
+
+def eliminated_necessary(system, cls: Classification, mu: float, eig, hints: dict):
+    """The :class:`~app.analyses.outcomes.NecessaryOutcome` of (19) for a system with static DOFs
+    (the mixed element's pressure), from the contact DOFs alone: the full-size pencils hold the
+    pressure block, and their symmetric parts are not (19)'s (docs/method.md section 10).
+    RuntimeError where the contact DOFs decline the classification. MPI collective."""
+    known = values(system, cls, mu, hints)                            # MPI collective
+    if any(v is None for v in known.values()):
+        raise RuntimeError("the necessary condition (19) with the mixed element is computed on the contact "
+                           "DOFs only, which declined this classification (a curved obstacle, or a root "
+                           "outside the interpolated pieces)")
+    return full_size.necessary(None, None, None, None, mu, eig, known=known)

@@ -9,12 +9,13 @@ from __future__ import annotations
 from contextlib import ExitStack
 
 import numpy as np
+import scipy.linalg
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
 from app.analyses.outcomes import NecessaryOutcome, Solution, SufficientOutcome
-from app.analyses.pencils.reduced import combine, diag_scale, gather_vec, serial_copy, sym_part
+from app.analyses.pencils.reduced import combine, dense, diag_scale, gather_vec, serial_copy, sym_part
 from app.linalg import configure_direct, eps_solve, from_options, mumps_null_pivots, owned, set_up, with_prefix
 from app.scene.schema import EigSettings
 
@@ -305,12 +306,23 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
 
 
 def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSettings,
-               keep_modes: bool = False) -> SufficientOutcome:
+               keep_modes: bool = False, static: np.ndarray | None = None) -> SufficientOutcome:
     """Sufficient condition (17)-(18): real eigenpairs of (lambda^2 M* + K*) x = 0, lambda^2 > 0, x_Ts >= 0.
 
     Solved as ``K* x = theta M* x`` (``lambda^2 = -theta``); every real eigenpair with
     ``lambda^2 > 0`` is checked for ``x_Ts >= 0`` (up to the sign of the eigenvector).
+
+    ``static``: DOFs without mass (the mixed element's pressure; the reduction leaves their rows
+    as they are, ``K*_ss = K_ss`` invertible). The pencil then has infinite eigenvalues, one per
+    static DOF, whose rounded images LAPACK would return among the finite ones: a dense-size pencil
+    is solved with the static DOFs eliminated (``K*_e = K*_kk - K*_ks K_ss^-1 K*_sk``, the same
+    finite eigenvalues, docs/method.md section 10), a larger one by shift-and-invert about 0,
+    which returns the eigenvalues nearest 0 and never the infinite ones.
     """
+    mixed = static is not None and len(static) > 0
+    if mixed and Ks.getSize()[0] <= settings.dense_limit:
+        pairs, nconv, how = _eliminated_pairs(Ks, Ms, static)
+        return _admissible(pairs, nconv, how, comp, keep_modes)
     eps, how = _eps(Ks, Ms, False, settings, "cd_sufficient_")
     with ExitStack() as owns:
         owns.enter_context(owned(eps))
@@ -318,30 +330,57 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
         vr, vi = (owns.enter_context(owned(op.createVecRight())) for _ in range(2))
         eps_solve(eps)
         nconv = eps.getConverged()
-        candidates, admissible, modes = [], [], []
+        pairs = []
         for i in range(nconv):
             theta = eps.getEigenpair(i, vr, vi)
-            if abs(theta.imag) > 1e-8 * max(abs(theta), 1e-300) or not np.isfinite(theta.real):
+            if abs(theta.imag) > 1e-8 * max(abs(theta), 1e-300) or not np.isfinite(theta.real) or theta.real >= 0:
                 continue
-            lam2 = -theta.real
-            if lam2 <= 0:
-                continue
-            x = gather_vec(vr)
-            xc = x[comp]
-            big = float(np.max(np.abs(xc))) if len(xc) else 0.0
-            if big > 0 and np.sum(xc) < 0:
-                x, xc = -x, -xc
-            ok = bool(big > 0 and np.min(xc) >= -1e-8 * big)
-            res = eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE)
-            candidates.append({"lambda2": float(lam2), "admissible": ok, "min_x_Ts_rel": float(np.min(xc) / big) if big else 0.0,
-                               "relative_error": float(res)})
-            if ok:
-                admissible.append(float(lam2))
-                xn = np.maximum(xc, 0) / np.sum(np.maximum(xc, 0))
-                modes.append(Solution(value=float(lam2), x_Ts=[float(v) for v in xn],
-                                      pattern=["slip" if v > 1e-8 else "stick" for v in xn],
-                                      evidence={"relative_error": float(res)},
-                                      x=x / np.sum(xc) if keep_modes else None))
+            pairs.append((-theta.real, gather_vec(vr), float(eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE))))
+    return _admissible(pairs, nconv, how, comp, keep_modes)
+
+
+def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple[list, int, str]:
+    """The real eigenpairs ``(lambda^2 > 0, x, relative residual)`` of a dense-size pencil with the
+    static DOFs eliminated (LAPACK on ``(K*_e, M*_kk)``), ``x`` lifted back to every DOF by the
+    static rows ``K*_sk x_k + K_ss x_s = 0``. MPI collective (the pencil gathered on every rank)."""
+    K, M = dense(Ks), dense(Ms)                               # MPI collective
+    keep = np.setdiff1d(np.arange(K.shape[0]), static)
+    solve = scipy.linalg.lu_factor(K[np.ix_(static, static)])
+    Ke = K[np.ix_(keep, keep)] - K[np.ix_(keep, static)] @ scipy.linalg.lu_solve(solve, K[np.ix_(static, keep)])
+    theta, V = scipy.linalg.eig(Ke, M[np.ix_(keep, keep)])
+    norm_k, norm_m = np.linalg.norm(K, 1), np.linalg.norm(M, 1)
+    pairs = []
+    for th, v in zip(theta, V.T):
+        if abs(th.imag) > 1e-8 * max(abs(th), 1e-300) or not np.isfinite(th.real) or th.real >= 0:
+            continue
+        x = np.zeros(K.shape[0])
+        x[keep] = v.real
+        x[static] = -scipy.linalg.lu_solve(solve, K[np.ix_(static, keep)] @ v.real)
+        res = np.linalg.norm(K @ x - th.real * (M @ x), 1) / ((norm_k + abs(th.real) * norm_m) * np.linalg.norm(x, 1))
+        pairs.append((-th.real, x, float(res)))
+    return pairs, len(theta), (f"LAPACK, all {len(keep)} eigenvalues of the pencil with its {len(static)} "
+                               "pressure DOFs eliminated")
+
+
+def _admissible(pairs: list, nconv: int, how: str, comp: np.ndarray, keep_modes: bool) -> SufficientOutcome:
+    """(17)-(18) from the real eigenpairs ``(lambda^2 > 0, x, relative error)``: those with
+    ``x_Ts >= 0`` (up to the sign of ``x``)."""
+    candidates, admissible, modes = [], [], []
+    for lam2, x, res in pairs:
+        xc = x[comp]
+        big = float(np.max(np.abs(xc))) if len(xc) else 0.0
+        if big > 0 and np.sum(xc) < 0:
+            x, xc = -x, -xc
+        ok = bool(big > 0 and np.min(xc) >= -1e-8 * big)
+        candidates.append({"lambda2": float(lam2), "admissible": ok, "min_x_Ts_rel": float(np.min(xc) / big) if big else 0.0,
+                           "relative_error": float(res)})
+        if ok:
+            admissible.append(float(lam2))
+            xn = np.maximum(xc, 0) / np.sum(np.maximum(xc, 0))
+            modes.append(Solution(value=float(lam2), x_Ts=[float(v) for v in xn],
+                                  pattern=["slip" if v > 1e-8 else "stick" for v in xn],
+                                  evidence={"relative_error": float(res)},
+                                  x=x / np.sum(xc) if keep_modes else None))
     order = np.argsort(admissible)[::-1]
     return SufficientOutcome(satisfied=bool(admissible), lambda2=[admissible[i] for i in order],
                              modes=[modes[i] for i in order],

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from app.analyses.conditions import full_size
+from app.analyses.conditions import contact_spectrum, full_size
 from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mceip_mu.state import certificate
@@ -43,12 +43,17 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
             if d is not None:
                 d.mu = mu
                 return d
+        mixed = _static(system)
+        if nec is None and mixed:  # the full-size pencils hold the pressure: (19) from the contact DOFs
+            with system.stages("MCEIP-lambda2 (12)-(14)"):
+                nec = contact_spectrum.eliminated_necessary(system, p.cls, mu, scene.settings.eig,
+                                                            warm_hints(system, mu))     # MPI collective
         if nec is None:           # the full-size pencils, only where the contact DOFs do not decide
             K0, K1 = p.K()
             M0, M1 = p.M()
             with system.stages("MCEIP-lambda2 (12)-(14)"):
                 nec = full_size.necessary(K0, K1, M0, M1, mu, scene.settings.eig, warm_hints(system, mu), p.star(mu))
-        if not nec.satisfied:     # the verified sign argument factorises them
+        if not nec.satisfied and not mixed:     # the verified sign argument factorises them
             K0, K1 = p.K()
             M0, M1 = p.M()
         with system.stages("MCEIP-lambda2 (12)-(14)"):
@@ -58,11 +63,15 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
                 search = {"complete": True, "necessary_condition": nec.as_dict(),
                           "note": "no solution: the necessary condition (19) fails at this mu (K* PD, M* PSD), "
                                   "which proves that (12)-(14) has no solution"}
-                rigorous = l2b.verified_sign_argument(K0, K1, M0, M1, mu,
-                                                      scene.settings.mcp.lambda2_exact_max_dofs)   # MPI collective
+                # with the pressure (mixed element) the full-size symmetric parts are not (19)'s:
+                # the signs are those of the contact DOFs' values, floating point
+                rigorous = not mixed and l2b.verified_sign_argument(
+                    K0, K1, M0, M1, mu, scene.settings.mcp.lambda2_exact_max_dofs)   # MPI collective
                 cert = certificate(
                     "sign argument: x^T y = 0 at a solution, impossible with sym K*(mu) PD and sym M*(mu) PSD (19)"
                     + ("; both proven PD by verified dense Cholesky factorisations" if rigorous else
+                       "; PD from floating-point eigenvalues of the system with the pressure eliminated (values "
+                       "of (19) on the contact DOFs), not verified" if mixed else
                        "; PD from floating-point eigenvalues (SLEPc), not verified"),
                     (0.0, np.inf), l2b.PROVEN, time.perf_counter() - t_start,
                     {"min_eig_K_sym": nec.min_eig_K_sym, "min_eig_M_sym": nec.min_eig_M_sym}, gap=0.0,
@@ -73,6 +82,11 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
                 d = _lambda2_search(p, scene, nec, mu, t_start)
     d.mu = mu
     return d
+
+
+def _static(system: System) -> bool:
+    """The system has DOFs without mass eliminated statically (the mixed element's pressure)."""
+    return system.static_dofs is not None and len(system.static_dofs) > 0
 
 
 def _rayleigh_bound(nec: NecessaryOutcome) -> float | None:
@@ -187,7 +201,20 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: fl
     # count of sym K* + T sym M* proves a smaller bound T (app/analyses/mceip_lambda2/bounds.py).
     upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
     rayleigh = _rayleigh_bound(nec)
-    if rayleigh is not None:
+    if rayleigh is not None and _static(p.system):
+        # the pencils hold the pressure, whose inertia is not the eliminated system's: the bound from
+        # the Schur complement onto the slip nodes instead (exact.tail_bound)
+        got = _on_rank_zero(p, scene, lambda dc: l2x.tail_bound(dc, p.cls, mu, rayleigh))   # MPI collective
+        if got is not None and got[0] is not None:
+            upper = got[0]
+            bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from "
+                               "the Rayleigh-quotient bound -min eig sym K* / min eig sym M*; floating point)",
+                     "rayleigh_bound": rayleigh, "proven_bound": upper}
+        else:
+            upper, bound = rayleigh, {"method": "the Rayleigh-quotient bound -min eig sym K* / min eig sym M* "
+                                                "(values of (19), floating point)",
+                                      "rayleigh_bound": rayleigh, "proven_bound": rayleigh}
+    elif rayleigh is not None:
         hints = warm_hints(p.system, mu)
         prev = hints.get("lambda2_bound")
         upper, detail = l2b.proven_upper_bound(Ks, Ms, rayleigh, guess=None if prev is None else 1.05 * prev)
@@ -200,7 +227,12 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: fl
     sols = rep.typed_solutions(keep_vectors=keep_modes(scene))
     search = rep.search()
     search.update(necessary_condition=nec.as_dict(), lambda2_upper_bound=upper, upper_bound=bound)
-    omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp) if sols else None
+    omega2 = None
+    if sols and _static(p.system):       # the pressure rows carry no mass: eliminated first
+        omega2 = l2b.free_block_max_omega2_eliminated(Ks, Ms, p.space.comp,
+                                                      p.space.positions(p.system.static_dofs))   # MPI collective
+    elif sols:
+        omega2 = l2b.free_block_max_omega2(Ks, Ms, p.space.comp)
     for sol in sols:
         sol.mark(certified=False)
         why = []

@@ -26,10 +26,12 @@ import time
 from contextlib import ExitStack
 
 import numpy as np
+import scipy.linalg
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.pencils.reduced import REPLICATE_MAX, axpy_structure, diag_scale, serial_copy, sym_part
+from app.analyses.mceip_lambda2.exact import eliminated
+from app.analyses.pencils.reduced import REPLICATE_MAX, axpy_structure, dense, diag_scale, serial_copy, sym_part
 from app.linalg import eps_solve, from_options, lu, owned, with_prefix
 
 PROVEN = "proven"
@@ -177,3 +179,27 @@ def free_block_max_omega2(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, tol: f
             return float(eps.getEigenvalue(0).real)
         except PETSc.Error:
             return None
+
+
+#: largest reduced pencil whose free block :func:`free_block_max_omega2_eliminated` solves (dense)
+ELIMINATED_MAX_DOFS = 4000
+
+
+def free_block_max_omega2_eliminated(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray,
+                                     static: np.ndarray) -> float | None:
+    """:func:`free_block_max_omega2` of a pencil with static DOFs ``static`` (kept numbering; the
+    mixed element's pressure, no mass): their rows make the free block's pencil singular, so its
+    largest finite ``omega^2`` is that of the free block with them eliminated, dense (LAPACK, the
+    largest eigenvalue only) up to :data:`ELIMINATED_MAX_DOFS`, else None. MPI collective."""
+    if Ks.getSize()[0] > ELIMINATED_MAX_DOFS:
+        return None
+    K, M = dense(Ks), dense(Ms)                                       # MPI collective
+    free = np.setdiff1d(np.arange(K.shape[0]), comp)
+    Ke, Me, _ = eliminated(K[np.ix_(free, free)], M[np.ix_(free, free)], np.searchsorted(free, static))
+    m = Ke.shape[0]
+    if m == 0:
+        return None
+    try:
+        return float(scipy.linalg.eigh(Ke, Me, eigvals_only=True, subset_by_index=[m - 1, m - 1])[0])
+    except (np.linalg.LinAlgError, ValueError):
+        return None

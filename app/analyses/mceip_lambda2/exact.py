@@ -37,6 +37,7 @@ grid, so the classifications along a path share most factorisations (the 100k-DO
 """
 from __future__ import annotations
 
+import functools
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -53,7 +54,7 @@ from app.analyses.pencils.reduced import axpy_structure, dense
 from app.analyses.pencils.state import sequential_km, system_cache
 from app.linalg import lu_solver
 from app.loading.classify import Classification
-from app.loading.mumps_schur import SchurComplements
+from app.loading.mumps_schur import SchurComplements, static_schur
 
 #: relative margin of the PD + NN tests (rounding of the eliminations, pencil scaled to unit diagonal)
 MARGIN = 1e-8
@@ -99,24 +100,32 @@ class DynamicContact:
 
     @classmethod
     def from_sparse(cls, K: PETSc.Mat, M: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
-                    own: Callable[..., None] | None = None) -> "DynamicContact":
+                    own: Callable[..., None] | None = None, static: np.ndarray | None = None) -> "DynamicContact":
         """From sequential sparse ``K`` and ``M`` (the caller keeps them alive while this is used):
         each ``Z(t)`` is MUMPS's Schur complement of ``K + t M`` onto the contact DOFs
         (:class:`app.loading.mumps_schur.SchurComplements`, one partial factorisation; its PETSc
         objects handed to ``own``); where MUMPS cannot give it, ``W(t)`` is the signed contact
         block of ``(K + t M)^-1`` from one sparse Cholesky factorisation and MUMPS's selected
         entries of the inverse (:func:`app.loading.flexibility.flexibility_inverse`; block solves
-        with the contact columns when the factor cannot give them)."""
+        with the contact columns when the factor cannot give them).
+
+        ``static``: DOFs without mass (the mixed element's pressure, ``K`` a saddle-point matrix
+        with an invertible pressure block) that the result eliminates (docs/method.md section 10):
+        ``Z(t)`` is unchanged (the quotient property of Schur complements: the pressure is among
+        the eliminated DOFs; the interior is factorised as symmetric indefinite), the contact block
+        ``K_cc`` is that of ``K_e = K / K_pp`` and the mass's Schur complement is that of ``M``
+        without the pressure rows."""
         from app.loading.flexibility import flexibility_inverse, flexibility_matsolve
         t0 = time.perf_counter()
         structure = axpy_structure(K, M)
+        mixed = static is not None and len(static) > 0
 
-        def contact_block_of_inverse(A: PETSc.Mat) -> np.ndarray:
+        def contact_block_of_inverse(A: PETSc.Mat, at: np.ndarray = dofs) -> np.ndarray:
             ksp = lu_solver(A, prefix="cd_dynamic_", factor="cholesky", mumps=True)
             try:
-                W = flexibility_inverse(ksp, dofs, signs)
+                W = flexibility_inverse(ksp, at, signs)
                 if W is None:
-                    W = flexibility_matsolve(ksp, A, dofs, signs)
+                    W = flexibility_matsolve(ksp, A, at, signs)
                 if W is None:
                     raise RuntimeError("the factorisation of K + t M gave no contact flexibility")
                 return W
@@ -142,7 +151,7 @@ class DynamicContact:
             if "A" not in held:
                 held["A"] = K.copy()
                 held["A"].axpy(1.0, M, structure=structure)     # the union pattern (values reset below)
-                held["schur"] = SchurComplements(held["A"], dofs, "cd_dynamic_")
+                held["schur"] = SchurComplements(held["A"], dofs, "cd_dynamic_", spd=not mixed)
                 if own is not None:
                     own(held["schur"], held["A"])
             held["A"].zeroEntries()
@@ -160,8 +169,13 @@ class DynamicContact:
             Mcc.destroy()
         finally:
             rows.destroy()
-        return cls(flexibility, lambda: contact_block_of_inverse(M), sK, sM, time.perf_counter() - t0,
-                   "MUMPS's Schur complement of K + t M onto the contact DOFs per t", schur=schur)
+        mass_flexibility = functools.partial(contact_block_of_inverse, M)
+        if mixed:
+            sK = signs[:, None] * static_schur(K, dofs, static) * signs[None, :]
+            mass_flexibility = functools.partial(_without, M, static, contact_block_of_inverse, dofs)
+        return cls(flexibility, mass_flexibility, sK, sM, time.perf_counter() - t0,
+                   "MUMPS's Schur complement of K + t M onto the contact DOFs per t"
+                   + (" (the pressure eliminated with the interior)" if mixed else ""), schur=schur)
 
     def mass_schur(self) -> np.ndarray:
         """The Schur complement of ``M`` onto the contact DOFs (paper axes), computed once."""
@@ -189,6 +203,31 @@ class DynamicContact:
         return Z, self.Kcc + t * self.Mcc
 
 
+def _without(M: PETSc.Mat, static: np.ndarray, block_of_inverse: Callable, dofs: np.ndarray) -> np.ndarray:
+    """``block_of_inverse`` of ``M`` without the rows and columns ``static`` (which hold nothing),
+    at the contact DOFs ``dofs`` renumbered accordingly."""
+    keep = np.setdiff1d(np.arange(M.getSize()[0]), static).astype(PETSc.IntType)
+    rows = PETSc.IS().createGeneral(keep, comm=PETSc.COMM_SELF)
+    try:
+        (Mu,) = M.createSubMatrices(rows, rows)
+    finally:
+        rows.destroy()
+    try:
+        return block_of_inverse(Mu, np.searchsorted(keep, dofs))
+    finally:
+        Mu.destroy()
+
+
+def eliminated(K: np.ndarray, M: np.ndarray, static: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Dense ``(K_e, M_u, keep)``: the static DOFs ``static`` (no mass, ``K_ss`` invertible)
+    eliminated, ``K_e = K_kk - K_ks K_ss^-1 K_sk`` and ``M_u = M_kk`` on the kept DOFs ``keep``
+    (docs/method.md section 10)."""
+    keep = np.setdiff1d(np.arange(K.shape[0]), static)
+    Ke = K[np.ix_(keep, keep)] - K[np.ix_(keep, static)] @ np.linalg.solve(K[np.ix_(static, static)],
+                                                                          K[np.ix_(static, keep)])
+    return 0.5 * (Ke + Ke.T), M[np.ix_(keep, keep)], keep
+
+
 def dynamic_contact(system, max_dense_dofs: int) -> DynamicContact | None:
     """The system's :class:`DynamicContact` on rank 0 (None on the other ranks), built on first use:
     dense up to ``max_dense_dofs`` DOFs, sparse factorisations above (MPI collective: K and M
@@ -200,12 +239,17 @@ def _build(system, max_dense_dofs: int) -> DynamicContact | None:
     comm = system.comm
     dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
     signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
+    static = system.static_dofs
+    mixed = static is not None and len(static) > 0
     K, M = system.K, system.mass()
     if system.n_dofs <= max_dense_dofs:
         Kd, Md = dense(K), dense(M)                                  # MPI collective
         if comm.rank != 0:
             return None
         try:
+            if mixed:         # the pressure eliminated first (its block is invertible: nu < 1/2)
+                Kd, Md, keep = eliminated(Kd, Md, static)
+                dofs = np.searchsorted(keep, dofs)
             return DynamicContact.from_dense(Kd, Md, dofs, signs)
         except (np.linalg.LinAlgError, ValueError):
             return None
@@ -213,7 +257,7 @@ def _build(system, max_dense_dofs: int) -> DynamicContact | None:
     if pair is None:
         return None
     K, M = pair
-    return DynamicContact.from_sparse(K, M, dofs, signs, system.own)
+    return DynamicContact.from_sparse(K, M, dofs, signs, system.own, static if mixed else None)
 
 
 class _Reduction(KeptContact):
@@ -303,6 +347,32 @@ def start_bound(dc: DynamicContact, cls: Classification, mu: float, doublings: i
     return None
 
 
+def _tail(red: _Reduction, t_start: float, steps: int = 8) -> float | None:
+    """The smallest ``T`` of a bisection (``steps`` halvings from the power of two above
+    ``t_start``, on the dyadic grid) with ``Sh(T)`` PD, or None when ``Sh`` is not PD there."""
+    lo, hi = 0.0, _dyadic_above(float(t_start))
+    if not _pd(red.at(hi)[0]):
+        return None
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        if _pd(red.at(mid)[0]):
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def tail_bound(dc: DynamicContact, cls: Classification, mu: float, t_start: float) -> float | None:
+    """An upper bound ``T`` on every solution's ``lambda^2`` (caller: ``sym M*(mu)`` PD and
+    ``t_start > 0`` a bound, e.g. the Rayleigh quotient's): ``Sh(T)``, the Schur complement of
+    ``sym(K* + T M*)`` onto the slip nodes, PD makes ``sym(K* + t M*)`` PD for every ``t >= T``
+    (Haynsworth; ``Sh`` increases with ``t``), and ``x^T (K* + t M*) x = 0`` at a solution.
+    Floating point; None when no such ``T`` is found at the power of two above ``t_start``."""
+    if not np.isfinite(t_start) or t_start <= 0:
+        return None
+    return _tail(_Reduction(dc, cls, mu), t_start)
+
+
 def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_start: float,
                       pieces: int = 8, depth: int = 10,
                       max_evaluations: int = MAX_EVALUATIONS) -> tuple[bool, float, dict]:
@@ -329,17 +399,10 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
 
     if not np.isfinite(t_start) or t_start <= 0:
         return False, float(t_start), {"reason": "no finite positive start bound", "seconds": time.perf_counter() - t0}
-    # tail: smallest T (bisection, 8 steps) with Sh(T) PD
-    lo, hi = 0.0, _dyadic_above(float(t_start))
-    if not _pd(red.at(hi)[0]):
-        return False, hi, {"reason": "Sh(T) not PD at the start bound", "seconds": time.perf_counter() - t0}
-    for _ in range(8):
-        mid = 0.5 * (lo + hi)
-        if _pd(red.at(mid)[0]):
-            hi = mid
-        else:
-            lo = mid
-    T = hi
+    T = _tail(red, t_start)
+    if T is None:
+        return False, _dyadic_above(float(t_start)), {"reason": "Sh(T) not PD at the start bound",
+                                                       "seconds": time.perf_counter() - t0}
     width = _dyadic_above(T / pieces)
     todo = [(i * width, (i + 1) * width, 0) for i in range(int(np.ceil(T / width)))][::-1]
     proven_count = 0

@@ -50,6 +50,16 @@ class ReducedSpace:
         :meth:`to_system` on the kept DOFs; ``D`` is its own inverse)."""
         return self.d_local * x[self.kept.getIndices() - rows[0]]
 
+    def positions(self, dofs: np.ndarray) -> np.ndarray:
+        """Global positions in the kept numbering of the system DOFs ``dofs`` (all kept, e.g. the
+        pressure's). MPI collective (the kept DOFs gathered: the numbering is rank by rank,
+        ascending)."""
+        kept = np.concatenate(self.kept.getComm().tompi4py().allgather(self.kept.getIndices()))   # MPI collective
+        at = np.searchsorted(kept, dofs)
+        if len(dofs) and (at.max() >= len(kept) or np.any(kept[at] != dofs)):
+            raise ValueError("positions: a DOF that the reduction removed")
+        return at
+
     def destroy(self) -> None:
         """Destroy the PETSc index set of the kept DOFs."""
         self.kept.destroy()

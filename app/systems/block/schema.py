@@ -63,11 +63,15 @@ class Block(Strict):
         """The element in words (``P1``, ``P2``, ``P2-P1 mixed``)."""
         return element_name(self.element, self.degree)
 
+    def poisson_ratios(self) -> dict[str, float]:
+        """The Poisson's ratio by its key (``nu``)."""
+        return {"nu": self.nu}
+
     @classmethod
     def check_scene(cls, scene: Any) -> None:
         """Scene-level checks (called by :class:`app.scene.schema.Scene`): the loading defaults; the
         analyses of the mixed element."""
-        check_mixed_analyses(scene, {"system.nu": scene.system.nu})
+        check_mixed_analyses(scene, {f"system.{k}": v for k, v in scene.system.poisson_ratios().items()})
         if scene.loading is None:
             object.__setattr__(scene, "loading", Loading())
 
