@@ -167,3 +167,69 @@ def test_gmsh_refinement_refusals():
         parse_scene(data, "l.yaml", base_dir=ROOT / "app/scenes/gmsh")
     with pytest.raises(SceneError, match="refinement.levels"):
         parse_scene({**TINY, "refinement": {"size_factors": [1.0, 0.5]}})
+
+
+def test_point_stick_zones_are_the_stuck_nodes_without_a_stuck_neighbour():
+    """Exact small cases of app/loading/classify.py ``without_point_stick``: neighbours along the
+    curve by the nodes' coordinate (given out of order here), the slip direction of a slipping
+    neighbour, else of the majority; None when nothing changes or nothing slips."""
+    from app.loading.classify import FREE, SLIP, STICK, Classification, without_point_stick
+    x = [3.0, 0.0, 1.0, 2.0, 4.0]                      # along the curve: nodes 1, 2, 3, 0, 4
+    cls = Classification(status=(SLIP, STICK, SLIP, STICK, FREE), signs=(-1, 0, -1, 0, 0))
+    got = without_point_stick(cls, x)
+    assert got.status == (SLIP, SLIP, SLIP, SLIP, FREE) and got.signs == (-1, -1, -1, -1, 0)
+    pair = Classification(status=(STICK, STICK, STICK, SLIP, FREE), signs=(0, 0, 0, 1, 0))
+    got = without_point_stick(pair, x)                 # 1 and 2 are neighbours: a zone two nodes wide stays
+    assert got.status == (SLIP, STICK, STICK, SLIP, FREE) and got.signs == (1, 0, 0, 1, 0)
+    lone = Classification(status=(FREE, FREE, STICK, FREE, SLIP), signs=(0, 0, 0, 0, 1))
+    assert without_point_stick(lone, x).signs[2] == 1  # free neighbours: the majority's direction
+    assert without_point_stick(Classification(status=(SLIP,) * 5, signs=(1,) * 5), x) is None
+    assert without_point_stick(Classification(status=(STICK, FREE, FREE, FREE, FREE), signs=(0,) * 5), x) is None
+
+
+def test_a_point_stick_zone_converges_like_one_over_log_h():
+    """The paper's block in plane strain at nu = 0.48 (mixed element, 10 x 5 to 40 x 20): the final
+    state has one stuck node (at the trailing corner) at every level. A point has no capacity in
+    two dimensions: the final critical mu converges like 1 / ln(L / h) to the value without that
+    node, so (mu - mu_without) ln(L / h) stays nearly constant (L = 80 mm, the block's length),
+    while the value without it is mesh-independent to 1e-4 and equals P2 displacements' to 0.5 %."""
+    scene = parse_scene({"name": "point-stick", "mu": 1.1, "analyses": [], "settings": {"mcp": {"certify": False}},
+                         "system": {"type": "block", "degree": 2, "element": "mixed", "plane": "strain", "nu": 0.48},
+                         "loading": {"normal_force": 55.0, "normal_steps": 10, "tangential_step": 0.05,
+                                     "tangential_max": 10.0},
+                         "refinement": {"levels": [10, 20, 40], "degrees": [2], "planes": ["strain"],
+                                        "first_solution": "none"}})
+    rows = [run_level(scene, nx, 2, "strain", MPI.COMM_WORLD)[0] for nx in (10, 20, 40)]
+    assert [r["final_point_stick"] for r in rows] == [1, 1, 1]
+    without = [r["final_mu_without_point_stick"] for r in rows]
+    assert max(without) - min(without) < 1e-4 * without[-1], without
+    law = [(r["final_mu"] - without[-1]) * math.log(80.0 / r["h"]) for r in rows]
+    assert max(law) - min(law) < 0.05 * law[-1], law
+    # a power law through the same three values would need an order far below 1
+    p = observed_order([r["h"] for r in rows], [r["final_mu"] for r in rows])["p"]
+    assert p < 0.8, p
+    p2 = parse_scene({**scene.model_dump(mode="json", exclude_unset=True),
+                      "system": {"type": "block", "degree": 2, "plane": "strain", "nu": 0.48}})
+    disp, _ = run_level(p2, 40, 2, "strain", MPI.COMM_WORLD)
+    assert abs(disp["final_mu_without_point_stick"] - without[-1]) < 5e-3 * without[-1]
+
+
+def test_an_oscillating_quantity_has_no_slope_in_the_legend(tmp_path, monkeypatch):
+    """A quantity whose differences change sign (1.5 + (-h)^2-like wobble) gets no order estimate,
+    and its legend says so instead of printing a fitted slope."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from app.study.refinement_report import analyse_convergence, plot
+    rows = [{"degree": 2, "plane": "strain", "nx": nx, "h": 80.0 / nx, "wall_s": 0.1 * nx,
+             "final_mu": 1.5 + 1e-3 * (-1) ** k / nx, "depth": 0.25 + (80.0 / nx) ** 2 * 1e-4}
+            for k, nx in enumerate((10, 20, 40, 80))]
+    summary = {"scene": "s", "units": {"length": "mm"}, "rows": rows, "convergence": analyse_convergence(rows)}
+    kept = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: kept.append(fig))
+    plot(summary, tmp_path)
+    labels = {ax.get_title(): ax.get_legend_handles_labels()[1] for ax in kept[0].axes if ax.get_visible()}
+    mu = next(v for t, v in labels.items() if "\u03bc" in t)
+    assert mu == ["P2 strain, oscillating: no slope"], labels
+    assert any(lab.startswith("P2 strain, slope 2.0") for v in labels.values() for lab in v), labels

@@ -107,3 +107,33 @@ def frictionless_reason(cls: Classification, mu: float) -> str | None:
         return (f"not applicable: the tangential reaction of slip node(s) {undefined[:10]} is below the "
                 f"classification tolerance (no slip direction S)")
     return None
+
+
+def without_point_stick(cls: Classification, x) -> Classification | None:
+    """``cls`` with its point stick zones slipping, or None when it has none.
+
+    A point stick zone is a stuck node whose neighbours along the contact curve (``x``: each
+    node's coordinate along it) are not stuck: a stick zone one node wide, which shrinks to a
+    point under refinement. In two dimensions a point has no capacity: the stiffness a zone of
+    width ``h`` adds vanishes like ``1 / ln(L / h)``, so quantities of a classification with such a
+    zone converge only logarithmically, to those of the classification without it
+    (docs/validation.md, "Plane strain with the mixed element"). Each such node slips in the
+    direction of a slipping neighbour, else of the majority of the slip nodes; None too when no
+    node slips (no direction to give)."""
+    order = np.argsort(np.asarray(x, dtype=float), kind="stable")
+    status, signs = list(cls.status), list(cls.signs)
+    slipping = [signs[i] for i in range(len(status)) if status[i] == SLIP]
+    if not slipping:
+        return None
+    majority = 1 if sum(slipping) >= 0 else -1
+    changed = False
+    for k, i in enumerate(order):
+        if cls.status[i] != STICK:
+            continue
+        near = [order[j] for j in (k - 1, k + 1) if 0 <= j < len(order)]
+        if any(cls.status[j] == STICK for j in near):
+            continue
+        slip_near = [cls.signs[j] for j in near if cls.status[j] == SLIP]
+        status[i], signs[i] = SLIP, (slip_near[0] if slip_near else majority)
+        changed = True
+    return Classification(status=tuple(status), signs=tuple(signs)) if changed else None

@@ -48,7 +48,7 @@ from app.analyses.runner import analyse_state
 from app.common.progress import Progress
 from app.io.result import Stage, StudyResult
 from app.io.select import program_load
-from app.loading.classify import FREE, SLIP, classify
+from app.loading.classify import FREE, SLIP, classify, without_point_stick
 from app.scene.schema import Scene, SceneError
 from app.study.refinement_report import (  # noqa: F401 - observed_order re-exported
     QOIS,
@@ -57,6 +57,7 @@ from app.study.refinement_report import (  # noqa: F401 - observed_order re-expo
     fmt,
     observed_order,
     present,
+    series_name,
     write_outputs,
 )
 from app.systems.units import CONTINUUM_UNITS
@@ -87,11 +88,49 @@ def _sizes(cfg) -> tuple[int, int]:
     return cfg.mesh_sizes() if hasattr(cfg, "mesh_sizes") else cfg.file_sizes()[:2]
 
 
-def _mu_values(a: Outcome | None) -> list[float]:
-    """The critical mu of an MCEIP-mu outcome, ascending (none when it failed or was not asked)."""
+def _mu_values(a: Outcome | None) -> tuple[list[float], bool]:
+    """The critical mu of an MCEIP-mu outcome, ascending (none when it failed or was not asked),
+    and whether its smallest (the onset) is proven."""
     if not isinstance(a, MceipMuOutcome):
-        return []
-    return sorted(s.value for s in a.solutions)
+        return [], False
+    return sorted(s.value for s in a.solutions), bool(a.onset is not None and a.onset.proven)
+
+
+class _MuSearches:
+    """MCEIP-mu of the classifications a level asks for, each searched once (or taken from the
+    study's ``cache``): its values, ascending, and whether the smallest is proven."""
+
+    def __init__(self, system, scene_mu: Scene, cache: dict):
+        self.system, self.scene_mu, self.cache = system, scene_mu, cache
+        self.searched: dict = {}
+
+    def values(self, cls) -> list[float]:
+        if cls.key not in self.searched:
+            done = self.cache.get(cls.key)
+            if done is not None and "mceip_mu" in done[1]:
+                self.searched[cls.key] = _mu_values(done[1]["mceip_mu"])
+            else:
+                self.searched[cls.key] = _mu_values(analyse_state(self.system, cls, self.scene_mu).get("mceip_mu"))
+        return self.searched[cls.key][0]
+
+    def proven(self, cls) -> bool:
+        return self.searched.get(cls.key, ([], False))[1]
+
+
+def _final_mu(fcls, x: list[float], mu: _MuSearches) -> dict:
+    """The final state's quantities: its smallest MCEIP-mu, and the same with its point stick zones
+    slipping (stick zones one node wide, whose effect vanishes only like ``1 / ln(1 / h)``:
+    :func:`app.loading.classify.without_point_stick`), each with whether it is proven."""
+    vals = mu.values(fcls) if len(fcls.slip) else []
+    out = {"final_label": fcls.label(), "final_mu": vals[0] if vals else None, "final_mu_count": len(vals),
+           "final_mu_proven": bool(vals) and mu.proven(fcls)}
+    point = without_point_stick(fcls, x)
+    out["final_point_stick"] = 0 if point is None else sum(a != b for a, b in zip(fcls.status, point.status))
+    if point is not None:
+        vals = mu.values(point)
+    out["final_mu_without_point_stick"] = vals[0] if vals else None
+    out["final_mu_without_point_stick_proven"] = bool(vals) and mu.proven(fcls if point is None else point)
+    return out
 
 
 def _inspector(scene: Scene, ref):
@@ -110,25 +149,11 @@ def _inspector(scene: Scene, ref):
                 seen[cls.key] = cls
                 if len(cls.slip) > 0:
                     order.append((st, cls))
-        searched: dict = {}
-
-        def mu_solutions(cls) -> list[float]:
-            if cls.key not in searched:
-                done = cache.get(cls.key)
-                if done is not None and "mceip_mu" in done[1]:
-                    searched[cls.key] = _mu_values(done[1]["mceip_mu"])
-                else:
-                    searched[cls.key] = _mu_values(analyse_state(system, cls, scene_mu).get("mceip_mu"))
-            return searched[cls.key]
-
+        mu_solutions = (mu := _MuSearches(system, scene_mu, cache)).values
         out: dict = {"mu_fixed": mu_fixed, "distinct_with_slip": len(order),
                      "contact_nodes": len(system.nodes), "dofs": system.n_dofs}
-        final = states[-1]
-        fcls = classify(final, scene.mu, rtol)
-        out["final_label"] = fcls.label()
-        vals = mu_solutions(fcls) if len(fcls.slip) else []
-        out["final_mu"] = vals[0] if vals else None
-        out["final_mu_count"] = len(vals)
+        fcls = classify(states[-1], scene.mu, rtol)
+        out.update(_final_mu(fcls, [nd.x for nd in system.nodes], mu))
 
         # a loading program's load (its parameters' travel), where the states have parameters
         params = [st.load.get("parameters") for st in states]
@@ -222,7 +247,8 @@ def run_level(scene: Scene, level, degree: int, plane: str, comm: MPI.Comm,
            "dofs": n_dofs, "states": len(res.states), "distinct": res.distinct_classifications,
            # the block's compliance (a loading program has its own load quantities instead)
            "depth": res.path.normal_displacement if q.get("load_label") is None else None,
-           **{k: q.get(k) for k in ("final_mu", "first_mu_ux", "first_mu", "lambda2", "tangential_resultant",
+           **{k: q.get(k) for k in ("final_mu", "final_mu_proven", "final_mu_without_point_stick",
+                                    "final_mu_without_point_stick_proven", "final_point_stick", "first_mu_ux", "first_mu", "lambda2", "tangential_resultant",
                                     "sliding_ux", "first_mu_load", "sliding_load", "load_label")},
            "first_mu_label": q.get("first_mu_label"), "final_label": q.get("final_label"),
            "first_method": q.get("first_method"), "path_end": res.path.end,
@@ -288,9 +314,11 @@ def run_refinement(scene: Scene, comm: MPI.Comm, progress: Progress | None = Non
                 if comm.rank == 0:
                     first = (f"first at load {fmt(row['first_mu_load'], 4)}" if row.get("load_label")
                              else f"first at u_x {fmt(row['first_mu_ux'], 4)}")
-                    log(f"refinement: P{deg} {plane} {name}: {row['dofs']} DOFs, {row['contact_nodes']} contact "
-                        f"nodes, final mu {fmt(row['final_mu'])}, {first}, lambda^2 {fmt(row['lambda2'], 5)}, "
-                        f"{row['wall_s']:.1f} s")
+                    point = (f" ({fmt(row['final_mu_without_point_stick'])} without its point stick zone)"
+                             if row.get("final_point_stick") else "")
+                    log(f"refinement: {series_name(deg, [row])} {plane} {name}: {row['dofs']} DOFs, "
+                        f"{row['contact_nodes']} contact nodes, final mu {fmt(row['final_mu'])}{point}, {first}, "
+                        f"lambda^2 {fmt(row['lambda2'], 5)}, {row['wall_s']:.1f} s")
                     if outdir is not None:
                         d = outdir / "levels" / f"P{deg}-{plane}-{tag}"
                         d.mkdir(parents=True, exist_ok=True)

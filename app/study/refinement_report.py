@@ -17,6 +17,7 @@ from app.io.results import csv_header
 
 QOIS = {  # key: (label, quantity: its unit is the scene's, app/systems/units.py)
     "final_mu": ("final-state smallest MCEIP-mu", "mu"),
+    "final_mu_without_point_stick": ("final-state smallest MCEIP-mu without point stick zones", "mu"),
     "first_mu_ux": ("CD u_x at the first MCEIP-mu solution", "length"),
     "lambda2": ("sufficient-condition lambda^2 at mu_fixed (final state)", "lambda2"),
     "depth": ("CD depth for the normal force", "length"),
@@ -171,7 +172,8 @@ def csv_columns(rows: list[dict]) -> list[str]:
     keys = present(rows)
     level = ["pattern", "nx", "ny"] if any(r.get("nx") is not None for r in rows) else ["size_factor"]
     return ["degree", "element", "plane", *level, "h", "contact_nodes", "dofs", "states", "distinct",
-            *keys, "first_mu", "first_mu_label", "final_label",
+            *keys, "first_mu", "first_mu_label", "final_label", "final_point_stick", "final_mu_proven",
+            "final_mu_without_point_stick_proven",
             *[f"err_{k}" for k in keys], "wall_s", *STAGE_GROUPS, "t_other", "first_method", "path_end"]
 
 
@@ -203,7 +205,8 @@ def markdown(summary: dict) -> str:
         for r in rs:
             mesh = f"{r['nx']} x {r['ny']}" if r.get("nx") is not None else level_label(r)
             lines.append(f"| {mesh} | {r['contact_nodes']} | {r['dofs']} | "
-                         + " | ".join(fmt(r.get(k), 6) for k in keys)
+                         + " | ".join(fmt(r.get(k), 6) + (" (not proven)" if r.get(f"{k}_proven") is False
+                                                          and r.get(k) is not None else "") for k in keys)
                          + f" | {fmt(r.get('first_mu'), 5)} | {r['wall_s']:.2f} | {r['t_mceip_mu']:.2f} | "
                          f"{r['t_factor_W']:.2f} | {r['t_loading']:.2f} |")
         lines += ["", "| quantity | observed order p (3 finest) | fitted slope | reference | note |",
@@ -240,6 +243,14 @@ def markdown(summary: dict) -> str:
               "next, resolved to one load step): path dependence, not a convergent quantity.",
               "- Plane strain with nu near 0.5: P1 triangles lock (too stiff) and P2 converges slowly; values "
               "from these meshes may be far from the limit.", ""]
+    points = [r for r in rows if r.get("final_point_stick")]
+    if points:
+        lines[-1:-1] = [
+            f"- A point stick zone: at {len(points)} of {len(rows)} levels the final state has a stick zone one node "
+            "wide (`final_point_stick` nodes), which shrinks to a point with the mesh. In two dimensions a point "
+            "has no capacity: the stiffness such a zone adds vanishes like 1 / ln(L / h), and the final critical "
+            "mu converges only logarithmically, to the value without it (\"without point stick zones\", computed "
+            "with those nodes slipping). Its observed order and extrapolation say nothing; no element changes that."]
     if summary.get("skipped"):
         lines += ["Skipped: " + "; ".join(summary["skipped"])]
     return "\n".join(lines) + "\n"
@@ -248,6 +259,7 @@ def markdown(summary: dict) -> str:
 #: the quantities in the plots' words (μ and λ² as everywhere in the pictures)
 PLOT_TITLES = {
     "final_mu": "final-state smallest MCEIP-\u03bc",
+    "final_mu_without_point_stick": "final-state MCEIP-\u03bc, point stick zones slipping",
     "first_mu_ux": "CD u_x at the first MCEIP-\u03bc solution",
     "lambda2": "sufficient-condition \u03bb\u00b2 at \u03bc_fixed (final state)",
     "first_mu_load": "load at the first MCEIP-\u03bc solution",
@@ -290,8 +302,11 @@ def _error_figure(summary: dict, path: pathlib.Path, x_key: str, xlabel: str, sl
                 continue
             x, e, nx = zip(*pts)
             label = f"{series_name(deg, rows)} {plane}"
-            fitted = (series.get(label) or {}).get(key, {}).get("fitted")
-            if slopes and fitted is not None:
+            est = (series.get(label) or {}).get(key, {})
+            fitted, note = est.get("fitted"), est.get("note", "")
+            if slopes and note.startswith(("oscillating", "differences do not decrease")):
+                label += ", " + note.split(" (")[0].split(":")[0] + ": no slope"      # a slope would mean nothing
+            elif slopes and fitted is not None:
                 label += f", slope {fitted:.2f}"
             ax.loglog(x, e, "o-" if deg == 1 else "s--", color=f"C{k % 10}", label=label)
             for xi, ei, ni in pts:

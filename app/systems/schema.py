@@ -148,5 +148,6 @@ def check_mixed_analyses(scene, poisson: dict) -> None:
     eigen = [a for a in scene.analyses if a in EIGEN_ANALYSES]
     if eigen and half:
         raise PathError("analyses", list(scene.analyses), f"{eigen[0]} is not available with system.element: mixed "
-                        f"and {half[0]} = 0.5 (the incompressible pressure is a constraint, not yet eliminated "
-                        "in the eigenvalues of (17)-(19) and MCEIP-lambda^2); allowed: mceip_mu, enumerate")
+                        f"and {half[0]} = 0.5 (the pressure is a constraint there, which these analyses do not "
+                        "eliminate; (19) is unbounded below at every state with slip nodes as nu -> 1/2, "
+                        "docs/method.md section 10); allowed: mceip_mu, enumerate")
