@@ -180,9 +180,7 @@ def _inspector(scene: Scene, ref):
 
         # Sufficient condition at mu_fixed on the final state's classification.
         lam = None
-        if getattr(scene.system, "element", "displacement") == "mixed" and 0.5 in scene.system.poisson_ratios().values():
-            out["lambda2_eigensolver"] = "not available with the mixed element at nu = 1/2"  # (app/systems/schema.py)
-        elif len(fcls.slip):
+        if len(fcls.slip):
             a = analyse_state(system, fcls, scene_suff).get("sufficient")
             ok = isinstance(a, SufficientOutcome)
             out["lambda2_eigensolver"] = a.eigensolver if ok else getattr(a, "reason", None)

@@ -101,6 +101,9 @@ class System:
     #: DOFs without mass that the analyses eliminate statically (the mixed element's pressure,
     #: docs/method.md section 10): global indices, ascending, replicated; None when there are none
     static_dofs: Optional[np.ndarray] = None
+    #: the static DOFs are a constraint (an incompressible material, nu = 1/2: their block of K is
+    #: singular, zero), which the analyses cannot eliminate by a Schur complement
+    static_constraint: bool = False
     _M: Optional[PETSc.Mat] = field(default=None, repr=False)
     _Sc: Optional[np.ndarray] = field(default=None, repr=False)
 

@@ -129,25 +129,24 @@ def element_name(element: str, degree: int) -> str:
     return "P2-P1 mixed" if element == "mixed" else f"P{degree}"
 
 
-#: the analyses that read eigenvalues or inertias of the pencils: with the mixed element they are
-#: computed on the system with the pressure eliminated first (docs/method.md section 10), which
-#: needs an invertible pressure block, nu < 1/2
-EIGEN_ANALYSES = ("necessary", "sufficient", "mceip_lambda2")
+#: the analysis that needs the pressure eliminated by a Schur complement (the values of (19)),
+#: which needs an invertible pressure block, nu < 1/2 (docs/method.md section 10)
+ELIMINATED_ANALYSES = ("necessary",)
 
 
 def check_mixed_analyses(scene, poisson: dict) -> None:
     """The mixed element's analyses: at nu = 1/2 (``poisson``: key -> nu) the pressure is a
-    constraint that the analyses reading eigenvalues (:data:`EIGEN_ANALYSES`) do not yet
-    eliminate, and the ``transient`` dynamics is not built for it; each is refused in one line."""
+    constraint and (19) is unbounded below at every state with slip nodes, so the necessary
+    condition is refused there; the ``transient`` dynamics is not built for the mixed element.
+    Each is refused in one line."""
     if getattr(scene.system, "element", "displacement") != "mixed":
         return
     if getattr(scene, "transient", None) is not None:
         raise PathError("transient", scene.transient.model_dump(), "is not available with system.element: mixed "
                         "(the dynamics and its divergence mode are built for the displacement element)")
     half = [k for k, nu in poisson.items() if nu == 0.5]
-    eigen = [a for a in scene.analyses if a in EIGEN_ANALYSES]
-    if eigen and half:
-        raise PathError("analyses", list(scene.analyses), f"{eigen[0]} is not available with system.element: mixed "
-                        f"and {half[0]} = 0.5 (the pressure is a constraint there, which these analyses do not "
-                        "eliminate; (19) is unbounded below at every state with slip nodes as nu -> 1/2, "
-                        "docs/method.md section 10); allowed: mceip_mu, enumerate")
+    if "necessary" in scene.analyses and half:
+        raise PathError("analyses", list(scene.analyses), f"necessary is not available with system.element: mixed "
+                        f"and {half[0]} = 0.5 (the pressure is a constraint there, and the smallest eigenvalue of "
+                        "sym K*(mu) falls like -1/(1 - 2 nu) at states with slip nodes: (19) holds at every such "
+                        "state, docs/method.md section 10); allowed: sufficient, mceip_mu, mceip_lambda2, enumerate")

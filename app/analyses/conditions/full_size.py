@@ -37,7 +37,7 @@ def _shift_invert(eps: SLEPc.EPS, sigma: float) -> PETSc.KSP:
 
 
 def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings,
-         prefix: str) -> tuple[SLEPc.EPS, str]:
+         prefix: str, pivoting: bool = False) -> tuple[SLEPc.EPS, str]:
     """A configured EPS for ``A x = theta B x`` (the caller owns it), options read under ``prefix``.
 
     A dense-size pencil (``n <= dense_limit``) distributed over several ranks is solved whole on
@@ -48,13 +48,13 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
     if A.getComm().getSize() > 1 and A.getSize()[0] <= settings.dense_limit:
         copies = [serial_copy(A)] + ([] if B is None else [serial_copy(B)])
         try:
-            return _eps(copies[0], None if B is None else copies[1], hermitian, settings, prefix)
+            return _eps(copies[0], None if B is None else copies[1], hermitian, settings, prefix, pivoting)
         finally:
             for c in copies:       # the EPS holds its own references
                 c.destroy()
     eps = with_prefix(SLEPc.EPS().create(A.getComm()), prefix)
     try:
-        how = _configure(eps, A, B, hermitian, settings)
+        how = _configure(eps, A, B, hermitian, settings, pivoting)
         from_options(eps)
     except BaseException:
         eps.destroy()
@@ -62,7 +62,11 @@ def _eps(A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettin
     return eps, how
 
 
-def _configure(eps: SLEPc.EPS, A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings) -> str:
+def _configure(eps: SLEPc.EPS, A: PETSc.Mat, B: PETSc.Mat | None, hermitian: bool, settings: EigSettings,
+               pivoting: bool = False) -> str:
+    """The EPS's solver for ``A x = theta B x`` (LAPACK up to ``settings.dense_limit``, else
+    Krylov-Schur); ``pivoting``: the shift-and-invert factorisation pivots (MUMPS), for a
+    saddle-point ``A``."""
     n = A.getSize()[0]
     eps.setOperators(A, B)
     if hermitian:
@@ -89,7 +93,7 @@ def _configure(eps: SLEPc.EPS, A: PETSc.Mat, B: PETSc.Mat | None, hermitian: boo
         else:
             # large serial pencils: MUMPS factorises 2-4x faster than PETSc's own LU (100k DOFs:
             # 0.9-1.7 s against 3.3-3.7 s); small ones keep PETSc's (faster there)
-            configure_direct(_shift_invert(eps, 0.0), mumps=True if n >= MUMPS_MIN_DOFS else None)
+            configure_direct(_shift_invert(eps, 0.0), mumps=True if n >= MUMPS_MIN_DOFS or pivoting else None)
             how = f"SLEPc krylovschur + sinvert at 0, {nev} eigenvalues nearest 0"
     return how
 
@@ -313,17 +317,17 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
     ``lambda^2 > 0`` is checked for ``x_Ts >= 0`` (up to the sign of the eigenvector).
 
     ``static``: DOFs without mass (the mixed element's pressure; the reduction leaves their rows
-    as they are, ``K*_ss = K_ss`` invertible). The pencil then has infinite eigenvalues, one per
-    static DOF, whose rounded images LAPACK would return among the finite ones: a dense-size pencil
-    is solved with the static DOFs eliminated (``K*_e = K*_kk - K*_ks K_ss^-1 K*_sk``, the same
-    finite eigenvalues, docs/method.md section 10), a larger one by shift-and-invert about 0,
-    which returns the eigenvalues nearest 0 and never the infinite ones.
+    as they are, ``K*_ss = K_ss``). The pencil then has infinite eigenvalues, whose rounded images
+    LAPACK would return among the finite ones: a dense-size pencil is solved with the static DOFs
+    eliminated (``K*_e = K*_kk - K*_ks K_ss^-1 K*_sk``, the same finite eigenvalues, docs/method.md
+    section 10) or, where ``K_ss = 0`` (nu = 1/2), on the constraint's kernel; a larger one by
+    shift-and-invert about 0, which returns the eigenvalues nearest 0 and never the infinite ones.
     """
     mixed = static is not None and len(static) > 0
     if mixed and Ks.getSize()[0] <= settings.dense_limit:
         pairs, nconv, how = _eliminated_pairs(Ks, Ms, static)
         return _admissible(pairs, nconv, how, comp, keep_modes)
-    eps, how = _eps(Ks, Ms, False, settings, "cd_sufficient_")
+    eps, how = _eps(Ks, Ms, False, settings, "cd_sufficient_", pivoting=mixed)
     with ExitStack() as owns:
         owns.enter_context(owned(eps))
         op = eps.getOperators()[0]          # Ks, or its serial copy (:func:`_eps`)
@@ -345,9 +349,23 @@ def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple
     static rows ``K*_sk x_k + K_ss x_s = 0``. MPI collective (the pencil gathered on every rank)."""
     K, M = dense(Ks), dense(Ms)                               # MPI collective
     keep = np.setdiff1d(np.arange(K.shape[0]), static)
-    solve = scipy.linalg.lu_factor(K[np.ix_(static, static)])
-    Ke = K[np.ix_(keep, keep)] - K[np.ix_(keep, static)] @ scipy.linalg.lu_solve(solve, K[np.ix_(static, keep)])
-    theta, V = scipy.linalg.eig(Ke, M[np.ix_(keep, keep)])
+    Kks, Ksk, Kss = K[np.ix_(keep, static)], K[np.ix_(static, keep)], K[np.ix_(static, static)]
+    constrained = np.abs(Kss).max(initial=0.0) == 0.0
+    if constrained:
+        # nu = 1/2: the static rows are a constraint K_sk x_k = 0 and x_s its multiplier. On
+        # x_k = Z z (Z a basis of ker K_sk), tested with W (a basis of the left kernel of K_ks), the
+        # finite eigenvalues are those of (W^T K_kk Z, W^T M_kk Z); x_s from the kept rows
+        Z, W = scipy.linalg.null_space(Ksk), scipy.linalg.null_space(Kks.T)
+        if Z.shape[1] != W.shape[1] or Z.shape[1] == 0:
+            raise np.linalg.LinAlgError("the incompressibility constraint does not have full rank")
+        theta, V = scipy.linalg.eig(W.T @ K[np.ix_(keep, keep)] @ Z, W.T @ M[np.ix_(keep, keep)] @ Z)
+        V = Z @ V
+        how = f"LAPACK, all {Z.shape[1]} eigenvalues of the pencil on its {len(static)} incompressibility constraints"
+    else:
+        solve = scipy.linalg.lu_factor(Kss)
+        theta, V = scipy.linalg.eig(K[np.ix_(keep, keep)] - Kks @ scipy.linalg.lu_solve(solve, Ksk),
+                                    M[np.ix_(keep, keep)])
+        how = f"LAPACK, all {len(keep)} eigenvalues of the pencil with its {len(static)} pressure DOFs eliminated"
     norm_k, norm_m = np.linalg.norm(K, 1), np.linalg.norm(M, 1)
     pairs = []
     for th, v in zip(theta, V.T):
@@ -355,11 +373,12 @@ def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple
             continue
         x = np.zeros(K.shape[0])
         x[keep] = v.real
-        x[static] = -scipy.linalg.lu_solve(solve, K[np.ix_(static, keep)] @ v.real)
+        rhs = th.real * (M[np.ix_(keep, keep)] @ v.real) - K[np.ix_(keep, keep)] @ v.real
+        x[static] = (np.linalg.lstsq(Kks, rhs, rcond=None)[0] if constrained
+                     else -scipy.linalg.lu_solve(solve, Ksk @ v.real))
         res = np.linalg.norm(K @ x - th.real * (M @ x), 1) / ((norm_k + abs(th.real) * norm_m) * np.linalg.norm(x, 1))
         pairs.append((-th.real, x, float(res)))
-    return pairs, len(theta), (f"LAPACK, all {len(keep)} eigenvalues of the pencil with its {len(static)} "
-                               "pressure DOFs eliminated")
+    return pairs, len(theta), how
 
 
 def _admissible(pairs: list, nconv: int, how: str, comp: np.ndarray, keep_modes: bool) -> SufficientOutcome:

@@ -37,6 +37,11 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
         result, search = no_slip()
         d = MceipLambda2Outcome(solutions=[], result=result, search=search, certified=True,
                                 certificate=certificate("no slip nodes (x_Ts is empty)", (0.0, np.inf), l2b.PROVEN, 0.0))
+    elif system.static_constraint:
+        # an incompressible material: no elimination of the pressure, hence no values or signs of
+        # (19) and no bound on lambda^2 (sym K* is unbounded below there, docs/method.md section 10)
+        with system.stages("MCEIP-lambda2 (12)-(14)"):
+            d = _lambda2_search(p, scene, None, mu, t_start)
     else:
         with system.stages("MCEIP-lambda2 (12)-(14)"):
             d = _on_contact_dofs(p, scene, mu, t_start) if nec is None else None
@@ -189,18 +194,39 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: flo
                           t_start, {"necessary_condition": nec.as_dict()})
 
 
-def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: float,
-                    t_start: float) -> MceipLambda2Outcome:
-    proof = _lambda2_proof(p, scene, nec, mu, t_start)
-    if proof is not None:
-        return proof
-    Ks, Ms = p.star(mu)        # shared with the conditions (19), (17)-(18); destroyed with p
-    tau = diag_scale(Ks) / diag_scale(Ms)
+def _eigenpair_solutions(p: StatePencils, scene: Scene, mu: float, sols: list) -> int:
+    """Add to ``sols`` the admissible eigenpairs of (17)-(18) at ``mu`` (``lambda^2 > 0``,
+    ``x_Ts >= 0``, ``y = 0``: solutions of (12)-(14) with every slip node slipping or at rest) that
+    the search did not find; returns how many. For the incompressible material, whose search has no
+    bound on lambda^2 to box it. MPI collective."""
+    Ks, Ms = p.star(mu)
+    static = p.space.positions(p.system.static_dofs) if _static(p.system) else None     # MPI collective
+    suff = full_size.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene),
+                                static=static)                                         # MPI collective
+    added = 0
+    for m in suff.modes:
+        if any(abs(m.value - s.value) <= 1e-8 * m.value for s in sols):
+            continue
+        err = m.evidence.get("relative_error")
+        m.evidence = {"residual": err, "complementarity": 0.0, "min_x_Ts": float(min(m.x_Ts)), "min_y_Ts": 0.0,
+                      "iterations": 0, "found_by": ["admissible eigenpair of (17)-(18) (y = 0)"], "found_count": 1,
+                      "pattern_residual": err, "pattern_verified": True}
+        sols.append(m)
+        added += 1
+    sols.sort(key=lambda s: s.value)
+    return added
+
+
+def _search_bound(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None, mu: float,
+                  Ks, Ms) -> tuple[float, dict]:
+    """The bound ``T`` on lambda^2 that boxes the search, and how it was had."""
     # x^T (lambda^2 M* + K*) x = x^T y = 0 bounds lambda^2 by the Rayleigh quotients:
     # lambda^2 <= -min eig sym(K*) / min eig sym(M*) when sym(M*) is PD; an LDL^T inertia
     # count of sym K* + T sym M* proves a smaller bound T (app/analyses/mceip_lambda2/bounds.py).
-    upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)"}
-    rayleigh = _rayleigh_bound(nec)
+    upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)" if nec is not None else
+                                      "none (an incompressible material: sym K*(mu) is unbounded below and gives no "
+                                      "bound on lambda^2)"}
+    rayleigh = None if nec is None else _rayleigh_bound(nec)
     if rayleigh is not None and _static(p.system):
         # the pencils hold the pressure, whose inertia is not the eliminated system's: the bound from
         # the Schur complement onto the slip nodes instead (exact.tail_bound)
@@ -222,13 +248,32 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: fl
         bound = {"method": "sym K* + T sym M* PD by an LDL^T inertia count, bisected from the "
                            "Rayleigh-quotient bound -min eig sym K* / min eig sym M*",
                  "rayleigh_bound": rayleigh, "proven_bound": upper, **detail}
+    return upper, bound
+
+
+def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None, mu: float,
+                    t_start: float) -> MceipLambda2Outcome:
+    """The proof on the exact reduction where it succeeds, else the SNES VI search boxed by the
+    best bound available (``nec`` None: the pressure is a constraint, no bound)."""
+    proof = None if nec is None else _lambda2_proof(p, scene, nec, mu, t_start)
+    if proof is not None:
+        return proof
+    Ks, Ms = p.star(mu)        # shared with the conditions (19), (17)-(18); destroyed with p
+    tau = diag_scale(Ks) / diag_scale(Ms)
+    upper, bound = _search_bound(p, scene, nec, mu, Ks, Ms)
     rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
-                       t_upper=upper)
+                       t_upper=upper, pivoting=_static(p.system))
     sols = rep.typed_solutions(keep_vectors=keep_modes(scene))
     search = rep.search()
-    search.update(necessary_condition=nec.as_dict(), lambda2_upper_bound=upper, upper_bound=bound)
+    search.update(necessary_condition=None if nec is None else nec.as_dict(), lambda2_upper_bound=upper,
+                  upper_bound=bound)
+    added = _eigenpair_solutions(p, scene, mu, sols) if nec is None else 0       # MPI collective
+    if added:
+        search["from_sufficient_condition"] = added
     omega2 = None
-    if sols and _static(p.system):       # the pressure rows carry no mass: eliminated first
+    if sols and p.system.static_constraint:
+        pass                             # no elimination of the pressure: not computed
+    elif sols and _static(p.system):     # the pressure rows carry no mass: eliminated first
         omega2 = l2b.free_block_max_omega2_eliminated(Ks, Ms, p.space.comp,
                                                       p.space.positions(p.system.static_dofs))   # MPI collective
     elif sols:
@@ -246,7 +291,8 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: fl
             sol.mark(conditioning="; ".join(why))
     if omega2 is not None:
         search["free_block_max_omega2"] = omega2
-    result = rep.result()
+    result = rep.result() if not added else (
+        f"{len(sols)} distinct solution(s) found ({added} from the admissible eigenpairs of (17)-(18))")
     clean = [x for x in sols if not x.evidence["ill_conditioned"]]
     if len(clean) < len(sols):
         result = (f"{len(clean)} clean solution(s) and {len(sols) - len(clean)} "

@@ -24,12 +24,14 @@ class BorderedMcp:
 
     ``t = t_bar + sigma * zeta`` with the MCP variable ``zeta`` in ``[0, zeta_max]``; the
     plain problem is ``t_bar = 0, sigma = +1``. Distributed like ``A0``; the ``zeta`` row lives
-    on the last rank.
+    on the last rank. ``pivoting``: the linear solves pivot (MUMPS), for matrices with a
+    saddle-point block (the mixed element's pressure), which an unpivoted LU cannot factorise.
     """
 
     def __init__(self, A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, c: float = 1.0,
-                 pairs: list[tuple[int, int]] | None = None):
+                 pairs: list[tuple[int, int]] | None = None, pivoting: bool = False):
         self.comm = A0.getComm().tompi4py()
+        self.pivoting = pivoting
         self.pairs = list(pairs or [])   # (a, b) positions of split tangential rates (zero nodes)
         self.A0, self.A1, self.c = A0, A1, c
         self.n = A0.getSize()[0]
@@ -121,7 +123,8 @@ class BorderedMcp:
         if not self.one_rank:
             csum = self.comm.allreduce(csum)                         # MPI collective
         fa = F.getArray()
-        fa[:self.nloc] = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
+        with np.errstate(invalid="ignore", over="ignore"):   # a diverging t: the run fails, the search goes on
+            fa[:self.nloc] = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
         if self.is_last:
             fa[-1] = csum - self.c
 
@@ -182,7 +185,10 @@ class BorderedMcp:
             self._atol, self._max_funcs = 1e-13, 100 * settings.max_it
             snes.setConvergenceTest(self._converged, args=(settings,))
             # serial: minimum-degree ordering (3x less fill than nd with the dense border), tiny pivot shift
-            configure_direct(snes.getKSP(), shift=1e-14, ordering="qmd")
+            if self.pivoting:
+                configure_direct(snes.getKSP(), mumps=True)
+            else:
+                configure_direct(snes.getKSP(), shift=1e-14, ordering="qmd")
             from_options(snes)
             if method == RSLS and settings.rsls_linesearch != "bt":
                 set_linesearch(snes, settings.rsls_linesearch)
@@ -250,7 +256,7 @@ class BorderedMcp:
         Aff = A0ff.copy()
         Aff.axpy(t, A1ff, structure=self._ff_structure)
         try:
-            ksp = lu_solver(Aff, prefix="cd_mcp_free_", mumps=None)
+            ksp = lu_solver(Aff, prefix="cd_mcp_free_", mumps=True if self.pivoting else None)
         except BaseException:
             Aff.destroy()
             raise
@@ -316,7 +322,8 @@ class BorderedMcp:
         self.v.setArray(x[self.r0:self.r1])
         self.A0.mult(self.v, self.y0)
         self.A1.mult(self.v, self.y1)
-        y = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
+        with np.errstate(invalid="ignore", over="ignore"):   # a diverging t: rejected by the checks
+            y = self.y0.getArray(readonly=True) + t * self.y1.getArray(readonly=True)
         return y if self.one_rank else np.concatenate(self.comm.allgather(y))   # MPI collective
 
     def _measure(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float, float, float, float]:

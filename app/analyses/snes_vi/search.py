@@ -62,7 +62,8 @@ def _pattern_eig_starts(D0: np.ndarray, D1: np.ndarray, comp: np.ndarray, slip: 
 
 def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
                  settings: McpSettings, value_scale: float | None = None,
-                 t_upper: float = np.inf, pairs: list[tuple[int, int]] | None = None) -> SearchReport:
+                 t_upper: float = np.inf, pairs: list[tuple[int, int]] | None = None,
+                 pivoting: bool = False) -> SearchReport:
     """Find the distinct solutions of the MCEIP ``(A0 + t A1) x = y`` reachable by the search.
 
     The problem is scaled first: ``A0 / alpha`` and ``A1 * tau / alpha`` with ``alpha`` the
@@ -79,7 +80,8 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
     3. gaps (the paper's section 4, systematic): the values found split ``[0, inf)`` into
        intervals; each is searched with ``t = lo + zeta``, ``0 <= zeta <= hi - lo``.
     Phases 2-3 repeat while they find something (at most ``shift_rounds`` times).
-    ``t_upper`` is a proven bound on the values (every search is boxed by it).
+    ``t_upper`` is a proven bound on the values (every search is boxed by it). ``pivoting``:
+    pivoted (MUMPS) linear solves, for pencils with a saddle-point block.
     """
     alpha = diag_scale(A0)
     tau = 1.0 if value_scale is None else value_scale
@@ -91,7 +93,7 @@ def search_mceip(A0: PETSc.Mat, A1: PETSc.Mat, comp: np.ndarray, problem: str,
         S0, S1 = (owns.enter_context(owned(serial_copy(A) if whole else A.copy())) for A in (A0, A1))
         S0.scale(1.0 / alpha)
         S1.scale(tau / alpha)
-        op = BorderedMcp(S0, S1, comp, pairs=pairs)
+        op = BorderedMcp(S0, S1, comp, pairs=pairs, pivoting=pivoting)
         owns.callback(op.destroy)
         op.stagnation = settings.stagnation_its
         return _search(op, S0, S1, comp, problem, settings, tau, t_upper, pairs)

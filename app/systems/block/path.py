@@ -66,6 +66,7 @@ def build_block_system(cfg: Block, comm: MPI.Comm, stages: Stages, units: str = 
                                  f"{n} contact nodes, {ops.K.getSize()[0]} DOFs"))
     system.operators, system.flexibility = ops, flex
     system.static_dofs = ops.static
+    system.static_constraint = ops.static is not None and cfg.nu == 0.5
     from app.systems.block.fields import BlockFields
     system.fields = BlockFields(cfg, ops, flex, nodes)
     return system, ops, flex

@@ -166,6 +166,7 @@ def build(cfg: GmshBody, comm: MPI.Comm, stages: Stages, units: str = "mm-N-MPa-
     _check_left_out(cfg, ops, stages)
     system.flexibility = flex
     system.static_dofs = ops.static
+    system.static_constraint = ops.static is not None and 0.5 in cfg.poisson_ratios().values()
     system.own(ops.R, ops.kept, *ops.loads, zero)
     geometry = None
     if cfg.obstacle.curved:      # the curvature terms of the pencils (app/analyses/pencils/curvature.py)
