@@ -375,3 +375,57 @@ def test_the_four_default_analyses_with_the_mixed_element_on_one_and_two_ranks(t
     lam = [s["analyses"]["mceip_lambda2"] for s in one["states"]]
     assert all(a["certified"] for a in lam), {a["result"] for a in lam}
     assert not compare(answers(one), answers(out[2]), 1e-8)
+
+
+def test_the_dense_values_of_the_necessary_condition_equal_the_contact_dofs_ones():
+    """Where the contact DOFs decline a classification (a curved obstacle) the values of (19) with
+    the pressure eliminated come from the dense reduced pencils (app/analyses/conditions/
+    contact_spectrum.py ``_dense_eliminated``); on the flat block both ways apply and agree, stick,
+    slip, free and mixed classifications at three mu (nu = 0.45)."""
+    from mpi4py import MPI
+    from test_contact_spectrum import _cases
+
+    from app.analyses.conditions import contact_spectrum as cs
+    from app.analyses.pencils.state import StatePencils
+    from app.common.stages import Stages
+    from app.scene.schema import parse_scene
+    from app.systems.block.path import build
+    scene = parse_scene({"name": "m", "mu": 1.1, "analyses": ["necessary"],
+                         "system": {"type": "block", "nx": 6, "ny": 3, "degree": 2, "element": "mixed",
+                                    "plane": "strain", "nu": 0.45}})
+    with build(scene.system, MPI.COMM_WORLD, Stages()) as system:
+        for cls in _cases(len(system.nodes)):
+            for mu in (0.3, 1.1, 3.0):
+                p = StatePencils(system, cls)
+                try:
+                    dense = cs._dense_eliminated(p, mu)
+                finally:
+                    p.destroy()
+                known = cs.values(system, cls, mu, {})
+                for name in ("K", "M"):
+                    (a, scale), (b, _) = dense[name], known[name]
+                    assert abs(a - b) <= 1e-9 * scale, (cls.counts(), mu, name, a, b)
+
+
+def test_the_mixed_element_on_a_curved_obstacle_runs_every_analysis(tmp_path):
+    """The half-disk on a convex cylinder (docs/method.md section 8) with the mixed element (nu =
+    0.45, the coarse mesh): the four analyses at every state without a failure, (19) from the dense
+    eliminated pencils (the contact DOFs decline curved classifications), MCEIP-lambda^2 decided by
+    it where it fails and searched where it holds, every MCEIP-mu onset proven."""
+    import json
+    root = pathlib.Path(__file__).resolve().parents[1]
+    p = run_cli_here("run", str(root / "app/scenes/gmsh/half_disk_cylinder.yaml"), "-o", str(tmp_path / "o"), "-q",
+                     "--set", "system.element=mixed", "--set", "system.degree=2", "--set", "system.material.nu=0.45",
+                     "--set", "system.mesh_size_factor=2",
+                     "--set", "analyses=[necessary,sufficient,mceip_mu,mceip_lambda2]",
+                     "--set", "outputs.screenshots=false", "--set", "outputs.plots=false", "--set", "outputs.report=false")
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "o" / "results.json").read_text())
+    assert not res["failures"] and "P2-P1 mixed" in res["system"]
+    for st in res["states"]:
+        a = st["analyses"]
+        assert {"necessary", "sufficient", "mceip_mu", "mceip_lambda2"} <= a.keys()
+        if a["mceip_lambda2"]["result"].startswith("no solution (proved by the necessary"):
+            assert a["necessary"]["satisfied"] is False
+        if a["mceip_mu"].get("solutions"):
+            assert a["mceip_mu"]["onset"]["proven"]

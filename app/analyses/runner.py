@@ -47,7 +47,7 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> Neces
     known = None
     if system.static_dofs is not None and len(system.static_dofs):
         with system.stages("necessary condition (19) on the contact DOFs"):
-            return contact_spectrum.eliminated_necessary(system, p.cls, scene.mu, scene.settings.eig, hints)
+            return contact_spectrum.eliminated_necessary(p, scene.mu, scene.settings.eig, hints)    # MPI collective
     if system.n_dofs >= scene.settings.eig.necessary_contact_min_dofs:
         with system.stages("necessary condition (19) on the contact DOFs"):
             known = contact_spectrum.values(system, p.cls, scene.mu, hints)       # MPI collective

@@ -45,6 +45,7 @@ from app.analyses.conditions import full_size
 from app.analyses.conditions.interior_modes import interior_modes
 from app.analyses.pencils.curvature import is_curved
 from app.analyses.pencils.kept_contact import KeptContact
+from app.analyses.pencils.reduced import dense, eliminate_static
 from app.analyses.pencils.state import sequential_km, system_cache
 from app.loading.classify import Classification
 from app.loading.mumps_schur import SchurComplements, static_schur
@@ -415,14 +416,40 @@ def values(system, cls: Classification, mu: float, hints: dict) -> dict[str, tup
     return got
 
 
-def eliminated_necessary(system, cls: Classification, mu: float, eig, hints: dict):
+#: largest system whose values of (19) with the pressure eliminated are computed densely where the
+#: contact DOFs decline a classification (a curved obstacle)
+ELIMINATED_DENSE_MAX = 4000
+
+
+def eliminated_necessary(p, mu: float, eig, hints: dict):
     """The :class:`~app.analyses.outcomes.NecessaryOutcome` of (19) for a system with static DOFs
-    (the mixed element's pressure), from the contact DOFs alone: the full-size pencils hold the
-    pressure block, and their symmetric parts are not (19)'s (docs/method.md section 10).
-    RuntimeError where the contact DOFs decline the classification. MPI collective."""
-    known = values(system, cls, mu, hints)                            # MPI collective
+    (the mixed element's pressure) at the classification of the pencils ``p``: the full-size
+    pencils hold the pressure block, and their symmetric parts are not (19)'s (docs/method.md
+    section 10). From the contact DOFs; where they decline (a curved obstacle), from the reduced
+    pencils with the pressure eliminated densely (the reduction leaves the pressure rows as they
+    are: ``K*_e = K*_uu - K*_up K_pp^-1 K*_pu``) up to :data:`ELIMINATED_DENSE_MAX` DOFs;
+    RuntimeError above. MPI collective."""
+    system = p.system
+    known = values(system, p.cls, mu, hints)                          # MPI collective
     if any(v is None for v in known.values()):
-        raise RuntimeError("the necessary condition (19) with the mixed element is computed on the contact "
-                           "DOFs only, which declined this classification (a curved obstacle, or a root "
-                           "outside the interpolated pieces)")
+        if system.n_dofs > ELIMINATED_DENSE_MAX:
+            raise RuntimeError("the necessary condition (19) with the mixed element: the contact DOFs declined this "
+                               f"classification (a curved obstacle, or a root outside the interpolated pieces) and "
+                               f"the system has {system.n_dofs} DOFs, above the {ELIMINATED_DENSE_MAX} of the dense "
+                               "elimination")
+        known = {**_dense_eliminated(p, mu), **{k: v for k, v in known.items() if v is not None}}
     return full_size.necessary(None, None, None, None, mu, eig, known=known)
+
+
+def _dense_eliminated(p, mu: float) -> dict[str, tuple[float, float]]:
+    """``{"K": (smallest eigenvalue of sym K*_e(mu), its largest diagonal entry), "M": ...}`` from
+    the dense reduced pencils with the static DOFs eliminated (LAPACK). MPI collective (the pencils
+    gathered on every rank, which all compute the same)."""
+    Ks, Ms = p.star(mu)
+    K, M = dense(Ks), dense(Ms)                                       # MPI collective
+    Ke, Mk, _ = eliminate_static(K, M, p.space.positions(p.system.static_dofs))     # MPI collective
+    out = {}
+    for name, A in (("K", Ke), ("M", Mk)):
+        S = 0.5 * (A + A.T)
+        out[name] = (float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), float(np.abs(np.diag(S)).max()))
+    return out

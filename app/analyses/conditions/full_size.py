@@ -15,7 +15,7 @@ from slepc4py import SLEPc
 
 from app.analyses.mceip_lambda2.bounds import inertia_negative_or_zero
 from app.analyses.outcomes import NecessaryOutcome, Solution, SufficientOutcome
-from app.analyses.pencils.reduced import combine, dense, diag_scale, gather_vec, serial_copy, sym_part
+from app.analyses.pencils.reduced import combine, dense, diag_scale, eliminate_static, gather_vec, serial_copy, sym_part
 from app.linalg import configure_direct, eps_solve, from_options, mumps_null_pivots, owned, set_up, with_prefix
 from app.scene.schema import EigSettings
 
@@ -362,9 +362,8 @@ def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple
         V = Z @ V
         how = f"LAPACK, all {Z.shape[1]} eigenvalues of the pencil on its {len(static)} incompressibility constraints"
     else:
-        solve = scipy.linalg.lu_factor(Kss)
-        theta, V = scipy.linalg.eig(K[np.ix_(keep, keep)] - Kks @ scipy.linalg.lu_solve(solve, Ksk),
-                                    M[np.ix_(keep, keep)])
+        Ke, Mk, _ = eliminate_static(K, M, static)
+        theta, V = scipy.linalg.eig(Ke, Mk)
         how = f"LAPACK, all {len(keep)} eigenvalues of the pencil with its {len(static)} pressure DOFs eliminated"
     norm_k, norm_m = np.linalg.norm(K, 1), np.linalg.norm(M, 1)
     pairs = []
@@ -375,7 +374,7 @@ def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple
         x[keep] = v.real
         rhs = th.real * (M[np.ix_(keep, keep)] @ v.real) - K[np.ix_(keep, keep)] @ v.real
         x[static] = (np.linalg.lstsq(Kks, rhs, rcond=None)[0] if constrained
-                     else -scipy.linalg.lu_solve(solve, Ksk @ v.real))
+                     else -np.linalg.solve(Kss, Ksk @ v.real))
         res = np.linalg.norm(K @ x - th.real * (M @ x), 1) / ((norm_k + abs(th.real) * norm_m) * np.linalg.norm(x, 1))
         pairs.append((-th.real, x, float(res)))
     return pairs, len(theta), how

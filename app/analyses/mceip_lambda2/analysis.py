@@ -51,8 +51,13 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
         mixed = _static(system)
         if nec is None and mixed:  # the full-size pencils hold the pressure: (19) from the contact DOFs
             with system.stages("MCEIP-lambda2 (12)-(14)"):
-                nec = contact_spectrum.eliminated_necessary(system, p.cls, mu, scene.settings.eig,
-                                                            warm_hints(system, mu))     # MPI collective
+                try:
+                    nec = contact_spectrum.eliminated_necessary(p, mu, scene.settings.eig,
+                                                                warm_hints(system, mu))     # MPI collective
+                except RuntimeError:   # declined (a large curved obstacle): searched without a bound
+                    d = _lambda2_search(p, scene, None, mu, t_start)
+                    d.mu = mu
+                    return d
         if nec is None:           # the full-size pencils, only where the contact DOFs do not decide
             K0, K1 = p.K()
             M0, M1 = p.M()
@@ -225,7 +230,8 @@ def _search_bound(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None, m
     # count of sym K* + T sym M* proves a smaller bound T (app/analyses/mceip_lambda2/bounds.py).
     upper, bound = np.inf, {"method": "none (sym M*(mu) not PD: no upper bound on lambda^2)" if nec is not None else
                                       "none (an incompressible material: sym K*(mu) is unbounded below and gives no "
-                                      "bound on lambda^2)"}
+                                      "bound on lambda^2)" if p.system.static_constraint else
+                                      "none (no values of (19) with the pressure eliminated for this classification)"}
     rayleigh = None if nec is None else _rayleigh_bound(nec)
     if rayleigh is not None and _static(p.system):
         # the pencils hold the pressure, whose inertia is not the eliminated system's: the bound from
@@ -267,7 +273,7 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None,
     search = rep.search()
     search.update(necessary_condition=None if nec is None else nec.as_dict(), lambda2_upper_bound=upper,
                   upper_bound=bound)
-    added = _eigenpair_solutions(p, scene, mu, sols) if nec is None else 0       # MPI collective
+    added = _eigenpair_solutions(p, scene, mu, sols) if nec is None else 0       # MPI collective (not bounded)
     if added:
         search["from_sufficient_condition"] = added
     omega2 = None

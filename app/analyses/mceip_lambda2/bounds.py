@@ -30,8 +30,15 @@ import scipy.linalg
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from app.analyses.mceip_lambda2.exact import eliminated
-from app.analyses.pencils.reduced import REPLICATE_MAX, axpy_structure, dense, diag_scale, serial_copy, sym_part
+from app.analyses.pencils.reduced import (
+    REPLICATE_MAX,
+    axpy_structure,
+    dense,
+    diag_scale,
+    eliminate_static,
+    serial_copy,
+    sym_part,
+)
 from app.linalg import eps_solve, from_options, lu, owned, with_prefix
 
 PROVEN = "proven"
@@ -195,7 +202,8 @@ def free_block_max_omega2_eliminated(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndar
         return None
     K, M = dense(Ks), dense(Ms)                                       # MPI collective
     free = np.setdiff1d(np.arange(K.shape[0]), comp)
-    Ke, Me, _ = eliminated(K[np.ix_(free, free)], M[np.ix_(free, free)], np.searchsorted(free, static))
+    Ke, Me, _ = eliminate_static(K[np.ix_(free, free)], M[np.ix_(free, free)], np.searchsorted(free, static))
+    Ke = 0.5 * (Ke + Ke.T)                       # the free rows are K's own: symmetric up to rounding
     m = Ke.shape[0]
     if m == 0:
         return None

@@ -50,7 +50,7 @@ from petsc4py import PETSc
 
 from app.analyses.mceip_mu.state import in_pd_plus_nn
 from app.analyses.pencils.kept_contact import KeptContact
-from app.analyses.pencils.reduced import axpy_structure, dense
+from app.analyses.pencils.reduced import axpy_structure, dense, eliminate_static
 from app.analyses.pencils.state import sequential_km, system_cache
 from app.linalg import lu_solver
 from app.loading.classify import Classification
@@ -218,16 +218,6 @@ def _without(M: PETSc.Mat, static: np.ndarray, block_of_inverse: Callable, dofs:
         Mu.destroy()
 
 
-def eliminated(K: np.ndarray, M: np.ndarray, static: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Dense ``(K_e, M_u, keep)``: the static DOFs ``static`` (no mass, ``K_ss`` invertible)
-    eliminated, ``K_e = K_kk - K_ks K_ss^-1 K_sk`` and ``M_u = M_kk`` on the kept DOFs ``keep``
-    (docs/method.md section 10)."""
-    keep = np.setdiff1d(np.arange(K.shape[0]), static)
-    Ke = K[np.ix_(keep, keep)] - K[np.ix_(keep, static)] @ np.linalg.solve(K[np.ix_(static, static)],
-                                                                          K[np.ix_(static, keep)])
-    return 0.5 * (Ke + Ke.T), M[np.ix_(keep, keep)], keep
-
-
 def dynamic_contact(system, max_dense_dofs: int) -> DynamicContact | None:
     """The system's :class:`DynamicContact` on rank 0 (None on the other ranks), built on first use:
     dense up to ``max_dense_dofs`` DOFs, sparse factorisations above (MPI collective: K and M
@@ -248,7 +238,8 @@ def _build(system, max_dense_dofs: int) -> DynamicContact | None:
             return None
         try:
             if mixed:         # the pressure eliminated first (its block is invertible: nu < 1/2)
-                Kd, Md, keep = eliminated(Kd, Md, static)
+                Kd, Md, keep = eliminate_static(Kd, Md, static)
+                Kd = 0.5 * (Kd + Kd.T)
                 dofs = np.searchsorted(keep, dofs)
             return DynamicContact.from_dense(Kd, Md, dofs, signs)
         except (np.linalg.LinAlgError, ValueError):

@@ -191,6 +191,17 @@ def dense(A: PETSc.Mat) -> np.ndarray:
     return np.vstack(comm.allgather(local))
 
 
+def eliminate_static(K: np.ndarray, M: np.ndarray, static: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Dense ``(K_e, M_kk, keep)``: the static DOFs ``static`` (the mixed element's pressure: no
+    mass, ``K_ss`` invertible) eliminated, ``K_e = K_kk - K_ks K_ss^-1 K_sk`` and the mass on the
+    kept DOFs ``keep`` (docs/method.md section 10). ``K`` may be a reduced, non-symmetric ``K*(mu)``:
+    the reduction leaves the static rows as they are, so this is the eliminated system's."""
+    keep = np.setdiff1d(np.arange(K.shape[0]), static)
+    Ke = K[np.ix_(keep, keep)] - K[np.ix_(keep, static)] @ np.linalg.solve(K[np.ix_(static, static)],
+                                                                          K[np.ix_(static, keep)])
+    return Ke, M[np.ix_(keep, keep)], keep
+
+
 #: up to this size a problem distributed over several ranks is solved whole on every rank
 #: (:func:`serial_copy`): its collectives would cost more than the work they share out
 REPLICATE_MAX = 2000
