@@ -133,3 +133,16 @@ def static_schur(X: PETSc.Mat, dofs: np.ndarray, static: np.ndarray) -> np.ndarr
     if S is None:
         raise RuntimeError("MUMPS gave no Schur complement of the static DOFs (is their block singular, nu = 1/2?)")
     return S
+
+
+def without_static(M: PETSc.Mat, static: np.ndarray, dofs: np.ndarray) -> tuple[PETSc.Mat, np.ndarray]:
+    """``(M_kk, dofs_k)``: the sequential ``M`` without the rows and columns ``static`` (a mass
+    matrix, which holds nothing on the mixed element's pressure; the caller owns the submatrix) and
+    the DOFs ``dofs`` renumbered in it."""
+    keep = np.setdiff1d(np.arange(M.getSize()[0]), static).astype(PETSc.IntType)
+    rows = PETSc.IS().createGeneral(keep, comm=PETSc.COMM_SELF)
+    try:
+        (Mk,) = M.createSubMatrices(rows, rows)
+    finally:
+        rows.destroy()
+    return Mk, np.searchsorted(keep, dofs)

@@ -48,7 +48,7 @@ from app.analyses.pencils.kept_contact import KeptContact
 from app.analyses.pencils.reduced import dense, eliminate_static
 from app.analyses.pencils.state import sequential_km, system_cache
 from app.loading.classify import Classification
-from app.loading.mumps_schur import SchurComplements, static_schur
+from app.loading.mumps_schur import SchurComplements, static_schur, without_static
 
 #: length of one interpolation piece in u = log(kappa - sigma) (a factor e^2 in kappa - sigma)
 PIECE = 2.0
@@ -378,15 +378,9 @@ def _build_both(system) -> tuple[ShiftedContact, ShiftedContact] | None:
             return tuple(build(X, dofs, signs, system.own) for X in pair)
         # the static DOFs eliminated: K through them; M (nothing on them) without them
         K, M = pair
-        keep = np.setdiff1d(np.arange(M.getSize()[0]), static).astype(PETSc.IntType)
-        rows = PETSc.IS().createGeneral(keep, comm=PETSc.COMM_SELF)
-        try:
-            (Mu,) = M.createSubMatrices(rows, rows)
-        finally:
-            rows.destroy()
+        Mu, at = without_static(M, static, dofs)
         system.own(Mu)
-        return (build(K, dofs, signs, system.own, static),
-                build(Mu, np.searchsorted(keep, dofs), signs, system.own))
+        return (build(K, dofs, signs, system.own, static), build(Mu, at, signs, system.own))
     except (PETSc.Error, RuntimeError, np.linalg.LinAlgError):
         return None
 

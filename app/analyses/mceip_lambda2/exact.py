@@ -54,7 +54,7 @@ from app.analyses.pencils.reduced import axpy_structure, dense, eliminate_static
 from app.analyses.pencils.state import sequential_km, system_cache
 from app.linalg import lu_solver
 from app.loading.classify import Classification
-from app.loading.mumps_schur import SchurComplements, static_schur
+from app.loading.mumps_schur import SchurComplements, static_schur, without_static
 
 #: relative margin of the PD + NN tests (rounding of the eliminations, pencil scaled to unit diagonal)
 MARGIN = 1e-8
@@ -206,14 +206,9 @@ class DynamicContact:
 def _without(M: PETSc.Mat, static: np.ndarray, block_of_inverse: Callable, dofs: np.ndarray) -> np.ndarray:
     """``block_of_inverse`` of ``M`` without the rows and columns ``static`` (which hold nothing),
     at the contact DOFs ``dofs`` renumbered accordingly."""
-    keep = np.setdiff1d(np.arange(M.getSize()[0]), static).astype(PETSc.IntType)
-    rows = PETSc.IS().createGeneral(keep, comm=PETSc.COMM_SELF)
+    Mu, at = without_static(M, static, dofs)
     try:
-        (Mu,) = M.createSubMatrices(rows, rows)
-    finally:
-        rows.destroy()
-    try:
-        return block_of_inverse(Mu, np.searchsorted(keep, dofs))
+        return block_of_inverse(Mu, at)
     finally:
         Mu.destroy()
 
