@@ -243,7 +243,10 @@ def _proven(proof, sols: list[Solution], cap: float, settings):
     cert = certificate(proof.method, (0.0, cap) if certified else a.interval, status, proof.seconds,
                        {"s": proof.s, "cap": float(cap), "nodes": proof.nodes, "lower_bound": proof.lower_bound,
                         "check_seconds": round(proof.check_seconds, 4), "candidates": proof.candidates,
-                        "checker": "accepted" if certified else ("onset accepted" if o.proven else "rejected"),
+                        # what the independent checker re-verified: both claims, the onset, or (the
+                        # prover's budget spent first) the lower bound alone
+                        "checker": "accepted" if certified else ("onset accepted" if o.proven else
+                                                                  "lower bound accepted"),
                         **({"stopped_by_time_limit": True} if proof.timed_out else {})},
                        gap=0.0 if certified else (cap - a.interval[1]) / cap)
     cert.cap = float(cap)
