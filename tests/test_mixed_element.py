@@ -378,10 +378,11 @@ def test_the_four_default_analyses_with_the_mixed_element_on_one_and_two_ranks(t
 
 
 def test_the_dense_values_of_the_necessary_condition_equal_the_contact_dofs_ones():
-    """Where the contact DOFs decline a classification (a curved obstacle) the values of (19) with
-    the pressure eliminated come from the dense reduced pencils (app/analyses/conditions/
-    contact_spectrum.py ``_dense_eliminated``); on the flat block both ways apply and agree, stick,
-    slip, free and mixed classifications at three mu (nu = 0.45)."""
+    """Where the contact DOFs decline a classification (a root outside the interpolated pieces) the
+    values of (19) with the pressure eliminated come from the dense reduced pencils
+    (app/analyses/conditions/contact_spectrum.py ``_dense_eliminated``); on the block both ways
+    apply and agree, values and scales, stick, slip, free and mixed classifications at three mu
+    (nu = 0.45)."""
     from mpi4py import MPI
     from test_contact_spectrum import _cases
 
@@ -403,14 +404,15 @@ def test_the_dense_values_of_the_necessary_condition_equal_the_contact_dofs_ones
                     p.destroy()
                 known = cs.values(system, cls, mu, {})
                 for name in ("K", "M"):
-                    (a, scale), (b, _) = dense[name], known[name]
+                    (a, scale), (b, scale_b) = dense[name], known[name]
                     assert abs(a - b) <= 1e-9 * scale, (cls.counts(), mu, name, a, b)
+                    assert scale == pytest.approx(scale_b, rel=1e-9), (cls.counts(), mu, name, scale, scale_b)
 
 
 def test_the_mixed_element_on_a_curved_obstacle_runs_every_analysis(tmp_path):
     """The half-disk on a convex cylinder (docs/method.md section 8) with the mixed element (nu =
-    0.45, the coarse mesh): the four analyses at every state without a failure, (19) from the dense
-    eliminated pencils (the contact DOFs decline curved classifications), MCEIP-lambda^2 decided by
+    0.45, the coarse mesh): the four analyses at every state without a failure, (19) from the
+    contact DOFs in the rotated contact frames with the curvature term, MCEIP-lambda^2 decided by
     it where it fails and searched where it holds, every MCEIP-mu onset proven."""
     import json
     root = pathlib.Path(__file__).resolve().parents[1]

@@ -43,11 +43,11 @@ from petsc4py import PETSc
 
 from app.analyses.conditions import full_size
 from app.analyses.conditions.interior_modes import interior_modes
-from app.analyses.pencils.curvature import is_curved
+from app.analyses.pencils.curvature import frame_matrix, is_curved
 from app.analyses.pencils.kept_contact import KeptContact
 from app.analyses.pencils.reduced import dense, eliminate_static
 from app.analyses.pencils.state import sequential_km, system_cache
-from app.loading.classify import Classification
+from app.loading.classify import FREE, SLIP, Classification
 from app.loading.mumps_schur import SchurComplements, static_schur, without_static
 
 #: length of one interpolation piece in u = log(kappa - sigma) (a factor e^2 in kappa - sigma)
@@ -138,15 +138,29 @@ def _chebyshev(x: float, n: int) -> np.ndarray:
 
 
 class _Root:
-    """``f(sigma) = lambda_min(S(sigma))`` of one classification at ``mu`` on the interpolant."""
+    """``f(sigma) = lambda_min(S(sigma))`` of one classification at ``mu`` on the interpolant.
 
-    def __init__(self, sc: ShiftedContact, cls: Classification, mu: float):
+    On a curved obstacle (docs/method.md section 8) the reduced matrix is that of ``F^T X F``,
+    ``F`` the slip nodes' contact frames (a rotation of each such node's two contact DOFs, so the
+    interior is unchanged and ``F`` folds into the maps: ``Q -> F Q``, ``R -> F R``), plus, for
+    ``K``, the diagonal curvature term ``(1 + mu^2) G`` on the slip nodes' ``x_Ts`` (``curvature``:
+    those diagonal entries in slip-node order, or None)."""
+
+    def __init__(self, sc: ShiftedContact, cls: Classification, mu: float,
+                 curvature: np.ndarray | None = None):
         kc = KeptContact(sc.Xcc.shape[0], cls, mu)
         self.sc, self.n = sc, kc.n
-        P = 0.5 * (kc.Q + kc.R)
+        Q, R = kc.Q, kc.R
+        if is_curved(cls) and cls.rotated():
+            F = scipy.sparse.csc_matrix(frame_matrix(cls.frames, sc.Xcc.shape[0] // 2))
+            Q, R = (F @ Q).tocsc(), (F @ R).tocsc()
+        P = 0.5 * (Q + R)
         self.P = P.tocsc()
-        A0 = kc.sandwich(kc.R, sc.Xcc, kc.Q)
+        A0 = kc.sandwich(R, sc.Xcc, Q)
         self.A0 = 0.5 * (A0 + A0.T)
+        if curvature is not None and len(curvature):
+            at = kc.nF + np.arange(len(curvature))
+            self.A0[at, at] += curvature
         self.Pw = np.asarray(self.P.T @ sc.residues) if len(sc.poles) else np.zeros((kc.n, 0))
         self._projected: dict[int, np.ndarray] = {}
 
@@ -201,11 +215,13 @@ class Value:
     scale: float          # the largest diagonal entry of sym X*(mu), which the value is reported against
 
 
-def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None = None) -> Value | None:
+def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None = None,
+          curvature: np.ndarray | None = None) -> Value | None:
     """The smallest eigenvalue of ``sym X*(mu)`` of classification ``cls`` (see the module's
     docstring), or None when it is left to the full-size solve. ``hint``: the previous
-    classification's value (where to look first)."""
-    root = _Root(sc, cls, mu)
+    classification's value (where to look first); ``curvature``: the diagonal a curved obstacle
+    adds on the slip nodes' ``x_Ts`` (:class:`_Root`)."""
+    root = _Root(sc, cls, mu, curvature)
     if root.n == 0:                           # every contact DOF removed: sym X* is X_ii
         return Value(sc.k1, sc.interior_scale)
     scale = max(sc.interior_scale, float(np.abs(np.diag(root.A0)).max()))
@@ -388,20 +404,21 @@ def _build_both(system) -> tuple[ShiftedContact, ShiftedContact] | None:
 def values(system, cls: Classification, mu: float, hints: dict) -> dict[str, tuple[float, float] | None]:
     """The smallest eigenvalues of ``sym K*(mu)`` and ``sym M*(mu)`` of ``cls`` and the scale each
     is reported relative to (the largest diagonal entry of that matrix), as ``{"K": (value, scale)
-    or None, "M": ...}``: None where it is left to the full-size solve (a curved obstacle, or
-    :func:`value` declined). ``hints`` (name -> the previous classification's value) is read and
+    or None, "M": ...}``: None where it is left to the full-size solve (:func:`value` declined;
+    a curved obstacle's classifications included, :class:`_Root`). ``hints`` (name -> the previous classification's value) is read and
     updated. MPI collective: rank 0 computes, every rank gets the answer."""
     got = {"K": None, "M": None}
-    if not is_curved(cls):
-        spectra = contact_spectra(system)                             # MPI collective (first call)
-        if system.comm.rank == 0 and spectra is not None:
-            for name, sc in zip(("K", "M"), spectra):
-                try:
-                    v = value(sc, cls, mu, hints.get(name))
-                except (RuntimeError, PETSc.Error, np.linalg.LinAlgError):
-                    v = None
-                if v is not None:
-                    got[name] = (v.value, v.scale)
+    spectra = contact_spectra(system)                                 # MPI collective (first call)
+    if system.comm.rank == 0 and spectra is not None:
+        # a curved obstacle: K* carries (1 + mu^2) G on the slip nodes' x_Ts (app/analyses/pencils/curvature.py)
+        bend = (1.0 + mu * mu) * cls.slip_geometric() if is_curved(cls) else None
+        for name, sc in zip(("K", "M"), spectra):
+            try:
+                v = value(sc, cls, mu, hints.get(name), bend if name == "K" else None)
+            except (RuntimeError, PETSc.Error, np.linalg.LinAlgError):
+                v = None
+            if v is not None:
+                got[name] = (v.value, v.scale)
     if system.comm.size > 1:
         got = system.comm.bcast(got, root=0)                          # MPI collective
     for name, v in got.items():
@@ -411,7 +428,7 @@ def values(system, cls: Classification, mu: float, hints: dict) -> dict[str, tup
 
 
 #: largest system whose values of (19) with the pressure eliminated are computed densely where the
-#: contact DOFs decline a classification (a curved obstacle)
+#: contact DOFs decline a classification (a root outside the interpolated pieces)
 ELIMINATED_DENSE_MAX = 4000
 
 
@@ -419,7 +436,7 @@ def eliminated_necessary(p, mu: float, eig, hints: dict):
     """The :class:`~app.analyses.outcomes.NecessaryOutcome` of (19) for a system with static DOFs
     (the mixed element's pressure) at the classification of the pencils ``p``: the full-size
     pencils hold the pressure block, and their symmetric parts are not (19)'s (docs/method.md
-    section 10). From the contact DOFs; where they decline (a curved obstacle), from the reduced
+    section 10). From the contact DOFs; where they decline (a root outside the pieces), from the reduced
     pencils with the pressure eliminated densely (the reduction leaves the pressure rows as they
     are: ``K*_e = K*_uu - K*_up K_pp^-1 K*_pu``) up to :data:`ELIMINATED_DENSE_MAX` DOFs;
     RuntimeError above. MPI collective."""
@@ -428,7 +445,7 @@ def eliminated_necessary(p, mu: float, eig, hints: dict):
     if any(v is None for v in known.values()):
         if system.n_dofs > ELIMINATED_DENSE_MAX:
             raise RuntimeError("the necessary condition (19) with the mixed element: the contact DOFs declined this "
-                               f"classification (a curved obstacle, or a root outside the interpolated pieces) and "
+                               f"classification (a root outside the interpolated pieces) and "
                                f"the system has {system.n_dofs} DOFs, above the {ELIMINATED_DENSE_MAX} of the dense "
                                "elimination")
         known = {**_dense_eliminated(p, mu), **{k: v for k, v in known.items() if v is not None}}
@@ -436,14 +453,24 @@ def eliminated_necessary(p, mu: float, eig, hints: dict):
 
 
 def _dense_eliminated(p, mu: float) -> dict[str, tuple[float, float]]:
-    """``{"K": (smallest eigenvalue of sym K*_e(mu), its largest diagonal entry), "M": ...}`` from
-    the dense reduced pencils with the static DOFs eliminated (LAPACK). MPI collective (the pencils
-    gathered on every rank, which all compute the same)."""
+    """``{"K": (smallest eigenvalue of sym K*_e(mu), scale), "M": ...}`` from the dense reduced
+    pencils with the static DOFs eliminated (LAPACK). The scale is the contact-DOF values' (:func:`build`
+    with ``static``): the largest diagonal entry of the interior's massive DOFs as they are and of
+    the kept contact DOFs eliminated. MPI collective (the pencils gathered on every rank, which all
+    compute the same)."""
+    system, cls = p.system, p.cls
     Ks, Ms = p.star(mu)
     K, M = dense(Ks), dense(Ms)                                       # MPI collective
-    Ke, Mk, _ = eliminate_static(K, M, p.space.positions(p.system.static_dofs))     # MPI collective
+    static = p.space.positions(system.static_dofs)                    # MPI collective
+    kept_contact = [d for nd, st in zip(system.nodes, cls.status)
+                    for d in ((nd.dof_T, nd.dof_N) if st == FREE else (nd.dof_T,) if st == SLIP else ())]
+    contact = p.space.positions(np.sort(np.asarray(kept_contact, dtype=np.int64)))    # MPI collective
+    Ke, Mk, keep = eliminate_static(K, M, static)
+    at = np.isin(keep, contact)
     out = {}
-    for name, A in (("K", Ke), ("M", Mk)):
+    for name, A, whole in (("K", Ke, K), ("M", Mk, M)):
         S = 0.5 * (A + A.T)
-        out[name] = (float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), float(np.abs(np.diag(S)).max()))
+        d = np.abs(np.diag(whole)[keep])
+        d[at] = np.abs(np.diag(S))[at]
+        out[name] = (float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), float(d.max()))
     return out

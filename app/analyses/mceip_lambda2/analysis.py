@@ -54,7 +54,7 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
                 try:
                     nec = contact_spectrum.eliminated_necessary(p, mu, scene.settings.eig,
                                                                 warm_hints(system, mu))     # MPI collective
-                except RuntimeError:   # declined (a large curved obstacle): searched without a bound
+                except RuntimeError:   # the values declined, the system too large: searched without a bound
                     d = _lambda2_search(p, scene, None, mu, t_start)
                     d.mu = mu
                     return d
