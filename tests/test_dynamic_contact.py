@@ -246,3 +246,62 @@ def test_warm_eigenvectors_change_no_value():
                 a, b = getattr(warm, f"min_eig_{name}_sym"), getattr(cold, f"min_eig_{name}_sym")
                 assert a == pytest.approx(b, rel=1e-9), (slip_from, name)
         assert hints["K_vector"].shape == (rows[1] - rows[0],)
+
+
+@pytest.mark.parametrize("name", ["half_disk_cylinder.yaml", "half_disk_seat.yaml"])
+def test_the_reduction_on_a_curved_obstacle_is_the_full_pencils_schur_complement(name):
+    """On a curved obstacle the reduced pencils hold the slip nodes' contact frames and K* the
+    curvature term (1 + mu^2) G (docs/method.md section 8). The exact slip-node reduction of
+    MCEIP-lambda^2 (app/analyses/mceip_lambda2/exact.py) against the dense Schur complement of
+    the app's full reduced pencil K*(mu) + t M*(mu) onto the slip nodes' x_Ts, along the path of
+    the half-disk on a cylinder and in a seat, at three t (1e-8 of the scale); and the signs of
+    (19) from the contact DOFs against the full pencils' smallest eigenvalues."""
+    import re
+
+    import yaml
+    from conftest import ROOT
+
+    from app.analyses.mceip_lambda2 import exact as l2x
+    from app.analyses.pencils import curvature
+    from app.analyses.pencils.reduced import dense
+    from app.analyses.pencils.state import StatePencils
+    from app.loading.classify import ZERO, classify
+    from app.scene.schema import parse_scene
+    from app.study.run import study
+    src = ROOT / "app" / "scenes" / "gmsh"
+    data = yaml.safe_load(re.sub(r"^outputs:.*$", "", (src / name).read_text(), flags=re.M))
+    data["system"]["file"] = str(src / data["system"]["file"])
+    data["analyses"] = []
+    scene = parse_scene(data)
+    mu = scene.mu
+
+    def inspect(system, states, cache):
+        dc = l2x.dynamic_contact(system, scene.settings.mcp.lambda2_exact_max_dofs)
+        seen, checked = set(), 0
+        for st in states:
+            cls = curvature.attach(classify(st, mu, scene.settings.classify_rtol), st, system)
+            if cls.key in seen or ZERO in cls.status or not len(cls.slip):
+                continue
+            seen.add(cls.key)
+            assert curvature.is_curved(cls) and cls.rotated()
+            p = StatePencils(system, cls)
+            try:
+                Ks, Ms = (dense(A) for A in p.star(mu))
+                comp = p.space.comp
+            finally:
+                p.destroy()
+            red = l2x._Reduction(dc, cls, mu)
+            f = np.setdiff1d(np.arange(Ks.shape[0]), comp)
+            for t in (0.0, 1e4, 1e8):
+                A = Ks + t * Ms
+                S = A[np.ix_(comp, comp)] - A[np.ix_(comp, f)] @ np.linalg.solve(A[np.ix_(f, f)], A[np.ix_(f, comp)])
+                Sh, Qt = red.at(t)
+                scale = np.abs(np.diag(S)).max()
+                assert np.abs(0.5 * (S + S.T) - (Sh + Qt)).max() <= 1e-8 * scale, (cls.counts(), t)
+            signs = l2x.contact_signs(dc, cls, mu)
+            assert signs.k_pd == (np.linalg.eigvalsh(0.5 * (Ks + Ks.T))[0] > 0), cls.counts()
+            checked += 1
+        return {"checked": checked}
+
+    res = study(scene, MPI.COMM_WORLD, None, inspect=inspect)
+    assert res.inspection["checked"] >= 5

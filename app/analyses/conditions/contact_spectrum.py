@@ -43,7 +43,6 @@ from petsc4py import PETSc
 
 from app.analyses.conditions import full_size
 from app.analyses.conditions.interior_modes import interior_modes
-from app.analyses.pencils.curvature import frame_matrix, is_curved
 from app.analyses.pencils.kept_contact import KeptContact
 from app.analyses.pencils.reduced import dense, eliminate_static
 from app.analyses.pencils.state import sequential_km, system_cache
@@ -140,27 +139,15 @@ def _chebyshev(x: float, n: int) -> np.ndarray:
 class _Root:
     """``f(sigma) = lambda_min(S(sigma))`` of one classification at ``mu`` on the interpolant.
 
-    On a curved obstacle (docs/method.md section 8) the reduced matrix is that of ``F^T X F``,
-    ``F`` the slip nodes' contact frames (a rotation of each such node's two contact DOFs, so the
-    interior is unchanged and ``F`` folds into the maps: ``Q -> F Q``, ``R -> F R``), plus, for
-    ``K``, the diagonal curvature term ``(1 + mu^2) G`` on the slip nodes' ``x_Ts`` (``curvature``:
-    those diagonal entries in slip-node order, or None)."""
+    On a curved obstacle the maps hold the contact frames and ``bend`` adds, for ``K``, the
+    curvature term on the slip nodes' ``x_Ts`` (:class:`~app.analyses.pencils.kept_contact.KeptContact`)."""
 
-    def __init__(self, sc: ShiftedContact, cls: Classification, mu: float,
-                 curvature: np.ndarray | None = None):
+    def __init__(self, sc: ShiftedContact, cls: Classification, mu: float, bend: bool = False):
         kc = KeptContact(sc.Xcc.shape[0], cls, mu)
         self.sc, self.n = sc, kc.n
-        Q, R = kc.Q, kc.R
-        if is_curved(cls) and cls.rotated():
-            F = scipy.sparse.csc_matrix(frame_matrix(cls.frames, sc.Xcc.shape[0] // 2))
-            Q, R = (F @ Q).tocsc(), (F @ R).tocsc()
-        P = 0.5 * (Q + R)
-        self.P = P.tocsc()
-        A0 = kc.sandwich(R, sc.Xcc, Q)
+        self.P = (0.5 * (kc.Q + kc.R)).tocsc()
+        A0 = kc.reduced(sc.Xcc, bend)
         self.A0 = 0.5 * (A0 + A0.T)
-        if curvature is not None and len(curvature):
-            at = kc.nF + np.arange(len(curvature))
-            self.A0[at, at] += curvature
         self.Pw = np.asarray(self.P.T @ sc.residues) if len(sc.poles) else np.zeros((kc.n, 0))
         self._projected: dict[int, np.ndarray] = {}
 
@@ -216,12 +203,12 @@ class Value:
 
 
 def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None = None,
-          curvature: np.ndarray | None = None) -> Value | None:
+          bend: bool = False) -> Value | None:
     """The smallest eigenvalue of ``sym X*(mu)`` of classification ``cls`` (see the module's
     docstring), or None when it is left to the full-size solve. ``hint``: the previous
-    classification's value (where to look first); ``curvature``: the diagonal a curved obstacle
-    adds on the slip nodes' ``x_Ts`` (:class:`_Root`)."""
-    root = _Root(sc, cls, mu, curvature)
+    classification's value (where to look first); ``bend``: ``X`` is ``K``, which carries a curved
+    obstacle's curvature term (:class:`_Root`)."""
+    root = _Root(sc, cls, mu, bend)
     if root.n == 0:                           # every contact DOF removed: sym X* is X_ii
         return Value(sc.k1, sc.interior_scale)
     scale = max(sc.interior_scale, float(np.abs(np.diag(root.A0)).max()))
@@ -410,11 +397,9 @@ def values(system, cls: Classification, mu: float, hints: dict) -> dict[str, tup
     got = {"K": None, "M": None}
     spectra = contact_spectra(system)                                 # MPI collective (first call)
     if system.comm.rank == 0 and spectra is not None:
-        # a curved obstacle: K* carries (1 + mu^2) G on the slip nodes' x_Ts (app/analyses/pencils/curvature.py)
-        bend = (1.0 + mu * mu) * cls.slip_geometric() if is_curved(cls) else None
         for name, sc in zip(("K", "M"), spectra):
-            try:
-                v = value(sc, cls, mu, hints.get(name), bend if name == "K" else None)
+            try:     # on a curved obstacle K* carries the curvature term (app/analyses/pencils/kept_contact.py)
+                v = value(sc, cls, mu, hints.get(name), bend=name == "K")
             except (RuntimeError, PETSc.Error, np.linalg.LinAlgError):
                 v = None
             if v is not None:

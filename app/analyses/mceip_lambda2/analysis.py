@@ -16,7 +16,6 @@ from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mceip_mu.state import certificate
 from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome
-from app.analyses.pencils.curvature import is_curved
 from app.analyses.pencils.reduced import diag_scale
 from app.analyses.pencils.state import StatePencils, keep_modes, no_slip, warm_hints
 from app.analyses.snes_vi.search import search_mceip
@@ -109,10 +108,9 @@ def _rayleigh_bound(nec: NecessaryOutcome) -> float | None:
 
 def _on_rank_zero(p: StatePencils, scene: Scene, work):
     """``work(dc)`` on rank 0, which alone holds the system's exact reduction (dense, or K and M
-    gathered there), broadcast to every rank; None where the reduction does not apply (a curved
-    obstacle: it has no curvature terms) or could not be built. MPI collective."""
-    if is_curved(p.cls):
-        return None
+    gathered there; on a curved obstacle with its contact frames and curvature term,
+    :class:`app.analyses.pencils.kept_contact.KeptContact`), broadcast to every rank; None where
+    it could not be built. MPI collective."""
     dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
     comm = p.system.comm
     got = None

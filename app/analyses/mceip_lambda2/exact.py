@@ -265,7 +265,7 @@ class _Reduction(KeptContact):
         hit = self._cache.get(t)
         if hit is None:
             Z, H = self.dc.at(t)
-            A = self.sandwich(self.R, Z, self.Q)
+            A = self.reduced(Z, bend=True)         # K* + t M*: a curved obstacle's term is K*'s
             G = 0.5 * (A + A.T) - 0.25 * self.sandwich(self.D, H - Z, self.D)
             Sx, Sh = self._schur(A), self._schur(G)
             Sh = 0.5 * (Sh + Sh.T)
@@ -310,7 +310,7 @@ class Signs:
 def contact_signs(dc: DynamicContact, cls: Classification, mu: float) -> Signs:
     """:class:`Signs` of one classification: dense work on the kept contact DOFs only."""
     red = _Reduction(dc, cls, mu)
-    GK = red.kept(*dc.at(0.0))
+    GK = red.kept(*dc.at(0.0), bend=True)
     GM = red.kept(dc.mass_schur(), dc.Mcc)
     m_pd = _pd(GM)
     m_psd = m_pd or _pd(GM + 2 * MARGIN * np.diag(np.abs(np.diag(GM))))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse
 
+from app.analyses.pencils.curvature import frame_matrix, is_curved
 from app.loading.classify import FREE, Classification
 
 
@@ -14,7 +15,12 @@ class KeptContact:
     """The kept contact unknowns of one classification at mu (free nodes' DOFs, then the slip
     nodes' ``T``) and the maps of the paper's change of variables onto them, for ``n_c`` contact
     DOFs in paper axes: ``x_c = Q u`` (columns) and ``y_kept = R y_c`` (rows); ``self.R`` holds
-    ``R^T``. One or two entries per column, so products cost ``O(n_c k)``."""
+    ``R^T``. One or two entries per column, so products cost ``O(n_c k)``.
+
+    On a curved obstacle (docs/method.md section 8) the pencils are those of ``F^T X F``, ``F``
+    rotating each slip node's two DOFs into its contact frame; the interior is untouched, so ``F``
+    folds into the maps (``Q -> F Q``, ``R -> F R``), and ``bend`` holds the diagonal that ``K*``
+    (not ``M*``) carries on the kept DOFs, ``(1 + mu^2) G`` on the slip nodes' ``x_Ts``."""
 
     def __init__(self, nC: int, cls: Classification, mu: float):
         slip, free = cls.slip, cls.indices(FREE)
@@ -31,6 +37,12 @@ class KeptContact:
         r_vals = np.concatenate([np.ones(nF), cls.slip_signs, np.full(s, float(mu))]).astype(float)
         self.Q = scipy.sparse.csc_matrix((q_vals, (q_rows, cols)), shape=(nC, k))
         self.R = scipy.sparse.csc_matrix((r_vals, (r_rows, r_cols)), shape=(nC, k))
+        self.bend = np.zeros(k)
+        if is_curved(cls):
+            if cls.rotated():
+                F = scipy.sparse.csc_matrix(frame_matrix(cls.frames, nC // 2))
+                self.Q, self.R = (F @ self.Q).tocsc(), (F @ self.R).tocsc()
+            self.bend[nF:] = (1.0 + mu * mu) * cls.slip_geometric()
         self.D = (self.Q - self.R).tocsc()
 
     @staticmethod
@@ -38,11 +50,20 @@ class KeptContact:
         """``L^T X Rm`` for sparse ``L``, ``Rm`` and dense ``X``."""
         return np.asarray((L.T @ (Rm.T @ X.T).T))
 
-    def kept(self, Z: np.ndarray, H: np.ndarray) -> np.ndarray:
+    def reduced(self, X: np.ndarray, bend: bool = False) -> np.ndarray:
+        """``R X Q`` on the kept contact DOFs, plus the curvature diagonal when ``bend`` (``X`` a
+        stiffness-like matrix: ``K``'s Schur complements)."""
+        A = self.sandwich(self.R, X, self.Q)
+        if bend:
+            A[np.diag_indices_from(A)] += self.bend
+        return A
+
+    def kept(self, Z: np.ndarray, H: np.ndarray, bend: bool = False) -> np.ndarray:
         """The Schur complement of ``sym A*(mu)`` onto the kept contact DOFs (free nodes', slip
         nodes' ``T``), ``A`` the symmetric matrix whose contact block is ``H`` and whose Schur
         complement onto the contact DOFs is ``Z`` (docs/method.md section 2): with ``A*`` coupling
         the interior through ``P = (Q + R^T) / 2``, it is ``sym(R H Q) - P^T (H - Z) P``, which is
-        ``sym(R Z Q) - (Q - R^T)^T (H - Z) (Q - R^T) / 4``."""
-        A = self.sandwich(self.R, Z, self.Q)
+        ``sym(R Z Q) - (Q - R^T)^T (H - Z) (Q - R^T) / 4`` (with the curvature diagonal when
+        ``bend``)."""
+        A = self.reduced(Z, bend)
         return 0.5 * (A + A.T) - 0.25 * self.sandwich(self.D, H - Z, self.D)
