@@ -45,7 +45,7 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> Neces
     and anything smaller, on the full pencils)."""
     hints = warm_hints(system, scene.mu)
     known = None
-    if system.static_dofs is not None and len(system.static_dofs):
+    if system.has_static_dofs:
         with system.stages("necessary condition (19) on the contact DOFs"):
             return contact_spectrum.eliminated_necessary(p, scene.mu, scene.settings.eig, hints)    # MPI collective
     if system.n_dofs >= scene.settings.eig.necessary_contact_min_dofs:

@@ -135,6 +135,11 @@ class System:
     def __exit__(self, *exc) -> None:
         self.destroy()
 
+    @property
+    def has_static_dofs(self) -> bool:
+        """Whether some DOFs carry no mass and are eliminated statically (:attr:`static_dofs`)."""
+        return self.static_dofs is not None and len(self.static_dofs) > 0
+
     def own(self, *objs) -> None:
         """Hand PETSc objects made for this system (by an analysis) over to it: :meth:`destroy`
         destroys them with the system's own."""

@@ -47,7 +47,7 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
             if d is not None:
                 d.mu = mu
                 return d
-        mixed = _static(system)
+        mixed = system.has_static_dofs
         if nec is None and mixed:  # the full-size pencils hold the pressure: (19) from the contact DOFs
             with system.stages("MCEIP-lambda2 (12)-(14)"):
                 try:
@@ -91,11 +91,6 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
                 d = _lambda2_search(p, scene, nec, mu, t_start)
     d.mu = mu
     return d
-
-
-def _static(system: System) -> bool:
-    """The system has DOFs without mass eliminated statically (the mixed element's pressure)."""
-    return system.static_dofs is not None and len(system.static_dofs) > 0
 
 
 def _rayleigh_bound(nec: NecessaryOutcome) -> float | None:
@@ -203,7 +198,7 @@ def _eigenpair_solutions(p: StatePencils, scene: Scene, mu: float, sols: list) -
     the search did not find; returns how many. For the incompressible material, whose search has no
     bound on lambda^2 to box it. MPI collective."""
     Ks, Ms = p.star(mu)
-    static = p.space.positions(p.system.static_dofs) if _static(p.system) else None     # MPI collective
+    static = p.space.positions(p.system.static_dofs) if p.system.has_static_dofs else None     # MPI collective
     suff = full_size.sufficient(Ks, Ms, p.space.comp, scene.settings.eig, keep_modes=keep_modes(scene),
                                 static=static)                                         # MPI collective
     added = 0
@@ -231,7 +226,7 @@ def _search_bound(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None, m
                                       "bound on lambda^2)" if p.system.static_constraint else
                                       "none (no values of (19) with the pressure eliminated for this classification)"}
     rayleigh = None if nec is None else _rayleigh_bound(nec)
-    if rayleigh is not None and _static(p.system):
+    if rayleigh is not None and p.system.has_static_dofs:
         # the pencils hold the pressure, whose inertia is not the eliminated system's: the bound from
         # the Schur complement onto the slip nodes instead (exact.tail_bound)
         got = _on_rank_zero(p, scene, lambda dc: l2x.tail_bound(dc, p.cls, mu, rayleigh))   # MPI collective
@@ -266,7 +261,7 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None,
     tau = diag_scale(Ks) / diag_scale(Ms)
     upper, bound = _search_bound(p, scene, nec, mu, Ks, Ms)
     rep = search_mceip(Ks, Ms, p.space.comp, "lambda2", scene.settings.mcp, value_scale=tau,
-                       t_upper=upper, pivoting=_static(p.system))
+                       t_upper=upper, pivoting=p.system.has_static_dofs)
     sols = rep.typed_solutions(keep_vectors=keep_modes(scene))
     search = rep.search()
     search.update(necessary_condition=None if nec is None else nec.as_dict(), lambda2_upper_bound=upper,
@@ -277,7 +272,7 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None,
     omega2 = None
     if sols and p.system.static_constraint:
         pass                             # no elimination of the pressure: not computed
-    elif sols and _static(p.system):     # the pressure rows carry no mass: eliminated first
+    elif sols and p.system.has_static_dofs:     # the pressure rows carry no mass: eliminated first
         omega2 = l2b.free_block_max_omega2_eliminated(Ks, Ms, p.space.comp,
                                                       p.space.positions(p.system.static_dofs))   # MPI collective
     elif sols:
