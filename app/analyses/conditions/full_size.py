@@ -337,10 +337,16 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
         pairs = []
         for i in range(nconv):
             theta = eps.getEigenpair(i, vr, vi)
-            if abs(theta.imag) > 1e-8 * max(abs(theta), 1e-300) or not np.isfinite(theta.real) or theta.real >= 0:
+            if not _growing(theta):
                 continue
             pairs.append((-theta.real, gather_vec(vr), float(eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE))))
     return _admissible(pairs, nconv, how, comp, keep_modes)
+
+
+def _growing(theta: complex) -> bool:
+    """Whether the eigenvalue ``theta`` of ``K* x = theta M* x`` is real (to 1e-8), finite and
+    negative: a ``lambda^2 = -theta > 0``."""
+    return bool(abs(theta.imag) <= 1e-8 * max(abs(theta), 1e-300) and np.isfinite(theta.real) and theta.real < 0)
 
 
 def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple[list, int, str]:
@@ -368,13 +374,15 @@ def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple
     norm_k, norm_m = np.linalg.norm(K, 1), np.linalg.norm(M, 1)
     pairs = []
     for th, v in zip(theta, V.T):
-        if abs(th.imag) > 1e-8 * max(abs(th), 1e-300) or not np.isfinite(th.real) or th.real >= 0:
+        if not _growing(th):
             continue
         x = np.zeros(K.shape[0])
         x[keep] = v.real
-        rhs = th.real * (M[np.ix_(keep, keep)] @ v.real) - K[np.ix_(keep, keep)] @ v.real
-        x[static] = (np.linalg.lstsq(Kks, rhs, rcond=None)[0] if constrained
-                     else -np.linalg.solve(Kss, Ksk @ v.real))
+        if constrained:         # the multiplier from the kept rows (least squares: K_ks has full column rank)
+            rhs = th.real * (M[np.ix_(keep, keep)] @ v.real) - K[np.ix_(keep, keep)] @ v.real
+            x[static] = np.linalg.lstsq(Kks, rhs, rcond=None)[0]
+        else:
+            x[static] = -np.linalg.solve(Kss, Ksk @ v.real)
         res = np.linalg.norm(K @ x - th.real * (M @ x), 1) / ((norm_k + abs(th.real) * norm_m) * np.linalg.norm(x, 1))
         pairs.append((-th.real, x, float(res)))
     return pairs, len(theta), how
