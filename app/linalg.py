@@ -18,7 +18,8 @@ file. :func:`owned` is the context manager that destroys a PETSc object on every
 Also here: :func:`set_linesearch` (a SNES line search default through the options database,
 removed at once), :func:`one_blas_thread` (one BLAS thread around dense numpy/LAPACK work) and
 :func:`flush_subnormals` (around the large factorisations of well-conditioned matrices) and
-:func:`set_up` and :func:`eps_solve` (a factorisation, an eigensolve, with the interpreter released, so that progress and signals go on).
+:func:`set_up`, :func:`eps_solve` and :func:`snes_solve` (a factorisation, an eigensolve, a SNES VI
+run, with the interpreter released, so that progress and signals go on).
 """
 from __future__ import annotations
 
@@ -161,11 +162,19 @@ def eps_solve(eps) -> None:
     _released(eps, "Solve")
 
 
-def _released(obj, verb: str) -> None:
+def snes_solve(snes, b, x) -> None:
+    """``snes.solve(b, x)`` with the interpreter released (as :func:`eps_solve`): each Newton step
+    of a SNES VI run on the full system factorises its reduced Jacobian (minutes at 10^6 DOFs, a
+    new symbolic analysis at every change of the active set). The residual, Jacobian and
+    convergence test callbacks take the interpreter, and a signal taken there is raised here."""
+    _released(snes, "Solve", b, x)
+
+
+def _released(obj, verb: str, *args) -> None:
     fn = _c_function(type(obj).__name__, verb)
     try:
-        with hard_stop.released(calls_back=verb == "Solve"):      # a solve's monitors take signals
-            err = fn(ctypes.c_void_p(obj.handle))
+        with hard_stop.released(calls_back=verb == "Solve"):      # a solve's callbacks take signals
+            err = fn(ctypes.c_void_p(obj.handle), *(ctypes.c_void_p(None if a is None else a.handle) for a in args))
     except SystemError as exc:
         # a monitor raised: the C function returned with that exception set, which Python reports
         # as a SystemError caused by it
@@ -178,17 +187,17 @@ def _released(obj, verb: str) -> None:
 
 @functools.lru_cache(maxsize=None)
 def _c_function(kind: str, verb: str):
-    """The C function ``<kind><verb>`` (``KSPSetUp``, ``EPSSetUp``, ``EPSSolve``) from the library
-    petsc4py or slepc4py is linked to, looked up once per process."""
+    """The C function ``<kind><verb>`` (``KSPSetUp``, ``EPSSetUp``, ``EPSSolve``, ``SNESSolve``) from
+    the library petsc4py or slepc4py is linked to, looked up once per process."""
     if kind == "EPS":
         from slepc4py import SLEPc
         module = SLEPc
-    elif kind == "KSP":
+    elif kind in ("KSP", "SNES"):
         module = PETSc
     else:
-        raise TypeError(f"a KSP or an EPS, not {kind}")
+        raise TypeError(f"a KSP, an EPS or a SNES, not {kind}")
     fn = getattr(ctypes.CDLL(module.__file__), f"{kind}{verb}")
-    fn.argtypes = [ctypes.c_void_p]
+    fn.argtypes = [ctypes.c_void_p] * (3 if (kind, verb) == ("SNES", "Solve") else 1)
     fn.restype = ctypes.c_int
     return fn
 

@@ -12,7 +12,7 @@ from petsc4py import PETSc
 
 from app.analyses.pencils.reduced import axpy_structure
 from app.analyses.snes_vi.results import McpSolution
-from app.linalg import configure_direct, from_options, lu_solver, set_linesearch, with_prefix
+from app.linalg import configure_direct, from_options, lu_solver, set_linesearch, snes_solve, with_prefix
 from app.scene.schema import McpSettings
 
 RSLS, SSLS = "vinewtonrsls", "vinewtonssls"
@@ -224,7 +224,7 @@ class BorderedMcp:
         snes = self._solver(method, settings)
         try:
             snes.setVariableBounds(xl, xu)
-            snes.solve(None, X)
+            snes_solve(snes, None, X)      # the interpreter released: progress and signals go on
             reason, its = snes.getConvergedReason(), snes.getIterationNumber()
         except PETSc.Error:          # e.g. a zero pivot in a dense reduced Jacobian: a failed run
             reason, its = -3, snes.getIterationNumber()
