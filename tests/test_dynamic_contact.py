@@ -290,7 +290,7 @@ def test_the_reduction_on_a_curved_obstacle_is_the_full_pencils_schur_complement
                 comp = p.space.comp
             finally:
                 p.destroy()
-            red = l2x._Reduction(dc, cls, mu)
+            red = l2x.Reduction(dc, cls, mu)
             f = np.setdiff1d(np.arange(Ks.shape[0]), comp)
             for t in (0.0, 1e4, 1e8):
                 A = Ks + t * Ms

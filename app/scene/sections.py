@@ -69,6 +69,11 @@ class McpSettings(Strict):
     # condensed MCEIP-mu search: above this many slip nodes the "x zero on one node" starts (nearly
     # uniform there) are left out, half the Newton runs (app/analyses/mceip_mu/candidates.py)
     search_zero_one_max: Annotated[int, Field(ge=0, le=100_000)] = 40
+    lambda2_full_search_max_dofs: Annotated[int, Field(ge=0, le=100_000_000)] = Field(
+        200_000, description="MCEIP-lambda^2 where its proof on the exact reduction fails: up to this many DOFs "
+                             "the SNES VI search on the full system; above, the search on the exact reduction in "
+                             "the intervals of lambda^2 the proof could not certify (the full system's search "
+                             "factorises it at every Newton step: hours per state at 10^6 DOFs)")
     # large condensed problems (100k-DOF studies): above search_full_max slip nodes the search
     # runs a reduced start set (uniform x and x on search_one_node spread unknowns with every t0, the
     # all-slip eigenvectors, the previous classification's solutions within a chain of warm_chain

@@ -14,6 +14,7 @@ import numpy as np
 from app.analyses.conditions import contact_spectrum, full_size
 from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
+from app.analyses.mceip_lambda2 import reduced_search as l2rs
 from app.analyses.mceip_mu.state import certificate
 from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome
 from app.analyses.pencils.reduced import diag_scale
@@ -125,17 +126,22 @@ def _on_contact_dofs(p: StatePencils, scene: Scene, mu: float, t_start: float) -
     ``sym K*``, ``sym M*`` onto the kept contact DOFs (no solution when ``sym K*`` is PD and
     ``sym M*`` PSD), else the proof on the exact reduction from a power-of-two start bound. None
     when neither decides (the caller then computes (19) on the full pencils and searches)."""
+    reduced = _search_reduced(p, scene)
+
     def work(dc):
         signs = l2x.contact_signs(dc, p.cls, mu)
         if (signs.k_pd and signs.m_psd) or not signs.m_pd:
-            return signs, None
+            return signs, None, None
         start = l2x.start_bound(dc, p.cls, mu)
-        return signs, (None if start is None else (start, *l2x.prove_no_solution(dc, p.cls, mu, start)))
+        if start is None:
+            return signs, None, None
+        proof = l2x.prove_no_solution(dc, p.cls, mu, start, max_failed=MAX_FAILED if reduced else 0)
+        return signs, (start, *proof), _search_failed(dc, p.cls, mu, proof) if reduced else None
 
     got = _on_rank_zero(p, scene, work)
     if got is None:
         return None
-    (signs, proof), factorisations, method, setup_seconds = got
+    (signs, proof, found), factorisations, method, setup_seconds = got
     detail = {"sym_K_star_pd": signs.k_pd, "sym_M_star_psd": signs.m_psd, "sym_M_star_pd": signs.m_pd,
               "new_factorisations": factorisations, "set_up_seconds": round(setup_seconds, 4)}
     if signs.k_pd and signs.m_psd:
@@ -147,13 +153,73 @@ def _on_contact_dofs(p: StatePencils, scene: Scene, mu: float, t_start: float) -
                            rigorous=False)
         return MceipLambda2Outcome(solutions=[], result="no solution (proved by the necessary condition (19))",
                                    search=search, certified=True, certificate=cert)
+    bound = None if proof is None else {
+        "method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
+                  "power of two found by doubling from tr K_cc / tr M_cc)",
+        "start_bound": proof[0], "proven_bound": proof[2]}
+    if reduced and (proof is None or not proof[1]):
+        return _reduced_outcome(method, bound, proof, found, {"contact_signs": detail}, t_start)
     if proof is None or not proof[1]:
         return None
     start, _, T, pdetail = proof
-    bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
-                       "power of two found by doubling from tr K_cc / tr M_cc)",
-             "start_bound": start, "proven_bound": T}
     return _shown_outcome(method, T, bound, {**pdetail, **detail}, t_start, {"contact_signs": detail})
+
+
+#: intervals of t the proof may set aside for the search on the reduction (beyond: not decided)
+MAX_FAILED = 16
+
+
+def _search_reduced(p: StatePencils, scene: Scene) -> bool:
+    """Where the proof fails, search on the exact reduction rather than by SNES VI on the full system."""
+    return p.system.n_dofs > scene.settings.mcp.lambda2_full_search_max_dofs
+
+
+def _search_failed(dc, cls, mu: float, proof: tuple[bool, float, dict]):
+    """The search on the reduction in the intervals the proof set aside (None when the proof
+    succeeded or did not end with such a list: a budget spent, no bound ``T``)."""
+    proven, _, detail = proof
+    if proven or not detail.get("covered"):
+        return None
+    return l2rs.search(dc, cls, mu, detail["failed"])
+
+
+def _reduced_outcome(method: str, bound: dict | None, proof, found, extra: dict, t_start: float) -> MceipLambda2Outcome:
+    """The outcome where the proof on the exact reduction failed above ``lambda2_full_search_max_dofs``:
+    no solution outside the intervals it set aside (floating point), those intervals searched on the
+    reduction (:mod:`app.analyses.mceip_lambda2.reduced_search`); or, where it set none aside (a
+    budget spent, no bound), not decided and not searched."""
+    seconds = time.perf_counter() - t_start
+    pdetail = {} if proof is None else proof[3]
+    if found is None:
+        why = pdetail.get("reason", "no power-of-two bound T with the Schur complement of sym K* + T sym M* PD")
+        search = {"complete": False, "upper_bound": bound, **extra,
+                  "note": f"not decided: the proof on the exact slip-node reduction stopped ({why}), and the system is "
+                          "above mcp.lambda2_full_search_max_dofs, where the full system is not searched"}
+        cert = certificate("none", (0.0, 0.0), "not proven: not searched (the system is above "
+                           "mcp.lambda2_full_search_max_dofs and the proof on the reduction stopped)", seconds,
+                           {**pdetail, **extra}, rigorous=False)
+        return MceipLambda2Outcome(solutions=[], result="not decided (proof stopped; not searched)", search=search,
+                                   certified=False, certificate=cert)
+    T = proof[2]
+    for sol in found.solutions:
+        sol.mark(certified=False)
+    gaps = [list(ab) for ab in found.intervals]
+    how = (f"sign argument on the exact slip-node reduction S(t) (free DOFs eliminated through the {method}): "
+           "sym S(t) certified copositive on [0, T] outside the listed intervals, and the Schur complement of "
+           "sym(K* + T M*) PD with sym M* PD for t >= T; the listed intervals searched on the reduction")
+    search = {"complete": False, "upper_bound": bound, "lambda2_upper_bound": T, **extra,
+              "searched_on_reduction": {"intervals": gaps, "candidates": found.candidates, "rejected": found.rejected,
+                                        "exact_values": found.evaluations, "seconds": round(found.seconds, 4)},
+              "note": "no solution outside the listed intervals (shown in floating point); solutions in them "
+                      "searched on the exact reduction, not proven complete"}
+    cert = certificate(how, (0.0, np.inf), "not proven: no solution with lambda^2 >= 0 outside "
+                       f"{len(gaps)} interval(s) of total length {sum(b - a for a, b in gaps):.6g}, searched there",
+                       seconds, {**pdetail, "proven_empty_except": gaps, "T": T}, gap=None, rigorous=False)
+    n = len(found.solutions)
+    result = (f"{n} solution(s) found on the exact reduction (not proven)" if n else
+              "no solution found (not proven): none outside the listed intervals, none found in them")
+    return MceipLambda2Outcome(solutions=found.solutions, result=result, search=search, certified=False,
+                               certificate=cert)
 
 
 def _shown_outcome(method: str, T: float, bound: dict, detail: dict, t_start: float,
@@ -180,13 +246,24 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: flo
     rayleigh = _rayleigh_bound(nec)
     if rayleigh is None:
         return None
-    got = _on_rank_zero(p, scene, lambda dc: l2x.prove_no_solution(dc, p.cls, mu, rayleigh))
-    if got is None or not got[0][0]:
+    reduced = _search_reduced(p, scene)
+
+    def work(dc):
+        proof = l2x.prove_no_solution(dc, p.cls, mu, rayleigh, max_failed=MAX_FAILED if reduced else 0)
+        return proof, _search_failed(dc, p.cls, mu, proof) if reduced else None
+
+    got = _on_rank_zero(p, scene, work)
+    if got is None:
         return None
-    (_, T, detail), factorisations, method, setup_seconds = got
+    ((proven, T, detail), found), factorisations, method, setup_seconds = got
     bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
                        "Rayleigh-quotient bound -min eig sym K* / min eig sym M*)",
              "rayleigh_bound": rayleigh, "proven_bound": T}
+    if not proven and reduced:
+        return _reduced_outcome(method, bound, (rayleigh, proven, T, detail), found,
+                                {"necessary_condition": nec.as_dict(), "new_factorisations": factorisations}, t_start)
+    if not proven:
+        return None
     return _shown_outcome(method, T, bound,
                           {**detail, "new_factorisations": factorisations, "set_up_seconds": round(setup_seconds, 4)},
                           t_start, {"necessary_condition": nec.as_dict()})

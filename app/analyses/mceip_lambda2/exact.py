@@ -60,8 +60,12 @@ from app.loading.mumps_schur import SchurComplements, static_schur, without_stat
 MARGIN = 1e-8
 
 
-#: bytes of the dynamic Schur complements ``Z(t)`` kept per system (least recently used dropped first)
+#: bytes of the dynamic Schur complements ``Z(t)`` kept per system (least recently used dropped first),
+#: and the fewest kept whatever their size: one proof uses some 25 values of ``t`` and the next
+#: classification mostly the same ones, so a cache smaller than that recomputes them in turn (at
+#: 10^6 DOFs, 1,418 contact DOFs, 16 MB each, 512 MB hold only 32)
 CACHE_BYTES = 512 * 2**20
+CACHE_ENTRIES = 48
 
 
 @dataclass
@@ -195,7 +199,7 @@ class DynamicContact:
                 Z = np.linalg.inv(0.5 * (W + W.T))
                 Z = 0.5 * (Z + Z.T)
             self.evaluations += 1
-            while self._cache and (len(self._cache) + 1) * Z.nbytes > CACHE_BYTES:
+            while self._cache and (len(self._cache) + 1) * Z.nbytes > max(CACHE_BYTES, CACHE_ENTRIES * Z.nbytes):
                 self._cache.popitem(last=False)
             self._cache[t] = Z
         else:
@@ -246,8 +250,8 @@ def _build(system, max_dense_dofs: int) -> DynamicContact | None:
     return DynamicContact.from_sparse(K, M, dofs, signs, system.own, static if mixed else None)
 
 
-class _Reduction(KeptContact):
-    """``sym S(t)`` and ``Sh(t)`` of one classification at mu (cached per t)."""
+class Reduction(KeptContact):
+    """``S(t)``, ``sym S(t)`` and ``Sh(t)`` of one classification at mu (cached per t)."""
 
     def __init__(self, dc: DynamicContact, cls: Classification, mu: float):
         super().__init__(dc.Kcc.shape[0], cls, mu)
@@ -259,6 +263,11 @@ class _Reduction(KeptContact):
         if n == 0:
             return X
         return X[n:, n:] - X[n:, :n] @ np.linalg.solve(X[:n, :n], X[:n, n:])
+
+    def S(self, t: float) -> np.ndarray:
+        """``S(t)`` itself (``s x s``, slip nodes in the classification's order): ``y_Ts = S(t) x_Ts``
+        at every ``x`` with ``y_f = 0``."""
+        return self._schur(self.reduced(self.dc.at(t)[0], bend=True))
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``(Sh(t), Q(t))`` with ``sym S(t) = Sh(t) + Q(t)``."""
@@ -309,7 +318,7 @@ class Signs:
 
 def contact_signs(dc: DynamicContact, cls: Classification, mu: float) -> Signs:
     """:class:`Signs` of one classification: dense work on the kept contact DOFs only."""
-    red = _Reduction(dc, cls, mu)
+    red = Reduction(dc, cls, mu)
     GK = red.kept(*dc.at(0.0), bend=True)
     GM = red.kept(dc.mass_schur(), dc.Mcc)
     m_pd = _pd(GM)
@@ -321,7 +330,7 @@ def start_bound(dc: DynamicContact, cls: Classification, mu: float, doublings: i
     """A power of two ``T`` with ``Sh(T)`` positive definite (caller: ``sym M*(mu)`` PD, so every
     larger ``t`` has it too): doublings from the power of two nearest ``tr K_cc / tr M_cc``, each a
     value of ``t`` on the dyadic grid; None if none of ``doublings`` is."""
-    red = _Reduction(dc, cls, mu)
+    red = Reduction(dc, cls, mu)
     ratio = float(np.trace(dc.Kcc) / np.trace(dc.Mcc))
     if not np.isfinite(ratio) or ratio <= 0:
         return None
@@ -333,7 +342,7 @@ def start_bound(dc: DynamicContact, cls: Classification, mu: float, doublings: i
     return None
 
 
-def _tail(red: _Reduction, t_start: float, steps: int = 8) -> float | None:
+def _tail(red: Reduction, t_start: float, steps: int = 8) -> float | None:
     """The smallest ``T`` of a bisection (``steps`` halvings from the power of two above
     ``t_start``, on the dyadic grid) with ``Sh(T)`` PD, or None when ``Sh`` is not PD there."""
     lo, hi = 0.0, _dyadic_above(float(t_start))
@@ -356,12 +365,12 @@ def tail_bound(dc: DynamicContact, cls: Classification, mu: float, t_start: floa
     Floating point; None when no such ``T`` is found at the power of two above ``t_start``."""
     if not np.isfinite(t_start) or t_start <= 0:
         return None
-    return _tail(_Reduction(dc, cls, mu), t_start)
+    return _tail(Reduction(dc, cls, mu), t_start)
 
 
 def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_start: float,
                       pieces: int = 8, depth: int = 10,
-                      max_evaluations: int = MAX_EVALUATIONS) -> tuple[bool, float, dict]:
+                      max_evaluations: int = MAX_EVALUATIONS, max_failed: int = 0) -> tuple[bool, float, dict]:
     """Try to prove that (12)-(14) has no solution with ``lambda^2 >= 0`` (caller: ``sym M*(mu)``
     PSD, ``t_start`` a bound with ``sym K* + t_start sym M*`` PD, e.g. the Rayleigh quotient bound).
 
@@ -372,9 +381,17 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
     power of two above ``t_start``, which is a bound too as ``Sh`` increases with ``t``; ``[0, T]``
     is covered by pieces of the power-of-two width about ``T / pieces``), so the classifications of
     one system evaluate ``W(t)`` on one grid and mostly reuse each other's. At most
-    ``max_evaluations`` distinct ``t`` (the proof's budget); ``False`` when it runs out."""
+    ``max_evaluations`` distinct ``t`` (the proof's budget); ``False`` when it runs out.
+
+    An interval still not certified at ``depth`` halvings ends the proof, or with ``max_failed > 0``
+    is set aside and the others go on (as is at once, then, one where ``sym S(t)`` itself fails the
+    ``PD + NN`` test at both ends, as near a solution): ``detail["failed"]`` then lists up to ``max_failed`` such
+    intervals (exact ``S`` at their ends) and ``detail["covered"]`` is True when ``[0, inf)`` holds
+    no solution outside them (every other interval certified; a proof stopped by ``max_failed``
+    or the budget has no ``covered``). The search of
+    :mod:`app.analyses.mceip_lambda2.reduced_search` looks in them."""
     t0 = time.perf_counter()
-    red = _Reduction(dc, cls, mu)
+    red = Reduction(dc, cls, mu)
 
     def used() -> int:
         return len(red._cache)
@@ -389,6 +406,7 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
     if T is None:
         return False, _dyadic_above(float(t_start)), {"reason": "Sh(T) not PD at the start bound",
                                                        "seconds": time.perf_counter() - t0}
+    failed: list[tuple[float, float]] = []
     width = _dyadic_above(T / pieces)
     todo = [(i * width, (i + 1) * width, 0) for i in range(int(np.ceil(T / width)))][::-1]
     proven_count = 0
@@ -409,11 +427,19 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
             La, Lb = Sa + Qb - h * slope, Sb + Qb
         if in_pd_plus_nn(La) and in_pd_plus_nn(Lb):
             proven_count += 1
+        elif max_failed and len(failed) < max_failed and not in_pd_plus_nn(Sa + Qa) and not in_pd_plus_nn(Sb + Qb):
+            failed.append((a, b))     # sym S(t) itself fails the test at both ends: no halving certifies it
         elif level < depth:
             m = 0.5 * (a + b)
             todo += [(m, b, level + 1), (a, m, level + 1)]
+        elif len(failed) < max_failed:
+            failed.append((a, b))
         else:
             return False, T, {"reason": f"sym S(t) not certified copositive on [{a:.6g}, {b:.6g}]",
-                              "evaluations": used(), "seconds": time.perf_counter() - t0}
-    return True, T, {"intervals": proven_count, "evaluations": used(),
-                     "seconds": time.perf_counter() - t0}
+                              "evaluations": used(), "seconds": time.perf_counter() - t0,
+                              **({"failed": failed} if max_failed else {})}
+    done = {"intervals": proven_count, "evaluations": used(), "seconds": time.perf_counter() - t0}
+    if failed:
+        return False, T, {**done, "failed": failed, "covered": True,
+                          "reason": f"sym S(t) not certified copositive on {len(failed)} interval(s) of t"}
+    return True, T, done
