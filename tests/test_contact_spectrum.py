@@ -161,6 +161,42 @@ def test_whole_path_of_a_gmsh_body(tmp_path):
     _same_values(run_scene(_with(data, 10**9)), run_scene(_with(data, 0)))
 
 
+@pytest.mark.parametrize("evaluations", [1, 6, 30])
+def test_a_spent_budget_gives_bounds_that_hold_the_values(evaluations):
+    """``eig.necessary_value_work`` caps the exact Schur complements per matrix; once spent a value
+    is reported as bounds (docs/method.md section 2). Along the 20 x 10 block's path at three
+    budgets: every bound holds the value computed without a budget (SLEPc's full-size eigenvalue,
+    an independent computation), (19) is decided alike, and MCEIP-lambda^2 (whose search bound
+    then comes from the lower bounds) answers alike."""
+    sc = copy.deepcopy(BLOCK)
+    sc["system"].update(nx=20, ny=10)
+    sc["analyses"] = ["necessary", "mceip_lambda2"]
+    full = run_scene(_with(sc, 10**9))
+    capped = _with(sc, 0)
+    dofs = 2 * 21 * 11
+    capped["settings"]["eig"]["necessary_value_work"] = float(evaluations * dofs)
+    got = run_scene(capped)
+    bounded = 0
+    for sa, sb in zip(full["states"], got["states"]):
+        x, y = (sa.get("analyses") or {}).get("necessary"), (sb.get("analyses") or {}).get("necessary")
+        if not isinstance(x, dict) or "min_eig_K_sym" not in x:
+            continue
+        assert x["satisfied"] == y["satisfied"]
+        for name in ("K", "M"):
+            v = x[f"min_eig_{name}_sym"]
+            if y[f"min_eig_{name}_sym"] is None:
+                bounded += 1
+                lo, hi = y[f"min_eig_{name}_sym_bounds"]
+                assert lo - 1e-9 * abs(v) <= v <= hi + 1e-9 * abs(v), (name, lo, v, hi)
+                assert lo <= hi and (hi <= 0 or lo >= 0)            # the sign decided
+            else:
+                assert abs(y[f"min_eig_{name}_sym_relative"] - x[f"min_eig_{name}_sym_relative"]) <= 1e-10
+        la, lb = sa["analyses"].get("mceip_lambda2"), sb["analyses"].get("mceip_lambda2")
+        if isinstance(la, dict):
+            assert la["result"] == lb["result"]
+    assert bounded > 0
+
+
 def test_two_ranks(tmp_path):
     """K and M gathered on rank 0, which alone computes the values: the same as one rank and as the
     full-size solve."""

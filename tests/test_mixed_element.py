@@ -380,13 +380,14 @@ def test_the_four_default_analyses_with_the_mixed_element_on_one_and_two_ranks(t
 def test_the_dense_values_of_the_necessary_condition_equal_the_contact_dofs_ones():
     """Where the contact DOFs decline a classification (a root outside the interpolated pieces) the
     values of (19) with the pressure eliminated come from the dense reduced pencils
-    (app/analyses/conditions/contact_spectrum.py ``_dense_eliminated``); on the block both ways
+    (app/analyses/conditions/eliminated.py ``_dense_eliminated``); on the block both ways
     apply and agree, values and scales, stick, slip, free and mixed classifications at three mu
     (nu = 0.45)."""
     from mpi4py import MPI
     from test_contact_spectrum import _cases
 
     from app.analyses.conditions import contact_spectrum as cs
+    from app.analyses.conditions import eliminated
     from app.analyses.pencils.state import StatePencils
     from app.common.stages import Stages
     from app.scene.schema import parse_scene
@@ -399,12 +400,12 @@ def test_the_dense_values_of_the_necessary_condition_equal_the_contact_dofs_ones
             for mu in (0.3, 1.1, 3.0):
                 p = StatePencils(system, cls)
                 try:
-                    dense = cs._dense_eliminated(p, mu)
+                    dense = eliminated._dense_eliminated(p, mu)
                 finally:
                     p.destroy()
                 known = cs.values(system, cls, mu, {})
                 for name in ("K", "M"):
-                    (a, scale), (b, scale_b) = dense[name], known[name]
+                    (a, scale), (b, scale_b, _) = dense[name], known[name]
                     assert abs(a - b) <= 1e-9 * scale, (cls.counts(), mu, name, a, b)
                     assert scale == pytest.approx(scale_b, rel=1e-9), (cls.counts(), mu, name, scale, scale_b)
 

@@ -132,17 +132,34 @@ class NecessaryOutcome:
     not PSD (divergence possible)."""
 
     mu: float
-    min_eig_K_sym: float
-    min_eig_K_sym_relative: float
-    min_eig_M_sym: float
-    min_eig_M_sym_relative: float
+    min_eig_K_sym: float | None
+    min_eig_K_sym_relative: float | None
+    min_eig_M_sym: float | None
+    min_eig_M_sym_relative: float | None
     satisfied: bool
+    # where the values' budget on the contact DOFs was spent: the value is None and lies in these
+    # bounds (absolute and relative), its sign decided
+    min_eig_K_sym_bounds: tuple[float, float] | None = None
+    min_eig_K_sym_relative_bounds: tuple[float, float] | None = None
+    min_eig_M_sym_bounds: tuple[float, float] | None = None
+    min_eig_M_sym_relative_bounds: tuple[float, float] | None = None
+
+    def lower(self, name: str) -> float:
+        """A lower bound on the smallest eigenvalue of ``sym K*`` (``name`` "K") or ``sym M*`` ("M"):
+        the value, or its lower bound."""
+        v = getattr(self, f"min_eig_{name}_sym")
+        return v if v is not None else getattr(self, f"min_eig_{name}_sym_bounds")[0]
 
     def as_dict(self) -> dict:
         """The results.json ``necessary`` block."""
-        return {"mu": self.mu, "min_eig_K_sym": self.min_eig_K_sym,
-                "min_eig_K_sym_relative": self.min_eig_K_sym_relative, "min_eig_M_sym": self.min_eig_M_sym,
-                "min_eig_M_sym_relative": self.min_eig_M_sym_relative, "satisfied": self.satisfied}
+        out = {"mu": self.mu, "min_eig_K_sym": self.min_eig_K_sym,
+               "min_eig_K_sym_relative": self.min_eig_K_sym_relative, "min_eig_M_sym": self.min_eig_M_sym,
+               "min_eig_M_sym_relative": self.min_eig_M_sym_relative, "satisfied": self.satisfied}
+        for name in ("K", "M"):
+            if getattr(self, f"min_eig_{name}_sym_bounds") is not None:
+                out[f"min_eig_{name}_sym_bounds"] = list(getattr(self, f"min_eig_{name}_sym_bounds"))
+                out[f"min_eig_{name}_sym_relative_bounds"] = list(getattr(self, f"min_eig_{name}_sym_relative_bounds"))
+        return out
 
 
 @dataclass

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.analyses.conditions import contact_spectrum, full_size
+from app.analyses.conditions import contact_spectrum, eliminated, full_size
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
 from app.analyses.mceip_lambda2.analysis import mceip_lambda2
 from app.analyses.mceip_mu.state import certificate, condensed_mu_result, enumeration_certificate, mu_cap
@@ -47,10 +47,11 @@ def _necessary(system: System, p: "StatePencils", scene: Scene, s: int) -> Neces
     known = None
     if system.has_static_dofs:
         with system.stages("necessary condition (19) on the contact DOFs"):
-            return contact_spectrum.eliminated_necessary(p, scene.mu, scene.settings.eig, hints)    # MPI collective
+            return eliminated.eliminated_necessary(p, scene.mu, scene.settings.eig, hints)    # MPI collective
     if system.n_dofs >= scene.settings.eig.necessary_contact_min_dofs:
         with system.stages("necessary condition (19) on the contact DOFs"):
-            known = contact_spectrum.values(system, p.cls, scene.mu, hints)       # MPI collective
+            known = contact_spectrum.values(system, p.cls, scene.mu, hints,
+                                            scene.settings.eig.necessary_value_work)     # MPI collective
         if all(v is not None for v in known.values()):
             return full_size.necessary(None, None, None, None, scene.mu, scene.settings.eig, known=known)
     K0, K1 = p.K()

@@ -282,6 +282,10 @@ class NecessaryResult(Status):
     mu: Number = None
     min_eig_K_sym: Number = None
     min_eig_M_sym: Number = None
+    min_eig_K_sym_bounds: Optional[tuple[float, float]] = Field(
+        None, description="where the value is not computed (the budget of the values on the contact DOFs spent): "
+                          "bounds on it, its sign decided")
+    min_eig_M_sym_bounds: Optional[tuple[float, float]] = None
 
 
 class SufficientResult(Status):

@@ -60,7 +60,9 @@ def summary(study: StudyResult, outdir: pathlib.Path) -> str:
         lines.append(f"    stability analyses: {reason}")
     if last.necessary is not None:
         lines.append(f"    necessary condition (19): {'satisfied' if last.necessary.satisfied else 'not satisfied'}"
-                     f" (min eig sym K* = {last.necessary.min_eig_K_sym:.6g})")
+                     + (f" (min eig sym K* = {last.necessary.min_eig_K_sym:.6g})"
+                        if last.necessary.min_eig_K_sym is not None else
+                        " (min eig sym K* in [{:.6g}, {:.6g}])".format(*last.necessary.min_eig_K_sym_bounds)))
     if last.sufficient is not None:
         lam = last.max_lambda2()
         lines.append("    sufficient condition (17)-(18): "

@@ -320,6 +320,13 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     lone = _isolated(lamK)
     if lone.any() and len(idx) > 3:
         ax.plot(idx[lone], lamK[lone], "o", color="C0", ms=4)
+    # where the budget of exact values was spent, the bounds the value lies in
+    within = [None if r is None else getattr(r, "min_eig_K_sym_bounds", None) for r in recs]
+    lo = np.array([np.nan if b is None else b[0] for b in within])
+    hi = np.array([np.nan if b is None else b[1] for b in within])
+    if np.isfinite(lo).any():
+        ax.fill_between(idx, lo, hi, where=np.isfinite(lo), color="C0", alpha=0.3, step="mid", lw=0,
+                        label="smallest eigenvalue of sym K*(\u03bc) lies here (bounds)")
     _few_states(ax, idx, is_load)
     ax.axhline(0, color="0.3", lw=0.8)
     sat = np.array([r is not None and bool(r.satisfied) for r in recs])

@@ -111,6 +111,12 @@ class EigSettings(Strict):
                           "contact DOFs (the secular equation of the Schur complement, a few dozen factorisations "
                           "shared by the whole path; docs/method.md section 2) instead of two full-size "
                           "factorisations per classification")
+    necessary_value_work: Annotated[float, Field(gt=0, le=1e15)] = Field(
+        2.0e7, description="budget of the values of (19) on the contact DOFs, per matrix (K, M) and path, in "
+                           "DOF-factorisations (the exact Schur complements it computes times the system's DOFs: "
+                           "200 at 100k DOFs, 20 at 10^6); once spent, a value is reported as bounds "
+                           "(min_eig_K_sym_bounds) with its sign decided. Work, not time: the same answers on any "
+                           "machine")
 
 
 class Settings(Strict):

@@ -4,4 +4,6 @@
 - :mod:`.contact_spectrum`: the values of (19) from the contact DOFs (docs/method.md section 2),
   the path above ``EigSettings.necessary_contact_min_dofs``; :mod:`.interior_modes` the interior
   eigenpairs it needs.
+- :mod:`.eliminated`: the values of (19) for a system with static DOFs (the mixed element's
+  pressure), from the contact DOFs or, where they decline, the dense eliminated pencils.
 """

@@ -41,12 +41,10 @@ import scipy.linalg
 import scipy.optimize
 from petsc4py import PETSc
 
-from app.analyses.conditions import full_size
 from app.analyses.conditions.interior_modes import interior_modes
 from app.analyses.pencils.kept_contact import KeptContact
-from app.analyses.pencils.reduced import dense, eliminate_static
 from app.analyses.pencils.state import sequential_km, system_cache
-from app.loading.classify import FREE, SLIP, Classification
+from app.loading.classify import Classification
 from app.loading.mumps_schur import SchurComplements, static_schur, without_static
 
 #: length of one interpolation piece in u = log(kappa - sigma) (a factor e^2 in kappa - sigma)
@@ -80,6 +78,25 @@ class ShiftedContact:
     evaluations: int = 0                     # exact values of Y computed
     pieces: dict = field(default_factory=dict)   # index -> (coefficients, error estimate)
     ends: dict = field(default_factory=dict)     # index -> Y at the piece's upper end in sigma
+    budget: int | None = None                # most exact values of Y (None: no limit); Y(0) is always had
+    static: bool = False                     # X's static DOFs eliminated (the interior a pencil X_ii - sigma D_ii)
+    zero: np.ndarray | None = None           # Y(0), computed on first use
+
+    def affordable(self, n: int) -> bool:
+        """``n`` more exact values of ``Y`` fit in the budget."""
+        return self.budget is None or self.evaluations + n <= self.budget
+
+    def at_zero(self) -> np.ndarray:
+        """``Y(0)`` exactly (computed once, whatever the budget: the sign of (19) rests on it)."""
+        if self.zero is None:
+            self.zero = self.exact(0.0)
+            self.evaluations += 1
+        return self.zero
+
+    def known(self) -> list[tuple[float, np.ndarray]]:
+        """Every exact value of ``Y`` computed so far outside the pieces' nodes: ``(sigma, Y)``."""
+        pts = [(self.end(j), Y) for j, Y in self.ends.items()]
+        return pts + ([(0.0, self.zero)] if self.zero is not None else [])
 
     @property
     def anchor(self) -> float:
@@ -196,10 +213,13 @@ class _Root:
 
 @dataclass(frozen=True)
 class Value:
-    """The smallest eigenvalue of one ``sym X*(mu)`` from the contact DOFs."""
+    """The smallest eigenvalue of one ``sym X*(mu)`` from the contact DOFs: ``value``, or where the
+    budget of exact values of ``Y`` is spent, ``None`` and ``bounds = (lo, hi)`` with
+    ``lo <= value <= hi``, its sign decided (:func:`_bracket`)."""
 
-    value: float
+    value: float | None
     scale: float          # the largest diagonal entry of sym X*(mu), which the value is reported against
+    bounds: tuple[float, float] | None = None
 
 
 def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None = None,
@@ -230,6 +250,8 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
     # lower one (exact values there)
     while True:
         visited.append(j)
+        if not _affords_ends(sc, j):
+            return _bracket(root, scale)
         if root.f_end(j) >= 0:                # the root is closer to k_1
             if j == lowest_j:
                 if len(sc.poles):             # f >= 0 up to just below k_1: the value is k_1
@@ -245,6 +267,8 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
         if j in visited:                      # not monotone (rounding): leave it to the full-size solve
             return None
     hi, lo = ends(j)
+    if j not in sc.pieces and not sc.affordable(NODES):
+        return _bracket(root, scale)
     _, err = sc.piece(j)
     if err > tol:
         return None
@@ -254,6 +278,58 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
     except (ValueError, RuntimeError):         # the interpolant's signs at the ends differ from the exact ones
         return None
     return Value(float(sigma), scale)
+
+
+def _affords_ends(sc: ShiftedContact, j: int) -> bool:
+    """The exact values of ``Y`` at piece ``j``'s ends (those the walk reads) are had or fit the budget
+    (the first piece's upper end with its pole removed is interpolated: a whole piece)."""
+    need = 0
+    for i in (j, j + 1):
+        if len(sc.poles) and i == 0:
+            need += 0 if 0 in sc.pieces else NODES
+        elif i not in sc.ends:
+            need += 1
+    return sc.affordable(need)
+
+
+def _bracket(root: "_Root", scale: float) -> Value:
+    """Bounds on the root of ``f`` from the exact values of ``Y`` already computed and ``Y(0)``
+    (docs/method.md section 2, "When the budget is spent"): ``f`` decreases with slope at most -1
+    and is concave (``Y`` is convex in ``sigma`` below ``k_1``, so ``S`` is concave). With ``f(p) > 0``
+    at ``p`` the largest such point and ``f(q) < 0`` at ``q`` the smallest such one, the root lies in
+    ``(p, q)``, below ``p + f(p)`` (the slope) and ``k_1`` (interlacing), above ``q + f(q)`` (the
+    slope), the root of the chord through both points (concavity: ``f`` lies above its chords) and
+    the first root of a lower bound of ``f`` above ``p`` (from ``X_ii >= k_1 I``; not with static
+    DOFs, whose interior is a pencil). The sign of the value is that of ``f(0)``."""
+    sc = root.sc
+    sc.at_zero()
+    pts = []
+    for sigma, Y in sc.known():
+        PY = np.asarray(root.P.T @ np.asarray(root.P.T @ Y).T)
+        PY = 0.5 * (PY + PY.T)
+        S = root.A0 - PY
+        S[np.diag_indices_from(S)] -= sigma
+        pts.append((sigma, float(scipy.linalg.eigvalsh(0.5 * (S + S.T), subset_by_index=[0, 0])[0]), PY))
+    pos = [(x, f, G) for x, f, G in pts if f > 0]
+    neg = [(x, f, G) for x, f, G in pts if f <= 0]
+    lo, hi = -np.inf, sc.k1
+    if pos:
+        p, fp, G = max(pos, key=lambda q: q[0])
+        lo, hi = p, min(hi, p + fp)
+        if not sc.static and p < sc.k1:
+            # Y(sigma) - Y(p) <= (sigma - p) / (k_1 - sigma) Y(p) (functions of X_ii >= k_1 I), so
+            # f(p + d) >= f(p) - d - d g / (k_1 - p - d), g = ||P^T Y(p) P||: its first root bounds d
+            g = float(np.abs(scipy.linalg.eigvalsh(G, subset_by_index=[len(G) - 1, len(G) - 1])[0])) if len(G) else 0.0
+            k = sc.k1 - p
+            b = fp + k + g
+            lo = max(lo, p + 2.0 * fp * k / (b + np.sqrt(max(b * b - 4.0 * fp * k, 0.0))))
+    if neg:
+        q, fq, _ = min(neg, key=lambda r: r[0])
+        hi = min(hi, q)
+        lo = max(lo, q + fq)
+        if pos:
+            lo = max(lo, p + fp * (q - p) / (fp - fq))
+    return Value(None, scale, (float(min(lo, hi)), float(hi)))     # min: rounding at a point where f ~ 0
 
 
 def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
@@ -334,7 +410,8 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
 
     if own is not None:
         own(schur, A, *([massive] if massive is not None else []))
-    return ShiftedContact(exact, cc, float(k[0]), k[:p].copy(), W[:, :p].copy(), kappa, scale, interior_scale)
+    return ShiftedContact(exact, cc, float(k[0]), k[:p].copy(), W[:, :p].copy(), kappa, scale, interior_scale,
+                          static=Dii is not None)
 
 
 def _mass_indicator(Xii: PETSc.Mat, interior: np.ndarray, static: np.ndarray) -> PETSc.Mat:
@@ -362,11 +439,19 @@ def _eliminated_contact(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray, stati
     return cc, max(interior_scale, float(np.abs(np.diag(cc)).max())), interior_scale
 
 
-def contact_spectra(system) -> tuple[ShiftedContact, ShiftedContact] | None:
+def contact_spectra(system, work: float | None = None) -> tuple[ShiftedContact, ShiftedContact] | None:
     """``K`` and ``M`` of ``system`` seen from its contact DOFs, built on first use on rank 0
-    (None on the other ranks, and on rank 0 when they cannot be built). MPI collective on the
-    first call (``K`` and ``M`` gathered on rank 0 when distributed)."""
-    return system_cache(system).once("spectra", lambda: _build_both(system))
+    (None on the other ranks, and on rank 0 when they cannot be built). ``work``: the budget of
+    each matrix in DOF-factorisations (``eig.necessary_value_work``: exact values of ``Y`` times
+    the system's DOFs), set at the first call. MPI collective on the first call (``K`` and ``M``
+    gathered on rank 0 when distributed)."""
+    def made():
+        got = _build_both(system)
+        if got is not None and work is not None:
+            for sc in got:
+                sc.budget = max(1, int(work // max(system.n_dofs, 1)))
+        return got
+    return system_cache(system).once("spectra", made)
 
 
 def _build_both(system) -> tuple[ShiftedContact, ShiftedContact] | None:
@@ -388,14 +473,16 @@ def _build_both(system) -> tuple[ShiftedContact, ShiftedContact] | None:
         return None
 
 
-def values(system, cls: Classification, mu: float, hints: dict) -> dict[str, tuple[float, float] | None]:
+def values(system, cls: Classification, mu: float, hints: dict,
+           work: float | None = None) -> dict[str, tuple[float | None, float, tuple | None] | None]:
     """The smallest eigenvalues of ``sym K*(mu)`` and ``sym M*(mu)`` of ``cls`` and the scale each
-    is reported relative to (the largest diagonal entry of that matrix), as ``{"K": (value, scale)
-    or None, "M": ...}``: None where it is left to the full-size solve (:func:`value` declined;
-    a curved obstacle's classifications included, :class:`_Root`). ``hints`` (name -> the previous classification's value) is read and
-    updated. MPI collective: rank 0 computes, every rank gets the answer."""
+    is reported relative to (the largest diagonal entry of that matrix), as ``{"K": (value, scale,
+    bounds) or None, "M": ...}``: None where it is left to the full-size solve (:func:`value`
+    declined); ``value`` None and ``bounds`` ``(lo, hi)`` where the budget ``work``
+    (:func:`contact_spectra`) is spent. ``hints`` (name -> the previous classification's value)
+    is read and updated. MPI collective: rank 0 computes, every rank gets the answer."""
     got = {"K": None, "M": None}
-    spectra = contact_spectra(system)                                 # MPI collective (first call)
+    spectra = contact_spectra(system, work)                           # MPI collective (first call)
     if system.comm.rank == 0 and spectra is not None:
         for name, sc in zip(("K", "M"), spectra):
             try:     # on a curved obstacle K* carries the curvature term (app/analyses/pencils/kept_contact.py)
@@ -403,59 +490,10 @@ def values(system, cls: Classification, mu: float, hints: dict) -> dict[str, tup
             except (RuntimeError, PETSc.Error, np.linalg.LinAlgError):
                 v = None
             if v is not None:
-                got[name] = (v.value, v.scale)
+                got[name] = (v.value, v.scale, v.bounds)
     if system.comm.size > 1:
         got = system.comm.bcast(got, root=0)                          # MPI collective
     for name, v in got.items():
-        if v is not None:
+        if v is not None and v[0] is not None:
             hints[name] = v[0]
     return got
-
-
-#: largest system whose values of (19) with the pressure eliminated are computed densely where the
-#: contact DOFs decline a classification (a root outside the interpolated pieces)
-ELIMINATED_DENSE_MAX = 4000
-
-
-def eliminated_necessary(p, mu: float, eig, hints: dict):
-    """The :class:`~app.analyses.outcomes.NecessaryOutcome` of (19) for a system with static DOFs
-    (the mixed element's pressure) at the classification of the pencils ``p``: the full-size
-    pencils hold the pressure block, and their symmetric parts are not (19)'s (docs/method.md
-    section 10). From the contact DOFs; where they decline (a root outside the pieces), from the reduced
-    pencils with the pressure eliminated densely (the reduction leaves the pressure rows as they
-    are: ``K*_e = K*_uu - K*_up K_pp^-1 K*_pu``) up to :data:`ELIMINATED_DENSE_MAX` DOFs;
-    RuntimeError above. MPI collective."""
-    system = p.system
-    known = values(system, p.cls, mu, hints)                          # MPI collective
-    if any(v is None for v in known.values()):
-        if system.n_dofs > ELIMINATED_DENSE_MAX:
-            raise RuntimeError("the necessary condition (19) with the mixed element: the contact DOFs declined this "
-                               f"classification (a root outside the interpolated pieces) and "
-                               f"the system has {system.n_dofs} DOFs, above the {ELIMINATED_DENSE_MAX} of the dense "
-                               "elimination")
-        known = {**_dense_eliminated(p, mu), **{k: v for k, v in known.items() if v is not None}}
-    return full_size.necessary(None, None, None, None, mu, eig, known=known)
-
-
-def _dense_eliminated(p, mu: float) -> dict[str, tuple[float, float]]:
-    """``{"K": (smallest eigenvalue of sym K*_e(mu), scale), "M": ...}`` from the dense reduced
-    pencils with the static DOFs eliminated (LAPACK). The scale is the contact-DOF values' (:func:`build`
-    with ``static``): the largest diagonal entry of the interior's massive DOFs as they are and of
-    the kept contact DOFs eliminated. MPI collective (the pencils gathered on every rank, which all
-    compute the same)."""
-    system, cls = p.system, p.cls
-    Ks, Ms = p.star(mu)
-    K, M = dense(Ks), dense(Ms)                                       # MPI collective
-    static = p.space.positions(system.static_dofs)                    # MPI collective
-    kept_contact = [d for nd, st in zip(system.nodes, cls.status)
-                    for d in ((nd.dof_T, nd.dof_N) if st == FREE else (nd.dof_T,) if st == SLIP else ())]
-    contact = p.space.positions(np.sort(np.asarray(kept_contact, dtype=np.int64)))    # MPI collective
-    Ke, Mk, keep = eliminate_static(K, M, static)
-    at = np.isin(keep, contact)
-    out = {}
-    for name, A, whole in (("K", Ke, K), ("M", Mk, M)):
-        S = 0.5 * (A + A.T)
-        d = np.abs(np.diag(whole)[keep])
-        d[at] = np.abs(np.diag(S))[at]
-        out[name] = (float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), float(d.max()))
-    return out

@@ -278,14 +278,21 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
     scale used for the decision (so it does not depend on units). ``space``: ``(ReducedSpace,
     (r0, r1))``, the kept DOFs and the system's owned rows: the eigenvectors then go into
     ``hints`` too, in the system's numbering, as start vectors for the next classification.
-    ``known``: name -> ``(value, scale)`` already computed on the contact DOFs
-    (:func:`app.analyses.conditions.contact_spectrum.values`); only the others are solved here (their
-    pencils may then be None).
+    ``known``: name -> ``(value, scale, bounds)`` already computed on the contact DOFs
+    (:func:`app.analyses.conditions.contact_spectrum.values`; ``value`` None and ``bounds`` where
+    its budget was spent); only the others are solved here (their pencils may then be None).
     """
     out: dict = {"mu": mu}
+    bounds: dict = {}
     for k, (name, A0, A1) in enumerate((("K", K0, K1), ("M", M0, M1))):
         if known is not None and known.get(name) is not None:
-            lam, scale = known[name]
+            lam, scale, within = known[name]
+            if lam is None:       # the contact DOFs' budget spent: bounds, the sign decided
+                bounds[name] = within
+                out[f"min_eig_{name}_sym"] = out[f"min_eig_{name}_sym_relative"] = None
+                out[f"min_eig_{name}_sym_bounds"] = (float(within[0]), float(within[1]))
+                out[f"min_eig_{name}_sym_relative_bounds"] = (float(within[0] / scale), float(within[1] / scale))
+                continue
             out[f"min_eig_{name}_sym"] = lam
             out[f"min_eig_{name}_sym_relative"] = lam / scale
             continue
@@ -305,7 +312,11 @@ def necessary(K0: PETSc.Mat, K1: PETSc.Mat, M0: PETSc.Mat, M1: PETSc.Mat, mu: fl
         out[f"min_eig_{name}_sym"] = lam
         out[f"min_eig_{name}_sym_relative"] = lam / scale
     rtol = 1e3 * np.finfo(float).eps
-    out["satisfied"] = bool(out["min_eig_K_sym_relative"] <= rtol or out["min_eig_M_sym_relative"] < -rtol)
+    # with bounds only, the sign is that of f(0) from the exact Y(0) (contact_spectrum._bracket): the
+    # bounds never straddle 0, and a value within rtol of 0 counts as its sign says
+    k_holds = (bounds["K"][1] <= 0 if "K" in bounds else out["min_eig_K_sym_relative"] <= rtol)
+    m_holds = (bounds["M"][1] < 0 if "M" in bounds else out["min_eig_M_sym_relative"] < -rtol)
+    out["satisfied"] = bool(k_holds or m_holds)
     return NecessaryOutcome(**out)
 
 

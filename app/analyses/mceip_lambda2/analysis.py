@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from app.analyses.conditions import contact_spectrum, full_size
+from app.analyses.conditions import eliminated, full_size
 from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mceip_lambda2 import reduced_search as l2rs
@@ -52,7 +52,7 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
         if nec is None and mixed:  # the full-size pencils hold the pressure: (19) from the contact DOFs
             with system.stages("MCEIP-lambda2 (12)-(14)"):
                 try:
-                    nec = contact_spectrum.eliminated_necessary(p, mu, scene.settings.eig,
+                    nec = eliminated.eliminated_necessary(p, mu, scene.settings.eig,
                                                                 warm_hints(system, mu))     # MPI collective
                 except RuntimeError:   # the values declined, the system too large: searched without a bound
                     d = _lambda2_search(p, scene, None, mu, t_start)
@@ -97,8 +97,10 @@ def mceip_lambda2(system: System, p: StatePencils, scene: Scene, s: int,
 def _rayleigh_bound(nec: NecessaryOutcome) -> float | None:
     """``-min eig sym K* / min eig sym M*`` (widened by 1e-6): ``x^T (lambda^2 M* + K*) x = x^T y = 0``
     at a solution bounds lambda^2 by it when sym M*(mu) is PD (and sym K*(mu) is not); else None."""
-    if nec.min_eig_M_sym_relative > 1e-12 and nec.min_eig_K_sym < 0:
-        return -nec.min_eig_K_sym / nec.min_eig_M_sym * (1 + 1e-6)
+    m_rel = (nec.min_eig_M_sym_relative if nec.min_eig_M_sym_relative is not None
+             else nec.min_eig_M_sym_relative_bounds[0])
+    if m_rel > 1e-12 and nec.lower("K") < 0:     # lower bounds where only bounds are known: a bound still
+        return -nec.lower("K") / nec.lower("M") * (1 + 1e-6)
     return None
 
 
@@ -136,7 +138,7 @@ def _on_contact_dofs(p: StatePencils, scene: Scene, mu: float, t_start: float) -
         if start is None:
             return signs, None, None
         proof = l2x.prove_no_solution(dc, p.cls, mu, start, max_failed=MAX_FAILED if reduced else 0)
-        return signs, (start, *proof), _search_failed(dc, p.cls, mu, proof) if reduced else None
+        return signs, (start, *proof), _search_failed(dc, p.cls, mu, proof, scene) if reduced else None
 
     got = _on_rank_zero(p, scene, work)
     if got is None:
@@ -174,13 +176,14 @@ def _search_reduced(p: StatePencils, scene: Scene) -> bool:
     return p.system.n_dofs > scene.settings.mcp.lambda2_full_search_max_dofs
 
 
-def _search_failed(dc, cls, mu: float, proof: tuple[bool, float, dict]):
+def _search_failed(dc, cls, mu: float, proof: tuple[bool, float, dict], scene: Scene):
     """The search on the reduction in the intervals the proof set aside (None when the proof
     succeeded or did not end with such a list: a budget spent, no bound ``T``)."""
     proven, _, detail = proof
     if proven or not detail.get("covered"):
         return None
-    return l2rs.search(dc, cls, mu, detail["failed"])
+    return l2rs.search(dc, cls, mu, detail["failed"], scene.settings.mcp.search_full_max,
+                       scene.settings.mcp.search_one_node)
 
 
 def _reduced_outcome(method: str, bound: dict | None, proof, found, extra: dict, t_start: float) -> MceipLambda2Outcome:
@@ -250,7 +253,7 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: flo
 
     def work(dc):
         proof = l2x.prove_no_solution(dc, p.cls, mu, rayleigh, max_failed=MAX_FAILED if reduced else 0)
-        return proof, _search_failed(dc, p.cls, mu, proof) if reduced else None
+        return proof, _search_failed(dc, p.cls, mu, proof, scene) if reduced else None
 
     got = _on_rank_zero(p, scene, work)
     if got is None:

@@ -123,11 +123,14 @@ def _to_exact(red: Reduction, J: np.ndarray, a: float, b: float, t0: float) -> f
     return t
 
 
-def search(dc: DynamicContact, cls: Classification, mu: float, intervals: list[tuple[float, float]]) -> ReducedSearch:
+def search(dc: DynamicContact, cls: Classification, mu: float, intervals: list[tuple[float, float]],
+           full_max: int = 40, one_node: int = 4) -> ReducedSearch:
     """The solutions of (12)-(14) in the ``intervals`` of ``t`` (those
     :func:`app.analyses.mceip_lambda2.exact.prove_no_solution` could not certify), found on the
     exact reduction (see the module's docstring). Dense work on ``s x s`` matrices and a few exact
-    values of ``S`` per candidate."""
+    values of ``S`` per candidate. ``full_max``, ``one_node``: above ``full_max`` slip nodes the
+    chord pencils' search runs MCEIP-mu's reduced start set (``mcp.search_full_max``,
+    ``mcp.search_one_node``)."""
     t0 = time.perf_counter()
     red = Reduction(dc, cls, mu)
     out = ReducedSearch(solutions=[], intervals=[(float(a), float(b)) for a, b in intervals])
@@ -135,7 +138,8 @@ def search(dc: DynamicContact, cls: Classification, mu: float, intervals: list[t
     seen: list[tuple[tuple, float]] = []
     for a, b in intervals:
         Sa, Sb = red.S(a), red.S(b)
-        rep = candidates.search(Sa, Sb - Sa, mu0s=(0.25, 0.5, 0.75), t_max=1.0)
+        rep = candidates.search(Sa, Sb - Sa, mu0s=(0.25, 0.5, 0.75), t_max=1.0, full_max=full_max,
+                                one_node=one_node)
         for c in rep.candidates:
             out.candidates += 1
             J = np.flatnonzero(c.exact.support)
