@@ -252,16 +252,22 @@ def _lambda2_proof(p: StatePencils, scene: Scene, nec: NecessaryOutcome, mu: flo
     reduced = _search_reduced(p, scene)
 
     def work(dc):
-        proof = l2x.prove_no_solution(dc, p.cls, mu, rayleigh, max_failed=MAX_FAILED if reduced else 0)
-        return proof, _search_failed(dc, p.cls, mu, proof, scene) if reduced else None
+        # on large systems the bisection starts from the power of two found by doubling, as without
+        # (19): the same for most classifications of a path, so their values of t are shared (the
+        # Rayleigh bounds differ from one classification to the next, and so would the grids)
+        start = l2x.start_bound(dc, p.cls, mu) if reduced else None
+        proof = l2x.prove_no_solution(dc, p.cls, mu, rayleigh if start is None else start,
+                                      max_failed=MAX_FAILED if reduced else 0)
+        return start, proof, _search_failed(dc, p.cls, mu, proof, scene) if reduced else None
 
     got = _on_rank_zero(p, scene, work)
     if got is None:
         return None
-    ((proven, T, detail), found), factorisations, method, setup_seconds = got
+    (start, (proven, T, detail), found), factorisations, method, setup_seconds = got
     bound = {"method": "Schur complement of sym K* + T sym M* onto the slip nodes PD (bisected from the "
-                       "Rayleigh-quotient bound -min eig sym K* / min eig sym M*)",
-             "rayleigh_bound": rayleigh, "proven_bound": T}
+                       + ("Rayleigh-quotient bound -min eig sym K* / min eig sym M*)" if start is None else
+                          "power of two found by doubling from tr K_cc / tr M_cc)"),
+             "rayleigh_bound": rayleigh, "proven_bound": T, **({} if start is None else {"start_bound": start})}
     if not proven and reduced:
         return _reduced_outcome(method, bound, (rayleigh, proven, T, detail), found,
                                 {"necessary_condition": nec.as_dict(), "new_factorisations": factorisations}, t_start)
