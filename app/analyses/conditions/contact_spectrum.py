@@ -303,23 +303,49 @@ def _bracket(root: "_Root", scale: float) -> Value:
     DOFs, whose interior is a pencil). The sign of the value is that of ``f(0)``."""
     sc = root.sc
     sc.at_zero()
-    pts = []
-    for sigma, Y in sc.known():
+    pts = sorted(sc.known(), key=lambda q: q[0])
+
+    def at(i: int) -> tuple[np.ndarray, np.ndarray]:
+        """``S`` and ``P^T Y P`` at the ``i``-th known point."""
+        sigma, Y = pts[i]
         PY = np.asarray(root.P.T @ np.asarray(root.P.T @ Y).T)
         PY = 0.5 * (PY + PY.T)
         S = root.A0 - PY
         S[np.diag_indices_from(S)] -= sigma
-        pts.append((sigma, float(scipy.linalg.eigvalsh(0.5 * (S + S.T), subset_by_index=[0, 0])[0]), PY))
-    pos = [(x, f, G) for x, f, G in pts if f > 0]
-    neg = [(x, f, G) for x, f, G in pts if f <= 0]
+        return 0.5 * (S + S.T), PY
+
+    def positive(i: int) -> bool:
+        try:
+            scipy.linalg.cholesky(at(i)[0])
+            return True
+        except np.linalg.LinAlgError:
+            return False
+
+    # f decreases: the first point where it is not positive, by bisection on the sorted points
+    # (Cholesky factorisations, not eigenvalues), then f itself at the two points either side
+    a, b = 0, len(pts)
+    while a < b:
+        m = (a + b) // 2
+        if positive(m):
+            a = m + 1
+        else:
+            b = m
+    pos, neg = [], []
+    if a > 0:
+        S, G = at(a - 1)
+        pos.append((pts[a - 1][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
+    if a < len(pts):
+        S, G = at(a)
+        neg.append((pts[a][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
     lo, hi = -np.inf, sc.k1
     if pos:
         p, fp, G = max(pos, key=lambda q: q[0])
         lo, hi = p, min(hi, p + fp)
         if not sc.static and p < sc.k1:
             # Y(sigma) - Y(p) <= (sigma - p) / (k_1 - sigma) Y(p) (functions of X_ii >= k_1 I), so
-            # f(p + d) >= f(p) - d - d g / (k_1 - p - d), g = ||P^T Y(p) P||: its first root bounds d
-            g = float(np.abs(scipy.linalg.eigvalsh(G, subset_by_index=[len(G) - 1, len(G) - 1])[0])) if len(G) else 0.0
+            # f(p + d) >= f(p) - d - d g / (k_1 - p - d), g >= ||P^T Y(p) P|| (its Frobenius norm): the
+            # first root bounds d
+            g = float(np.linalg.norm(G))
             k = sc.k1 - p
             b = fp + k + g
             lo = max(lo, p + 2.0 * fp * k / (b + np.sqrt(max(b * b - 4.0 * fp * k, 0.0))))
