@@ -11,7 +11,7 @@ from petsc4py import PETSc
 
 from app.analyses.conditions import contact_spectrum, eliminated, full_size
 from app.analyses.enumerate import TooManySlipNodes, enumerate_mceip
-from app.analyses.mceip_lambda2.analysis import mceip_lambda2
+from app.analyses.mceip_lambda2.analysis import mceip_lambda2, sufficient_on_reduction
 from app.analyses.mceip_mu.state import certificate, condensed_mu_result, enumeration_certificate, mu_cap
 from app.analyses.outcomes import (
     CompleteClaim,
@@ -72,6 +72,11 @@ def _sufficient(system: System, p: "StatePencils", scene: Scene, s: int,
             satisfied=False, lambda2=[], modes=[], real_candidates=[], converged=0, mu=scene.mu,
             eigensolver="none: an admissible eigenpair would solve MCEIP-lambda^2 (12)-(14) with y = 0, and "
                         f"MCEIP-lambda^2 at this mu has none ({lambda2.result})")
+    if isinstance(lambda2, MceipLambda2Outcome) and not lambda2.certified:
+        with system.stages("sufficient condition (17)-(18)"):
+            out = sufficient_on_reduction(p, scene, lambda2)       # MPI collective
+        if out is not None:
+            return out
     Ks, Ms = p.star(scene.mu)        # shared with the necessary condition, destroyed with p
     static = system.static_dofs
     with system.stages("sufficient condition (17)-(18)"):

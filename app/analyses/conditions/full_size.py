@@ -337,7 +337,7 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
     mixed = static is not None and len(static) > 0
     if mixed and Ks.getSize()[0] <= settings.dense_limit:
         pairs, nconv, how = _eliminated_pairs(Ks, Ms, static)
-        return _admissible(pairs, nconv, how, comp, keep_modes)
+        return admissible(pairs, nconv, how, comp, keep_modes)
     eps, how = _eps(Ks, Ms, False, settings, "cd_sufficient_", pivoting=mixed)
     with ExitStack() as owns:
         owns.enter_context(owned(eps))
@@ -351,7 +351,7 @@ def sufficient(Ks: PETSc.Mat, Ms: PETSc.Mat, comp: np.ndarray, settings: EigSett
             if not _growing(theta):
                 continue
             pairs.append((-theta.real, gather_vec(vr), float(eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE))))
-    return _admissible(pairs, nconv, how, comp, keep_modes)
+    return admissible(pairs, nconv, how, comp, keep_modes)
 
 
 def _growing(theta: complex) -> bool:
@@ -399,9 +399,9 @@ def _eliminated_pairs(Ks: PETSc.Mat, Ms: PETSc.Mat, static: np.ndarray) -> tuple
     return pairs, len(theta), how
 
 
-def _admissible(pairs: list, nconv: int, how: str, comp: np.ndarray, keep_modes: bool) -> SufficientOutcome:
+def admissible(pairs: list, nconv: int, how: str, comp: np.ndarray, keep_modes: bool) -> SufficientOutcome:
     """(17)-(18) from the real eigenpairs ``(lambda^2 > 0, x, relative error)``: those with
-    ``x_Ts >= 0`` (up to the sign of ``x``)."""
+    ``x_Ts >= 0`` (up to the sign of ``x``; ``x_Ts`` at the positions ``comp`` of ``x``)."""
     candidates, admissible, modes = [], [], []
     for lam2, x, res in pairs:
         xc = x[comp]

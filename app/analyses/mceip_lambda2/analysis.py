@@ -16,7 +16,7 @@ from app.analyses.mceip_lambda2 import bounds as l2b
 from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mceip_lambda2 import reduced_search as l2rs
 from app.analyses.mceip_mu.state import certificate
-from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome
+from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome, SufficientOutcome
 from app.analyses.pencils.reduced import diag_scale
 from app.analyses.pencils.state import StatePencils, keep_modes, no_slip, warm_hints
 from app.analyses.snes_vi.search import search_mceip
@@ -391,3 +391,27 @@ def _lambda2_search(p: StatePencils, scene: Scene, nec: NecessaryOutcome | None,
         time.perf_counter() - t_start,
         {"proven_empty": [hi, np.inf] if np.isfinite(hi) else None, "searched_not_proven": [0.0, hi]})
     return MceipLambda2Outcome(solutions=sols, result=result, search=search, certified=False, certificate=cert)
+
+
+def sufficient_on_reduction(p: StatePencils, scene: Scene, lambda2: MceipLambda2Outcome) -> SufficientOutcome | None:
+    """(17)-(18) at the scene's mu where MCEIP-lambda^2 at that mu was searched on the exact
+    reduction (above ``mcp.lambda2_full_search_max_dofs``), without an eigensolver on the full
+    system: an admissible eigenpair solves (12)-(14) with ``y = 0``, so none lies outside the
+    intervals of ``t`` the proof set aside, and inside them the real eigenpairs come from the
+    reduction (:func:`app.analyses.mceip_lambda2.reduced_search.eigenpairs`; their modes on the
+    slip nodes only). None when ``lambda2`` was not searched so. MPI collective."""
+    gaps = (lambda2.search or {}).get("searched_on_reduction", {}).get("intervals")
+    if gaps is None:
+        return None
+    got = _on_rank_zero(p, scene, lambda dc: l2rs.eigenpairs(dc, p.cls, scene.mu, [tuple(g) for g in gaps]))
+    if got is None:
+        return None
+    pairs, factorisations, method, _ = got
+    s = len(p.cls.slip)
+    out = full_size.admissible(pairs, len(pairs),
+                               f"the exact slip-node reduction S(t) (through the {method}): real roots of det S(t) in "
+                               f"the {len(gaps)} interval(s) of lambda^2 where MCEIP-lambda^2's proof set aside "
+                               "copositivity (none outside them), chord pencils then secant steps; a search, not a "
+                               "proof", np.arange(s), False)
+    out.mu = scene.mu
+    return out

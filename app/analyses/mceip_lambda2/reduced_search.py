@@ -26,6 +26,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from app.analyses.enumerate import RESIDUAL_TOL, RESOLVE_TOL, enumerate_patterns, pencil_scale
 from app.analyses.mceip_lambda2.exact import DynamicContact, Reduction
@@ -69,16 +70,16 @@ def _support_roots(S1: np.ndarray, t1: float, S2: np.ndarray, t2: float, J: np.n
     return roots
 
 
-def _exact_solution(red: Reduction, J: np.ndarray, t: float) -> Solution | None:
+def _exact_solution(red: Reduction, J: np.ndarray, t: float, scale: float) -> Solution | None:
     """The solution with support ``J`` at ``t`` on the exact ``S(t)``, or None when its sign checks
-    (26) or its residual fail."""
+    (26) or its residual (relative to ``scale``, the interval's ``S(a)``: at a solution ``S_JJ``
+    itself may be as small as its residual) fail."""
     S = red.S(t)
     s = S.shape[0]
-    scale = pencil_scale(S)
     _, sv, Vh = np.linalg.svd(S[np.ix_(J, J)] / scale)
     v = Vh[-1]
     v = v if v.sum() >= 0 else -v
-    res = float(sv[-1] / max(sv[0], 1e-300))
+    res = float(sv[-1])
     min_x = float(v.min() / max(np.abs(v).max(), 1e-300))
     if min_x <= 0 or res > RESIDUAL_TOL:
         return None
@@ -147,7 +148,7 @@ def search(dc: DynamicContact, cls: Classification, mu: float, intervals: list[t
             key = tuple(J.tolist())
             if any(k == key and abs(t - u) <= 1e-8 * max(abs(u), b - a) for k, u in seen):
                 continue
-            sol = _exact_solution(red, J, t)
+            sol = _exact_solution(red, J, t, pencil_scale(Sa))
             if sol is None:
                 out.rejected += 1
                 continue
@@ -157,3 +158,46 @@ def search(dc: DynamicContact, cls: Classification, mu: float, intervals: list[t
     out.evaluations = dc.evaluations - before
     out.seconds = time.perf_counter() - t0
     return out
+
+
+def _chord_roots(S1: np.ndarray, t1: float, S2: np.ndarray, t2: float) -> np.ndarray:
+    """The real ``t`` where the chord of ``S`` through ``(t1, S1)``, ``(t2, S2)`` is singular (all of
+    ``S``: the generalised eigenvalues of ``(S1, S1 - S2)`` in ``tau = (t - t1) / (t2 - t1)``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tau = scipy.linalg.eigvals(S1, S1 - S2)
+    real = np.isfinite(tau) & (np.abs(tau.imag) <= 1e-8 * np.maximum(1.0, np.abs(tau.real)))
+    return t1 + tau.real[real] * (t2 - t1)
+
+
+def eigenpairs(dc: DynamicContact, cls: Classification, mu: float,
+               intervals: list[tuple[float, float]]) -> list[tuple[float, np.ndarray, float]]:
+    """The real eigenpairs of (17)-(18) with ``lambda^2 = t`` in the ``intervals`` on the exact
+    reduction: ``S(t) x = 0`` (``y = 0`` on the slip nodes, the free DOFs eliminated), as ``(t, x
+    (s values on the slip nodes' x_Ts, unit norm), relative residual)``. Outside the intervals
+    ``sym S(t)`` is copositive (the proof), so no eigenvector there has ``x >= 0``. Each real root
+    of the chord pencil on an interval is taken to the exact ``S`` by secant steps as in
+    :func:`search` (on every slip node); a search, not a proof."""
+    red = Reduction(dc, cls, mu)
+    out: list[tuple[float, np.ndarray, float]] = []
+    for a, b in intervals:
+        h = b - a
+        for t0 in _chord_roots(red.S(a), a, red.S(b), b):
+            if not a - 1e-9 * h <= t0 <= b + 1e-9 * h:
+                continue
+            t, other = float(t0), min((a, b), key=lambda e: abs(e - t0))
+            for _ in range(SECANT_STEPS):
+                if abs(t - other) <= T_TOL * h:
+                    break
+                roots = _chord_roots(red.S(t), t, red.S(other), other)
+                roots = roots[(roots >= max(0.0, a - h)) & (roots <= b + h)]
+                if not len(roots):
+                    break
+                t, other = float(roots[np.argmin(np.abs(roots - t))]), t
+                if abs(t - other) <= T_TOL * h:
+                    t = other
+                    break
+            _, sv, Vh = np.linalg.svd(red.S(t) / pencil_scale(red.S(a)))
+            res = float(sv[-1])              # relative to the interval's S(a): at a root S itself may be small
+            if res <= RESIDUAL_TOL and t > 0 and not any(abs(t - u) <= 1e-8 * max(t, h) for u, _, _ in out):
+                out.append((t, Vh[-1], res))
+    return sorted(out, key=lambda q: q[0])
