@@ -42,6 +42,7 @@ import scipy.optimize
 from petsc4py import PETSc
 
 from app.analyses.conditions.interior_modes import interior_modes
+from app.analyses.conditions.value_bounds import bracket
 from app.analyses.pencils.kept_contact import KeptContact
 from app.analyses.pencils.state import sequential_km, system_cache
 from app.loading.classify import Classification
@@ -153,7 +154,7 @@ def _chebyshev(x: float, n: int) -> np.ndarray:
     return np.cos(np.arange(n) * np.arccos(x))
 
 
-class _Root:
+class Root:
     """``f(sigma) = lambda_min(S(sigma))`` of one classification at ``mu`` on the interpolant.
 
     On a curved obstacle the maps hold the contact frames and ``bend`` adds, for ``K``, the
@@ -192,6 +193,7 @@ class _Root:
         return 0.5 * (S + S.T)
 
     def f(self, sigma: float, j: int) -> float:
+        """``f(sigma)``, the smallest eigenvalue of ``S(sigma)`` on the interpolant of piece ``j``."""
         return float(scipy.linalg.eigvalsh(self.S(sigma, j), subset_by_index=[0, 0])[0])
 
     def f_end(self, j: int) -> float:
@@ -227,8 +229,8 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
     """The smallest eigenvalue of ``sym X*(mu)`` of classification ``cls`` (see the module's
     docstring), or None when it is left to the full-size solve. ``hint``: the previous
     classification's value (where to look first); ``bend``: ``X`` is ``K``, which carries a curved
-    obstacle's curvature term (:class:`_Root`)."""
-    root = _Root(sc, cls, mu, bend)
+    obstacle's curvature term (:class:`Root`)."""
+    root = Root(sc, cls, mu, bend)
     if root.n == 0:                           # every contact DOF removed: sym X* is X_ii
         return Value(sc.k1, sc.interior_scale)
     scale = max(sc.interior_scale, float(np.abs(np.diag(root.A0)).max()))
@@ -251,7 +253,7 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
     while True:
         visited.append(j)
         if not _affords_ends(sc, j):
-            return _bracket(root, scale)
+            return Value(None, scale, bracket(root))
         if root.f_end(j) >= 0:                # the root is closer to k_1
             if j == lowest_j:
                 if len(sc.poles):             # f >= 0 up to just below k_1: the value is k_1
@@ -268,7 +270,7 @@ def value(sc: ShiftedContact, cls: Classification, mu: float, hint: float | None
             return None
     hi, lo = ends(j)
     if j not in sc.pieces and not sc.affordable(NODES):
-        return _bracket(root, scale)
+        return Value(None, scale, bracket(root))
     _, err = sc.piece(j)
     if err > tol:
         return None
@@ -290,72 +292,6 @@ def _affords_ends(sc: ShiftedContact, j: int) -> bool:
         elif i not in sc.ends:
             need += 1
     return sc.affordable(need)
-
-
-def _bracket(root: "_Root", scale: float) -> Value:
-    """Bounds on the root of ``f`` from the exact values of ``Y`` already computed and ``Y(0)``
-    (docs/method.md section 2, "When the budget is spent"): ``f`` decreases with slope at most -1
-    and is concave (``Y`` is convex in ``sigma`` below ``k_1``, so ``S`` is concave). With ``f(p) > 0``
-    at ``p`` the largest such point and ``f(q) < 0`` at ``q`` the smallest such one, the root lies in
-    ``(p, q)``, below ``p + f(p)`` (the slope) and ``k_1`` (interlacing), above ``q + f(q)`` (the
-    slope), the root of the chord through both points (concavity: ``f`` lies above its chords) and
-    the first root of a lower bound of ``f`` above ``p`` (from ``X_ii >= k_1 I``; not with static
-    DOFs, whose interior is a pencil). The sign of the value is that of ``f(0)``."""
-    sc = root.sc
-    sc.at_zero()
-    pts = sorted(sc.known(), key=lambda q: q[0])
-
-    def at(i: int) -> tuple[np.ndarray, np.ndarray]:
-        """``S`` and ``P^T Y P`` at the ``i``-th known point."""
-        sigma, Y = pts[i]
-        PY = np.asarray(root.P.T @ np.asarray(root.P.T @ Y).T)
-        PY = 0.5 * (PY + PY.T)
-        S = root.A0 - PY
-        S[np.diag_indices_from(S)] -= sigma
-        return 0.5 * (S + S.T), PY
-
-    def positive(i: int) -> bool:
-        try:
-            scipy.linalg.cholesky(at(i)[0])
-            return True
-        except np.linalg.LinAlgError:
-            return False
-
-    # f decreases: the first point where it is not positive, by bisection on the sorted points
-    # (Cholesky factorisations, not eigenvalues), then f itself at the two points either side
-    a, b = 0, len(pts)
-    while a < b:
-        m = (a + b) // 2
-        if positive(m):
-            a = m + 1
-        else:
-            b = m
-    pos, neg = [], []
-    if a > 0:
-        S, G = at(a - 1)
-        pos.append((pts[a - 1][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
-    if a < len(pts):
-        S, G = at(a)
-        neg.append((pts[a][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
-    lo, hi = -np.inf, sc.k1
-    if pos:
-        p, fp, G = max(pos, key=lambda q: q[0])
-        lo, hi = p, min(hi, p + fp)
-        if not sc.static and p < sc.k1:
-            # Y(sigma) - Y(p) <= (sigma - p) / (k_1 - sigma) Y(p) (functions of X_ii >= k_1 I), so
-            # f(p + d) >= f(p) - d - d g / (k_1 - p - d), g >= ||P^T Y(p) P|| (its Frobenius norm): the
-            # first root bounds d
-            g = float(np.linalg.norm(G))
-            k = sc.k1 - p
-            b = fp + k + g
-            lo = max(lo, p + 2.0 * fp * k / (b + np.sqrt(max(b * b - 4.0 * fp * k, 0.0))))
-    if neg:
-        q, fq, _ = min(neg, key=lambda r: r[0])
-        hi = min(hi, q)
-        lo = max(lo, q + fq)
-        if pos:
-            lo = max(lo, p + fp * (q - p) / (fp - fq))
-    return Value(None, scale, (float(min(lo, hi)), float(hi)))     # min: rounding at a point where f ~ 0
 
 
 def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,

@@ -1,0 +1,74 @@
+"""Bounds on one value of the necessary condition (19) on the contact DOFs once the budget of exact
+Schur complements is spent (docs/method.md section 2, "When the budget is spent"): from the exact
+values of ``Y`` already computed, with the sign of the value decided by ``Y(0)``."""
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+
+def bracket(root) -> tuple[float, float]:
+    """``(lo, hi)`` around the root of ``f`` of ``root`` (a
+    :class:`~app.analyses.conditions.contact_spectrum.Root`) from the exact values of ``Y`` already computed and ``Y(0)``
+    (docs/method.md section 2, "When the budget is spent"): ``f`` decreases with slope at most -1
+    and is concave (``Y`` is convex in ``sigma`` below ``k_1``, so ``S`` is concave). With ``f(p) > 0``
+    at ``p`` the largest such point and ``f(q) < 0`` at ``q`` the smallest such one, the root lies in
+    ``(p, q)``, below ``p + f(p)`` (the slope) and ``k_1`` (interlacing), above ``q + f(q)`` (the
+    slope), the root of the chord through both points (concavity: ``f`` lies above its chords) and
+    the first root of a lower bound of ``f`` above ``p`` (from ``X_ii >= k_1 I``; not with static
+    DOFs, whose interior is a pencil). The sign of the value is that of ``f(0)``."""
+    sc = root.sc
+    sc.at_zero()
+    pts = sorted(sc.known(), key=lambda q: q[0])
+
+    def at(i: int) -> tuple[np.ndarray, np.ndarray]:
+        """``S`` and ``P^T Y P`` at the ``i``-th known point."""
+        sigma, Y = pts[i]
+        PY = np.asarray(root.P.T @ np.asarray(root.P.T @ Y).T)
+        PY = 0.5 * (PY + PY.T)
+        S = root.A0 - PY
+        S[np.diag_indices_from(S)] -= sigma
+        return 0.5 * (S + S.T), PY
+
+    def positive(i: int) -> bool:
+        try:
+            scipy.linalg.cholesky(at(i)[0])
+            return True
+        except np.linalg.LinAlgError:
+            return False
+
+    # f decreases: the first point where it is not positive, by bisection on the sorted points
+    # (Cholesky factorisations, not eigenvalues), then f itself at the two points either side
+    a, b = 0, len(pts)
+    while a < b:
+        m = (a + b) // 2
+        if positive(m):
+            a = m + 1
+        else:
+            b = m
+    pos, neg = [], []
+    if a > 0:
+        S, G = at(a - 1)
+        pos.append((pts[a - 1][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
+    if a < len(pts):
+        S, G = at(a)
+        neg.append((pts[a][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
+    lo, hi = -np.inf, sc.k1
+    if pos:
+        p, fp, G = max(pos, key=lambda q: q[0])
+        lo, hi = p, min(hi, p + fp)
+        if not sc.static and p < sc.k1:
+            # Y(sigma) - Y(p) <= (sigma - p) / (k_1 - sigma) Y(p) (functions of X_ii >= k_1 I), so
+            # f(p + d) >= f(p) - d - d g / (k_1 - p - d), g >= ||P^T Y(p) P|| (its Frobenius norm): the
+            # first root bounds d
+            g = float(np.linalg.norm(G))
+            k = sc.k1 - p
+            b = fp + k + g
+            lo = max(lo, p + 2.0 * fp * k / (b + np.sqrt(max(b * b - 4.0 * fp * k, 0.0))))
+    if neg:
+        q, fq, _ = min(neg, key=lambda r: r[0])
+        hi = min(hi, q)
+        lo = max(lo, q + fq)
+        if pos:
+            lo = max(lo, p + fp * (q - p) / (fp - fq))
+    return float(min(lo, hi)), float(hi)     # min: rounding at a point where f ~ 0
