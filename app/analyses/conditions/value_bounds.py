@@ -16,10 +16,14 @@ def bracket(root) -> tuple[float, float]:
     ``(p, q)``, below ``p + f(p)`` (the slope) and ``k_1`` (interlacing), above ``q + f(q)`` (the
     slope), the root of the chord through both points (concavity: ``f`` lies above its chords) and
     the first root of a lower bound of ``f`` above ``p`` (from ``X_ii >= k_1 I``; not with static
-    DOFs, whose interior is a pencil). The sign of the value is that of ``f(0)``."""
+    DOFs, whose interior is a pencil), and below the root of the line through two known points on
+    one side (concavity: beyond them ``f`` lies below it). The sign of the value is that of ``f(0)``."""
     sc = root.sc
     sc.at_zero()
-    pts = sorted(sc.known(), key=lambda q: q[0])
+    pts = []
+    for q in sorted(sc.known(), key=lambda q: q[0]):       # one of the points that coincide (end 0 and 0)
+        if not pts or q[0] - pts[-1][0] > 1e-9 * abs(sc.k1):
+            pts.append(q)
 
     def at(i: int) -> tuple[np.ndarray, np.ndarray]:
         """``S`` and ``P^T Y P`` at the ``i``-th known point."""
@@ -46,13 +50,16 @@ def bracket(root) -> tuple[float, float]:
             a = m + 1
         else:
             b = m
-    pos, neg = [], []
-    if a > 0:
-        S, G = at(a - 1)
-        pos.append((pts[a - 1][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
-    if a < len(pts):
-        S, G = at(a)
-        neg.append((pts[a][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G))
+    def f(i: int) -> tuple[float, float, np.ndarray]:
+        S, G = at(i)
+        return pts[i][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G
+
+    pos = [f(a - 1)] if a > 0 else []
+    neg = [f(a)] if a < len(pts) else []
+    # concavity: beyond two points on one side, f lies below the line through them, whose root is
+    # then an upper bound on the root
+    beyond = [(f(a - 2), pos[0])] if a > 1 else []
+    beyond += [(neg[0], f(a + 1))] if a + 1 < len(pts) else []
     lo, hi = -np.inf, sc.k1
     if pos:
         p, fp, G = max(pos, key=lambda q: q[0])
@@ -71,4 +78,7 @@ def bracket(root) -> tuple[float, float]:
         lo = max(lo, q + fq)
         if pos:
             lo = max(lo, p + fp * (q - p) / (fp - fq))
+    for (x1, f1, _), (x2, f2, _) in beyond:
+        if f1 - f2 > 1e-6 * max(abs(f1), abs(f2)):         # a line resolved above the rounding of f
+            hi = min(hi, x1 - f1 * (x2 - x1) / (f2 - f1))
     return float(min(lo, hi)), float(hi)     # min: rounding at a point where f ~ 0
