@@ -112,9 +112,9 @@ class EigSettings(Strict):
                           "shared by the whole path; docs/method.md section 2) instead of two full-size "
                           "factorisations per classification")
     necessary_value_work: Annotated[float, Field(gt=0, le=1e15)] = Field(
-        2.0e7, description="budget of the values of (19) on the contact DOFs, per matrix (K, M) and path, in "
+        1.0e7, description="budget of the values of (19) on the contact DOFs, per matrix (K, M) and path, in "
                            "DOF-factorisations (the exact Schur complements it computes times the system's DOFs: "
-                           "200 at 100k DOFs, 20 at 10^6); once spent, a value is reported as bounds "
+                           "100 at 100k DOFs, where the path needs 70, 10 at 10^6, fewer than one interpolated piece); once spent, a value is reported as bounds "
                            "(min_eig_K_sym_bounds) with its sign decided. Work, not time: the same answers on any "
                            "machine")
 
