@@ -8,6 +8,7 @@ import copy
 import numpy as np
 import pytest
 from conftest import run_scene
+from test_two_particles import CASES as TABLE1
 
 BLOCK = {"name": "rs", "system": {"type": "block", "length": 80.0, "height": 40.0, "thickness": 9.6, "nx": 20,
                                   "ny": 10, "pattern": "crossed", "E": 5.0, "nu": 0.48, "density": 1.2e-9},
@@ -104,8 +105,7 @@ def test_the_reductions_eigenpairs_are_the_full_pencils(slip_from, mu):
     assert all(any(abs(t - u) <= 1e-9 * u for t, _, _ in got) for u in want)
 
 
-@pytest.mark.parametrize("signs, mu, count", [((1, 1), 4.0, 1), ((-1, -1), 4.0, 1), ((1, -1), 4.5, 2),
-                                            ((1, -1), 7.0, 3), ((1, 1), 2.0, 0)])
+@pytest.mark.parametrize("signs, mu, count", TABLE1)
 def test_the_paper_two_particles_on_the_reduction(signs, mu, count):
     """The paper's two particles (Table 1) with the search on the reduction forced: MCEIP-lambda^2's
     solutions are the closed form's, and (17)-(18) from the reduction equals the eigensolver on the

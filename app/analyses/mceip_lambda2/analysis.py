@@ -160,7 +160,10 @@ def _on_contact_dofs(p: StatePencils, scene: Scene, mu: float, t_start: float) -
                   "power of two found by doubling from tr K_cc / tr M_cc)",
         "start_bound": proof[0], "proven_bound": proof[2]}
     if reduced and (proof is None or not proof[1]):
-        return _reduced_outcome(method, bound, proof, found, {"contact_signs": detail}, t_start)
+        why = None if proof is not None else (
+            "sym M*(mu) not PD: no bound on lambda^2" if not signs.m_pd else
+            "no power of two T with the Schur complement of sym K* + T sym M* onto the slip nodes PD")
+        return _reduced_outcome(method, bound, proof, found, {"contact_signs": detail}, t_start, why)
     if proof is None or not proof[1]:
         return None
     start, _, T, pdetail = proof
@@ -186,15 +189,16 @@ def _search_failed(dc, cls, mu: float, proof: tuple[bool, float, dict], scene: S
                        scene.settings.mcp.search_one_node)
 
 
-def _reduced_outcome(method: str, bound: dict | None, proof, found, extra: dict, t_start: float) -> MceipLambda2Outcome:
+def _reduced_outcome(method: str, bound: dict | None, proof, found, extra: dict, t_start: float,
+                     why: str | None = None) -> MceipLambda2Outcome:
     """The outcome where the proof on the exact reduction failed above ``lambda2_full_search_max_dofs``:
     no solution outside the intervals it set aside (floating point), those intervals searched on the
     reduction (:mod:`app.analyses.mceip_lambda2.reduced_search`); or, where it set none aside (a
-    budget spent, no bound), not decided and not searched."""
+    budget spent, no bound: ``why``), not decided and not searched."""
     seconds = time.perf_counter() - t_start
     pdetail = {} if proof is None else proof[3]
     if found is None:
-        why = pdetail.get("reason", "no power-of-two bound T with the Schur complement of sym K* + T sym M* PD")
+        why = pdetail.get("reason", why)
         search = {"complete": False, "upper_bound": bound, **extra,
                   "note": f"not decided: the proof on the exact slip-node reduction stopped ({why}), and the system is "
                           "above mcp.lambda2_full_search_max_dofs, where the full system is not searched"}
