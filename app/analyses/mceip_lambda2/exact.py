@@ -297,6 +297,19 @@ def _pd(X: np.ndarray) -> bool:
 MAX_EVALUATIONS = 400
 
 
+def _not_copositive(S: np.ndarray) -> bool:
+    """A witness that the symmetric ``S`` is not copositive: a negative diagonal entry, or a negative
+    smallest eigenvalue whose eigenvector has one sign (``x >= 0`` with ``x^T S x < 0``). No interval
+    with such an end can be certified (its lower bound at that end is at most ``S``), however halved;
+    without a witness nothing is claimed (the PD + NN test is a sufficient one)."""
+    d = np.diag(S)
+    if (d < 0).any():
+        return True
+    w, v = scipy.linalg.eigh(S, subset_by_index=[0, 0])
+    x = v[:, 0]
+    return bool(w[0] < 0 and (np.all(x >= 0) or np.all(x <= 0)))
+
+
 def _dyadic_above(x: float) -> float:
     """The smallest power of two at or above ``x > 0``."""
     m, e = np.frexp(x)
@@ -384,8 +397,8 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
     ``max_evaluations`` distinct ``t`` (the proof's budget); ``False`` when it runs out.
 
     An interval still not certified at ``depth`` halvings ends the proof, or with ``max_failed > 0``
-    is set aside and the others go on (as is at once, then, one where ``sym S(t)`` itself fails the
-    ``PD + NN`` test at both ends, as near a solution): ``detail["failed"]`` then lists up to ``max_failed`` such
+    is set aside and the others go on (as is at once, then, one where ``sym S(t)`` is shown not
+    copositive at both ends, as near a solution: :func:`_not_copositive`): ``detail["failed"]`` then lists up to ``max_failed`` such
     intervals (exact ``S`` at their ends) and ``detail["covered"]`` is True when ``[0, inf)`` holds
     no solution outside them (every other interval certified; a proof stopped by ``max_failed``
     or the budget has no ``covered``). The search of
@@ -427,8 +440,8 @@ def prove_no_solution(dc: DynamicContact, cls: Classification, mu: float, t_star
             La, Lb = Sa + Qb - h * slope, Sb + Qb
         if in_pd_plus_nn(La) and in_pd_plus_nn(Lb):
             proven_count += 1
-        elif max_failed and len(failed) < max_failed and not in_pd_plus_nn(Sa + Qa) and not in_pd_plus_nn(Sb + Qb):
-            failed.append((a, b))     # sym S(t) itself fails the test at both ends: no halving certifies it
+        elif max_failed and len(failed) < max_failed and _not_copositive(Sa + Qa) and _not_copositive(Sb + Qb):
+            failed.append((a, b))     # sym S(t) is not copositive at either end: no halving certifies them
         elif level < depth:
             m = 0.5 * (a + b)
             todo += [(m, b, level + 1), (a, m, level + 1)]
