@@ -104,20 +104,20 @@ def _exact_solution(red: Reduction, J: np.ndarray, t: float, scale: float) -> So
                               "pattern_verified": True})
 
 
-def _to_exact(red: Reduction, J: np.ndarray, a: float, b: float, t0: float) -> float:
-    """``t`` of support ``J`` on the exact ``S``, from the chord pencil's ``t0`` in ``[a, b]``: secant
-    steps, each the root of the chord through the two latest exact values of ``S`` nearest the
-    latest ``t``, until ``t`` moves by less than :data:`T_TOL` of ``b - a`` (at most
-    :data:`SECANT_STEPS` exact values)."""
+def _to_exact(red: Reduction, a: float, b: float, t0: float, roots_of) -> float:
+    """``t`` on the exact ``S`` from a chord pencil's ``t0`` in ``[a, b]``: secant steps, each the root
+    (``roots_of(S1, t1, S2, t2)``: those of the chord through two exact values of ``S``) nearest the
+    latest ``t`` of the chord through the two latest exact values, until ``t`` moves by less than
+    :data:`T_TOL` of ``b - a`` (at most :data:`SECANT_STEPS` exact values)."""
     t, other = t0, min((a, b), key=lambda e: abs(e - t0))
     for _ in range(SECANT_STEPS):
         if abs(t - other) <= T_TOL * (b - a):
             break
-        roots = [r for r in _support_roots(red.S(t), t, red.S(other), other, J)
+        roots = [r for r in roots_of(red.S(t), t, red.S(other), other)
                  if max(0.0, a - (b - a)) <= r <= b + (b - a)]
         if not roots:
             break
-        t, other = min(roots, key=lambda r: abs(r - t)), t
+        t, other = float(min(roots, key=lambda r: abs(r - t))), t
         if abs(t - other) <= T_TOL * (b - a):
             t = other          # S is exact at other; t differs by less than the tolerance
             break
@@ -144,7 +144,8 @@ def search(dc: DynamicContact, cls: Classification, mu: float, intervals: list[t
         for c in rep.candidates:
             out.candidates += 1
             J = np.flatnonzero(c.exact.support)
-            t = _to_exact(red, J, a, b, a + c.exact.value * (b - a))
+            t = _to_exact(red, a, b, a + c.exact.value * (b - a),
+                          lambda S1, t1, S2, t2, J=J: _support_roots(S1, t1, S2, t2, J))
             key = tuple(J.tolist())
             if any(k == key and abs(t - u) <= 1e-8 * max(abs(u), b - a) for k, u in seen):
                 continue
@@ -175,7 +176,7 @@ def eigenpairs(dc: DynamicContact, cls: Classification, mu: float,
     reduction: ``S(t) x = 0`` (``y = 0`` on the slip nodes, the free DOFs eliminated), as ``(t, x
     (s values on the slip nodes' x_Ts, unit norm), relative residual)``. Outside the intervals
     ``sym S(t)`` is copositive (the proof), so no eigenvector there has ``x >= 0``. Each real root
-    of the chord pencil on an interval is taken to the exact ``S`` by secant steps as in
+    of the chord pencil on an interval is taken to the exact ``S`` by the secant steps of
     :func:`search` (on every slip node); a search, not a proof."""
     red = Reduction(dc, cls, mu)
     out: list[tuple[float, np.ndarray, float]] = []
@@ -184,18 +185,7 @@ def eigenpairs(dc: DynamicContact, cls: Classification, mu: float,
         for t0 in _chord_roots(red.S(a), a, red.S(b), b):
             if not a - 1e-9 * h <= t0 <= b + 1e-9 * h:
                 continue
-            t, other = float(t0), min((a, b), key=lambda e: abs(e - t0))
-            for _ in range(SECANT_STEPS):
-                if abs(t - other) <= T_TOL * h:
-                    break
-                roots = _chord_roots(red.S(t), t, red.S(other), other)
-                roots = roots[(roots >= max(0.0, a - h)) & (roots <= b + h)]
-                if not len(roots):
-                    break
-                t, other = float(roots[np.argmin(np.abs(roots - t))]), t
-                if abs(t - other) <= T_TOL * h:
-                    t = other
-                    break
+            t = _to_exact(red, a, b, float(t0), lambda *q: list(_chord_roots(*q)))
             _, sv, Vh = np.linalg.svd(red.S(t) / pencil_scale(red.S(a)))
             res = float(sv[-1])              # relative to the interval's S(a): at a root S itself may be small
             if res <= RESIDUAL_TOL and t > 0 and not any(abs(t - u) <= 1e-8 * max(t, h) for u, _, _ in out):
