@@ -342,7 +342,10 @@ def necessary(study: StudyResult, outdir: pathlib.Path) -> list[pathlib.Path]:
     ax.set_xlabel(xlabel)
     ax.set_ylabel(f"min eig sym K*(\u03bc) [{study.units.stiffness or 'N/mm'}]")
     _mark_phases(ax, states, idx)
-    ax.legend(fontsize=8, loc="upper right")
+    if np.isfinite(lo).any():     # the bounds fill the axes where the value falls: the legend below them
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, frameon=False)
+    else:
+        ax.legend(fontsize=8, loc="upper right")
     ax.grid(alpha=0.3)
     ax.set_title(_title(study, f"necessary condition (19) at \u03bc = {study.mu}"), pad=TITLE_PAD)
     return _save(fig, outdir / "necessary")
