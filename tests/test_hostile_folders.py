@@ -327,11 +327,17 @@ MALFORMED = {
     "outputs.notes a number": lambda doc: {**doc, "outputs": {"notes": 5}},
     "pictured states not a list": lambda doc: (doc["scene_config"]["outputs"].update(states="final"), doc)[1],
     "a string for a number": lambda doc: (_state0(doc)["nodes"][0].update(u_N="inf"), doc)[1],
+    # the bounds of (19) where its budget was spent: a pair of numbers, never a path or anything longer
+    "bounds a path": lambda doc: (_state0(doc)["analyses"]["necessary"].update(min_eig_K_sym_bounds="../victim/x"),
+                                  doc)[1],
+    "bounds of three numbers": lambda doc: (_state0(doc)["analyses"]["necessary"].update(
+        min_eig_M_sym_bounds=[0.0, 1.0, 2.0]), doc)[1],
 }
 KEYS = {"list at top level": "the document", "states not a list": "states", "analyses a string": "states.0.analyses",
         "nodes not records": "states.0.nodes.0", "scene_config a list": "scene_config",
         "outputs.notes a number": "outputs.notes", "pictured states not a list": "scene_config.outputs.states",
-        "a string for a number": "states.0.nodes.0.u_N"}
+        "a string for a number": "states.0.nodes.0.u_N", "bounds a path": "states.0.analyses.necessary.min_eig_K_sym_bounds",
+        "bounds of three numbers": "states.0.analyses.necessary.min_eig_M_sym_bounds"}
 
 
 @pytest.mark.parametrize("case", sorted(MALFORMED))
