@@ -182,11 +182,13 @@ def eigenpairs(dc: DynamicContact, cls: Classification, mu: float,
     out: list[tuple[float, np.ndarray, float]] = []
     for a, b in intervals:
         h = b - a
-        for t0 in _chord_roots(red.S(a), a, red.S(b), b):
+        Sa = red.S(a)
+        scale = pencil_scale(Sa)
+        for t0 in _chord_roots(Sa, a, red.S(b), b):
             if not a - 1e-9 * h <= t0 <= b + 1e-9 * h:
                 continue
             t = _to_exact(red, a, b, float(t0), lambda *q: list(_chord_roots(*q)))
-            _, sv, Vh = np.linalg.svd(red.S(t) / pencil_scale(red.S(a)))
+            _, sv, Vh = np.linalg.svd(red.S(t) / scale)
             res = float(sv[-1])              # relative to the interval's S(a): at a root S itself may be small
             if res <= RESIDUAL_TOL and t > 0 and not any(abs(t - u) <= 1e-8 * max(t, h) for u, _, _ in out):
                 out.append((t, Vh[-1], res))
