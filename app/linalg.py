@@ -226,19 +226,63 @@ def lu_solver(A: PETSc.Mat, *, prefix: str, factor: Factor = "lu", mumps: Option
 _CONTROLLER: list = []
 
 
+def _controller():
+    """The BLAS libraries' controller (threadpoolctl), inspected once per process, or None."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:              # pragma: no cover - threadpoolctl is a dependency
+        return None
+    if not _CONTROLLER:
+        _CONTROLLER.append(ThreadpoolController())
+    return _CONTROLLER[0]
+
+
+def blas_threads_now() -> int:
+    """The BLAS threads dense work runs with now (the largest of the loaded BLAS libraries; 1
+    when none is known)."""
+    c = _controller()
+    if c is None:
+        return 1
+    counts = [lib.num_threads for lib in c.lib_controllers if lib.user_api == "blas"]
+    return max(counts, default=1)
+
+
+def blas_threads(n: int | None):
+    """Context: ``n`` BLAS threads (None: unchanged), the previous number again afterwards (used
+    by :func:`app.common.waiting.alone_on_rank_zero` while the other ranks wait)."""
+    c = _controller() if n is not None else None
+    if c is None:
+        return contextlib.nullcontext()
+    return c.limit(limits=int(n), user_api="blas")
+
+
+def start_blas_workers(n: int) -> None:
+    """Make sure ``n`` BLAS threads exist, the new ones started with subnormal numbers flushed.
+
+    A thread inherits the floating-point environment (and the CPU mask) of the thread that starts
+    it, and OpenBLAS keeps the threads it has started when fewer are asked for. Its threads
+    started here flush subnormals for good, so that a factorisation inside
+    :func:`flush_subnormals` runs at full speed on every thread (with a thread that does not,
+    MUMPS's factorisation of ``K + t M`` at ``t = 1e12`` and 10^6 DOFs took 11.5 s on two threads
+    and 5.5 s on one; 3.6 s on two that flush). For work that runs on more than one BLAS thread
+    only inside :func:`app.common.waiting.alone_on_rank_zero` (floating-point analyses: values of
+    (19), MCEIP-lambda^2's reduction), never the provers' rounding-bounded work."""
+    import numpy as np
+    with flush_subnormals(), blas_threads(n):
+        a = np.ones((256, 256))
+        a @ a                         # OpenBLAS starts its threads by the first threaded call at the latest
+
+
 def one_blas_thread():
     """Context: one BLAS thread around small batched dense work (OpenBLAS threads make stacks
     of 20 x 20 solves 10-20x slower on this kind of machine, and the contact increments' dense
     2n x 2n LU factorisations 2-3x slower); all threads again afterwards. The BLAS libraries are
     inspected once per process (``threadpool_limits`` scans every loaded library on each call:
     2-4 ms)."""
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:              # pragma: no cover - threadpoolctl is a dependency
+    c = _controller()
+    if c is None:
         return contextlib.nullcontext()
-    if not _CONTROLLER:
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
+    return c.limit(limits=1, user_api="blas")
 
 
 #: byte offset of ``__mxcsr`` in glibc's x86-64 ``fenv_t`` (bits/fenv.h), and its flush-to-zero

@@ -43,13 +43,14 @@ from collections import deque
 
 from app.common import interrupt
 from app.common.interrupt import Stopped
+from app.common.waiting import sleep_until
 from app.io.document import from_document
 from app.io.result import StudyResult
 from app.io.results import append_line
 from app.scene.schema import Scene, SceneError
 from app.scene.sweep import Case, expand  # noqa: F401 - expand re-exported (app.study.sweep.expand)
 from app.study.sweep_table import case_row, error_row, summary_table, write_comparison, write_plots, write_tables
-from app.study.taskfarm import run_farm, sleep_until
+from app.study.taskfarm import run_farm
 from app.systems.units import CONTINUUM_UNITS
 
 

@@ -17,25 +17,15 @@ import math
 import os
 import sys
 import threading
-import time
 import traceback
 from typing import Any, Callable, Optional
 
+from app.common.waiting import sleep_until
+
 TAG_REQUEST, TAG_REPLY = 7101, 7102
 DISPATCHER_ENV = "CONTACT_DIVERGENCE_SWEEP_DISPATCHER"   # "dedicated": force a non-working rank 0 (tests)
-POLL_SECONDS = 0.01
-
 Handle = Callable[[int, Optional[dict]], Optional[int]]
 Work = Callable[[int, Any], Optional[dict]]
-
-
-def sleep_until(test: Callable[[], Any]) -> Any:
-    """Call ``test`` every :data:`POLL_SECONDS` until it returns something true; return that."""
-    while True:
-        done = test()
-        if done:
-            return done
-        time.sleep(POLL_SECONDS)
 
 
 def _serve(farm, handle: Handle, n_groups: int) -> None:

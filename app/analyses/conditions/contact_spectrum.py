@@ -44,7 +44,7 @@ from petsc4py import PETSc
 from app.analyses.conditions.interior_modes import interior_modes
 from app.analyses.conditions.value_bounds import bracket
 from app.analyses.pencils.kept_contact import KeptContact
-from app.analyses.pencils.state import sequential_km, system_cache
+from app.analyses.pencils.state import on_rank_zero, sequential_km, system_cache
 from app.loading.classify import Classification
 from app.loading.mumps_schur import SchurComplements, static_schur, without_static
 
@@ -406,7 +406,8 @@ def contact_spectra(system, work: float | None = None) -> tuple[ShiftedContact, 
     (None on the other ranks, and on rank 0 when they cannot be built). ``work``: the budget of
     each matrix in DOF-factorisations (``eig.necessary_value_work``: exact values of ``Y`` times
     the system's DOFs), set at the first call. MPI collective on the first call (``K`` and ``M``
-    gathered on rank 0 when distributed)."""
+    gathered on rank 0 when distributed) unless :func:`sequential_km` has run: then rank 0 may
+    call it alone."""
     def made():
         got = _build_both(system)
         if got is not None and work is not None:
@@ -443,18 +444,21 @@ def values(system, cls: Classification, mu: float, hints: dict,
     declined); ``value`` None and ``bounds`` ``(lo, hi)`` where the budget ``work``
     (:func:`contact_spectra`) is spent. ``hints`` (name -> the previous classification's value)
     is read and updated. MPI collective: rank 0 computes, every rank gets the answer."""
-    got = {"K": None, "M": None}
-    spectra = contact_spectra(system, work)                           # MPI collective (first call)
-    if system.comm.rank == 0 and spectra is not None:
-        for name, sc in zip(("K", "M"), spectra):
+    sequential_km(system)                                             # MPI collective (first call)
+
+    def alone():
+        got = {"K": None, "M": None}
+        spectra = contact_spectra(system, work)       # built on first use (K and M gathered above)
+        for name, sc in zip(("K", "M"), spectra or ()):
             try:     # on a curved obstacle K* carries the curvature term (app/analyses/pencils/kept_contact.py)
                 v = value(sc, cls, mu, hints.get(name), bend=name == "K")
             except (RuntimeError, PETSc.Error, np.linalg.LinAlgError):
                 v = None
             if v is not None:
                 got[name] = (v.value, v.scale, v.bounds)
-    if system.comm.size > 1:
-        got = system.comm.bcast(got, root=0)                          # MPI collective
+        return got
+
+    got = on_rank_zero(system, alone)                                 # MPI collective
     for name, v in got.items():
         if v is not None and v[0] is not None:
             hints[name] = v[0]

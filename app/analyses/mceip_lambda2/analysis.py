@@ -18,7 +18,7 @@ from app.analyses.mceip_lambda2 import reduced_search as l2rs
 from app.analyses.mceip_mu.state import certificate
 from app.analyses.outcomes import MceipLambda2Outcome, NecessaryOutcome, SufficientOutcome
 from app.analyses.pencils.reduced import diag_scale
-from app.analyses.pencils.state import StatePencils, keep_modes, no_slip, warm_hints
+from app.analyses.pencils.state import StatePencils, keep_modes, no_slip, on_rank_zero, warm_hints
 from app.analyses.snes_vi.search import search_mceip
 from app.scene.schema import Scene
 from app.systems.base import System
@@ -110,16 +110,16 @@ def _on_rank_zero(p: StatePencils, scene: Scene, work):
     :class:`app.analyses.pencils.kept_contact.KeptContact`), broadcast to every rank; None where
     it could not be built. MPI collective."""
     dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
-    comm = p.system.comm
-    got = None
-    if comm.rank == 0 and dc is not None:
+
+    def alone():
+        if dc is None:
+            return None
         evaluations = dc.evaluations
         with p.system.stages("MCEIP-lambda2 exact reduction"):
             got = work(dc)
-        got = (got, dc.evaluations - evaluations, dc.method, dc.seconds)
-    if comm.size > 1:
-        got = comm.bcast(got, root=0)                                                 # MPI collective
-    return got
+        return got, dc.evaluations - evaluations, dc.method, dc.seconds
+
+    return on_rank_zero(p.system, alone)                                              # MPI collective
 
 
 def _on_contact_dofs(p: StatePencils, scene: Scene, mu: float, t_start: float) -> MceipLambda2Outcome | None:

@@ -20,6 +20,7 @@ from app.analyses.pencils.reduced import (
     reduced_pencil,
     reduced_space,
 )
+from app.common.waiting import alone_on_rank_zero, node_cores
 from app.loading.classify import Classification
 from app.scene.schema import Scene
 from app.systems.base import System
@@ -138,6 +139,7 @@ class SystemCache:
     gathered: Any = _UNSET       # sequential K and M on rank 0 (:func:`sequential_km`)
     spectra: Any = _UNSET        # K and M seen from the contact DOFs (app/analyses/conditions/contact_spectrum.py)
     dynamic: Any = _UNSET        # the dynamic contact flexibility (app/analyses/mceip_lambda2/exact.py)
+    cores: Any = _UNSET          # the cores of rank 0's node (:func:`on_rank_zero`)
 
     def once(self, name: str, make: Callable[[], Any]) -> Any:
         """Field ``name``, made by ``make()`` on first use."""
@@ -173,6 +175,14 @@ def no_slip() -> tuple[str, dict]:
     return "no solution (no slip nodes)", {"note": "no slip nodes: x_Ts is empty, so x = 0 is the only "
                                                    "solution of (12)-(14)/(21)-(23) and there is no eigenvalue",
                                            "complete": True}
+
+
+def on_rank_zero(system: System, work: Callable[[], Any]) -> Any:
+    """``work()`` on rank 0 alone (what it needs is there: the gathered ``K`` and ``M``, the
+    contact DOFs' dense data), its answer broadcast to every rank, the other ranks asleep and their
+    cores rank 0's meanwhile (:func:`app.common.waiting.alone_on_rank_zero`). MPI collective."""
+    cores = system_cache(system).once("cores", lambda: node_cores(system.comm))    # MPI collective (first call)
+    return alone_on_rank_zero(system.comm, work, cores)                           # MPI collective
 
 
 def sequential_km(system) -> tuple[PETSc.Mat, PETSc.Mat] | None:

@@ -1,0 +1,66 @@
+"""Work on rank 0 alone (app/common/waiting.py): the other ranks sleep instead of spinning, rank 0
+runs on their cores meanwhile, every rank gets the answer, an error reaches every rank, and the
+masks and BLAS threads are back afterwards."""
+import json
+import os
+import subprocess
+
+import pytest
+from conftest import PY, ROOT
+
+SCRIPT = """\
+import json, os, sys, time
+sys.path.insert(0, {root!r})
+import numpy  # noqa: F401 - OpenBLAS loaded, as in a run
+from mpi4py import MPI
+from app.common.waiting import alone_on_rank_zero, node_cores
+from app.linalg import blas_threads_now
+
+comm = MPI.COMM_WORLD
+cores = node_cores(comm)
+masks = comm.gather(sorted(os.sched_getaffinity(0)), root=0)
+before = (sorted(os.sched_getaffinity(0)), blas_threads_now())
+
+def work():
+    time.sleep(2.0)
+    return sorted(os.sched_getaffinity(0)), blas_threads_now()
+
+cpu = time.process_time()
+inside = alone_on_rank_zero(comm, work, cores)
+waited_cpu = time.process_time() - cpu
+after = (sorted(os.sched_getaffinity(0)), blas_threads_now())
+try:
+    alone_on_rank_zero(comm, lambda: 1 / 0, cores)
+    error = None
+except Exception as err:
+    error = f"{{type(err).__name__}}: {{err}}"
+print(json.dumps({{"rank": comm.rank, "masks": masks, "inside": inside, "before": before, "after": after,
+                  "waited_cpu": waited_cpu, "error": error}}), flush=True)
+"""
+
+
+@pytest.mark.mpi
+def test_rank_zero_works_on_the_cores_of_the_ranks_that_sleep(tmp_path):
+    script = tmp_path / "alone.py"
+    script.write_text(SCRIPT.format(root=str(ROOT)))
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OPENBLAS_NUM_THREADS="1", OMPI_MCA_mpi_yield_when_idle="0")
+    # each rank bound to its own core, as mpirun does by default for two ranks
+    p = subprocess.run(["mpirun", "-n", "2", "--bind-to", "core", "--map-by", "core", PY, str(script)],
+                       capture_output=True, text=True, timeout=120, env=env)
+    if p.returncode != 0 and "not enough slots" in (p.stdout + p.stderr).lower():
+        pytest.skip("fewer than two cores: mpirun cannot bind two ranks to their own cores")
+    assert p.returncode == 0, p.stdout + p.stderr
+    rows = {r["rank"]: r for r in (json.loads(line) for line in p.stdout.splitlines() if line.startswith("{"))}
+    assert set(rows) == {0, 1}, p.stdout + p.stderr
+    union = sorted(set(rows[0]["masks"][0]) | set(rows[0]["masks"][1]))
+    for r in rows.values():
+        # the same answer everywhere: rank 0's mask and threads inside the work
+        assert r["inside"] == [union, min(len(union), 2)]
+        assert r["after"] == r["before"]                   # masks and threads restored
+    assert rows[0]["error"] == "ZeroDivisionError: division by zero"
+    assert rows[1]["error"] == "RuntimeError: ZeroDivisionError: division by zero"
+    assert rows[0]["before"][1] == 1
+    # rank 1 slept through rank 0's two seconds of work (Open MPI's blocking barrier, with
+    # mpi_yield_when_idle off, spends about one of them polling)
+    assert rows[1]["waited_cpu"] < 0.2, rows[1]
