@@ -16,6 +16,7 @@ from typing import Any, Optional
 
 from app.common.errors import EXIT_INCOMPLETE, EXIT_OK
 from app.common.progress import Progress
+from app.common.waiting import sleep_until
 from app.io.result import StudyResult
 from app.scene.schema import Scene
 
@@ -56,7 +57,7 @@ def commit(folder, comm) -> Optional[pathlib.Path]:
     """Wait until every rank has written (MPI collective), then rank 0 commits ``folder``
     (app/io/folder.py: the staged results replace the target atomically). Returns the final
     folder on rank 0, None elsewhere."""
-    comm.Barrier()
+    sleep_until(comm.Ibarrier().Test)        # MPI collective; the others sleep while rank 0 draws and writes
     return folder.commit() if comm.rank == 0 else None
 
 
