@@ -354,6 +354,49 @@ def test_ctrl_c_of_an_mpirun_sweep_is_one_line(tmp_path):
     _stopped_sweep_left_its_complete_cases(err, out, "SIGTERM")
 
 
+STUDY_TO_STOP = """\
+name: stop-me
+system: {type: block, nx: 180, ny: 90}
+mu: 1.1
+analyses: [necessary, mceip_lambda2]
+"""
+
+
+@pytest.mark.mpi
+def test_ctrl_c_of_an_mpirun_study_inside_rank_zeros_work_is_one_line(tmp_path):
+    """A Ctrl-C while rank 0 computes the values of (19) and MCEIP-lambda^2 on the contact DOFs
+    (65k DOFs) and rank 1 sleeps until it has them (app/common/waiting.py): the one line, no
+    traceback and no MPI_Abort banner (rank 1 takes the SIGTERM at once, in Python, and waits for
+    rank 0 to clean up and end the job), nothing left behind, the job over within seconds."""
+    import signal
+    import time
+    scene = tmp_path / "stop.yaml"
+    scene.write_text(STUDY_TO_STOP)
+    out = tmp_path / "out"
+    proc = subprocess.Popen(["mpirun", "--oversubscribe", "-n", "2", PY, "-m", "app", "run", str(scene), "-o", str(out)],
+                            cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        lines = []
+        for line in proc.stderr:              # progress lines, every 5 s: the first of the analyses
+            lines.append(line)
+            if line.startswith("analyses:") and ("necessary" in line or "MCEIP-lambda" in line):
+                break
+        assert proc.poll() is None, "".join(lines)
+        os.killpg(proc.pid, signal.SIGINT)
+        t0 = time.monotonic()
+        rest = proc.communicate(timeout=120)[1]
+        stopped = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    after = [x for x in rest.splitlines() if not x.startswith(("analyses:", "loading:"))]
+    assert after == ["error: interrupted by SIGTERM; the run stopped and wrote no results"], rest
+    assert not out.exists() and not list(tmp_path.glob(".out*")), sorted(p.name for p in tmp_path.iterdir())
+    assert stopped < 30, stopped
+
+
 def test_disk_full_while_the_plots_are_drawn(tmp_path):
     """The file system fills up once the plots child has begun writing (its plots/ folder exists):
     one 'no space left' line, exit status 4, no traceback from the child, nothing left behind."""

@@ -58,6 +58,8 @@ exit status: 0 ok, 2 bad input, 3 study incomplete (some states failed; see resu
 
 #: seconds an interrupted sweep's rank 0 and its other ranks wait before they exit (:func:`_interrupted`)
 SWEEP_EXIT_WAIT = (1.0, 5.0)
+#: the same for a study: its rank 0 has removed the staging folder and the lock and exits at once
+STUDY_EXIT_WAIT = (0.0, 2.0)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -227,11 +229,13 @@ def _interrupted(signum: int, left: str | None = None) -> int:
     default none of its results); exit status 128 + the signal.
 
     Under mpirun a Ctrl-C reaches mpirun, which sends SIGTERM to every rank and exits 1 (Open
-    MPI 4). A study's ranks may wait for each other inside a collective, which only MPI_Abort
-    ends. A sweep's ranks (``left`` given) wait for their cases in Python (app/study/taskfarm.py
-    polls), so each one ends itself with the status, without MPI_Abort's banner beside the one
-    line; a signal that reaches one rank only still ends the job, as mpirun ends a job when a
-    rank exits with a non-zero status."""
+    MPI 4). Every rank ends itself with the status (``os._exit``), without MPI_Abort's banner
+    beside the one line: mpirun ends the job as soon as one rank exits with a non-zero status,
+    the ranks still inside a collective with it, so a signal that reaches one rank only still
+    ends the job. A sweep's ranks (``left`` given) each remove their unfinished case first; a
+    study's rank 0 has removed the staging folder and the lock on its way out and exits at once,
+    while its other ranks (which hold nothing; those waiting for rank 0 sleep in Python,
+    app/common/waiting.py, and take the signal at once) wait for mpirun to end them."""
     from mpi4py import MPI
 
     from app.common import hard_stop
@@ -243,16 +247,16 @@ def _interrupted(signum: int, left: str | None = None) -> int:
             time.sleep(1.0)
     if MPI.COMM_WORLD.rank == 0:
         print(interrupt.message(signum, left), file=sys.stderr, flush=True)
-    if MPI.COMM_WORLD.size > 1 and left is not None:
+    if MPI.COMM_WORLD.size > 1:
         sys.stderr.flush()
         # mpirun ends the whole job (SIGKILL) as soon as one rank exits with a non-zero status.
-        # Each rank has removed its own unfinished case; rank 0, whose line is printed, waits
-        # for a signal another rank deferred (an import, a JIT compilation: a tenth of a second
-        # at a time, app/common/runtime.py) to reach that rank, and the other ranks wait for rank 0.
-        time.sleep(SWEEP_EXIT_WAIT[0 if MPI.COMM_WORLD.rank == 0 else 1])
+        # In a sweep each rank has removed its own unfinished case; rank 0, whose line is
+        # printed, waits for a signal another rank deferred (an import, a JIT compilation: a
+        # tenth of a second at a time, app/common/runtime.py) to reach that rank, and the other
+        # ranks wait for rank 0. In a study only rank 0 held anything.
+        waits = SWEEP_EXIT_WAIT if left is not None else STUDY_EXIT_WAIT
+        time.sleep(waits[0 if MPI.COMM_WORLD.rank == 0 else 1])
         os._exit(code)
-    if MPI.COMM_WORLD.size > 1:
-        MPI.COMM_WORLD.Abort(code)
     return code
 
 
