@@ -264,9 +264,11 @@ def start_blas_workers(n: int) -> None:
     started here flush subnormals for good, so that a factorisation inside
     :func:`flush_subnormals` runs at full speed on every thread (with a thread that does not,
     MUMPS's factorisation of ``K + t M`` at ``t = 1e12`` and 10^6 DOFs took 11.5 s on two threads
-    and 5.5 s on one; 3.6 s on two that flush). For work that runs on more than one BLAS thread
-    only inside :func:`app.common.waiting.alone_on_rank_zero` (floating-point analyses: values of
-    (19), MCEIP-lambda^2's reduction), never the provers' rounding-bounded work."""
+    and 5.5 s on one; 3.6 s on two that flush). Called by
+    :func:`app.common.waiting.alone_on_rank_zero`, the one place where work runs on more than one
+    BLAS thread under ``mpirun`` (the app sets one per rank): the values of (19) and
+    MCEIP-lambda^2's reduction, floating-point analyses (``rigorous: false``), never MCEIP-mu's
+    provers, whose rounding bounds are taken with gradual underflow."""
     import numpy as np
     with flush_subnormals(), blas_threads(n):
         a = np.ones((256, 256))

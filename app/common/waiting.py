@@ -3,9 +3,10 @@
 Much of an analysis on the contact DOFs runs on rank 0 alone (the exact reduction of
 MCEIP-lambda^2, the values of the necessary condition (19): dense work and factorisations of the
 whole ``K + t M`` gathered there) while the other ranks wait for its answer. Waiting in a blocking
-broadcast, Open MPI spins (``mpi_yield_when_idle`` only yields the core now and then), so the
-machine's other cores do nothing useful, and under ``mpirun``'s default binding (one core per rank
-for up to two ranks) rank 0 could not use them anyway.
+broadcast, Open MPI polls (yielding the core between polls with ``mpi_yield_when_idle``), rank 0
+runs one BLAS thread (the app's default under ``mpirun``), and under ``mpirun``'s default binding
+(one core per rank for up to two ranks) it could not use the other cores anyway: they did nothing
+useful.
 
 :func:`alone_on_rank_zero` is that broadcast done differently: the waiting ranks poll a
 nonblocking barrier and sleep between polls (:func:`sleep_until`), and meanwhile rank 0 widens
