@@ -64,3 +64,18 @@ def test_rank_zero_works_on_the_cores_of_the_ranks_that_sleep(tmp_path):
     # rank 1 slept through rank 0's two seconds of work (Open MPI's blocking barrier, with
     # mpi_yield_when_idle off, spends about one of them polling)
     assert rows[1]["waited_cpu"] < 0.2, rows[1]
+
+
+def test_no_more_threads_where_the_cores_cannot_be_borrowed():
+    """A mask the kernel refuses (here an empty one; in practice CPUs outside the process's
+    cpuset) leaves every thread's mask as it was and ``held`` false, so rank 0 does not start
+    threads that would share its one core."""
+    from app.common.waiting import NodeCores, _borrowed
+    before = os.sched_getaffinity(0)
+    with _borrowed(NodeCores(frozenset(), 2)) as b:
+        assert not b.held
+        assert os.sched_getaffinity(0) == before
+    assert os.sched_getaffinity(0) == before
+    with _borrowed(NodeCores(frozenset(before), 2)) as b:      # its own mask: held, nothing changed
+        assert b.held
+    assert os.sched_getaffinity(0) == before

@@ -83,8 +83,9 @@ def alone_on_rank_zero(comm, work: Callable[[], T], cores: NodeCores | None) -> 
     got: Any = None
     if comm.rank == 0:
         try:
-            with _borrowed(cores):
-                threads = cores.threads if cores else None
+            with _borrowed(cores) as borrowed:
+                # more threads only on the cores borrowed (not where the mask could not be widened)
+                threads = cores.threads if cores and borrowed.held else None
                 if threads:
                     start_blas_workers(threads)
                 with blas_threads(threads):
@@ -105,10 +106,11 @@ class _borrowed:
     """Context: every thread of this process (``/proc/self/task``; the calling thread alone where
     that is not readable) on ``cores.cpus``, so that BLAS threads already started and those
     started inside (they inherit the mask) run on the borrowed cores; each thread's own mask back
-    afterwards. Nothing where ``cores`` is None or a mask cannot be changed."""
+    afterwards. Nothing where ``cores`` is None or a mask cannot be changed; ``held``: the
+    calling thread runs on ``cores.cpus``."""
 
     def __init__(self, cores: NodeCores | None):
-        self.cores, self.saved = cores, {}
+        self.cores, self.saved, self.held = cores, {}, False
 
     def __enter__(self):
         if self.cores is None:
@@ -125,6 +127,10 @@ class _borrowed:
                     self.saved[tid] = mask
             except (AttributeError, OSError):    # a thread that has ended, or no affinity here
                 continue
+        try:
+            self.held = os.sched_getaffinity(0) == self.cores.cpus
+        except (AttributeError, OSError):
+            self.held = False
         return self
 
     def __exit__(self, *exc) -> None:
