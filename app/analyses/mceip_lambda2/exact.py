@@ -191,6 +191,10 @@ class DynamicContact:
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``Z(t)`` (dynamic contact Schur complement of ``K + t M``) and ``H_cc(t)``."""
+        return self.schur_at(t), self.Kcc + t * self.Mcc
+
+    def schur_at(self, t: float) -> np.ndarray:
+        """``Z(t)``, the dynamic contact Schur complement of ``K + t M``."""
         Z = self._cache.get(t)
         if Z is None:
             Z = None if self.schur is None else self.schur(t)
@@ -204,7 +208,7 @@ class DynamicContact:
             self._cache[t] = Z
         else:
             self._cache.move_to_end(t)
-        return Z, self.Kcc + t * self.Mcc
+        return Z
 
 
 def _without(M: PETSc.Mat, static: np.ndarray, block_of_inverse: Callable, dofs: np.ndarray) -> np.ndarray:
@@ -251,12 +255,21 @@ def _build(system, max_dense_dofs: int) -> DynamicContact | None:
 
 
 class Reduction(KeptContact):
-    """``S(t)``, ``sym S(t)`` and ``Sh(t)`` of one classification at mu (cached per t)."""
+    """``S(t)``, ``sym S(t)`` and ``Sh(t)`` of one classification at mu (cached per t).
+
+    The maps are the identity on the free nodes' DOFs (the first ``nF`` kept unknowns) and ``D =
+    Q - R^T`` is zero there, so ``A(t) = R Z(t) Q`` and ``G(t) = sym A(t) - D^T (H(t) - Z(t)) D / 4``
+    (:meth:`KeptContact.kept`, ``H = K_cc + t M_cc``) share their free block ``Z_FF(t)``, SPD: one
+    Cholesky factorisation gives both Schur complements onto the slip nodes, ``S = A_SS - A_SF
+    Z_FF^-1 A_FS`` and ``Sh = G_SS - G_SF Z_FF^-1 G_FS`` with ``G_FS = (A_FS + A_SF^T) / 2``, and
+    ``D^T H D`` is ``D^T K_cc D + t D^T M_cc D``, formed once."""
 
     def __init__(self, dc: DynamicContact, cls: Classification, mu: float):
         super().__init__(dc.Kcc.shape[0], cls, mu)
         self.dc, self.mu = dc, mu
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        self.Ds = self.D[:, self.nF:].tocsc()          # the slip nodes' columns (the others are zero)
+        self._DKD, self._DMD = (self.sandwich(self.Ds, X, self.Ds) for X in (dc.Kcc, dc.Mcc))
 
     def _schur(self, X: np.ndarray) -> np.ndarray:
         n = self.nF
@@ -267,16 +280,26 @@ class Reduction(KeptContact):
     def S(self, t: float) -> np.ndarray:
         """``S(t)`` itself (``s x s``, slip nodes in the classification's order): ``y_Ts = S(t) x_Ts``
         at every ``x`` with ``y_f = 0``."""
-        return self._schur(self.reduced(self.dc.at(t)[0], bend=True))
+        return self._schur(self.reduced(self.dc.schur_at(t), bend=True))
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``(Sh(t), Q(t))`` with ``sym S(t) = Sh(t) + Q(t)``."""
         hit = self._cache.get(t)
         if hit is None:
-            Z, H = self.dc.at(t)
+            Z = self.dc.schur_at(t)
             A = self.reduced(Z, bend=True)         # K* + t M*: a curved obstacle's term is K*'s
-            G = 0.5 * (A + A.T) - 0.25 * self.sandwich(self.D, H - Z, self.D)
-            Sx, Sh = self._schur(A), self._schur(G)
+            n = self.nF
+            GSS = 0.5 * (A[n:, n:] + A[n:, n:].T) - 0.25 * (
+                self._DKD + t * self._DMD - self.sandwich(self.Ds, Z, self.Ds))
+            if n:
+                L = scipy.linalg.cholesky(A[:n, :n], lower=True)
+                U = scipy.linalg.solve_triangular(L, A[:n, n:], lower=True)
+                V = scipy.linalg.solve_triangular(L, np.ascontiguousarray(A[n:, :n].T), lower=True)
+                W = 0.5 * (U + V)
+                Sx = A[n:, n:] - V.T @ U
+                Sh = GSS - W.T @ W
+            else:
+                Sx, Sh = A, GSS
             Sh = 0.5 * (Sh + Sh.T)
             hit = (Sh, 0.5 * (Sx + Sx.T) - Sh)
             self._cache[t] = hit

@@ -48,7 +48,7 @@ def in_pd_plus_nn(S: np.ndarray) -> bool:
     d = np.diag(S)
     if not np.all(np.isfinite(S)) or np.any(d <= 0):
         return False
-    e = np.array([np.frexp(np.sqrt(v))[1] for v in d])
+    e = np.frexp(np.sqrt(d))[1].astype(np.int64)
     Sn = np.ldexp(S, -(e[:, None] + e[None, :]))
     off = Sn - np.diag(np.diag(Sn))
     pos = np.maximum(off, 0.0)
