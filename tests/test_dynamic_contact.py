@@ -305,3 +305,44 @@ def test_the_reduction_on_a_curved_obstacle_is_the_full_pencils_schur_complement
 
     res = study(scene, MPI.COMM_WORLD, None, inspect=inspect)
     assert res.inspection["checked"] >= 5
+
+
+@pytest.mark.parametrize("fallback", [False, True])
+def test_the_split_is_the_definitions(block, fallback, monkeypatch):
+    """``Reduction.at``'s ``Sh(t)`` is the Schur complement of ``sym(K*(mu) + t M*(mu))`` onto the
+    slip nodes' ``x_Ts`` and ``Q(t) = sym S(t) - Sh(t)`` is positive semidefinite (docs/method.md
+    section 7), against the app's full reduced pencils (dense), with free, stuck and slipping
+    nodes; also through the LU factorisations used where the free block's Cholesky fails."""
+    import scipy.linalg
+
+    from app.analyses.pencils.state import StatePencils
+    from app.loading.classify import FREE
+    system, dense, sparse = block
+    if fallback:
+        def refuse(*args, **kwargs):
+            raise np.linalg.LinAlgError("refused by the test")
+        monkeypatch.setattr(scipy.linalg, "cholesky", refuse)
+    n = len(system.nodes)
+    status = [FREE] * 2 + [STICK] * 2 + [SLIP] * (n - 6) + [FREE] * 2
+    signs = tuple(-1 if (i % 3 == 0) else 1 for i in range(n))
+    cls = Classification(status=tuple(status), signs=tuple(sg if st == SLIP else 0 for st, sg in zip(status, signs)))
+    mu = 1.1
+    p = StatePencils(system, cls)
+    try:
+        Ks, Ms = (to_dense(A) for A in p.star(mu))
+        comp = p.space.comp
+    finally:
+        p.destroy()
+    f = np.setdiff1d(np.arange(Ks.shape[0]), comp)
+    for dc in (dense, sparse):
+        red = exact.Reduction(dc, cls, mu)
+        for t in (0.0, 1e4, 1e8):
+            A = Ks + t * Ms
+            G = 0.5 * (A + A.T)
+            S = A[np.ix_(comp, comp)] - A[np.ix_(comp, f)] @ np.linalg.solve(A[np.ix_(f, f)], A[np.ix_(f, comp)])
+            Sh = G[np.ix_(comp, comp)] - G[np.ix_(comp, f)] @ np.linalg.solve(G[np.ix_(f, f)], G[np.ix_(f, comp)])
+            got_Sh, got_Q = red.at(t)
+            scale = np.abs(np.diag(S)).max()
+            assert np.abs(got_Sh - Sh).max() <= 1e-8 * scale, t
+            assert np.abs(got_Q - (0.5 * (S + S.T) - Sh)).max() <= 1e-8 * scale, t
+            assert np.linalg.eigvalsh(got_Q).min() >= -1e-8 * scale, t

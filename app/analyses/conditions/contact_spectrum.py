@@ -168,6 +168,7 @@ class Root:
         self.A0 = 0.5 * (A0 + A0.T)
         self.Pw = np.asarray(self.P.T @ sc.residues) if len(sc.poles) else np.zeros((kc.n, 0))
         self._projected: dict[int, np.ndarray] = {}
+        self._exact: dict[float, list] = {}      # sigma -> [S, P^T Y P, f or None] from an exact Y
 
     def projected(self, j: int) -> np.ndarray:
         """``P^T C_m P`` for the coefficients ``C_m`` of piece ``j``."""
@@ -205,12 +206,28 @@ class Root:
             if np.linalg.norm(self.Pw) > 1e-8 * np.linalg.norm(sc.residues):
                 return -np.inf
             return self.f(sc.k1 - TOL * sc.scale, 0)
-        sigma = sc.end(j)
-        Y = sc.exact_at_end(j)
-        PY = np.asarray(self.P.T @ np.asarray(self.P.T @ Y).T)
-        S = self.A0 - PY
-        S[np.diag_indices_from(S)] -= sigma
-        return float(scipy.linalg.eigvalsh(0.5 * (S + S.T), subset_by_index=[0, 0])[0])
+        return self.f_exact(sc.end(j), sc.exact_at_end(j))
+
+    def exact(self, sigma: float, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``S(sigma)`` and ``P^T Y P`` (both symmetrised) from the exact ``Y = Y(sigma)``, kept per
+        ``sigma``: the walk of :func:`value` and the bounds of
+        :func:`app.analyses.conditions.value_bounds.bracket` read the same points."""
+        hit = self._exact.get(sigma)
+        if hit is None:
+            PY = np.asarray(self.P.T @ np.asarray(self.P.T @ Y).T)
+            PY = 0.5 * (PY + PY.T)
+            S = self.A0 - PY
+            S[np.diag_indices_from(S)] -= sigma
+            hit = self._exact[sigma] = [0.5 * (S + S.T), PY, None]
+        return hit[0], hit[1]
+
+    def f_exact(self, sigma: float, Y: np.ndarray) -> float:
+        """``f(sigma)`` from the exact ``Y = Y(sigma)`` (kept, as :meth:`exact`)."""
+        S, _ = self.exact(sigma, Y)
+        hit = self._exact[sigma]
+        if hit[2] is None:
+            hit[2] = float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0])
+        return hit[2]
 
 
 @dataclass(frozen=True)

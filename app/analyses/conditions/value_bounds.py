@@ -25,18 +25,9 @@ def bracket(root) -> tuple[float, float]:
         if not pts or q[0] - pts[-1][0] > 1e-9 * abs(sc.k1):
             pts.append(q)
 
-    def at(i: int) -> tuple[np.ndarray, np.ndarray]:
-        """``S`` and ``P^T Y P`` at the ``i``-th known point."""
-        sigma, Y = pts[i]
-        PY = np.asarray(root.P.T @ np.asarray(root.P.T @ Y).T)
-        PY = 0.5 * (PY + PY.T)
-        S = root.A0 - PY
-        S[np.diag_indices_from(S)] -= sigma
-        return 0.5 * (S + S.T), PY
-
     def positive(i: int) -> bool:
         try:
-            scipy.linalg.cholesky(at(i)[0])
+            scipy.linalg.cholesky(root.exact(*pts[i])[0])
             return True
         except np.linalg.LinAlgError:
             return False
@@ -51,8 +42,7 @@ def bracket(root) -> tuple[float, float]:
         else:
             b = m
     def f(i: int) -> tuple[float, float, np.ndarray]:
-        S, G = at(i)
-        return pts[i][0], float(scipy.linalg.eigvalsh(S, subset_by_index=[0, 0])[0]), G
+        return pts[i][0], root.f_exact(*pts[i]), root.exact(*pts[i])[1]
 
     pos = [f(a - 1)] if a > 0 else []
     neg = [f(a)] if a < len(pts) else []

@@ -268,8 +268,27 @@ class Reduction(KeptContact):
         super().__init__(dc.Kcc.shape[0], cls, mu)
         self.dc, self.mu = dc, mu
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-        self.Ds = self.D[:, self.nF:].tocsc()          # the slip nodes' columns (the others are zero)
-        self._DKD, self._DMD = (self.sandwich(self.Ds, X, self.Ds) for X in (dc.Kcc, dc.Mcc))
+        Ds = self.D[:, self.nF:].tocsc()               # the slip nodes' columns (the others are zero)
+        Ds.sort_indices()
+        # D's columns as (rows, values) slots, one per entry (one on a flat obstacle, up to two in a
+        # contact frame; unused slots hold value 0): D^T X D is then a sum of gathered s x s blocks
+        count = np.diff(Ds.indptr)
+        slots = max(1, int(count.max(initial=0)))
+        self._d_rows = np.zeros((slots, Ds.shape[1]), dtype=np.intp)
+        self._d_vals = np.zeros((slots, Ds.shape[1]))
+        for k in range(slots):
+            has = count > k
+            self._d_rows[k, has] = Ds.indices[Ds.indptr[:-1][has] + k]
+            self._d_vals[k, has] = Ds.data[Ds.indptr[:-1][has] + k]
+        self._DKD, self._DMD = self._dxd(dc.Kcc), self._dxd(dc.Mcc)
+
+    def _dxd(self, X: np.ndarray) -> np.ndarray:
+        """``D_S^T X D_S`` (``D`` on the slip nodes' columns) by gathers of ``X``."""
+        out = np.zeros((self._d_rows.shape[1],) * 2)
+        for ra, va in zip(self._d_rows, self._d_vals):
+            for rb, vb in zip(self._d_rows, self._d_vals):
+                out += X[np.ix_(ra, rb)] * va[:, None] * vb[None, :]
+        return out
 
     def _schur(self, X: np.ndarray) -> np.ndarray:
         n = self.nF
@@ -290,16 +309,19 @@ class Reduction(KeptContact):
             A = self.reduced(Z, bend=True)         # K* + t M*: a curved obstacle's term is K*'s
             n = self.nF
             GSS = 0.5 * (A[n:, n:] + A[n:, n:].T) - 0.25 * (
-                self._DKD + t * self._DMD - self.sandwich(self.Ds, Z, self.Ds))
-            if n:
-                L = scipy.linalg.cholesky(A[:n, :n], lower=True)
-                U = scipy.linalg.solve_triangular(L, A[:n, n:], lower=True)
-                V = scipy.linalg.solve_triangular(L, np.ascontiguousarray(A[n:, :n].T), lower=True)
-                W = 0.5 * (U + V)
-                Sx = A[n:, n:] - V.T @ U
-                Sh = GSS - W.T @ W
-            else:
+                self._DKD + t * self._DMD - self._dxd(Z))
+            if not n:
                 Sx, Sh = A, GSS
+            else:
+                try:
+                    L = scipy.linalg.cholesky(A[:n, :n], lower=True)
+                    U = scipy.linalg.solve_triangular(L, A[:n, n:], lower=True)
+                    V = scipy.linalg.solve_triangular(L, np.ascontiguousarray(A[n:, :n].T), lower=True)
+                    W = 0.5 * (U + V)             # L^-1 G_FS
+                    Sx, Sh = A[n:, n:] - V.T @ U, GSS - W.T @ W
+                except np.linalg.LinAlgError:    # Z_FF not PD in floating point: LU factorisations
+                    GFS = 0.5 * (A[:n, n:] + A[n:, :n].T)
+                    Sx, Sh = self._schur(A), GSS - GFS.T @ np.linalg.solve(A[:n, :n], GFS)
             Sh = 0.5 * (Sh + Sh.T)
             hit = (Sh, 0.5 * (Sx + Sx.T) - Sh)
             self._cache[t] = hit

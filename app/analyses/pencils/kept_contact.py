@@ -47,13 +47,10 @@ class KeptContact:
 
     @staticmethod
     def sandwich(L, X: np.ndarray, Rm) -> np.ndarray:
-        """``L^T X Rm`` for sparse ``L``, ``Rm`` (CSC) and dense ``X``: ``(Rm^T (L^T X)^T)^T`` on
-        the rows of ``X`` that ``L`` touches and its columns that ``Rm`` touches only (a stick
-        node's DOFs are in neither), gathered C-ordered (scipy copies any other operand into C
-        order)."""
-        lr, rr = np.unique(L.indices), np.unique(Rm.indices)
-        LX = np.asarray(L[lr].T @ X[np.ix_(lr, rr)])
-        return np.asarray(Rm[rr].T @ np.ascontiguousarray(LX.T)).T
+        """``L^T X Rm`` for sparse ``L``, ``Rm`` and dense ``X`` (C order): ``(Rm^T (L^T X)^T)^T``, the
+        sparse products on C-ordered dense operands (scipy copies any other into C order)."""
+        LX = np.asarray(L.T @ np.ascontiguousarray(X))
+        return np.asarray(Rm.T @ np.ascontiguousarray(LX.T)).T
 
     def reduced(self, X: np.ndarray, bend: bool = False) -> np.ndarray:
         """``R X Q`` on the kept contact DOFs, plus the curvature diagonal when ``bend`` (``X`` a
