@@ -262,12 +262,15 @@ class Reduction(KeptContact):
     (:meth:`KeptContact.kept`, ``H = K_cc + t M_cc``) share their free block ``Z_FF(t)``, SPD: one
     Cholesky factorisation gives both Schur complements onto the slip nodes, ``S = A_SS - A_SF
     Z_FF^-1 A_FS`` and ``Sh = G_SS - G_SF Z_FF^-1 G_FS`` with ``G_FS = (A_FS + A_SF^T) / 2``, and
-    ``D^T H D`` is ``D^T K_cc D + t D^T M_cc D``, formed once."""
+    ``D^T H D`` is ``D^T K_cc D + t D^T M_cc D``, formed once. :meth:`sh` gives ``Sh(t)`` alone (the
+    bisections for the bound ``T`` read nothing else); :meth:`at` completes ``S(t)`` from the same
+    elimination."""
 
     def __init__(self, dc: DynamicContact, cls: Classification, mu: float):
         super().__init__(dc.Kcc.shape[0], cls, mu)
         self.dc, self.mu = dc, mu
-        self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        self._cache: dict[float, tuple] = {}
+        self._q: dict[float, np.ndarray] = {}
         Ds = self.D[:, self.nF:].tocsc()               # the slip nodes' columns (the others are zero)
         Ds.sort_indices()
         # D's columns as (rows, values) slots, one per entry (one on a flat obstacle, up to two in a
@@ -301,30 +304,44 @@ class Reduction(KeptContact):
         at every ``x`` with ``y_f = 0``."""
         return self._schur(self.reduced(self.dc.schur_at(t), bend=True))
 
+    def sh(self, t: float) -> np.ndarray:
+        """``Sh(t)`` alone (the bisections for the bound ``T`` read only it)."""
+        return self._parts(t)[0]
+
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``(Sh(t), Q(t))`` with ``sym S(t) = Sh(t) + Q(t)``."""
+        Sh, ASS, U, V = self._parts(t)
+        Q = self._q.get(t)
+        if Q is None:
+            Sx = ASS if U is None else ASS - V.T @ U
+            Q = self._q[t] = 0.5 * (Sx + Sx.T) - Sh
+            self._cache[t] = (Sh, None, None, None)      # what made S(t) is no longer needed
+        return Sh, Q
+
+    def _parts(self, t: float) -> tuple:
+        """``Sh(t)`` and what ``S(t)`` takes from the same elimination: ``A_SS`` and ``L^-1 A_FS``,
+        ``L^-T A_SF^T`` (``Z_FF = L L^T``; None without free nodes), kept per ``t`` (their number is
+        the values of ``t`` a proof used)."""
         hit = self._cache.get(t)
         if hit is None:
             Z = self.dc.schur_at(t)
             A = self.reduced(Z, bend=True)         # K* + t M*: a curved obstacle's term is K*'s
             n = self.nF
-            GSS = 0.5 * (A[n:, n:] + A[n:, n:].T) - 0.25 * (
-                self._DKD + t * self._DMD - self._dxd(Z))
-            if not n:
-                Sx, Sh = A, GSS
-            else:
+            ASS = A[n:, n:].copy()                 # not a view: A is not kept
+            Sh = 0.5 * (ASS + ASS.T) - 0.25 * (self._DKD + t * self._DMD - self._dxd(Z))
+            U = V = None
+            if n:
                 try:
                     L = scipy.linalg.cholesky(A[:n, :n], lower=True)
                     U = scipy.linalg.solve_triangular(L, A[:n, n:], lower=True)
                     V = scipy.linalg.solve_triangular(L, np.ascontiguousarray(A[n:, :n].T), lower=True)
                     W = 0.5 * (U + V)             # L^-1 G_FS
-                    Sx, Sh = A[n:, n:] - V.T @ U, GSS - W.T @ W
+                    Sh = Sh - W.T @ W
                 except np.linalg.LinAlgError:    # Z_FF not PD in floating point: LU factorisations
                     GFS = 0.5 * (A[:n, n:] + A[n:, :n].T)
-                    Sx, Sh = self._schur(A), GSS - GFS.T @ np.linalg.solve(A[:n, :n], GFS)
-            Sh = 0.5 * (Sh + Sh.T)
-            hit = (Sh, 0.5 * (Sx + Sx.T) - Sh)
-            self._cache[t] = hit
+                    Sh = Sh - GFS.T @ np.linalg.solve(A[:n, :n], GFS)
+                    ASS, U, V = self._schur(A), None, None
+            hit = self._cache[t] = (0.5 * (Sh + Sh.T), ASS, U, V)
         return hit
 
 
@@ -394,7 +411,7 @@ def start_bound(dc: DynamicContact, cls: Classification, mu: float, doublings: i
         return None
     t = float(np.ldexp(1.0, int(np.round(np.log2(ratio)))))
     for _ in range(doublings):
-        if _pd(red.at(t)[0]):
+        if _pd(red.sh(t)):
             return t
         t *= 2.0
     return None
@@ -404,11 +421,11 @@ def _tail(red: Reduction, t_start: float, steps: int = 8) -> float | None:
     """The smallest ``T`` of a bisection (``steps`` halvings from the power of two above
     ``t_start``, on the dyadic grid) with ``Sh(T)`` PD, or None when ``Sh`` is not PD there."""
     lo, hi = 0.0, _dyadic_above(float(t_start))
-    if not _pd(red.at(hi)[0]):
+    if not _pd(red.sh(hi)):
         return None
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        if _pd(red.at(mid)[0]):
+        if _pd(red.sh(mid)):
             hi = mid
         else:
             lo = mid
