@@ -374,3 +374,25 @@ def test_a_case_folder_is_replaced_only_when_it_holds_only_app_files(tmp_path):
     assert why is not None and "notes.txt" in why and str(again) in why
     assert (cases / "a" / "notes.txt").read_text() == "mine" and (cases / "a" / "results.json").read_text() == "new"
     assert (again / "results.json").read_text() == "newer"
+
+
+def test_a_signal_a_library_wrapped_while_a_case_is_written_is_the_interrupt(tmp_path, monkeypatch):
+    """A SIGTERM that lands inside pydantic's serialisation of results.json reaches the sweep as a
+    PydanticSerializationError wrapping the KeyboardInterrupt (seen with Ctrl-C under mpirun): the
+    case is the interrupt (nothing of it left), not a failed case with a traceback."""
+    from app.common import interrupt
+    from app.study import driver, sweep
+    case = sweep.expand(_scene(TWO.replace("analyses: [mceip_mu, enumerate]", "analyses: [mceip_mu]")
+                               + "sweep: {mode: product, parameters: {mu: [2.5]}}\n"))[0]
+
+    def wrapped(*args, **kwargs):
+        interrupt.record(15)
+        raise ValueError("Error calling function `_listed`: KeyboardInterrupt: signal 15")
+
+    monkeypatch.setattr(driver, "run_and_write", wrapped)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sweep.run_case(case, MPI.COMM_SELF, tmp_path)
+    finally:
+        interrupt.clear()
+    assert not [p for p in tmp_path.rglob("*") if p.is_file()]

@@ -107,6 +107,8 @@ def run_case(case: Case, gcomm, outdir: pathlib.Path) -> dict | None:
         except KeyboardInterrupt:
             raise
         except Exception as err:             # noqa: BLE001
+            if interrupt.RECEIVED:           # a signal's KeyboardInterrupt that a library wrapped (pydantic
+                raise interrupt.keyboard_interrupt() from err      # while writing results.json): the interrupt
             if gcomm.size > 1:               # may be on this rank only: the CLI aborts the job
                 raise
             error = f"{type(err).__name__}: {err}"
