@@ -379,3 +379,29 @@ def test_large_family_scaling_by_inverse_iteration():
     d_full, d_fast = perron_scaling(A), perron_scaling_large(A)
     assert d_full is not None and d_fast is not None
     assert np.allclose(d_fast, d_full, rtol=1e-6)
+
+
+def test_a_solution_two_leaves_proved_is_listed_once():
+    """The proof can reach one eigenvalue of one support from two leaves of its tree (two verified
+    windows that overlap; seen on the mixed-element block at 8 x 4, one rank): the solutions list
+    it once, as proven when either leaf proved it, and a candidate the proof did not confirm is
+    listed beside it."""
+    from types import SimpleNamespace
+
+    from app.analyses.mceip_mu.state import _solutions
+    A0, A1 = np.array([[-2.0, 0.0], [0.0, 1.0]]), np.eye(2)     # mu = 2 on the first unknown alone
+    support = np.array([True, False])
+    x = np.array([1.0, 0.0])
+
+    def leaf(value, lo, hi, proven):
+        return SimpleNamespace(value=value, x=x, support=support, enclosure=(lo, hi), min_x=1.0, min_y=1.0,
+                               ill_conditioned=False, proven=proven)
+
+    proof = SimpleNamespace(solutions=[leaf(2.0, 1.99, 2.01, False), leaf(2.0 + 1e-15, 1.995, 2.005, True),
+                                       leaf(2.0, 1.99, 2.01, False)],
+                            all=SimpleNamespace(proven=False), lower_bound=0.0)
+    sols = _solutions(A0, A1, 10.0, proof, [], {}, np.arange(2))
+    assert len(sols) == 1 and sols[0]["certified"] is True and sols[0]["enclosure"] == [1.995, 2.005]
+    other = SimpleNamespace(solutions=[leaf(2.0, 1.99, 2.01, True), leaf(3.0, 2.99, 3.01, False)],
+                            all=SimpleNamespace(proven=False), lower_bound=0.0)
+    assert [d["value"] for d in _solutions(A0, A1, 10.0, other, [], {}, np.arange(2))] == [2.0, 3.0]

@@ -167,7 +167,15 @@ def _solutions(A0, A1, cap, proof, cands, found_by, comp) -> list[dict]:
     sols: list[dict] = []
     keys: list[tuple] = []
     if proof is not None:
+        enclosures: list[tuple[float, float]] = []
         for p in proof.solutions:
+            # the same eigenvalue of the same support, reached from two leaves of the proof (their
+            # verified windows overlap, and each holds one eigenvalue of that support): listed once,
+            # as proven if either leaf proved it
+            same = next((i for i, ((_, sup), (lo, hi)) in enumerate(zip(keys, enclosures))
+                         if sup == tuple(p.support) and lo <= p.enclosure[1] and p.enclosure[0] <= hi), None)
+            if same is not None and (sols[same]["certified"] or not p.proven):
+                continue
             d = _solution_dict(p.value, p.x, p.support, comp, a0, a1, norms)
             d.update({"enclosure": [float(p.enclosure[0]), float(p.enclosure[1])],
                       "proven_min_x_Ts": float(p.min_x),
@@ -177,8 +185,12 @@ def _solutions(A0, A1, cap, proof, cands, found_by, comp) -> list[dict]:
             c = found_by.get((round(p.value, 9), tuple(p.support)))
             if c is not None:
                 d.update({"iterations": c.iterations, "found_by": c.found_by[:8], "found_count": len(c.found_by)})
+            if same is not None:
+                sols[same], keys[same], enclosures[same] = d, (p.value, tuple(p.support)), tuple(p.enclosure)
+                continue
             sols.append(d)
             keys.append((p.value, tuple(p.support)))
+            enclosures.append((float(p.enclosure[0]), float(p.enclosure[1])))
     for p in cands:
         if any(abs(p.value - v) <= 1e-8 * max(1.0, abs(v)) and sup == tuple(p.support) for v, sup in keys):
             continue
