@@ -10,7 +10,7 @@ from conftest import run_scene
 from mpi4py import MPI
 from test_two_particles import CASES, PHI, K, M, analytic_lambda2, scene
 
-from app.analyses.mceip_lambda2 import exact
+from app.analyses.mceip_lambda2 import dynamic_contact, exact
 from app.analyses.pencils.reduced import dense as to_dense
 from app.common.stages import Stages
 from app.loading.classify import SLIP, STICK, Classification
@@ -28,8 +28,8 @@ def block():
     sc = parse_scene(BLOCK)
     with build(sc.system, MPI.COMM_WORLD, Stages()) as system:
         K, Mm = system.K, system.mass()
-        dense = exact.DynamicContact.from_dense(to_dense(K), to_dense(Mm), *_contact(system))
-        sparse = exact.DynamicContact.from_sparse(K, Mm, *_contact(system))
+        dense = dynamic_contact.DynamicContact.from_dense(to_dense(K), to_dense(Mm), *_contact(system))
+        sparse = dynamic_contact.DynamicContact.from_sparse(K, Mm, *_contact(system))
         yield system, dense, sparse
 
 
@@ -261,6 +261,7 @@ def test_the_reduction_on_a_curved_obstacle_is_the_full_pencils_schur_complement
     import yaml
     from conftest import ROOT
 
+    from app.analyses.mceip_lambda2 import dynamic_contact as l2d
     from app.analyses.mceip_lambda2 import exact as l2x
     from app.analyses.pencils import curvature
     from app.analyses.pencils.reduced import dense
@@ -276,7 +277,7 @@ def test_the_reduction_on_a_curved_obstacle_is_the_full_pencils_schur_complement
     mu = scene.mu
 
     def inspect(system, states, cache):
-        dc = l2x.dynamic_contact(system, scene.settings.mcp.lambda2_exact_max_dofs)
+        dc = l2d.dynamic_contact(system, scene.settings.mcp.lambda2_exact_max_dofs)
         seen, checked = set(), 0
         for st in states:
             cls = curvature.attach(classify(st, mu, scene.settings.classify_rtol), st, system)

@@ -64,7 +64,7 @@ def test_the_reductions_eigenpairs_are_the_full_pencils(slip_from, mu):
     from test_dynamic_contact import BLOCK as SMALL
     from test_dynamic_contact import _classification, _contact
 
-    from app.analyses.mceip_lambda2 import exact
+    from app.analyses.mceip_lambda2 import dynamic_contact, exact
     from app.analyses.mceip_lambda2 import reduced_search as rs
     from app.analyses.pencils.reduced import dense as to_dense
     from app.analyses.pencils.state import StatePencils
@@ -73,7 +73,7 @@ def test_the_reductions_eigenpairs_are_the_full_pencils(slip_from, mu):
     from app.systems.block.path import build
 
     with build(parse_scene(SMALL).system, MPI.COMM_WORLD, Stages()) as system:
-        dc = exact.DynamicContact.from_dense(to_dense(system.K), to_dense(system.mass()), *_contact(system))
+        dc = dynamic_contact.DynamicContact.from_dense(to_dense(system.K), to_dense(system.mass()), *_contact(system))
         cls = _classification(system, slip_from)
         start = exact.start_bound(dc, cls, mu)
         proven, T, detail = exact.prove_no_solution(dc, cls, mu, start, max_failed=16)

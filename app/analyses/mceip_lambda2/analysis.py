@@ -13,6 +13,7 @@ import numpy as np
 
 from app.analyses.conditions import eliminated, full_size
 from app.analyses.mceip_lambda2 import bounds as l2b
+from app.analyses.mceip_lambda2 import dynamic_contact as l2d
 from app.analyses.mceip_lambda2 import exact as l2x
 from app.analyses.mceip_lambda2 import reduced_search as l2rs
 from app.analyses.mceip_mu.state import certificate
@@ -109,7 +110,7 @@ def _on_rank_zero(p: StatePencils, scene: Scene, work):
     gathered there; on a curved obstacle with its contact frames and curvature term,
     :class:`app.analyses.pencils.kept_contact.KeptContact`), broadcast to every rank; None where
     it could not be built. MPI collective."""
-    dc = l2x.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
+    dc = l2d.dynamic_contact(p.system, scene.settings.mcp.lambda2_exact_max_dofs)    # MPI collective (first call)
 
     def alone():
         if dc is None:

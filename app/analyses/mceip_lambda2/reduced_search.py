@@ -29,7 +29,8 @@ import numpy as np
 import scipy.linalg
 
 from app.analyses.enumerate import RESIDUAL_TOL, RESOLVE_TOL, enumerate_patterns, pencil_scale
-from app.analyses.mceip_lambda2.exact import DynamicContact, Reduction
+from app.analyses.mceip_lambda2.dynamic_contact import DynamicContact
+from app.analyses.mceip_lambda2.exact import Reduction
 from app.analyses.mceip_mu import candidates
 from app.analyses.outcomes import Solution
 from app.loading.classify import Classification

@@ -138,7 +138,7 @@ class SystemCache:
     warm: dict[float, dict] = field(default_factory=dict)   # mu -> the previous classification's eigenvalues
     gathered: Any = _UNSET       # sequential K and M on rank 0 (:func:`sequential_km`)
     spectra: Any = _UNSET        # K and M seen from the contact DOFs (app/analyses/conditions/contact_spectrum.py)
-    dynamic: Any = _UNSET        # the dynamic contact flexibility (app/analyses/mceip_lambda2/exact.py)
+    dynamic: Any = _UNSET        # the dynamic contact flexibility (app/analyses/mceip_lambda2/dynamic_contact.py)
     cores: Any = _UNSET          # the cores of rank 0's node (:func:`on_rank_zero`)
 
     def once(self, name: str, make: Callable[[], Any]) -> Any:
