@@ -264,8 +264,6 @@ def test_the_reduction_on_a_curved_obstacle_is_the_full_pencils_schur_complement
     from app.analyses.mceip_lambda2 import dynamic_contact as l2d
     from app.analyses.mceip_lambda2 import exact as l2x
     from app.analyses.pencils import curvature
-    from app.analyses.pencils.reduced import dense
-    from app.analyses.pencils.state import StatePencils
     from app.loading.classify import ZERO, classify
     from app.scene.schema import parse_scene
     from app.study.run import study
@@ -285,14 +283,8 @@ def test_the_reduction_on_a_curved_obstacle_is_the_full_pencils_schur_complement
                 continue
             seen.add(cls.key)
             assert curvature.is_curved(cls) and cls.rotated()
-            p = StatePencils(system, cls)
-            try:
-                Ks, Ms = (dense(A) for A in p.star(mu))
-                comp = p.space.comp
-            finally:
-                p.destroy()
+            Ks, Ms, comp, f = _full_pencils(system, cls, mu)
             red = l2x.Reduction(dc, cls, mu)
-            f = np.setdiff1d(np.arange(Ks.shape[0]), comp)
             for t in (0.0, 1e4, 1e8):
                 A = Ks + t * Ms
                 S = A[np.ix_(comp, comp)] - A[np.ix_(comp, f)] @ np.linalg.solve(A[np.ix_(f, f)], A[np.ix_(f, comp)])
@@ -316,7 +308,6 @@ def test_the_split_is_the_definitions(block, fallback, monkeypatch):
     nodes; also through the LU factorisations used where the free block's Cholesky fails."""
     import scipy.linalg
 
-    from app.analyses.pencils.state import StatePencils
     from app.loading.classify import FREE
     system, dense, sparse = block
     if fallback:
@@ -328,13 +319,7 @@ def test_the_split_is_the_definitions(block, fallback, monkeypatch):
     signs = tuple(-1 if (i % 3 == 0) else 1 for i in range(n))
     cls = Classification(status=tuple(status), signs=tuple(sg if st == SLIP else 0 for st, sg in zip(status, signs)))
     mu = 1.1
-    p = StatePencils(system, cls)
-    try:
-        Ks, Ms = (to_dense(A) for A in p.star(mu))
-        comp = p.space.comp
-    finally:
-        p.destroy()
-    f = np.setdiff1d(np.arange(Ks.shape[0]), comp)
+    Ks, Ms, comp, f = _full_pencils(system, cls, mu)
     for dc in (dense, sparse):
         red = exact.Reduction(dc, cls, mu)
         for t in (0.0, 1e4, 1e8):
@@ -347,3 +332,16 @@ def test_the_split_is_the_definitions(block, fallback, monkeypatch):
             assert np.abs(got_Sh - Sh).max() <= 1e-8 * scale, t
             assert np.abs(got_Q - (0.5 * (S + S.T) - Sh)).max() <= 1e-8 * scale, t
             assert np.linalg.eigvalsh(got_Q).min() >= -1e-8 * scale, t
+
+
+def _full_pencils(system, cls, mu):
+    """The app's full reduced pencils ``K*(mu)``, ``M*(mu)`` of ``cls`` (dense), the positions of the
+    slip nodes' ``x_Ts`` in them and of the other DOFs."""
+    from app.analyses.pencils.state import StatePencils
+    p = StatePencils(system, cls)
+    try:
+        Ks, Ms = (to_dense(A) for A in p.star(mu))
+        comp = p.space.comp
+    finally:
+        p.destroy()
+    return Ks, Ms, comp, np.setdiff1d(np.arange(Ks.shape[0]), comp)
