@@ -17,7 +17,6 @@ from typing import Callable
 
 import numpy as np
 import scipy.linalg
-import scipy.sparse
 from petsc4py import PETSc
 
 from app.analyses.pencils.reduced import axpy_structure, dense, eliminate_static

@@ -40,7 +40,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.sparse
 
 from app.analyses.mceip_lambda2.dynamic_contact import DynamicContact
 from app.analyses.mceip_mu.state import in_pd_plus_nn
