@@ -43,9 +43,19 @@ their reasons). The patches, who gets each, and what each relies on:
 7. Gmsh's import keeps SIGINT (:func:`import_gmsh`; both, on first use): relies on Gmsh 4.8.x
    setting SIGINT to its default action when imported and again in ``gmsh.finalize``. With
    another Gmsh it is applied all the same (it only keeps SIGINT as it was), with a DEBUG line.
+8. Open MPI's progress engine does not yield the CPU while rank 0 works alone
+   (:func:`mpi_progress_not_yielding`; both, around the work of
+   :func:`app.common.waiting.alone_on_rank_zero`, the previous setting back afterwards). With
+   ``mpi_yield_when_idle`` on (patch 1), every MPI call that finds nothing to do calls
+   ``sched_yield``, and MUMPS probes for messages between the nodes of its tree even on one
+   process: rank 0's triangular solves (SLEPc's shift-and-invert of the interior blocks of (19))
+   spent a quarter of their time in that system call, 18 s per solve at 10^6 DOFs against
+   11.5 s without it. The other ranks sleep meanwhile, so nothing waits for rank 0's cores.
+   Relies on Open MPI 4.x's ``opal_progress_set_yield_when_idle`` in ``libopen-pal.so.40``, taken
+   only when already loaded; with another MPI nothing is changed, with a DEBUG line.
 
 The API (:func:`app.api.run_study`) calls :func:`install` with ``command_line=False``, which
-applies nothing at once: it gets 4 to 7, each where its library is first used, and none of 1 to
+applies nothing at once: it gets 4 to 8, each where its library is first used, and none of 1 to
 3. Not patches, so not here: the command line's logging set-up (app/common/logs.py: handlers,
 levels and a filter on its own handler through the logging API, as any program's ``main``
 configures its logging; the API leaves logging to the user's program), the settings pyvista
@@ -60,6 +70,7 @@ filter of the same type, a replaced function, a module imported) or sets the sam
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import importlib.metadata
 import logging
 import os
@@ -120,6 +131,40 @@ def _mpi_environment_defaults() -> None:
         # takes the CPU from the Gmsh child, the drawing processes or any other program, and a
         # run that takes seconds can take minutes. Read by Open MPI at MPI_Init.
         os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")
+
+
+@contextlib.contextmanager
+def mpi_progress_not_yielding() -> Iterator[None]:
+    """Context: Open MPI's progress engine does not call ``sched_yield`` when idle (patch 8 of
+    the module docstring); its previous setting back afterwards. Nothing where the process has no
+    Open MPI 4.x loaded."""
+    setter = _opal_yield_setter()
+    if setter is None:
+        yield
+        return
+    before = setter(False)
+    try:
+        yield
+    finally:
+        setter(before)
+
+
+#: Open MPI 4.x's library of portability and progress, and its setter of ``yield_when_idle``
+OPAL_LIBRARY = "libopen-pal.so.40"
+OPAL_YIELD_SETTER = "opal_progress_set_yield_when_idle"
+
+
+def _opal_yield_setter() -> Callable[[bool], bool] | None:
+    """``opal_progress_set_yield_when_idle`` (returns the previous setting) of the Open MPI this
+    process has loaded, or None (one DEBUG line) where there is none."""
+    try:
+        lib = ctypes.CDLL(OPAL_LIBRARY, mode=os.RTLD_NOLOAD | os.RTLD_LAZY)    # never loads a library
+        fn = getattr(lib, OPAL_YIELD_SETTER)
+    except (OSError, AttributeError):
+        log.debug("no %s in %s: Open MPI's progress engine left as it is", OPAL_YIELD_SETTER, OPAL_LIBRARY)
+        return None
+    fn.argtypes, fn.restype = [ctypes.c_bool], ctypes.c_bool
+    return fn
 
 
 # ---- signals (the command line's runs) --------------------------------------------------------

@@ -12,10 +12,11 @@ useful.
 nonblocking barrier and sleep between polls (:func:`sleep_until`), and meanwhile rank 0 widens
 its own CPU affinity to the cores of the waiting ranks on its node (:class:`NodeCores`, gathered
 once) and lets the BLAS (OpenBLAS: MUMPS's dense fronts, numpy's LAPACK) run as many threads,
-each rank's share of threads times the ranks there. Both are restored before the answer is
-broadcast. The answers do not depend on it: every budget counts work, and one BLAS thread or two
-gives the same factorisations and eigenvalues up to rounding, as one rank and two ranks already did
-(one rank runs OpenBLAS with every core's thread).
+each rank's share of threads times the ranks there; and its MPI does not yield the core when
+idle (MUMPS's solves probe for messages: :func:`app.common.runtime.mpi_progress_not_yielding`).
+All is restored before the answer is broadcast. The answers do not depend on it: every budget
+counts work, and one BLAS thread or two gives the same factorisations and eigenvalues up to
+rounding, as one rank and two ranks already did (one rank runs OpenBLAS with every core's thread).
 """
 from __future__ import annotations
 
@@ -77,9 +78,11 @@ def alone_on_rank_zero(comm, work: Callable[[], T], cores: NodeCores | None) -> 
     and rank 0 runs ``work`` on their cores (its affinity widened, ``cores.threads`` BLAS threads),
     both restored afterwards. An exception of ``work`` is raised on rank 0 and, as a
     RuntimeError with its message, on the others, so that they stay in step."""
+    from app.common.runtime import mpi_progress_not_yielding
     from app.linalg import blas_threads, start_blas_workers
     if comm.size == 1:
-        return work()
+        with mpi_progress_not_yielding():
+            return work()
     got: Any = None
     if comm.rank == 0:
         try:
@@ -88,7 +91,7 @@ def alone_on_rank_zero(comm, work: Callable[[], T], cores: NodeCores | None) -> 
                 threads = cores.threads if cores and borrowed.held else None
                 if threads:
                     start_blas_workers(threads)
-                with blas_threads(threads):
+                with blas_threads(threads), mpi_progress_not_yielding():
                     got = (True, work())
         except Exception as err:          # every rank raises (below), after the broadcast
             failure = err
