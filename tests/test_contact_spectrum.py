@@ -71,6 +71,34 @@ def test_values_equal_the_full_size_eigenvalues(nx):
         assert spectra["K"].evaluations + spectra["M"].evaluations < 120
 
 
+@pytest.mark.parametrize("nx", [10, 20])
+def test_the_mass_matrix_interior_from_a_rough_value_without_factorisation(nx, monkeypatch):
+    """``k_1`` of the mass matrix's interior block from the unshifted rough value (``mass=True``:
+    no factorisation) is LAPACK's smallest eigenvalue of ``M_ii`` (1e-10 relative), as is the one
+    from the shift-and-invert rough value; where the unshifted solve does not converge (a budget
+    of one restart) the shift-and-invert rough value is used, with the same ``k_1``."""
+    from app.analyses.conditions import interior_modes as im
+    sc = copy.deepcopy(BLOCK)
+    sc["system"].update(nx=nx, ny=nx // 2)
+    with build(parse_scene(sc).system, MPI.COMM_WORLD, Stages()) as system:
+        dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
+        signs = np.array([[nd.sign_T, nd.sign_N] for nd in system.nodes], dtype=float).ravel()
+        M = system.mass()
+        Md = dense(M)
+        inner = np.setdiff1d(np.arange(len(Md)), dofs)
+        want = np.linalg.eigvalsh(Md[np.ix_(inner, inner)])[0]
+        rough = []
+        unshifted = im._unshifted
+        monkeypatch.setattr(im, "_unshifted", lambda X: rough.append(unshifted(X)) or rough[-1])
+        for mass, restarts in ((False, im.UNSHIFTED_RESTARTS), (True, im.UNSHIFTED_RESTARTS), (True, 1)):
+            monkeypatch.setattr(im, "UNSHIFTED_RESTARTS", restarts)
+            got = cs.build(M, dofs, signs, mass=mass)
+            assert got.k1 == pytest.approx(want, rel=1e-10), (mass, restarts)
+            assert len(got.poles) == 0
+        assert len(rough) == 2 and rough[0] is not None and rough[1] is None
+        assert rough[0][0] == pytest.approx(want, rel=1e-4) and rough[0][0] >= want * (1 - 1e-12)
+
+
 def _random_system(rng, n_inner: int, n_nodes: int):
     """A random sparse SPD matrix (a shifted graph Laplacian with random weights) whose last
     ``2 n_nodes`` DOFs are the contact DOFs."""

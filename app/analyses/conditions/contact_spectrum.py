@@ -312,12 +312,15 @@ def _affords_ends(sc: ShiftedContact, j: int) -> bool:
 
 
 def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
-          own: Callable[..., None] | None = None, static: np.ndarray | None = None) -> ShiftedContact:
+          own: Callable[..., None] | None = None, static: np.ndarray | None = None,
+          mass: bool = False) -> ShiftedContact:
     """:class:`ShiftedContact` of the sequential symmetric positive definite ``X`` (kept alive by
     the caller): its interior eigenpairs (SLEPc), and a function giving ``Y(sigma)`` exactly from
     a factorisation of ``X - sigma I`` that keeps its symbolic analysis between shifts. The PETSc
     objects it creates are handed to ``own`` (:meth:`app.systems.base.System.own`: destroyed with
-    the system), else left to the garbage collector.
+    the system), else left to the garbage collector. ``mass``: ``X`` is a consistent mass matrix,
+    whose interior's condition number does not grow with the mesh (``bounded`` of
+    :func:`app.analyses.conditions.interior_modes.interior_modes`).
 
     ``static``: DOFs without mass (the mixed element's pressure, ``X`` then a saddle-point matrix
     with an invertible pressure block) that are eliminated first: the result is that of
@@ -347,7 +350,7 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
         cc = signs[:, None] * Xcc.getValues(range(len(dofs)), range(len(dofs))) * signs[None, :]
         if Dii is not None:           # X_e,cc: the static DOFs eliminated from the contact block
             cc, scale, interior_scale = _eliminated_contact(X, dofs, signs, static, interior, d)
-        k, Phi = interior_modes(Xii, GAP, MODE_TOL, Dii)
+        k, Phi = interior_modes(Xii, GAP, MODE_TOL, Dii, bounded=mass)
         p = 1 if Phi is not None and len(k) > 1 and (k[1] - k[0]) / k[1] >= GAP else 0
         W = np.zeros((len(dofs), p))
         if p:
@@ -443,12 +446,12 @@ def _build_both(system) -> tuple[ShiftedContact, ShiftedContact] | None:
     static = system.static_dofs
     try:
         if static is None or not len(static):
-            return tuple(build(X, dofs, signs, system.own) for X in pair)
+            return (build(pair[0], dofs, signs, system.own), build(pair[1], dofs, signs, system.own, mass=True))
         # the static DOFs eliminated: K through them; M (nothing on them) without them
         K, M = pair
         Mu, at = without_static(M, static, dofs)
         system.own(Mu)
-        return (build(K, dofs, signs, system.own, static), build(Mu, at, signs, system.own))
+        return (build(K, dofs, signs, system.own, static), build(Mu, at, signs, system.own, mass=True))
     except (PETSc.Error, RuntimeError, np.linalg.LinAlgError):
         return None
 
