@@ -29,11 +29,12 @@ def interior_modes(Xii: PETSc.Mat, gap: float, tol: float, B: PETSc.Mat | None =
     (:func:`app.linalg.flush_subnormals`: the mass matrix's factor underflows at 10^6 DOFs).
 
     ``bounded``: ``X_ii``'s condition number does not grow with the mesh (a consistent mass
-    matrix: a few dozen at most on a graded mesh of P1 or P2 elements), so the rough pair comes
+    matrix: a few dozen at most on a graded mesh of P1 or P2 elements), and it is taken as
+    clustered: only its smallest eigenvalue is computed, and no pole is removed (which is always
+    valid: the interpolation of (19) then has its first pole at ``k_1``). Its rough value comes
     from Krylov-Schur on ``X_ii`` itself, products with it only, no factorisation (at 10^6 DOFs
     2 s where the shift-and-invert rough solve took 14 s); where that does not converge within
-    :data:`UNSHIFTED_RESTARTS` restarts, or finds the two smallest eigenvalues separated, the
-    rough pair is the shift-and-invert one as without ``bounded``."""
+    :data:`UNSHIFTED_RESTARTS` restarts, from the shift-and-invert one as without ``bounded``."""
     if B is not None:    # the pressure eliminated (generalised, B = diag(1, 0)): both pairs to tol
         with flush_subnormals():
             k, vecs = smallest_pairs(Xii, 2, tol, B)
@@ -53,9 +54,9 @@ UNSHIFTED_TOL = 1e-3
 
 def _interior_modes(Xii: PETSc.Mat, gap: float, tol: float, bounded: bool = False
                     ) -> tuple[np.ndarray, np.ndarray | None]:
-    k = _unshifted(Xii) if bounded else None
-    if k is not None and (k[1] - k[0]) / k[1] < gap:      # clustered: the smallest alone, below
-        return _smallest_above_rough(Xii, k, tol)
+    rough = _unshifted(Xii) if bounded else None
+    if rough is not None:                  # taken as clustered: the smallest alone, from below
+        return _smallest_above_rough(Xii, np.array([rough]), tol)
     with owned(_eps(Xii, 2, None)) as eps:
         k, vecs, errors = _solve(eps, Xii, 1e-2)
         if len(k) > 1 and (k[1] - k[0]) / k[1] >= gap:
@@ -67,27 +68,28 @@ def _interior_modes(Xii: PETSc.Mat, gap: float, tol: float, bounded: bool = Fals
     return _smallest_above_rough(Xii, k, tol)
 
 
-def _unshifted(Xii: PETSc.Mat) -> np.ndarray | None:
-    """The two smallest eigenvalues of ``X_ii`` from Krylov-Schur without a spectral
-    transformation (:data:`UNSHIFTED_NCV`, ...), ascending; None where they did not converge."""
+def _unshifted(Xii: PETSc.Mat) -> float | None:
+    """The smallest eigenvalue of ``X_ii`` roughly (a Ritz value: from above), from Krylov-Schur
+    without a spectral transformation (:data:`UNSHIFTED_NCV`, ...); None where it did not
+    converge."""
     eps = with_prefix(SLEPc.EPS().create(PETSc.COMM_SELF), "cd_necessary_")
     with owned(eps):
         eps.setOperators(Xii)
         eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
         eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
-        eps.setDimensions(nev=2, ncv=min(Xii.getSize()[0], UNSHIFTED_NCV))
+        eps.setDimensions(nev=1, ncv=min(Xii.getSize()[0], UNSHIFTED_NCV))
         eps.setWhichEigenpairs(SLEPc.EPS.Which.SMALLEST_REAL)
         eps.setTolerances(tol=UNSHIFTED_TOL, max_it=UNSHIFTED_RESTARTS)
         eps_solve(eps)
-        if eps.getConverged() < 2:
+        if eps.getConverged() < 1:
             return None
-        k = np.sort([eps.getEigenvalue(i).real for i in range(2)])
-    return k if k[0] > 0 else None
+        k = float(min(eps.getEigenvalue(i).real for i in range(eps.getConverged())))
+    return k if k > 0 else None
 
 
 def _smallest_above_rough(Xii: PETSc.Mat, k: np.ndarray, tol: float) -> tuple[np.ndarray, None]:
     """The smallest eigenvalue of ``X_ii`` to ``tol`` (and ``k[1:]`` unchanged) from the rough
-    ``k``: shift-and-invert about shifts below ``k[0]``, each proven below the spectrum by its
+    ``k`` (at least its first entry): shift-and-invert about shifts below ``k[0]``, each proven below the spectrum by its
     factorisation's inertia (:func:`app.analyses.conditions.full_size.smallest_above`)."""
     step = 1e-4 * k[0]
     for _ in range(12):
