@@ -99,6 +99,34 @@ def test_the_mass_matrix_interior_from_a_rough_value_without_factorisation(nx, m
         assert rough[0] == pytest.approx(want, rel=1e-4) and rough[0] >= want * (1 - 1e-12)   # a Ritz value
 
 
+def test_rough_pairs_within_the_rounding_of_their_residuals_are_kept(monkeypatch):
+    """The stiffness matrix's rough pairs are kept without a second solve where their residuals
+    are within the rounding of the residuals themselves, though above ``tol`` (here 1e-16, below
+    any residual), and they are LAPACK's (values to 1e-10, vectors to 1e-8); with no rounding
+    allowed the second solve runs."""
+    from app.analyses.conditions import interior_modes as im
+    sc = copy.deepcopy(BLOCK)
+    sc["system"].update(nx=20, ny=10)
+    with build(parse_scene(sc).system, MPI.COMM_WORLD, Stages()) as system:
+        dofs = np.array([[nd.dof_T, nd.dof_N] for nd in system.nodes]).ravel()
+        inner = np.setdiff1d(np.arange(system.n_dofs), dofs).astype(PETSc.IntType)
+        rows = PETSc.IS().createGeneral(inner, comm=PETSc.COMM_SELF)
+        (Kii,) = system.K.createSubMatrices(rows, rows)
+        rows.destroy()
+        w, V = np.linalg.eigh(dense(Kii))
+        solves = []
+        solve = im._solve
+        monkeypatch.setattr(im, "_solve", lambda *a, **kw: solves.append(kw.get("start")) or solve(*a, **kw))
+        for floor, count in ((im.residual_floor, 1), (lambda X, k: np.zeros(len(k)), 2)):
+            monkeypatch.setattr(im, "residual_floor", floor)
+            solves.clear()
+            k, vecs = im.interior_modes(Kii, cs.GAP, 1e-16)
+            assert len(solves) == count
+            assert k[:2] == pytest.approx(w[:2], rel=1e-10)
+            assert abs(vecs[:, 0] @ V[:, 0]) == pytest.approx(1.0, abs=1e-8)
+        Kii.destroy()
+
+
 def _random_system(rng, n_inner: int, n_nodes: int):
     """A random sparse SPD matrix (a shifted graph Laplacian with random weights) whose last
     ``2 n_nodes`` DOFs are the contact DOFs."""
