@@ -352,14 +352,7 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
             cc, scale, interior_scale = _eliminated_contact(X, dofs, signs, static, interior, d)
         k, Phi = interior_modes(Xii, GAP, MODE_TOL, Dii, bounded=mass)
         p = 1 if Phi is not None and len(k) > 1 and (k[1] - k[0]) / k[1] >= GAP else 0
-        W = np.zeros((len(dofs), p))
-        if p:
-            v, x = Xci.createVecLeft(), Xii.createVecRight()
-            x.setArray(Phi[:, 0])
-            Xci.mult(x, v)
-            W[:, 0] = signs * v.getArray()
-            v.destroy()
-            x.destroy()
+        W = _residues(Xci, Phi[:, :p] if p else None, signs)
     finally:
         for Y in (Xcc, Xii, Xci, Dii):
             if Y is not None:
@@ -394,6 +387,20 @@ def build(X: PETSc.Mat, dofs: np.ndarray, signs: np.ndarray,
         own(schur, A, *([massive] if massive is not None else []))
     return ShiftedContact(exact, cc, float(k[0]), k[:p].copy(), W[:, :p].copy(), kappa, scale, interior_scale,
                           static=Dii is not None)
+
+
+def _residues(Xci: PETSc.Mat, Phi: np.ndarray | None, signs: np.ndarray) -> np.ndarray:
+    """``X_ci phi_j`` in paper axes for the removed poles' eigenvectors ``phi_j`` (the columns of
+    ``Phi``; None: no pole removed, an ``n_c x 0`` array)."""
+    W = np.zeros((len(signs), 0 if Phi is None else Phi.shape[1]))
+    v, x = Xci.createVecLeft(), Xci.createVecRight()
+    for j in range(W.shape[1]):
+        x.setArray(Phi[:, j])
+        Xci.mult(x, v)
+        W[:, j] = signs * v.getArray()
+    v.destroy()
+    x.destroy()
+    return W
 
 
 def _mass_indicator(Xii: PETSc.Mat, interior: np.ndarray, static: np.ndarray) -> PETSc.Mat:
