@@ -103,8 +103,9 @@ def _unshifted(Xii: PETSc.Mat) -> float | None:
 
 def _smallest_above_rough(Xii: PETSc.Mat, k: np.ndarray, tol: float) -> tuple[np.ndarray, None]:
     """The smallest eigenvalue of ``X_ii`` to ``tol`` (and ``k[1:]`` unchanged) from the rough
-    ``k`` (at least its first entry): shift-and-invert about shifts below ``k[0]``, each proven below the spectrum by its
-    factorisation's inertia (:func:`app.analyses.conditions.full_size.smallest_above`)."""
+    ``k`` (at least its first entry): shift-and-invert about shifts below ``k[0]``, each proven
+    below the spectrum by its factorisation's inertia
+    (:func:`app.analyses.conditions.full_size.smallest_above`)."""
     step = 1e-4 * k[0]
     for _ in range(12):
         lam = full_size.smallest_above(Xii, float(k[0] - step), EigSettings(tol=tol))
