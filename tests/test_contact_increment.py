@@ -74,3 +74,29 @@ def test_start_from_previous_slip_gives_the_same_equilibrium():
     assert warm.iterations <= cold.iterations
     for a, b in ((warm.r_T, cold.r_T), (warm.r_N, cold.r_N), (warm.u_T, cold.u_T), (warm.u_N, cold.u_N)):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * max(np.max(np.abs(b)), 1.0))
+
+
+
+def test_a_start_far_from_the_solution_reaches_the_cold_start_equilibrium():
+    """An increment started far from its solution (previous gaps of 100, now closed): the absolute
+    tolerance is then the rounding of the residual at the start (``rounding_floor``, far above
+    1e-14 of the reactions), and Newton still reaches the cold start's equilibrium in its first
+    run. (The case that needs the floor, a mesh graded towards a corner, is
+    tests/test_refinement.py ``test_a_graded_corner_resolves_the_stick_zone``.)"""
+    n = 40
+    Kc = _stiffness(n, 3)
+    rng = np.random.default_rng(4)
+    u0 = np.zeros(2 * n)
+    u0[1::2] = np.abs(rng.normal(size=n)) * 0.1          # pressed into the foundation
+    u0[0::2] = 0.03 * rng.normal(size=n)
+    with FrictionalContact(Kc, 0.3) as fc:
+        ref = fc.solve(u0, np.zeros(n), np.zeros(n))
+        far = fc.solve(u0, np.zeros(n), np.full(n, 100.0))
+        assert fc.rounding_floor(np.concatenate([np.full(n, 100.0), np.zeros(n)])) > 100 * 1e-14 * np.max(np.abs(fc.base))
+    stuck = np.abs(ref.slip_increment) < 1e-12
+    assert stuck.any() and not stuck.all() and np.any(ref.r_N < 0)    # stick and slip, in contact
+    assert far.method == "vinewtonrsls" and far.iterations <= 10, (far.method, far.iterations)
+    scale = np.max(np.abs(ref.r_N))
+    for a, b in ((far.r_T, ref.r_T), (far.r_N, ref.r_N)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(far.slip_increment, ref.slip_increment, rtol=0, atol=1e-9)

@@ -76,6 +76,7 @@ class FrictionalContact:
         P[1::2, :n] = -np.eye(n)
         P[0::2, n:] = np.eye(n)
         self.KP = self.Kc @ P
+        self.row_abs = np.abs(self.KP).sum(axis=1)      # for the rounding floor, without a dense copy
         self.base = np.zeros(2 * n)
         self.J = PETSc.Mat().createDense((2 * n, 2 * n), comm=PETSc.COMM_SELF)
         self.J.setUp()
@@ -135,6 +136,20 @@ class FrictionalContact:
             snes.solve(None, X)
             return X.getArray().copy(), snes.getConvergedReason(), snes.getIterationNumber()
 
+    def rounding_floor(self, z: np.ndarray) -> float:
+        """The rounding of the residual's 2-norm near ``z``: the reactions ``KP z + base`` carry an
+        error of about ``sqrt(2n) u (|KP| |z| + |base|)`` per entry (the probabilistic bound of
+        Higham and Mary, ``sqrt(k) u`` for the ``k u`` of the worst case, ``k`` terms per entry),
+        here with ``|KP| |z|`` bounded by the row sums of ``|KP|`` times ``max |z|``, and doubled
+        for the clip. Newton reaches it in one step once the active set is right (the problem is
+        piecewise linear) and cannot go below it. An absolute tolerance under it is never met: the
+        next step's line search fails and SNES VI returns a point far from the solution it had
+        found. On meshes graded towards a corner (large gaps beside tiny reactions) that sent most
+        increments through every fallback, 100 iterations each."""
+        u = np.finfo(float).eps / 2
+        per_entry = np.sqrt(2 * self.n) * u * (self.row_abs * np.max(np.abs(z), initial=0.0) + np.abs(self.base))
+        return 2.0 * float(np.linalg.norm(per_entry))
+
     def violation(self, z: np.ndarray, scale: float, u_scale: float = 0.0) -> float:
         """Largest violation of g >= 0, p >= 0, g p = 0, |r_T| <= mu p and of the slip rule. A
         slip increment counts as sliding above 1e-12 of the largest one and above 1e-13 of the
@@ -174,9 +189,10 @@ class FrictionalContact:
         scale = max(float(np.max(np.abs(self.base))), 1e-300)
         u_scale = max(float(np.max(np.abs(u0), initial=0.0)), float(np.max(np.abs(u_T_prev), initial=0.0)))
         z0 = np.concatenate([g_prev, np.zeros(n) if d_prev is None else d_prev])
+        atol = max(1e-14 * scale, self.rounding_floor(z0))
         best = None
         for method, linesearch in ATTEMPTS:
-            z, reason, its = self._snes(method, z0, 1e-14 * scale, linesearch)
+            z, reason, its = self._snes(method, z0, atol, linesearch)
             viol = self.violation(z, scale, u_scale) if np.all(np.isfinite(z)) else np.inf
             if best is None or viol < best[1]:
                 best = (z, viol, its, method if linesearch == "bt" else f"{method} ({linesearch} line search)")
