@@ -95,6 +95,20 @@ def test_the_default_study_raises_none(tmp_path):
     assert _sanity(res) == [] and "proven on [0, 11]" in out
 
 
+
+def test_a_final_stick_zone_one_node_wide():
+    """app/loading/sanity.py ``check_final_stick_zone``: one warning naming the state and where a
+    lone stuck node is; none for a zone two nodes wide or a state without one."""
+    from app.loading.classify import FREE, SLIP, STICK, Classification
+    from app.loading.sanity import check_final_stick_zone
+    x = [4.0, 0.0, 1.0, 2.0, 3.0]                       # node 1 is at one end of the contact curve
+    lone = Classification(status=(FREE, STICK, SLIP, SLIP, FREE), signs=(0, 0, 1, 1, 0))
+    w = check_final_stick_zone(lone, x, 12, "mm")
+    assert len(w) == 1 and "state 12" in w[0] and "at x = 0 mm" in w[0] and "1 stick zone(s)" in w[0]
+    wide = Classification(status=(FREE, STICK, STICK, SLIP, FREE), signs=(0, 0, 0, 1, 0))
+    assert check_final_stick_zone(wide, x, 12, "mm") == []
+    assert check_final_stick_zone(Classification(status=(SLIP,) * 5, signs=(1,) * 5), x, 3) == []
+
 @pytest.mark.parametrize("scene", sorted(p.name for p in EX.glob("*.yaml")) + ["../villechaise_block.yaml",
                                                                               "../sweep_mu.yaml",
                                                                               "../sweep_aspect_ratio.yaml",

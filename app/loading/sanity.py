@@ -21,6 +21,8 @@ Each violated check gives one warning naming the first state, the worst state an
 :func:`check_contact` looks at the classified path of any system type: a body that never touches
 the obstacle, a path that slides grossly at its first step of loading, and a path without a
 single slip node, on which the MCEIPs have no unknowns (their "no solution" holds trivially).
+:func:`check_final_stick_zone` looks at a meshed body's final state: a stick zone one node wide,
+which the mesh does not resolve, makes that state's critical mu depend on the mesh.
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ from typing import Sequence
 
 import numpy as np
 
-from app.loading.classify import FREE, SLIP, Classification
+from app.loading.classify import FREE, SLIP, Classification, without_point_stick
 from app.loading.state import EquilibriumState
 
 STRAIN_LIMIT = 0.10          # beyond this nominal strain, small-strain elasticity is clearly invalid
@@ -161,3 +163,22 @@ def check_contact(states: Sequence[EquilibriumState], classes: Sequence[Classifi
                    f"phase {phase[-1]!r}): the whole contact slipped at once, so the path has no state of "
                    "partial slip to analyse (check E, mu, the loads and the units, or take smaller steps)")
     return out
+
+
+def check_final_stick_zone(cls: Classification, x: Sequence[float], index: int, unit: str = "mm") -> list[str]:
+    """A warning when the final state ``cls`` (state ``index``; ``x``: the contact nodes'
+    coordinates along the contact curve) has a stick zone one node wide
+    (:func:`app.loading.classify.without_point_stick`). Such a node stands for a zone the mesh does
+    not resolve: while the mesh is coarser than the zone, the stiffness it adds falls like
+    ``1 / ln(L / h)``, and so does the critical mu of the state (the paper's block in plane strain
+    at nu = 0.48: 2.42 at 10 x 5 to 1.72 at 160 x 80, 1.770 on meshes graded towards the zone;
+    docs/validation.md)."""
+    point = without_point_stick(cls, x)
+    if point is None:
+        return []
+    nodes = [i for i, (a, b) in enumerate(zip(cls.status, point.status)) if a != b]
+    where = ", ".join(f"{x[i]:.4g}" for i in nodes[:5]) + (", ..." if len(nodes) > 5 else "")
+    return [f"the final state (state {index}) has {len(nodes)} stick zone(s) one node wide, at x = {where} {unit} "
+            "along the contact curve: the mesh does not resolve them, and the critical mu of that state depends "
+            "on the mesh there (like 1 / ln(L / h)); refine the mesh towards them until each zone spans several "
+            "nodes (docs/limitations.md, 'Stick zones narrower than the mesh')"]

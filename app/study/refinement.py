@@ -119,7 +119,7 @@ class _MuSearches:
 
 def _final_mu(fcls, x: list[float], mu: _MuSearches) -> dict:
     """The final state's quantities: its smallest MCEIP-mu, and the same with its point stick zones
-    slipping (stick zones one node wide, whose effect vanishes only like ``1 / ln(1 / h)``:
+    slipping (stick zones one node wide, which the mesh does not resolve:
     :func:`app.loading.classify.without_point_stick`), each with whether it is proven."""
     vals = mu.values(fcls) if len(fcls.slip) else []
     out = {"final_label": fcls.label(), "final_mu": vals[0] if vals else None, "final_mu_count": len(vals),

@@ -22,11 +22,12 @@ from app.io.from_outcomes import analyses_result
 from app.io.result import Node, StateResult, StudyResult
 from app.linalg import one_blas_thread
 from app.loading.classify import ZERO, classified
-from app.loading.sanity import check_contact
+from app.loading.sanity import check_contact, check_final_stick_zone
 from app.scene.schema import Scene
 from app.study import stream
 from app.study.scheduler import EarlyChains, analyse_condensed_distributed
 from app.systems import get as system_type
+from app.systems.units import CONTINUUM_UNITS
 
 
 def study(scene: Scene, comm: MPI.Comm, progress: Progress | None = None, inspect=None,
@@ -197,6 +198,9 @@ def _study(scene: Scene, comm: MPI.Comm, stages: Stages, progress: Progress, ins
     out_states = per_state.out_states
     stages.warnings += check_contact(per_state.states, per_state.classes, str(path_info.get("end", "")),
                                      mceip=bool({"mceip_mu", "mceip_lambda2"} & set(scene.analyses)))
+    if per_state.states and getattr(scene.system, "has_fields", False):   # a mesh: a node stands for a width
+        stages.warnings += check_final_stick_zone(per_state.classes[-1], [nd.x for nd in system.nodes],
+                                                  per_state.states[-1].index, CONTINUUM_UNITS[scene.units]["length"])
     failures = [path_info["failure"]] if path_info.get("failure") else []
     failures += per_state.failures
     deferred = per_state.deferred
