@@ -115,7 +115,7 @@ def without_point_stick(cls: Classification, x) -> Classification | None:
     A point stick zone is a stuck node whose neighbours along the contact curve (``x``: each
     node's coordinate along it) are not stuck: a stick zone one node wide, which the mesh does not
     resolve. On the paper's block in plane strain it is the image of a zone 0.043 to 0.045 mm wide
-    at corner A, one node on every uniform mesh down to h = 0.5 mm and 6 to 59 nodes on meshes
+    at corner A, one node on every uniform mesh down to h = 0.5 mm and 6 to 88 nodes on meshes
     graded towards A (docs/validation.md, "The stick zone at A resolved"). While ``h`` is far above
     the zone's width the stiffness it adds falls like ``1 / ln(L / h)``, and so do the quantities
     of its classification; the classification without it shows how much the unresolved zone
