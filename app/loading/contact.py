@@ -76,7 +76,7 @@ class FrictionalContact:
         P[1::2, :n] = -np.eye(n)
         P[0::2, n:] = np.eye(n)
         self.KP = self.Kc @ P
-        self.row_abs = np.abs(self.KP).sum(axis=1)      # for the rounding floor, without a dense copy
+        self.row_abs = np.abs(self.KP).sum(axis=1)      # for the rounding floor: its row sums, not |KP| kept
         self.base = np.zeros(2 * n)
         self.J = PETSc.Mat().createDense((2 * n, 2 * n), comm=PETSc.COMM_SELF)
         self.J.setUp()
