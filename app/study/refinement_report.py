@@ -249,8 +249,9 @@ def markdown(summary: dict) -> str:
             f"- A stick zone one node wide: at {len(points)} of {len(rows)} levels the final state has a stick zone "
             "that the mesh does not resolve (`final_point_stick` nodes). While the mesh is far coarser than the "
             "zone, the stiffness it adds falls like 1 / ln(L / h) and so does the final critical mu: its observed "
-            "order and extrapolation say nothing. Grade the mesh towards the zone until it spans several nodes (the "
-            "paper's block: app/scenes/gmsh/block_graded.geo). The value with those nodes slipping (\"without point "
+            "order and extrapolation say nothing. Grade the mesh towards the zone until it spans several nodes, and "
+            "make it fine where the zone ends too: the critical mu depends on the end, known to one node spacing "
+            "(the paper's block: app/scenes/gmsh/block_adapted.geo). The value with those nodes slipping (\"without point "
             "stick zones\") shows how much the zone weighs; it is not the limit."]
     if summary.get("skipped"):
         lines += ["Skipped: " + "; ".join(summary["skipped"])]
