@@ -6,9 +6,9 @@
 //   - 2 mm within AB's neighbourhood, growing to h0 at 10 mm from AB (the lift-off point);
 //   - hz at xe, the end of the stick zone, growing by half the distance from it.
 // The last term is there because the critical mu of the final state depends on where its stick
-// zone ends: one node more or less in the zone moves it by about 5 per mm of zone (0.0006 for the
-// 0.00013 mm node spacing at xe at size factor 1), which at a corner mesh alone scatters the values
-// by +-0.4 %. xe is the zone's end found by a first run on the corner-graded mesh (0.0438 mm; the
+// zone ends: one node more or less in the zone moves it by 1.5 to 5 per mm of the zone's width
+// (0.0002 to 0.0006 for the 0.00013 mm node spacing at xe at size factor 1), which on a mesh fine
+// at the corners alone scatters the values by +-0.4 %. xe is the zone's end found by a first run on the corner-graded mesh (0.0438 mm; the
 // finer levels move it to 0.0450). A refinement's size factor scales every size, hz and the rate
 // of growth included.
 L = 80; H = 40; h0 = 4; hc = 0.016; hab = 2; hz = 0.0001; xe = 0.0438;
